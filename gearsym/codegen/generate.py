@@ -1,0 +1,255 @@
+"""Code generation: symbolic model -> CasADi SX functions -> C -> shared object.
+
+The generated functions follow the contract in ``gearsym/engine/gs_model_abi.h``
+(``gs_rhs``, ``gs_jac``, ``gs_res``, ``gs_resjac``, ``gs_sw``, ``gs_swx``, ``gs_swt``,
+``gs_sched``, ``gs_period`` and ``gs_model_info``).  Parameters are inputs of every
+function, so changing one never recompiles.  Sources go to
+``generated/<scene>-<key>/`` and are compiled with ``gcc -O3`` together with the
+engine's C driver into ``gs_<content hash>.so``; ``dlopen`` caches by path, so a
+changed model can never run stale code.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import casadi as ca
+import sympy as sp
+
+from ..errors import CompileError
+from ..symbolic.model import SymbolicModel
+from .sx import SXTranslator
+
+#: Bump when the generated code's layout changes (invalidates caches).
+CODEGEN_VERSION = "1"
+ENGINE_DIR = Path(__file__).resolve().parent.parent / "engine"
+
+
+@dataclass
+class GeneratedModel:
+    """What the compiler produced, and everything needed to run it without sympy.
+
+    Attributes
+    ----------
+    directory, so_path
+        Where the sources and the shared object are.
+    state_names, param_names
+        Order of the state and parameter vectors of the generated functions.
+    surfaces
+        One dict per switching function: ``name``, ``kind`` (drive/back/switch),
+        ``contact_sign``, ``meaning``, ``expr``.
+    schedules
+        One dict per schedule: ``name``, ``n_breaks``.
+    implicit
+        True for mass-matrix (IDA) models.
+    n_ops
+        Operation counts of the generated functions.
+    functions
+        Serialized CasADi functions (for evaluation from Python).
+    """
+
+    scene: str
+    key: str
+    directory: str
+    so_path: str
+    state_names: list[str]
+    param_names: list[str]
+    surfaces: list[dict]
+    schedules: list[dict]
+    implicit: bool
+    n_ops: dict[str, int]
+    effects: dict[str, object]
+    compile_seconds: float = 0.0
+    cached: bool = False
+    functions: dict[str, str] = field(default_factory=dict, repr=False)
+
+    @property
+    def nx(self) -> int:
+        """Number of states."""
+        return len(self.state_names)
+
+    @property
+    def nsw(self) -> int:
+        """Number of switching functions."""
+        return len(self.surfaces)
+
+    def casadi_function(self, name: str) -> ca.Function:
+        """A generated function as a CasADi Function (e.g. ``gs_rhs``), for Python-side use."""
+        if name not in self._fn_cache:
+            if name not in self.functions:
+                raise KeyError(f"no generated function '{name}' (have: {', '.join(self.functions)})")
+            self._fn_cache[name] = ca.Function.deserialize(self.functions[name])
+        return self._fn_cache[name]
+
+    def __post_init__(self) -> None:
+        self._fn_cache: dict[str, ca.Function] = {}
+
+    def to_json(self) -> str:
+        """Serialise (for the compile cache)."""
+        d = asdict(self)
+        return json.dumps(d, indent=1)
+
+    @classmethod
+    def from_json(cls, text: str) -> GeneratedModel:
+        """Load from :meth:`to_json` output."""
+        return cls(**json.loads(text))
+
+
+def cache_key(model_text: str, effects: dict, form: str, scene: str) -> str:
+    """Content key of a compile: model file, effect choices, form, generator and driver."""
+    h = hashlib.sha256()
+    h.update(CODEGEN_VERSION.encode())
+    h.update(model_text.encode())
+    h.update(json.dumps(effects, sort_keys=True).encode())
+    h.update(form.encode())
+    for src in sorted(ENGINE_DIR.glob("*.[ch]")):
+        h.update(src.read_bytes())
+    for src in sorted(Path(__file__).resolve().parent.glob("*.py")):
+        h.update(src.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
+    """Build the CasADi functions of the engine contract from a symbolic model."""
+    nx = len(model.states)
+    params = model.parameters
+    nsw = len(model.switching)
+    nsched = len(model.schedules)
+    nm = nsw + 2 * nsched
+    t = ca.SX.sym("t")
+    x = ca.SX.sym("x", nx)
+    p = ca.SX.sym("p", len(params))
+    m = ca.SX.sym("m", nm)
+    symbols: dict[sp.Symbol, ca.SX] = {model.t: t}
+    symbols.update({s: x[i] for i, s in enumerate(model.states)})
+    symbols.update({s: p[i] for i, s in enumerate(params)})
+    symbols.update({s: m[j] for j, s in enumerate(model.modal.sigma)})
+    for k, s in enumerate(model.schedules):
+        symbols[s.n] = m[nsw + 2 * k]
+        symbols[s.seg] = m[nsw + 2 * k + 1]
+    tr = SXTranslator(symbols)
+    fns: dict[str, ca.Function] = {}
+    if model.form == "explicit":
+        f = tr.matrix(model.modal.rhs)
+        fns["gs_rhs"] = ca.Function("gs_rhs", [t, x, p, m], [f], ["t", "x", "p", "m"], ["xdot"])
+        fns["gs_jac"] = ca.Function("gs_jac", [t, x, p, m], [ca.densify(ca.jacobian(f, x))],
+                                    ["t", "x", "p", "m"], ["J"])
+    else:
+        xd = ca.SX.sym("xd", nx)
+        cj = ca.SX.sym("cj")
+        xd_syms = [sp.Symbol(f"__xd{i}") for i in range(nx)]
+        tr.symbols.update({s: xd[i] for i, s in enumerate(xd_syms)})
+        r = tr.matrix(model.residual(xd_syms))
+        fns["gs_res"] = ca.Function("gs_res", [t, x, xd, p, m], [r], ["t", "x", "xd", "p", "m"], ["r"])
+        jr = ca.densify(ca.jacobian(r, x) + cj * ca.jacobian(r, xd))
+        fns["gs_resjac"] = ca.Function("gs_resjac", [t, x, xd, p, m, cj], [jr],
+                                       ["t", "x", "xd", "p", "m", "cj"], ["Jr"])
+        # the explicit right-hand side is still useful from Python (plots, checks)
+    g = ca.vertcat(*[tr(s.expr) for s in model.switching]) if nsw else ca.SX(0, 1)
+    fns["gs_sw"] = ca.Function("gs_sw", [t, x, p], [g], ["t", "x", "p"], ["g"])
+    fns["gs_swx"] = ca.Function("gs_swx", [t, x, p], [ca.densify(ca.jacobian(g, x))], ["t", "x", "p"], ["G"])
+    fns["gs_swt"] = ca.Function("gs_swt", [t, x, p], [ca.densify(ca.jacobian(g, t))], ["t", "x", "p"], ["gt"])
+    sched = []
+    for s in model.schedules:
+        sched.append(tr(s.period))
+        sched += [tr(b) for b in s.breaks]
+    sv = ca.vertcat(*sched) if sched else ca.SX(0, 1)
+    fns["gs_sched"] = ca.Function("gs_sched", [p], [sv], ["p"], ["s"])
+    period = tr(model.forcing_period) if model.forcing_period is not None else ca.SX(float("nan"))
+    fns["gs_period"] = ca.Function("gs_period", [p], [period], ["p"], ["T"])
+    return fns
+
+
+_HEADER = """/*
+ * Generated by gearsym {version} for scene '{scene}' (model '{model}').  Do not edit.
+ *
+ * States     x = [{states}]
+ * Parameters p = [{params}]
+ * Mode       m = [{modes}]
+ *
+ * Functions (CasADi C API; see gearsym/engine/gs_model_abi.h):
+{functions}
+ */
+"""
+_DOCS = {
+    "gs_rhs": "first-order right-hand side xdot = f(t, x, p, m) in the mode m",
+    "gs_jac": "Jacobian d f / d x (dense, column-major)",
+    "gs_res": "implicit residual r = [q' - v; M(q) v' - F(t, q, v, p, m)]",
+    "gs_resjac": "dr/dx + cj * dr/dxd (dense, column-major), for IDA's Newton iteration",
+    "gs_sw": "switching functions g(t, x, p) (events at their zeros)",
+    "gs_swx": "d g / d x, for saltation matrices",
+    "gs_swt": "d g / d t, for saltation matrices",
+    "gs_sched": "schedules: [period, break fractions...] for each schedule",
+    "gs_period": "the scene's forcing period T(p)",
+}
+
+
+def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], directory: Path,
+                      scene: str, key: str, effects: dict) -> GeneratedModel:
+    """Write C sources into ``directory`` and compile them with the driver."""
+    t0 = time.perf_counter()
+    directory.mkdir(parents=True, exist_ok=True)
+    cg = ca.CodeGenerator("gs_model.c", {"with_header": True, "casadi_real": "double"})
+    for f in fns.values():
+        cg.add(f)
+    tmp = directory / "_cg"
+    tmp.mkdir(exist_ok=True)
+    cg.generate(str(tmp) + "/")
+    c_text = (tmp / "gs_model.c").read_text()
+    h_text = (tmp / "gs_model.h").read_text()
+    for f in tmp.iterdir():
+        f.unlink()
+    tmp.rmdir()
+    nsw = len(model.switching)
+    modes = [f"sigma_{j} (side of {s.name})" for j, s in enumerate(model.switching)]
+    for s in model.schedules:
+        modes += [f"n_{s.name}", f"seg_{s.name}"]
+    header = _HEADER.format(
+        version=CODEGEN_VERSION, scene=scene, model=model.name,
+        states=", ".join(model.state_names), params=", ".join(model.parameter_names),
+        modes=", ".join(modes),
+        functions="\n".join(f" *   {name:10s} {_DOCS[name]}" for name in fns),
+    )
+    info = [len(model.states), len(model.parameters), nsw + 2 * len(model.schedules), nsw,
+            len(model.schedules), 1 if model.form == "implicit" else 0]
+    info += [len(s.breaks) for s in model.schedules]
+    info_c = (
+        "/* Model metadata for the gearsym driver (see gs_model_abi.h). */\n"
+        "int gs_model_info(int* out, int len) {\n"
+        f"  static const int info[{len(info)}] = {{{', '.join(map(str, info))}}};\n"
+        f"  int i;\n  if (len < {len(info)}) return -1;\n"
+        f"  for (i = 0; i < {len(info)}; ++i) out[i] = info[i];\n  return {len(info)};\n}}\n"
+    )
+    (directory / "gs_model.c").write_text(header + c_text + "\n" + info_c)
+    (directory / "gs_model.h").write_text(
+        header + h_text + "\nint gs_model_info(int* out, int len);\n")
+    from ..engine import build as engine_build
+
+    sources = [directory / "gs_model.c", ENGINE_DIR / "gs_driver.c"]
+    digest = hashlib.sha256(b"".join(s.read_bytes() for s in sources)).hexdigest()[:16]
+    so = directory / f"gs_{digest}.so"
+    cached = so.exists()
+    if not cached:
+        try:
+            engine_build.build_shared_object(sources, [directory, ENGINE_DIR], so)
+        except Exception as exc:  # surface compiler errors as gearsym errors
+            raise CompileError(f"compiling {directory} failed: {exc}") from exc
+    gen = GeneratedModel(
+        scene=scene, key=key, directory=str(directory), so_path=str(so),
+        state_names=model.state_names, param_names=model.parameter_names,
+        surfaces=[{"name": s.name, "kind": s.kind, "contact_sign": s.contact_sign,
+                   "meaning": s.meaning, "expr": sp.sstr(s.expr)} for s in model.switching],
+        schedules=[{"name": s.name, "n_breaks": len(s.breaks)} for s in model.schedules],
+        implicit=model.form == "implicit",
+        n_ops={name: int(f.n_instructions()) for name, f in fns.items()},
+        effects=dict(effects),
+        compile_seconds=time.perf_counter() - t0,
+        cached=cached,
+        functions={name: f.serialize() for name, f in fns.items()},
+    )
+    (directory / "meta.json").write_text(gen.to_json())
+    return gen

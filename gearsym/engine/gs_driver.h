@@ -1,0 +1,78 @@
+/*
+ * gs_driver.h -- public C API of the gearsym simulation driver.
+ *
+ * One call of gs_simulate() integrates a compiled model (see gs_model_abi.h)
+ * from t0 to t_end with SUNDIALS 7 (CVODE for explicit models, IDA for implicit
+ * ones): root finding on the switching functions with mode switch and
+ * re-initialisation, exact stops at scheduled breakpoints, an output grid,
+ * optional variational equations (monodromy with saltation matrices), and
+ * statistics.  It never aborts the process: every failure is a status code plus
+ * a message in `errmsg`.
+ *
+ * All arrays are owned by the caller.  Row-major means y_out[i*nx + j].
+ */
+#ifndef GS_DRIVER_H
+#define GS_DRIVER_H
+
+#define GS_OK               0
+#define GS_ERR_TOO_MUCH_WORK (-1)  /* max_steps exceeded                         */
+#define GS_ERR_EVENT_STORM  (-2)   /* too many events without time advancing     */
+#define GS_ERR_NONFINITE    (-3)   /* NaN/Inf in state or right-hand side        */
+#define GS_ERR_SOLVER       (-4)   /* any other SUNDIALS failure (flag in msg)   */
+#define GS_ERR_ABI          (-5)   /* SUNDIALS version / index size mismatch     */
+#define GS_ERR_INPUT        (-6)   /* bad arguments (sizes, t_end <= t0, ...)    */
+#define GS_ERR_MAX_EVENTS   (-7)   /* more events than max_events                */
+
+#define GS_METHOD_BDF   0          /* CVODE, BDF, Newton with dense analytic Jacobian */
+#define GS_METHOD_ADAMS 1          /* CVODE, Adams-Moulton, Newton, dense Jacobian    */
+#define GS_METHOD_IDA   2          /* IDA (implicit models), dense analytic Jacobian  */
+
+typedef struct gs_sim_args {
+  /* ---- inputs ---- */
+  int     method;          /* GS_METHOD_*                                           */
+  double  rtol, atol;      /* scalar tolerances                                     */
+  double  t0, t_end;       /* integration interval, t_end > t0                      */
+  const double* x0;        /* [nx] initial state                                    */
+  const double* p;         /* [np] parameters                                       */
+  const double* sigma0;    /* [nsw] initial side of each switching surface (+1/-1), */
+                           /* or NULL: from the sign of g_j(t0, x0) (g >= 0 -> +1)  */
+  int     n_out;           /* number of output times (may be 0)                     */
+  const double* t_out;     /* [n_out] ascending, each in [t0, t_end]                */
+  long    max_steps;       /* total internal steps allowed (0 -> 10,000,000)        */
+  long    max_events;      /* total events allowed (0 -> 1,000,000)                 */
+  int     storm_events;    /* events allowed within storm_window of each other      */
+                           /* before GS_ERR_EVENT_STORM (0 -> 50)                    */
+  double  storm_window;    /* (0 -> 1e-9 * max(1, |t|))                             */
+  double  max_step;        /* max internal step, 0 = unlimited                      */
+  double  init_step;       /* initial step, 0 = solver chooses                      */
+  int     want_monodromy;  /* 1: integrate variational eqs (explicit models only)   */
+  int     max_events_out;  /* capacity of the ev_* arrays                           */
+  /* ---- outputs ---- */
+  double* y_out;           /* [n_out*nx] row-major states at t_out                  */
+  double* x_final;         /* [nx] state at the time reached                        */
+  double* sigma_final;     /* [nsw] side of each surface at the end (may be NULL)   */
+  double* monodromy;       /* [nx*nx] row-major d x(t_end) / d x0 (if requested)    */
+  double* ev_t;            /* [max_events_out] event times                          */
+  int*    ev_surface;      /* [max_events_out] index j of the switching function    */
+  int*    ev_dir;          /* [max_events_out] +1: g went - to +, -1: + to -         */
+  double* ev_speed;        /* [max_events_out] dg/dt along the flow at the event    */
+                           /* (old mode): ~0 means a grazing (tangential) contact   */
+  int     n_events;        /* events that occurred (may exceed max_events_out; only */
+                           /* the first max_events_out are stored)                  */
+  double  t_reached;       /* last time reached (== t_end on success)               */
+  long    n_steps, n_rhs, n_jac, n_root_evals, n_breaks, n_reinit;
+  int     status;          /* GS_OK or GS_ERR_*  (also the return value)            */
+  char    errmsg[1024];    /* human-readable message when status != GS_OK          */
+} gs_sim_args;
+
+/* Integrate.  Returns args->status. */
+int gs_simulate(gs_sim_args* args);
+
+/* Check the SUNDIALS runtime: version >= 7 and 32-bit sunindextype.  Writes the
+ * version string (e.g. "7.9.0") or the problem into msg.  Returns 0 if OK. */
+int gs_check_abi(char* msg, int len);
+
+/* sizeof(gs_sim_args), so that the Python side can verify its ctypes layout. */
+int gs_sizeof_args(void);
+
+#endif

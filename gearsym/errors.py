@@ -1,0 +1,60 @@
+"""Exception hierarchy of gearsym.
+
+Every error a user can provoke (bad spec, bad scene, bad parameter, failed
+simulation, non-converged Newton) is a :class:`GearsymError`; the CLI turns these
+into a one-line message on stderr and exit code 2 (bad input) or 1 (internal
+or numerical failure).
+"""
+
+from __future__ import annotations
+
+
+class GearsymError(Exception):
+    """Base class of all gearsym errors."""
+
+    exit_code = 1
+
+
+class SpecError(GearsymError):
+    """A model or scene file is malformed or inconsistent.
+
+    Parameters
+    ----------
+    message
+        What is wrong.
+    file
+        The file the problem is in (path as given), if known.
+    field
+        Dotted field path inside the file, e.g. ``elements.mesh.stiffness``.
+    """
+
+    exit_code = 2
+
+    def __init__(self, message: str, file: str | None = None, field: str | None = None):
+        self.message = message
+        self.file = file
+        self.field = field
+        where = ""
+        if file:
+            where += f"{file}"
+        if field:
+            where += f": field '{field}'" if where else f"field '{field}'"
+        super().__init__(f"{where}: {message}" if where else message)
+
+
+class ParameterError(GearsymError):
+    """A parameter override or value is invalid (unknown, non-finite, wrong effect)."""
+
+    exit_code = 2
+
+
+class CompileError(GearsymError):
+    """Code generation or the C compiler failed."""
+
+
+class SimulationError(GearsymError):
+    """The integrator failed (too much work, non-finite state, solver failure)."""
+
+
+class ConvergenceError(GearsymError):
+    """An iterative solver (Newton, continuation corrector) did not converge."""

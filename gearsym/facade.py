@@ -1,0 +1,144 @@
+"""The user-facing facade: ``load_scene(path) -> Scene``, ``scene.compile() -> System``.
+
+It ties the layers together (spec -> symbolic -> codegen -> engine) without
+letting them leak into each other: the spec layer never sees sympy, the engine
+never sees sympy, and a cached compile does not even derive the equations.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from functools import cached_property
+from pathlib import Path
+
+from .codegen.generate import GeneratedModel, build_functions, cache_key, write_and_compile
+from .errors import GearsymError
+from .spec.model import ModelSpec, load_model
+from .spec.scene import ResolvedScene, SceneSpec, load_scene_spec, resolve_scene
+from .symbolic.model import SymbolicModel
+
+
+def default_generated_dir(scene_path: str | Path) -> Path:
+    """Where compiled scenes go: ``$GEARSYM_GENERATED``, else ``generated/`` of the
+    project the scene belongs to (``scenes/../generated``), else ``~/.cache/gearsym``."""
+    env = os.environ.get("GEARSYM_GENERATED")
+    if env:
+        return Path(env)
+    p = Path(scene_path).resolve().parent
+    for cand in (p, *p.parents):
+        if (cand / "generated").is_dir():
+            return cand / "generated"
+    return Path.home() / ".cache" / "gearsym"
+
+
+class Scene:
+    """A scene: a model with effects switched on and parameter values.
+
+    Parameters
+    ----------
+    path
+        Scene file (``scenes/*.toml``).
+    effects
+        Effect choices overriding the scene's: ``{"backlash": False}``,
+        ``{"sliding_friction": "B"}``.
+    overrides
+        Parameter values overriding the scene's, in the model's declared units.
+
+    Attributes
+    ----------
+    spec : SceneSpec
+    resolved : ResolvedScene
+    model : SymbolicModel
+        The derived equations (computed on first access).
+    """
+
+    def __init__(self, path: str | Path, effects: Mapping[str, bool | str] | None = None,
+                 overrides: Mapping[str, float] | None = None, model_spec: ModelSpec | None = None):
+        self.path = Path(path)
+        self.spec: SceneSpec = load_scene_spec(self.path)
+        self.model_spec: ModelSpec = model_spec or load_model(self.spec.model_path)
+        self.resolved: ResolvedScene = resolve_scene(self.spec, self.model_spec, effects, overrides)
+
+    @property
+    def name(self) -> str:
+        """Scene name."""
+        return self.spec.name
+
+    @cached_property
+    def model(self) -> SymbolicModel:
+        """The symbolic model (equations of motion, switching, Jacobian, ...)."""
+        return SymbolicModel(self.resolved)
+
+    def initial_state(self) -> list[float]:
+        """Initial state from the model and scene ``[initial]`` tables (SI units)."""
+        return [self.resolved.initial[s] for s in self.model_spec.state_names()]
+
+    def compile(self, generated_dir: str | Path | None = None, force: bool = False) -> "System":  # noqa: F821
+        """Generate C, compile it (or reuse the cached build) and bind it to the engine.
+
+        Parameters
+        ----------
+        generated_dir
+            Root folder of the builds (default: :func:`default_generated_dir`).
+        force
+            Rebuild even if a cached build exists.
+
+        Returns
+        -------
+        System
+        """
+        from .system import System
+
+        gen = self.generate(generated_dir, force)
+        values = {k: self.resolved.values[k] for k in gen.param_names}
+        return System(gen, values, self.initial_state(), self.spec.simulate, self.name)
+
+    def generate(self, generated_dir: str | Path | None = None, force: bool = False) -> GeneratedModel:
+        """Generate and compile, returning the :class:`GeneratedModel` (cache-aware)."""
+        root = Path(generated_dir) if generated_dir else default_generated_dir(self.path)
+        model_text = Path(self.model_spec.path).read_text(encoding="utf-8")
+        key = cache_key(model_text, self.resolved.effects, self.model_spec.form, self.name)
+        directory = root / f"{self.name}-{key}"
+        meta = directory / "meta.json"
+        if meta.exists() and not force:
+            try:
+                gen = GeneratedModel.from_json(meta.read_text())
+                if Path(gen.so_path).exists():
+                    gen.cached = True
+                    gen.compile_seconds = 0.0
+                    return gen
+            except (ValueError, TypeError, KeyError):
+                pass  # corrupt cache entry: rebuild it
+        try:
+            directory.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise GearsymError(f"cannot create build folder {directory}: {exc.strerror}") from None
+        fns = build_functions(self.model)
+        return write_and_compile(self.model, fns, directory, self.name, key, self.resolved.effects)
+
+
+def load_scene(path: str | Path, effects: Mapping[str, bool | str] | None = None,
+               **overrides: float) -> Scene:
+    """Load a scene file.
+
+    Parameters
+    ----------
+    path
+        Scene file.
+    effects
+        Maps effect names to ``True`` / ``False`` / a variant name, exactly as the
+        CLI's ``--effect NAME[=VARIANT]`` / ``--no-effect NAME``.
+    **overrides
+        Parameter values replacing the scene's, exactly as ``--set NAME=VALUE``.
+
+    Returns
+    -------
+    Scene
+
+    Examples
+    --------
+    >>> scene = load_scene("scenes/kahraman_singh.toml", Omega=0.8)   # doctest: +SKIP
+    >>> traj = scene.compile().simulate(periods=200)                    # doctest: +SKIP
+    """
+    return Scene(path, effects, overrides)

@@ -1,0 +1,95 @@
+"""Result objects: trajectories (and their derived views)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Event(NamedTuple):
+    """A contact transition: time, switching-surface name, direction (+1 / -1)."""
+
+    t: float
+    surface: str
+    direction: int
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A simulated trajectory.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n_out,)
+        Output times (evenly spaced from the start time to ``t_end``, both included).
+    y : ndarray, shape (n_out, n_states)
+        States at ``t``.
+    state_names : list of str
+    events : list of Event
+        Every crossing of a switching surface (contact loss / contact), in order.
+    stats : dict
+        ``n_steps``, ``n_rhs``, ``n_jac``, ``n_events``, ``n_breaks`` and ``wall_s``
+        (wall time of the whole ``simulate`` call, in seconds).
+    period : float or None
+        The forcing period of the scene at these parameters.
+    params : dict
+        Parameter values used (SI units).
+    x_final : ndarray
+        State at ``t_end``.
+    monodromy : ndarray or None
+        ``d x(t_end) / d x(t0)`` when requested.
+    event_speed : ndarray
+        ``dg/dt`` along the flow at each event (near 0: grazing contact).
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    state_names: list[str]
+    events: list[Event]
+    stats: dict
+    period: float | None
+    params: dict[str, float]
+    x_final: np.ndarray
+    monodromy: np.ndarray | None = None
+    event_speed: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def final_state(self) -> np.ndarray:
+        """The state at the final time."""
+        return self.x_final
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """Time history of one state by name, e.g. ``traj["x"]``."""
+        try:
+            return self.y[:, self.state_names.index(name)]
+        except ValueError:
+            raise KeyError(f"no state '{name}' (states: {', '.join(self.state_names)})") from None
+
+    def poincare(self, skip: int = 0) -> np.ndarray:
+        """States at the output times that are whole multiples of the forcing period.
+
+        Parameters
+        ----------
+        skip
+            Number of leading periods to drop (transient).
+        """
+        if not self.period:
+            raise ValueError("the scene has no forcing period")
+        k = (self.t - self.t[0]) / self.period
+        on = np.abs(k - np.round(k)) < 1e-9 * max(1.0, float(np.max(k)))
+        pts = self.y[on]
+        return pts[skip:]
+
+    def save_npz(self, path: str | Path) -> None:
+        """Write the trajectory to a ``.npz`` file."""
+        ev = np.array([(e.t, e.direction) for e in self.events]).reshape(-1, 2)
+        np.savez_compressed(
+            path, t=self.t, y=self.y, state_names=np.array(self.state_names),
+            event_t=ev[:, 0], event_direction=ev[:, 1],
+            event_surface=np.array([e.surface for e in self.events]),
+            period=np.nan if self.period is None else self.period,
+            param_names=np.array(list(self.params)), param_values=np.array(list(self.params.values())),
+        )

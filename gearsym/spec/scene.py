@@ -1,0 +1,316 @@
+"""Scenes: a model, the effects switched on, parameter values, what to compute.
+
+A scene file (``scenes/*.toml``)::
+
+    [scene]
+    name = "kahraman_singh"
+    model = "../models/kahraman_singh.toml"   # relative to this file
+    description = "..."
+
+    [effects]            # compile-time: off effects leave no code behind
+    backlash = true
+    sliding_friction = "B"   # a variant
+
+    [parameters]         # run-time, in the units the model declares
+    Omega = 0.9
+
+    [initial]            # initial state (state names)
+    x = 1.1
+
+    [simulate]           # defaults of `gearsym simulate`
+    periods = 200
+    rtol = 1e-8
+
+:func:`resolve_scene` combines a scene with its model and the caller's overrides,
+checks effect dependencies and parameter overrides, and works out which terms and
+parameters are active.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import ParameterError, SpecError
+from . import expressions as ex
+from .model import ModelSpec, Term, load_model
+
+_SIM_KEYS = {"periods": (int, float), "t_end": (int, float), "rtol": (float, int), "atol": (float, int),
+             "points_per_period": (int,), "method": (str,), "transient_periods": (int, float),
+             "max_steps": (int,)}
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """A parsed scene file (not yet combined with its model)."""
+
+    path: str
+    name: str
+    description: str
+    model_path: str
+    effects: dict[str, bool | str]
+    parameters: dict[str, float]
+    initial: dict[str, float]
+    simulate: dict[str, Any]
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ResolvedScene:
+    """A scene combined with its model: effects, active terms, parameter values.
+
+    Attributes
+    ----------
+    model
+        The model spec.
+    scene
+        The scene spec.
+    effects
+        Every effect of the model mapped to ``False`` (off), ``True`` (on) or the
+        chosen variant name.
+    values
+        Value of every model parameter, in SI units, after scene and overrides.
+    active_parameters
+        Names of the parameters that active terms use (the others belong only to
+        switched-off effects and are not inputs of the compiled system).
+    initial
+        Initial state by state name (SI units), unspecified states are 0.
+    """
+
+    model: ModelSpec
+    scene: SceneSpec
+    effects: dict[str, bool | str]
+    values: dict[str, float]
+    active_parameters: tuple[str, ...]
+    initial: dict[str, float]
+
+    def effect_active(self, effect: str | None, variant: str | None = None) -> bool:
+        """Whether an effect (and variant, if given) is on; ``None`` means always on."""
+        if effect is None:
+            return True
+        state = self.effects.get(effect, False)
+        if state is False:
+            return False
+        return variant is None or state == variant
+
+    def is_active(self, term: Term, element_effect: str | None = None,
+                  element_variant: str | None = None) -> bool:
+        """Whether a term contributes under the scene's effects."""
+        return (self.effect_active(element_effect, element_variant)
+                and self.effect_active(term.effect, term.variant))
+
+    @property
+    def on_effects(self) -> dict[str, bool | str]:
+        """The effects that are on, with their variant (or ``True``)."""
+        return {k: v for k, v in self.effects.items() if v is not False}
+
+
+def load_scene_spec(path: str | Path) -> SceneSpec:
+    """Read and check a scene file.
+
+    Raises
+    ------
+    SpecError
+        Naming the scene file and the field.
+    """
+    path = Path(path)
+    where_file = str(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise SpecError("scene file not found", file=where_file) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"TOML syntax error: {exc}", file=where_file) from None
+
+    def err(fld: str | None, msg: str) -> SpecError:
+        return SpecError(msg, file=where_file, field=fld)
+
+    allowed = {"scene", "effects", "parameters", "initial", "simulate", "orbit", "map", "continue",
+               "figures"}
+    for k in data:
+        if k not in allowed:
+            raise err(k, f"unknown section '{k}' (known: {', '.join(sorted(allowed))})")
+    sc = data.get("scene")
+    if not isinstance(sc, dict):
+        raise err("scene", "missing section [scene]")
+    for k in sc:
+        if k not in ("name", "model", "description"):
+            raise err(f"scene.{k}", f"unknown field '{k}' (allowed: description, model, name)")
+    model_rel = sc.get("model")
+    if not isinstance(model_rel, str):
+        raise err("scene.model", "missing or not a string: the path of the model file")
+    model_path = (path.parent / model_rel).resolve()
+    effects = data.get("effects", {})
+    if not isinstance(effects, dict):
+        raise err("effects", "wrong type: expected a table")
+    for k, v in effects.items():
+        if not isinstance(v, (bool, str)):
+            raise err(f"effects.{k}", "must be true, false or a variant name")
+    params: dict[str, float] = {}
+    for k, v in data.get("parameters", {}).items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise err(f"parameters.{k}", f"wrong type: expected a number, got {type(v).__name__}")
+        if not math.isfinite(v):
+            raise err(f"parameters.{k}", f"non-finite value {v}")
+        params[k] = float(v)
+    initial: dict[str, float] = {}
+    for k, v in data.get("initial", {}).items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise err(f"initial.{k}", f"expected a finite number, got {v!r}")
+        initial[k] = float(v)
+    sim = data.get("simulate", {})
+    for k, v in sim.items():
+        if k not in _SIM_KEYS:
+            raise err(f"simulate.{k}", f"unknown field '{k}' (allowed: {', '.join(sorted(_SIM_KEYS))})")
+        if isinstance(v, bool) or not isinstance(v, _SIM_KEYS[k]):
+            raise err(f"simulate.{k}", f"wrong type {type(v).__name__}")
+    for k in ("rtol", "atol", "periods", "t_end"):
+        if k in sim and not (math.isfinite(sim[k]) and sim[k] > 0):
+            raise err(f"simulate.{k}", f"must be positive, got {sim[k]}")
+    extra = {k: data[k] for k in ("orbit", "map", "continue", "figures") if k in data}
+    return SceneSpec(where_file, sc.get("name") or path.stem, sc.get("description", ""),
+                     str(model_path), dict(effects), params, initial, dict(sim), extra)
+
+
+def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
+                  effects: Mapping[str, bool | str] | None = None,
+                  overrides: Mapping[str, float] | None = None) -> ResolvedScene:
+    """Combine a scene with its model, effect choices and parameter overrides.
+
+    Parameters
+    ----------
+    scene
+        The scene spec.
+    model
+        The model spec; loaded from ``scene.model_path`` when omitted.
+    effects
+        Effect choices that replace the scene's (``True``/``False``/variant name).
+    overrides
+        Parameter values (in the model's declared units) that replace the scene's.
+
+    Raises
+    ------
+    SpecError
+        For an effect not in the model, a bad variant, or an unmet requirement.
+    ParameterError
+        For an unknown parameter, a non-finite value, or a parameter that only
+        switched-off effects use.
+    """
+    if model is None:
+        model = load_model(scene.model_path)
+    state: dict[str, bool | str] = {name: e.default for name, e in model.effects.items()}
+
+    def apply(src: Mapping[str, bool | str], origin: str, file: str | None) -> None:
+        for name, v in src.items():
+            if name not in model.effects:
+                raise SpecError(f"effect '{name}' is not in model '{model.name}' (effects: "
+                                f"{', '.join(model.effects) or 'none'})", file=file,
+                                field=f"effects.{name}" if file else None)
+            eff = model.effects[name]
+            if isinstance(v, str):
+                if v not in eff.variants:
+                    raise SpecError(f"'{v}' is not a variant of effect '{name}' (variants: "
+                                    f"{', '.join(eff.variants) or 'none'})", file=file,
+                                    field=f"effects.{name}" if file else None)
+            elif v is True and eff.variants:
+                v = eff.default if isinstance(eff.default, str) else eff.variants[0]
+            state[name] = v
+
+    apply(scene.effects, "scene", scene.path)
+    if effects:
+        apply(effects, "override", None)
+    for name, v in state.items():
+        if v is False:
+            continue
+        for req in model.effects[name].requires:
+            if state.get(req, False) is False:
+                raise SpecError(f"effect '{name}' requires effect '{req}', which is off",
+                                file=scene.path, field=f"effects.{name}")
+
+    # which names do the active terms use (transitively through derived quantities)?
+    probe = ResolvedScene(model, scene, state, {}, (), {})
+    used_active: set[str] = set()
+    used_inactive: dict[str, set[str]] = {}
+    for term, el_eff, el_var in _terms_with_owner(model):
+        names = ex.names_in(term.expr)
+        if probe.is_active(term, el_eff, el_var):
+            used_active |= names
+        else:
+            for n in names:
+                for e in (el_eff, term.effect):
+                    if e is not None:
+                        used_inactive.setdefault(n, set()).add(e)
+    for expr in _structural_exprs(model):
+        used_active |= ex.names_in(expr)
+    frontier = set(used_active)
+    while frontier:
+        new: set[str] = set()
+        for n in frontier:
+            if n in model.derived:
+                for t in model.derived[n].terms:
+                    if probe.is_active(t):
+                        new |= ex.names_in(t.expr)
+            if n.endswith("_phase") or n.endswith("_segment"):
+                sname = n.rsplit("_", 1)[0]
+                if sname in model.schedules:
+                    s = model.schedules[sname]
+                    for e in (s.period, *s.breaks):
+                        new |= ex.names_in(e)
+        frontier = new - used_active
+        used_active |= new
+    active_params = tuple(p for p in model.parameters if p in used_active)
+
+    values = {p.name: p.si_value for p in model.parameters.values()}
+    for source, file in ((scene.parameters, scene.path), (overrides or {}, None)):
+        for name, v in source.items():
+            fld = f"parameters.{name}" if file else None
+            if name not in model.parameters:
+                msg = f"unknown parameter '{name}' (model '{model.name}' has: {', '.join(model.parameters)})"
+                if file:
+                    raise SpecError(msg, file=file, field=fld)
+                raise ParameterError(msg)
+            try:
+                v = float(v)
+            except (TypeError, ValueError):
+                raise ParameterError(f"parameter '{name}': not a number: {v!r}") from None
+            if not math.isfinite(v):
+                raise ParameterError(f"parameter '{name}': non-finite value {v}")
+            if name not in used_active and name in used_inactive and file is None:
+                offs = ", ".join(sorted(e for e in used_inactive[name] if state.get(e) is False))
+                raise ParameterError(f"parameter '{name}' is used only by switched-off effect(s) "
+                                     f"{offs or ', '.join(sorted(used_inactive[name]))}; switch the "
+                                     f"effect on to set it")
+            values[name] = v * model.parameters[name].si_scale
+
+    initial = {s: 0.0 for s in model.state_names()}
+    for src, file, label in ((model.initial, model.path, "initial"), (scene.initial, scene.path, "initial")):
+        for k, v in src.items():
+            if k not in initial:
+                raise SpecError(f"'{k}' is not a state (states: {', '.join(initial)})", file=file,
+                                field=f"{label}.{k}")
+            initial[k] = v
+    return ResolvedScene(model, scene, state, values, active_params, initial)
+
+
+def _terms_with_owner(model: ModelSpec):
+    for el in model.elements.values():
+        for terms in el.fields.values():
+            for t in terms:
+                yield t, el.effect, el.variant
+    for eq in model.equations.values():
+        for t in (*eq.mass, *eq.force):
+            yield t, None, None
+    if model.reduction is not None:
+        for t in model.reduction.definition:
+            yield t, None, None
+
+
+def _structural_exprs(model: ModelSpec) -> list[str]:
+    out = []
+    if model.forcing_period:
+        out.append(model.forcing_period)
+    return out

@@ -1,0 +1,158 @@
+"""Physical units: parsing unit strings and checking dimensions.
+
+A unit is a scale to SI and a vector of exponents of the base dimensions
+(mass, length, time).  Angles (``rad``) are dimensionless, as in SI.  Unit strings
+are products/quotients of known units with integer or rational powers, e.g.
+``"kg*m^2"``, ``"N/m"``, ``"N*s/m"``, ``"rad/s"``, ``"1"``.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+from dataclasses import dataclass
+from fractions import Fraction
+
+_BASE = ("kg", "m", "s")
+
+
+@dataclass(frozen=True)
+class Unit:
+    """A physical unit: ``scale`` times the SI unit with dimension exponents ``dims``."""
+
+    scale: float
+    dims: tuple[Fraction, Fraction, Fraction]
+
+    def __mul__(self, other: Unit) -> Unit:
+        return Unit(self.scale * other.scale, tuple(a + b for a, b in zip(self.dims, other.dims)))
+
+    def __truediv__(self, other: Unit) -> Unit:
+        return Unit(self.scale / other.scale, tuple(a - b for a, b in zip(self.dims, other.dims)))
+
+    def __pow__(self, k: Fraction | int | float) -> Unit:
+        k = Fraction(k).limit_denominator(1000)
+        return Unit(self.scale ** float(k), tuple(a * k for a in self.dims))
+
+    @property
+    def dimensionless(self) -> bool:
+        """True if all dimension exponents are zero."""
+        return all(d == 0 for d in self.dims)
+
+    def same_dimension(self, other: Unit) -> bool:
+        """True if ``self`` and ``other`` measure the same physical quantity."""
+        return self.dims == other.dims
+
+    def si_string(self) -> str:
+        """The dimension written in SI base units, e.g. ``kg*m^2*s^-2``."""
+        parts = []
+        for name, d in zip(_BASE, self.dims):
+            if d == 0:
+                continue
+            parts.append(name if d == 1 else f"{name}^{d}")
+        return "*".join(parts) if parts else "1"
+
+
+ONE = Unit(1.0, (Fraction(0), Fraction(0), Fraction(0)))
+
+
+def _u(scale: float, kg: int = 0, m: int = 0, s: int = 0) -> Unit:
+    return Unit(scale, (Fraction(kg), Fraction(m), Fraction(s)))
+
+
+#: Known unit names.  Deliberately small and explicit; extend as models need.
+KNOWN_UNITS: dict[str, Unit] = {
+    "1": ONE,
+    "rad": ONE,
+    "deg": _u(math.pi / 180),
+    "rev": _u(2 * math.pi),
+    "kg": _u(1.0, kg=1),
+    "g": _u(1e-3, kg=1),
+    "t": _u(1e3, kg=1),
+    "m": _u(1.0, m=1),
+    "cm": _u(1e-2, m=1),
+    "mm": _u(1e-3, m=1),
+    "um": _u(1e-6, m=1),
+    "nm": _u(1e-9, m=1),
+    "s": _u(1.0, s=1),
+    "ms": _u(1e-3, s=1),
+    "us": _u(1e-6, s=1),
+    "min": _u(60.0, s=1),
+    "Hz": _u(1.0, s=-1),
+    "rpm": _u(2 * math.pi / 60.0, s=-1),
+    "N": _u(1.0, kg=1, m=1, s=-2),
+    "kN": _u(1e3, kg=1, m=1, s=-2),
+    "J": _u(1.0, kg=1, m=2, s=-2),
+    "W": _u(1.0, kg=1, m=2, s=-3),
+    "Pa": _u(1.0, kg=1, m=-1, s=-2),
+    "MPa": _u(1e6, kg=1, m=-1, s=-2),
+    "GPa": _u(1e9, kg=1, m=-1, s=-2),
+}
+
+
+class UnitSyntaxError(ValueError):
+    """A unit string could not be parsed (message says why)."""
+
+
+def parse_unit(text: str | int | float) -> Unit:
+    """Parse a unit string such as ``"N*m"`` or ``"kg*m^2"``.
+
+    Parameters
+    ----------
+    text
+        The unit. ``"1"``, ``""`` and the number ``1`` mean dimensionless.
+
+    Returns
+    -------
+    Unit
+
+    Raises
+    ------
+    UnitSyntaxError
+        If the string is not a product of known units with numeric powers.
+    """
+    if isinstance(text, (int, float)) and text == 1:
+        return ONE
+    if not isinstance(text, str):
+        raise UnitSyntaxError(f"a unit must be a string, got {type(text).__name__}")
+    src = text.strip().replace("^", "**")
+    if src in ("", "1", "-"):
+        return ONE
+    try:
+        tree = ast.parse(src, mode="eval")
+    except SyntaxError as exc:
+        raise UnitSyntaxError(f"cannot parse unit '{text}'") from exc
+    return _eval_unit(tree.body, text)
+
+
+def _eval_unit(node: ast.AST, text: str) -> Unit:
+    if isinstance(node, ast.Name):
+        if node.id not in KNOWN_UNITS:
+            known = ", ".join(sorted(KNOWN_UNITS))
+            raise UnitSyntaxError(f"unknown unit '{node.id}' in '{text}' (known: {known})")
+        return KNOWN_UNITS[node.id]
+    if isinstance(node, ast.Constant) and node.value == 1:
+        return ONE
+    if isinstance(node, ast.BinOp):
+        if isinstance(node.op, ast.Mult):
+            return _eval_unit(node.left, text) * _eval_unit(node.right, text)
+        if isinstance(node.op, ast.Div):
+            return _eval_unit(node.left, text) / _eval_unit(node.right, text)
+        if isinstance(node.op, ast.Pow):
+            exp = _number(node.right)
+            if exp is None:
+                raise UnitSyntaxError(f"unit exponent must be a number in '{text}'")
+            return _eval_unit(node.left, text) ** exp
+    raise UnitSyntaxError(f"cannot parse unit '{text}'")
+
+
+def _number(node: ast.AST) -> Fraction | None:
+    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)):
+        return Fraction(node.value).limit_denominator(1000)
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
+        v = _number(node.operand)
+        return None if v is None else -v
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Div):
+        a, b = _number(node.left), _number(node.right)
+        if a is not None and b is not None and b != 0:
+            return a / b
+    return None

@@ -1,0 +1,348 @@
+"""The symbolic model: equations of motion derived with sympy from a resolved scene.
+
+:class:`SymbolicModel` follows the style of ``sympy.physics.mechanics``: the
+derivation is done once in the constructor and every derived quantity is a named,
+inspectable attribute (mass matrix, generalised forces, first-order right-hand
+side, switching functions, modes, schedules, Jacobian, dimensionless form).
+
+Derivation (virtual work): the kinetic energy ``T = 1/2 sum(m_i qdot_i^2)`` of the
+inertia elements gives the mass matrix; every element contributes the generalised
+force ``Q_i = -W * d(delta)/d(q_i)`` where ``delta`` is its deflection and ``W`` its
+force (``k*f(delta) + c*d(delta)/dt`` for a mesh with dead zone ``f``); forces and
+explicit equations add to ``Q`` directly.  Then ``M q'' = Q``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from ..errors import SpecError
+from ..spec.scene import ResolvedScene
+from .parsing import Namespace
+from .switching import ModalForm, make_modal
+
+
+@dataclass(frozen=True)
+class SwitchingFunction:
+    """A switching surface ``g(t, x, p) = 0`` whose crossing changes the mode.
+
+    Attributes
+    ----------
+    name
+        E.g. ``mesh.drive`` / ``mesh.back`` for the two flanks of a backlash mesh.
+    expr
+        ``g`` in terms of the states, time and parameters.
+    meaning
+        What the ``g > 0`` side means.
+    contact_sign
+        ``+1`` if ``g > 0`` is the contact side, ``-1`` if ``g < 0`` is, ``0`` if the
+        surface is not a contact surface.
+    kind
+        ``"drive"``, ``"back"`` or ``"switch"``.
+    """
+
+    name: str
+    expr: sp.Expr
+    meaning: str
+    contact_sign: int = 0
+    kind: str = "switch"
+
+
+@dataclass(frozen=True)
+class ScheduleInfo:
+    """A schedule of breakpoints: period and break fractions (0 first)."""
+
+    name: str
+    period: sp.Expr
+    breaks: tuple[sp.Expr, ...]
+    n: sp.Symbol
+    seg: sp.Symbol
+
+
+@dataclass(frozen=True)
+class Mode:
+    """A named mode of the hybrid system (e.g. drive-side contact)."""
+
+    name: str
+    condition: str
+
+
+class SymbolicModel:
+    """Equations of motion of a resolved scene, derived with sympy.
+
+    Parameters
+    ----------
+    rs
+        A :class:`~gearsym.spec.scene.ResolvedScene` (model + effects + values).
+
+    Attributes
+    ----------
+    t : sympy.Symbol
+    coordinates, velocities : list of sympy.Symbol
+        After reduction, if the model asks for one.
+    states : list of sympy.Symbol
+        ``coordinates + velocities``.
+    mass_matrix : sympy.Matrix
+        ``M`` in ``M q'' = F``.
+    forces : sympy.Matrix
+        ``F`` (generalised forces, with the original piecewise conditions).
+    rhs : sympy.Matrix
+        First-order right-hand side ``x' = f(t, x, p)`` (explicit form).
+    switching : list of SwitchingFunction
+    modal : ModalForm
+        The right-hand side with each state-dependent condition replaced by the
+        side ``sigma_j`` of its switching surface, and schedules by their segment.
+    parameters : list of sympy.Symbol
+        The run-time parameters the compiled system takes, in model order.
+    forcing_period : sympy.Expr or None
+    """
+
+    def __init__(self, rs: ResolvedScene):
+        self.resolved = rs
+        self.spec = rs.model
+        self.name = rs.model.name
+        ns = Namespace(rs)
+        self.ns = ns
+        self.t = ns.t
+        self._surface_hints: list[SwitchingFunction] = []
+        self._modes: list[Mode] = []
+        q = list(ns.coords.values())
+        v = list(ns.vels.values())
+        M, Q = self._assemble(ns, q, v)
+        self.unreduced_mass_matrix = M
+        self.unreduced_forces = Q
+        if self.spec.reduction is not None:
+            q, v, M, Q = self._reduce(ns, q, v, M, Q)
+        self.coordinates = q
+        self.velocities = v
+        self.states = q + v
+        self.mass_matrix = M
+        self.forces = Q
+        self.form = self.spec.form
+        if self.form == "explicit":
+            acc = M.LUsolve(Q) if not M.is_diagonal() else sp.Matrix([Q[i] / M[i, i] for i in range(len(q))])
+            self.accelerations = acc
+        else:
+            self.accelerations = None
+        self.rhs = sp.Matrix(list(v) + (list(self.accelerations) if self.accelerations is not None else []))
+        self.modal: ModalForm = make_modal(self, self._surface_hints)
+        self.switching: list[SwitchingFunction] = self.modal.surfaces
+        self.schedules: list[ScheduleInfo] = [
+            ScheduleInfo(s, ns.schedule_period[s], (sp.Integer(0), *ns.schedule_breaks[s]),
+                         ns.sched_n[s], ns.sched_seg[s])
+            for s in self.spec.schedules if s in self.modal.used_schedules
+        ]
+        self.forcing_period = ns.parse(self.spec.forcing_period, "forcing.period") \
+            if self.spec.forcing_period else None
+        self.parameters = self._parameter_list()
+
+    # ----------------------------------------------------------------- assembly
+
+    def _assemble(self, ns: Namespace, q: list[sp.Symbol], v: list[sp.Symbol]):
+        spec = self.spec
+        n = len(q)
+        index = {s.name: i for i, s in enumerate(q)}
+        M = sp.zeros(n, n)
+        Q = sp.zeros(n, 1)
+
+        def ddt(expr: sp.Expr) -> sp.Expr:
+            return sp.diff(expr, ns.t) + sum(sp.diff(expr, qi) * vi for qi, vi in zip(q, v))
+
+        for el in spec.elements.values():
+            if not self.resolved.effect_active(el.effect, el.variant):
+                continue
+            w = f"elements.{el.name}"
+
+            def field(key: str) -> sp.Expr:
+                return ns.sum_terms(el.fields.get(key, ()), el.effect, el.variant)
+
+            if el.type == "inertia":
+                i = index[el.coordinate]  # type: ignore[index]
+                M[i, i] += field("value")
+            elif el.type == "force":
+                Q[index[el.coordinate], 0] += field("value")  # type: ignore[index]
+            else:
+                geom = field("deflection")
+                delta = geom - field("error") if el.type == "mesh" else geom
+                if not any(geom.has(qi) for qi in q):
+                    raise SpecError("the deflection does not depend on any coordinate",
+                                    file=spec.path, field=f"{w}.deflection")
+                if el.type == "spring":
+                    W = field("stiffness") * delta
+                elif el.type == "damper":
+                    W = field("coefficient") * ddt(delta)
+                else:  # mesh
+                    k = field("stiffness")
+                    c = field("damping")
+                    b = field("backlash")
+                    if b != 0:
+                        f = sp.Piecewise((delta - b, delta - b > 0), (delta + b, delta + b < 0), (0, True))
+                        drive_pos = el.drive_side == "positive"
+                        up = SwitchingFunction(
+                            f"{el.name}.{'drive' if drive_pos else 'back'}", delta - b,
+                            f"{'drive' if drive_pos else 'back'}-side contact of {el.name} when > 0",
+                            +1, "drive" if drive_pos else "back")
+                        lo = SwitchingFunction(
+                            f"{el.name}.{'back' if drive_pos else 'drive'}", delta + b,
+                            f"{'back' if drive_pos else 'drive'}-side contact of {el.name} when < 0",
+                            -1, "back" if drive_pos else "drive")
+                        self._surface_hints += [up, lo] if drive_pos else [lo, up]
+                        self._modes += [
+                            Mode(f"{el.name}: drive-side contact",
+                                 f"{sp.sstr(delta)} {'>' if drive_pos else '<'} "
+                                 f"{sp.sstr(b if drive_pos else -b)}"),
+                            Mode(f"{el.name}: separation", f"|{sp.sstr(delta)}| <= {sp.sstr(b)}"),
+                            Mode(f"{el.name}: back-side contact",
+                                 f"{sp.sstr(delta)} {'<' if drive_pos else '>'} "
+                                 f"{sp.sstr(-b if drive_pos else b)}"),
+                        ]
+                    else:
+                        f = delta
+                    W = k * f + c * ddt(delta)
+                for i, qi in enumerate(q):
+                    dd = sp.diff(geom, qi)
+                    if dd != 0:
+                        Q[i, 0] -= W * dd
+        for eq in spec.equations.values():
+            i = index[eq.coordinate]
+            M[i, i] += ns.sum_terms(eq.mass)
+            Q[i, 0] += ns.sum_terms(eq.force)
+        for i, qi in enumerate(q):
+            if M[i, i] == 0:
+                raise SpecError(f"coordinate '{qi}' has no active inertia in this scene",
+                                file=spec.path, field=f"coordinates.{qi}")
+        return M, Q
+
+    def _reduce(self, ns: Namespace, q, v, M, Q):
+        """Reduce a semi-definite system to one relative coordinate (e.g. the DTE)."""
+        red = self.spec.reduction
+        assert red is not None
+        where = "reduction.definition"
+        definition = ns.sum_terms(red.definition)
+        a = [sp.diff(definition, qi) for qi in q]
+        if any(ai.has(*q, *v) for ai in a):
+            raise SpecError("the reduced coordinate must be linear in the coordinates",
+                            file=self.spec.path, field=where)
+        s = sp.simplify(definition - sum(ai * qi for ai, qi in zip(a, q)))
+        if s.has(*q, *v):
+            raise SpecError("cannot separate the definition into coordinates and time",
+                            file=self.spec.path, field=where)
+        if not M.is_diagonal():
+            raise SpecError("reduction needs a diagonal mass matrix", file=self.spec.path, field=where)
+        k = max(range(len(q)), key=lambda i: 0 if a[i] == 0 else 1)
+        if a[k] == 0:
+            raise SpecError("the reduced coordinate does not depend on any coordinate",
+                            file=self.spec.path, field=where)
+        x = sp.Symbol(red.coordinate, real=True)
+        xd = sp.Symbol(red.velocity, real=True)
+        sdot = sp.diff(s, ns.t)
+        qk = (x - s - sum(a[i] * q[i] for i in range(len(q)) if i != k)) / a[k]
+        vk = (xd - sdot - sum(a[i] * v[i] for i in range(len(q)) if i != k)) / a[k]
+        sub = {q[k]: qk, v[k]: vk}
+        acc = sum(a[i] * Q[i, 0] / M[i, i] for i in range(len(q)) if a[i] != 0) + sp.diff(s, ns.t, 2)
+        acc = sp.expand(acc.subs(sub))
+        acc = sp.piecewise_fold(acc)
+        others = [q[i] for i in range(len(q)) if i != k] + [v[i] for i in range(len(q)) if i != k]
+        if acc.has(*others):
+            leftover = sorted(str(o) for o in others if acc.has(o))
+            raise SpecError(f"cannot reduce to '{red.coordinate}': the forces still depend on "
+                            f"{', '.join(leftover)} (the system is not semi-definite in this "
+                            f"coordinate)", file=self.spec.path, field=where)
+        m_eq = 1 / sum(a[i] ** 2 / M[i, i] for i in range(len(q)) if a[i] != 0)
+        m_eq = sp.simplify(m_eq)
+        self.reduced_mass = m_eq
+        self._surface_hints = [
+            SwitchingFunction(h.name, sp.expand(h.expr.subs(sub)), h.meaning, h.contact_sign, h.kind)
+            for h in self._surface_hints
+        ]
+        acc = self._collect(acc)
+        return [x], [xd], sp.Matrix([[m_eq]]), sp.Matrix([sp.expand(m_eq * acc)])
+
+    @staticmethod
+    def _collect(expr: sp.Expr) -> sp.Expr:
+        return expr
+
+    def _parameter_list(self) -> list[sp.Symbol]:
+        exprs = list(self.modal.rhs) + list(self.modal.forces) + [g.expr for g in self.switching]
+        if self.form == "implicit":
+            exprs += list(self.mass_matrix) + list(self.forces)
+        for s in self.schedules:
+            exprs += [s.period, *s.breaks]
+        if self.forcing_period is not None:
+            exprs.append(self.forcing_period)
+        free: set[sp.Symbol] = set()
+        for e in exprs:
+            free |= e.free_symbols
+        return [sym for name, sym in self.ns.params.items() if sym in free]
+
+    # ---------------------------------------------------------------- exposed
+
+    @property
+    def state_names(self) -> list[str]:
+        """Names of the first-order states."""
+        return [str(s) for s in self.states]
+
+    @property
+    def parameter_names(self) -> list[str]:
+        """Names of the run-time parameters of the compiled system."""
+        return [str(p) for p in self.parameters]
+
+    @property
+    def modes(self) -> list[Mode]:
+        """Named modes of the hybrid system (contact states of each backlash mesh)."""
+        if self._modes:
+            return list(self._modes)
+        return [Mode(f"{g.name} {'>' if s > 0 else '<'} 0", f"sigma_{j} = {s:+d}")
+                for j, g in enumerate(self.switching) for s in (1, -1)]
+
+    def equations(self) -> list[sp.Eq]:
+        """The equations of motion ``M q'' = F`` (one per coordinate)."""
+        out = []
+        for i, qi in enumerate(self.coordinates):
+            acc = sp.Symbol(f"{qi}''")
+            lhs = sum(self.mass_matrix[i, j] * sp.Symbol(f"{qj}''") for j, qj in enumerate(self.coordinates))
+            if self.accelerations is not None and self.mass_matrix[i, i] != 0:
+                out.append(sp.Eq(acc, self.accelerations[i]))
+            else:
+                out.append(sp.Eq(lhs, self.forces[i]))
+        return out
+
+    def jacobian(self) -> sp.Matrix:
+        """``d f / d x`` of the modal right-hand side (explicit form)."""
+        return self.modal.rhs.jacobian(self.states)
+
+    def variational(self) -> sp.Matrix:
+        """The variational system ``Phi' = J(t, x) Phi`` as a matrix expression."""
+        n = len(self.states)
+        phi = sp.Matrix(n, n, lambda i, j: sp.Symbol(f"Phi_{i}{j}"))
+        return self.jacobian() * phi
+
+    def residual(self, xdot: list[sp.Symbol]) -> sp.Matrix:
+        """Implicit residual ``[q' - v; M v' - F]`` (modal), for IDA."""
+        n = len(self.coordinates)
+        r_kin = [xdot[i] - self.velocities[i] for i in range(n)]
+        acc = sp.Matrix(xdot[n:])
+        r_dyn = self.mass_matrix * acc - self.modal.forces
+        return sp.Matrix(r_kin + list(r_dyn))
+
+    def latex(self) -> str:
+        """LaTeX of the equations of motion and switching functions."""
+        lines = []
+        for i, qi in enumerate(self.coordinates):
+            lhs = sp.latex(sp.Symbol(f"\\ddot{{{sp.latex(qi)}}}"))
+            rhs = self.accelerations[i] if self.accelerations is not None else self.forces[i]
+            if self.accelerations is None:
+                lhs = sp.latex(sum(self.mass_matrix[i, j] * sp.Symbol(f"\\ddot{{{sp.latex(qj)}}}")
+                                   for j, qj in enumerate(self.coordinates)))
+            lines.append(f"{lhs} = {sp.latex(rhs)}")
+        for g in self.switching:
+            lines.append(f"g_{{\\mathrm{{{g.name}}}}} = {sp.latex(g.expr)}")
+        return "\\begin{aligned}\n" + " \\\\\n".join(lines) + "\n\\end{aligned}"
+
+    def dimensionless(self):
+        """The dimensionless form (see :mod:`gearsym.symbolic.dimensionless`)."""
+        from .dimensionless import dimensionless_form
+
+        return dimensionless_form(self)

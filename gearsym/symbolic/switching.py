@@ -1,0 +1,156 @@
+"""Modes and switching functions of the hybrid system.
+
+Every state-dependent condition in the equations (a ``Piecewise`` branch, or an
+``Abs``/``sign``/``Max``/``Min``/``Heaviside`` of a state expression) is a switching
+surface ``g(t, x, p) = 0``.  The *modal form* replaces each such condition by the
+side ``sigma_j`` (+1 or -1) of its surface, which the engine holds fixed between
+events: for fixed ``sigma`` the right-hand side is smooth, so the integrator never
+steps across a kink, and root finding on ``g`` locates every transition exactly.
+Conditions on schedule segments (piecewise-in-time coefficients) stay as they are:
+the engine sets the segment index between scheduled breakpoints.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import sympy as sp
+from sympy.core.relational import Relational
+
+from ..errors import SpecError
+
+if TYPE_CHECKING:
+    from .model import SwitchingFunction, SymbolicModel
+
+_NONSMOOTH = (sp.Abs, sp.sign, sp.Max, sp.Min, sp.Heaviside)
+
+
+@dataclass
+class ModalForm:
+    """Right-hand side with conditions replaced by surface sides.
+
+    Attributes
+    ----------
+    rhs
+        Explicit first-order right-hand side in terms of ``sigma`` (or ``None``
+        for implicit models).
+    forces
+        Generalised forces in terms of ``sigma`` (implicit models).
+    surfaces
+        The switching functions, in the order of ``sigma``.
+    sigma
+        One symbol per surface: +1 on its ``g > 0`` side, -1 on the other.
+    used_schedules
+        Names of the schedules the equations use.
+    """
+
+    rhs: sp.Matrix
+    forces: sp.Matrix
+    surfaces: list[SwitchingFunction]
+    sigma: list[sp.Symbol]
+    used_schedules: set[str]
+
+
+def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalForm:
+    """Build the modal form of a model (see module docstring)."""
+    from .model import SwitchingFunction
+
+    states = set(model.states)
+    t = model.t
+    ns = model.ns
+    seg_syms = {ns.sched_seg[s]: s for s in ns.sched_seg}
+    n_syms = {ns.sched_n[s]: s for s in ns.sched_n}
+    surfaces: list[SwitchingFunction] = []
+    canon: list[sp.Expr] = []
+    sigma: list[sp.Symbol] = []
+
+    def register(g: sp.Expr) -> tuple[int, int]:
+        ge = sp.expand(g)
+        for j, c in enumerate(canon):
+            if sp.expand(ge - c) == 0:
+                return j, 1
+            if sp.expand(ge + c) == 0:
+                return j, -1
+        for h in hints:
+            he = sp.expand(h.expr)
+            for sgn in (1, -1):
+                if sp.expand(ge - sgn * he) == 0:
+                    surfaces.append(h)
+                    canon.append(he)
+                    sigma.append(sp.Symbol(f"sigma_{len(sigma)}", real=True))
+                    return len(canon) - 1, sgn
+        j = len(canon)
+        surfaces.append(SwitchingFunction(f"surface{j}", ge, f"switch {j} (g > 0 side)", 0, "switch"))
+        canon.append(ge)
+        sigma.append(sp.Symbol(f"sigma_{j}", real=True))
+        return j, 1
+
+    def to_sigma(rel: Relational) -> sp.Basic:
+        free = rel.free_symbols
+        if not (free & states):
+            if t in free:
+                raise SpecError(
+                    f"the condition '{rel}' depends on time: declare a [schedules] entry and "
+                    f"use a piecewise_cycle field (or <schedule>_segment) so that the integrator "
+                    f"stops exactly at its breakpoints", file=model.spec.path)
+            return rel
+        if isinstance(rel, (sp.Eq, sp.Ne)):
+            raise SpecError(f"equality condition on states '{rel}' is not a switching surface",
+                            file=model.spec.path)
+        j, sgn = register(rel.lhs - rel.rhs)
+        s = sigma[j] * sgn
+        if isinstance(rel, (sp.StrictGreaterThan, sp.GreaterThan)):
+            return s > 0
+        return s < 0
+
+    def smooth_out(expr: sp.Expr) -> sp.Expr:
+        # rewrite nonsmooth functions of states as Piecewise so that their kinks are surfaces
+        def fix(e: sp.Basic) -> sp.Basic:
+            if isinstance(e, _NONSMOOTH) and (e.free_symbols & states):
+                return e.rewrite(sp.Piecewise)
+            return e
+        return _bottom_up(expr, fix)
+
+    def modalise(expr: sp.Expr) -> sp.Expr:
+        expr = smooth_out(expr)
+
+        def fix(e: sp.Basic) -> sp.Basic:
+            if isinstance(e, sp.Piecewise):
+                args = []
+                for val, cond in e.args:
+                    if cond not in (sp.true, sp.false):
+                        cond = cond.xreplace({r: to_sigma(r) for r in cond.atoms(Relational)})
+                    args.append((val, cond))
+                return sp.Piecewise(*args)
+            return e
+        return _bottom_up(expr, fix)
+
+    if model.form == "explicit":
+        rhs = model.rhs.applyfunc(modalise)
+        forces = sp.Matrix([])
+        exprs = list(rhs)
+    else:
+        forces = model.forces.applyfunc(modalise)
+        rhs = sp.Matrix([])
+        exprs = list(forces) + list(model.mass_matrix)
+    used: set[str] = set()
+    for e in exprs:
+        for s in e.free_symbols:
+            if s in seg_syms:
+                used.add(seg_syms[s])
+            if s in n_syms:
+                used.add(n_syms[s])
+    return ModalForm(rhs, forces, surfaces, sigma, used)
+
+
+def _bottom_up(expr: sp.Basic, fn) -> sp.Basic:
+    """Apply ``fn`` to every node, children first (like sympy's bottom_up)."""
+    if expr.args:
+        new_args = [_bottom_up(a, fn) for a in expr.args]
+        if any(a is not b for a, b in zip(new_args, expr.args)):
+            try:
+                expr = expr.func(*new_args)
+            except TypeError:
+                pass
+    return fn(expr)

@@ -1,0 +1,228 @@
+"""Compiled systems: a generated model bound to the C engine and parameter values."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from .codegen.generate import GeneratedModel
+from .engine.driver import Engine, load_engine
+from .errors import ParameterError
+from .results import Event, Trajectory
+
+_METHODS = ("bdf", "adams", "ida")
+
+
+class System:
+    """A compiled scene: simulate it, find its periodic orbits.
+
+    Obtained from :meth:`gearsym.Scene.compile`; not constructed directly.
+
+    Attributes
+    ----------
+    generated : GeneratedModel
+        Sources, shared object, state and parameter names, operation counts.
+    params : dict
+        Current parameter values (SI units) of the run-time parameters.
+    x0 : ndarray
+        The scene's initial state.
+    """
+
+    def __init__(self, generated: GeneratedModel, params: Mapping[str, float], x0: Sequence[float],
+                 defaults: Mapping[str, object] | None = None, scene_name: str = ""):
+        self.generated = generated
+        self.engine: Engine = load_engine(generated.so_path)
+        self.params = {name: float(params[name]) for name in generated.param_names}
+        self.x0 = np.asarray(x0, dtype=float)
+        self.defaults = dict(defaults or {})
+        self.name = scene_name or generated.scene
+
+    # ------------------------------------------------------------------ info
+
+    @property
+    def state_names(self) -> list[str]:
+        """Names of the states, in the order of ``x``."""
+        return list(self.generated.state_names)
+
+    @property
+    def param_names(self) -> list[str]:
+        """Names of the run-time parameters, in the order of ``p``."""
+        return list(self.generated.param_names)
+
+    @property
+    def surface_names(self) -> list[str]:
+        """Names of the switching functions."""
+        return [s["name"] for s in self.generated.surfaces]
+
+    def param_vector(self, params: Mapping[str, float] | None = None) -> np.ndarray:
+        """Parameter vector with ``params`` overriding the current values (SI units)."""
+        values = dict(self.params)
+        for k, v in (params or {}).items():
+            if k not in values:
+                raise ParameterError(
+                    f"'{k}' is not a run-time parameter of this system (have: "
+                    f"{', '.join(values) or 'none'}); parameters of switched-off effects are "
+                    f"not inputs")
+            v = float(v)
+            if not math.isfinite(v):
+                raise ParameterError(f"parameter '{k}': non-finite value {v}")
+            values[k] = v
+        return np.array([values[k] for k in self.generated.param_names], dtype=float)
+
+    def period(self, params: Mapping[str, float] | None = None) -> float | None:
+        """The forcing period at these parameters (``None`` if the scene has none)."""
+        T = float(self.generated.casadi_function("gs_period")(self.param_vector(params)))
+        return T if math.isfinite(T) else None
+
+    def rhs(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
+            params: Mapping[str, float] | None = None) -> np.ndarray:
+        """Evaluate the right-hand side (explicit models) in a given mode.
+
+        ``sigma`` defaults to the sides of the switching surfaces at ``x``.
+        """
+        p = self.param_vector(params)
+        x = np.asarray(x, dtype=float)
+        if sigma is None:
+            g = np.asarray(self.generated.casadi_function("gs_sw")(t, x, p)).ravel()
+            sigma = np.where(g >= 0, 1.0, -1.0)
+        m = np.concatenate([np.asarray(sigma, float), self._sched_mode(t, p)])
+        return np.asarray(self.generated.casadi_function("gs_rhs")(t, x, p, m)).ravel()
+
+    def jacobian(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
+                 params: Mapping[str, float] | None = None) -> np.ndarray:
+        """The generated Jacobian ``df/dx`` (explicit models)."""
+        p = self.param_vector(params)
+        x = np.asarray(x, dtype=float)
+        if sigma is None:
+            g = np.asarray(self.generated.casadi_function("gs_sw")(t, x, p)).ravel()
+            sigma = np.where(g >= 0, 1.0, -1.0)
+        m = np.concatenate([np.asarray(sigma, float), self._sched_mode(t, p)])
+        return np.asarray(self.generated.casadi_function("gs_jac")(t, x, p, m))
+
+    def _sched_mode(self, t: float, p: np.ndarray) -> np.ndarray:
+        s = np.asarray(self.generated.casadi_function("gs_sched")(p)).ravel()
+        out = []
+        i = 0
+        for sch in self.generated.schedules:
+            P = s[i]
+            breaks = s[i + 1: i + 1 + sch["n_breaks"]]
+            i += 1 + sch["n_breaks"]
+            u = t / P
+            n = math.floor(u)
+            seg = int(np.searchsorted(breaks, u - n, side="right") - 1)
+            out += [n, seg]
+        return np.array(out, dtype=float)
+
+    # -------------------------------------------------------------- simulate
+
+    def simulate(self, t_end: float | None = None, periods: float | None = None,
+                 x0: Sequence[float] | None = None, rtol: float = 1e-8, atol: float = 1e-10,
+                 n_out: int | None = None, params: Mapping[str, float] | None = None, *,
+                 t0: float = 0.0, method: str | None = None, max_step: float | None = None,
+                 monodromy: bool = False, sigma0: Sequence[float] | None = None,
+                 max_steps: int = 0, t_out: Sequence[float] | None = None) -> Trajectory:
+        """Integrate the system with the C engine (one call into C).
+
+        Parameters
+        ----------
+        t_end
+            Final time. Give this or ``periods``.
+        periods
+            Number of forcing periods (``t_end = t0 + periods * T``).
+        x0
+            Initial state; the scene's when ``None``.
+        rtol, atol
+            Integrator tolerances.
+        n_out
+            Number of evenly spaced output points from ``t0`` to ``t_end`` (both
+            included); by default 64 per forcing period (or 1001).
+        params
+            Parameter overrides for this call only (SI units).
+        t0
+            Start time.
+        method
+            ``"bdf"`` (default for explicit models), ``"adams"`` or ``"ida"``
+            (implicit models).
+        max_step
+            Largest internal step; default an eighth of the forcing period, so that
+            no pair of surface crossings hides inside one step.
+        monodromy
+            Also integrate the variational equations and return ``d x(t_end)/d x0``
+            (with saltation matrices at the events).
+        sigma0
+            Side (+1/-1) of each switching surface at ``t0``; from the state if ``None``.
+        max_steps
+            Limit on internal steps (0: ten million).
+        t_out
+            Explicit output times (overrides ``n_out``).
+
+        Returns
+        -------
+        Trajectory
+
+        Raises
+        ------
+        SimulationError
+            Too much work, event storm, non-finite state, solver failure.
+        ParameterError
+            Unknown or non-finite parameter override.
+        """
+        wall = time.perf_counter()
+        p = self.param_vector(params)
+        T = self.period(params)
+        if t_end is None:
+            if periods is None:
+                periods = float(self.defaults.get("periods", 100)) if T else None
+                if periods is None:
+                    t_end = float(self.defaults.get("t_end", 100.0))
+            if t_end is None:
+                if not T:
+                    raise ParameterError("periods= needs a scene with a forcing period; give t_end")
+                t_end = t0 + float(periods) * T
+        if not (math.isfinite(t_end) and t_end > t0):
+            raise ParameterError(f"t_end must be finite and greater than t0={t0}, got {t_end}")
+        if not (rtol > 0 and atol > 0 and math.isfinite(rtol) and math.isfinite(atol)):
+            raise ParameterError(f"tolerances must be positive and finite (rtol={rtol}, atol={atol})")
+        if rtol < 1e-15:
+            raise ParameterError(f"rtol={rtol} is below what double precision can deliver (1e-15)")
+        x0v = self.x0 if x0 is None else np.asarray(x0, dtype=float)
+        if x0v.shape != (self.generated.nx,):
+            raise ParameterError(f"x0 must have {self.generated.nx} entries "
+                                 f"({', '.join(self.state_names)}), got shape {x0v.shape}")
+        if t_out is not None:
+            grid = np.asarray(t_out, dtype=float)
+        else:
+            if n_out is None:
+                if T:
+                    ppp = int(self.defaults.get("points_per_period", 64))
+                    n_out = int(round((t_end - t0) / T * ppp)) + 1
+                else:
+                    n_out = 1001
+            grid = np.linspace(t0, t_end, max(int(n_out), 2))
+            grid[-1] = t_end
+        if method is None:
+            method = "ida" if self.generated.implicit else str(self.defaults.get("method", "bdf"))
+        if method not in _METHODS:
+            raise ParameterError(f"method must be one of {_METHODS}, got '{method}'")
+        if self.generated.implicit and method != "ida":
+            raise ParameterError("this model is in implicit (mass-matrix) form: use method='ida'")
+        if not self.generated.implicit and method == "ida":
+            raise ParameterError("method='ida' needs a model in implicit form (model.form = 'implicit')")
+        if max_step is None:
+            max_step = T / 8 if T else 0.0
+        res = self.engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
+                              sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
+                              max_step=max_step)
+        names = self.surface_names
+        events = [Event(float(tt), names[int(j)], int(d))
+                  for tt, j, d in zip(res.events.t, res.events.surface, res.events.direction)]
+        stats = dict(res.stats)
+        stats["n_events"] = int(stats.get("n_events", len(events)))
+        stats["wall_s"] = time.perf_counter() - wall
+        return Trajectory(t=grid, y=res.y, state_names=self.state_names, events=events, stats=stats,
+                          period=T, params={k: float(v) for k, v in zip(self.param_names, p)},
+                          x_final=res.x_final, monodromy=res.monodromy,
+                          event_speed=np.asarray(res.events.speed))
