@@ -107,7 +107,6 @@ class SymbolicModel:
         self.ns = ns
         self.t = ns.t
         self._surface_hints: list[SwitchingFunction] = []
-        self._modes: list[Mode] = []
         q = list(ns.coords.values())
         v = list(ns.vels.values())
         M, Q = self._assemble(ns, q, v)
@@ -189,15 +188,6 @@ class SymbolicModel:
                             f"{'back' if drive_pos else 'drive'}-side contact of {el.name} when < 0",
                             -1, "back" if drive_pos else "drive")
                         self._surface_hints += [up, lo] if drive_pos else [lo, up]
-                        self._modes += [
-                            Mode(f"{el.name}: drive-side contact",
-                                 f"{sp.sstr(delta)} {'>' if drive_pos else '<'} "
-                                 f"{sp.sstr(b if drive_pos else -b)}"),
-                            Mode(f"{el.name}: separation", f"|{sp.sstr(delta)}| <= {sp.sstr(b)}"),
-                            Mode(f"{el.name}: back-side contact",
-                                 f"{sp.sstr(delta)} {'<' if drive_pos else '>'} "
-                                 f"{sp.sstr(-b if drive_pos else b)}"),
-                        ]
                     else:
                         f = delta
                     W = k * f + c * ddt(delta)
@@ -292,10 +282,24 @@ class SymbolicModel:
     @property
     def modes(self) -> list[Mode]:
         """Named modes of the hybrid system (contact states of each backlash mesh)."""
-        if self._modes:
-            return list(self._modes)
-        return [Mode(f"{g.name} {'>' if s > 0 else '<'} 0", f"sigma_{j} = {s:+d}")
-                for j, g in enumerate(self.switching) for s in (1, -1)]
+        out: list[Mode] = []
+        contact = [g for g in self.switching if g.kind in ("drive", "back")]
+        elements = list(dict.fromkeys(g.name.rsplit(".", 1)[0] for g in contact))
+        for el in elements:
+            by_kind = {g.kind: g for g in contact if g.name.rsplit(".", 1)[0] == el}
+            conds = {}
+            for kind, g in by_kind.items():
+                rel = ">" if g.contact_sign > 0 else "<"
+                conds[kind] = f"{sp.sstr(g.expr)} {rel} 0"
+            out.append(Mode(f"{el}: drive-side contact", conds.get("drive", "")))
+            out.append(Mode(f"{el}: separation",
+                            " and ".join(f"not ({c})" for c in conds.values())))
+            out.append(Mode(f"{el}: back-side contact", conds.get("back", "")))
+        for j, g in enumerate(self.switching):
+            if g.kind == "switch":
+                out += [Mode(f"{g.name}: g > 0", f"{sp.sstr(g.expr)} > 0"),
+                        Mode(f"{g.name}: g < 0", f"{sp.sstr(g.expr)} < 0")]
+        return out
 
     def equations(self) -> list[sp.Eq]:
         """The equations of motion ``M q'' = F`` (one per coordinate)."""

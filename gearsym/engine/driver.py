@@ -1,0 +1,387 @@
+"""ctypes binding of the C simulation driver (``gs_driver.h``).
+
+One :meth:`Engine.run` call is one whole simulation in C (CVODE or IDA with
+events, breakpoints, output grid and optionally the monodromy); ctypes releases
+the GIL during the call, so several simulations may run in parallel threads.
+"""
+
+from __future__ import annotations
+
+import ctypes as C
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gearsym.engine.errors import EngineABIError, EngineInputError, error_for_status
+
+__all__ = ["Engine", "GsSimArgs", "RunResult", "load_engine", "METHODS"]
+
+#: Integration methods: name -> GS_METHOD_* code.
+METHODS: dict[str, int] = {"bdf": 0, "adams": 1, "ida": 2}
+
+_PD = C.POINTER(C.c_double)
+_PI = C.POINTER(C.c_int)
+
+
+class GsSimArgs(C.Structure):
+    """ctypes mirror of ``struct gs_sim_args`` (gs_driver.h); keep in sync."""
+
+    _fields_ = [
+        # inputs
+        ("method", C.c_int),
+        ("rtol", C.c_double),
+        ("atol", C.c_double),
+        ("t0", C.c_double),
+        ("t_end", C.c_double),
+        ("x0", _PD),
+        ("p", _PD),
+        ("sigma0", _PD),
+        ("n_out", C.c_int),
+        ("t_out", _PD),
+        ("max_steps", C.c_long),
+        ("max_events", C.c_long),
+        ("storm_events", C.c_int),
+        ("storm_window", C.c_double),
+        ("max_step", C.c_double),
+        ("init_step", C.c_double),
+        ("want_monodromy", C.c_int),
+        ("max_events_out", C.c_int),
+        # outputs
+        ("y_out", _PD),
+        ("x_final", _PD),
+        ("sigma_final", _PD),
+        ("monodromy", _PD),
+        ("ev_t", _PD),
+        ("ev_surface", _PI),
+        ("ev_dir", _PI),
+        ("ev_speed", _PD),
+        ("n_events", C.c_int),
+        ("t_reached", C.c_double),
+        ("n_steps", C.c_long),
+        ("n_rhs", C.c_long),
+        ("n_jac", C.c_long),
+        ("n_root_evals", C.c_long),
+        ("n_breaks", C.c_long),
+        ("n_reinit", C.c_long),
+        ("status", C.c_int),
+        ("errmsg", C.c_char * 1024),
+    ]
+
+
+@dataclass(frozen=True)
+class EventLog:
+    """Events of one run (parallel arrays).
+
+    Attributes
+    ----------
+    t
+        Event times.
+    surface
+        Index j of the switching function that crossed zero.
+    direction
+        +1: g_j went from - to +; -1: from + to -.
+    speed
+        dg_j/dt along the flow of the old mode at the event (~0: grazing).
+    """
+
+    t: np.ndarray
+    surface: np.ndarray
+    direction: np.ndarray
+    speed: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """Result of one :meth:`Engine.run`.
+
+    Attributes
+    ----------
+    t
+        Output times, shape (n_out,).
+    y
+        States at the output times, shape (n_out, nx).
+    x_final
+        State at ``t_reached`` (== t_end).
+    sigma_final
+        Side (+1/-1) of each switching surface at the end, shape (nsw,).
+    monodromy
+        d x(t_end) / d x0, shape (nx, nx), or None if not requested.
+    events
+        The event log.
+    stats
+        n_steps, n_rhs, n_jac, n_root_evals, n_breaks, n_reinit, n_events.
+    t_reached
+        Last time reached.
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    x_final: np.ndarray
+    sigma_final: np.ndarray
+    monodromy: np.ndarray | None
+    events: EventLog
+    stats: dict[str, int] = field(default_factory=dict)
+    t_reached: float = math.nan
+
+
+def _ptr(a: np.ndarray | None, ctype: Any = C.c_double) -> Any:
+    if a is None:
+        return None
+    return a.ctypes.data_as(C.POINTER(ctype))
+
+
+class Engine:
+    """A loaded model + driver shared object.
+
+    Use :func:`load_engine` to create one.
+
+    Attributes
+    ----------
+    path
+        The shared object.
+    nx, np, nm, nsw, nsched
+        Model sizes: states, parameters, mode entries, switching functions,
+        schedules.
+    implicit
+        True for residual-form models (IDA only).
+    nb
+        Number of breaks of each schedule.
+    sundials_version
+        Version string of the SUNDIALS runtime.
+    """
+
+    def __init__(self, lib: C.CDLL, path: Path, version: str):
+        self._lib = lib
+        self.path = path
+        self.sundials_version = version
+        info = (C.c_int * 64)()
+        n = lib.gs_model_info(info, 64)
+        if n < 6:
+            raise EngineInputError(f"{path}: gs_model_info failed (returned {n})")
+        self.nx, self.np, self.nm, self.nsw, self.nsched = (int(info[i]) for i in range(5))
+        self.implicit = bool(info[5])
+        self.nb = tuple(int(info[6 + k]) for k in range(self.nsched))
+
+    def __repr__(self) -> str:
+        return (
+            f"Engine({self.path.name}, nx={self.nx}, np={self.np}, nsw={self.nsw}, "
+            f"nsched={self.nsched}, implicit={self.implicit}, SUNDIALS {self.sundials_version})"
+        )
+
+    def run(
+        self,
+        x0: Any,
+        p: Any,
+        t0: float,
+        t_end: float,
+        t_out: Any = None,
+        method: str = "bdf",
+        rtol: float = 1e-8,
+        atol: float = 1e-10,
+        sigma0: Any = None,
+        want_monodromy: bool = False,
+        max_steps: int = 0,
+        max_step: float = 0.0,
+        init_step: float = 0.0,
+        max_events: int = 0,
+        storm_events: int = 0,
+        storm_window: float = 0.0,
+        max_events_out: int = 4096,
+    ) -> RunResult:
+        """Integrate the model from ``t0`` to ``t_end`` in one C call.
+
+        Parameters
+        ----------
+        x0
+            Initial state, shape (nx,).
+        p
+            Parameters, shape (np,).
+        t0, t_end
+            Time span, ``t_end > t0``.
+        t_out
+            Ascending output times in [t0, t_end] (default: none).
+        method
+            ``"bdf"`` or ``"adams"`` (CVODE, explicit models) or ``"ida"``.
+        rtol, atol
+            Scalar tolerances (with ``want_monodromy`` they apply to the
+            variational states too).
+        sigma0
+            Initial side (+1/-1) of each switching surface; default: from the
+            sign of g(t0, x0) (g >= 0 -> +1).
+        want_monodromy
+            Integrate the variational equations (explicit models, CVODE) and
+            return d x(t_end) / d x0 with saltation matrices at events.
+        max_steps
+            Total internal step budget (0: 10,000,000).
+        max_step, init_step
+            Maximal / initial internal step (0: solver's choice).
+        max_events
+            Total events allowed (0: 1,000,000).
+        storm_events, storm_window
+            More than ``storm_events`` events each within ``storm_window`` of
+            the previous one is an event storm (0: 50 and 1e-9*max(1,|t|)).
+        max_events_out
+            Initial capacity of the event log; the run is repeated with a
+            larger log if more events occur (the result is deterministic).
+
+        Returns
+        -------
+        RunResult
+
+        Raises
+        ------
+        EngineError
+            A subclass per failure (:class:`~gearsym.engine.errors.TooMuchWorkError`,
+            :class:`~gearsym.engine.errors.NonFiniteError`, ...), with the
+            driver's message.
+        """
+        if method not in METHODS:
+            raise EngineInputError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
+        x0a = np.ascontiguousarray(np.asarray(x0, dtype=float).reshape(-1))
+        pa = np.ascontiguousarray(np.asarray(p if p is not None else [], dtype=float).reshape(-1))
+        if x0a.shape[0] != self.nx:
+            raise EngineInputError(f"x0 has {x0a.shape[0]} entries, the model has nx={self.nx} states")
+        if pa.shape[0] != self.np:
+            raise EngineInputError(f"p has {pa.shape[0]} entries, the model has np={self.np} parameters")
+        tout = np.ascontiguousarray(
+            np.asarray(t_out if t_out is not None else [], dtype=float).reshape(-1)
+        )
+        sig = None
+        if sigma0 is not None:
+            sig = np.ascontiguousarray(np.asarray(sigma0, dtype=float).reshape(-1))
+            if sig.shape[0] != self.nsw:
+                raise EngineInputError(f"sigma0 has {sig.shape[0]} entries, the model has nsw={self.nsw}")
+        cap = max(int(max_events_out), 1)
+        while True:
+            res = self._run_once(
+                x0a, pa, float(t0), float(t_end), tout, METHODS[method], float(rtol), float(atol), sig,
+                bool(want_monodromy), int(max_steps), float(max_step), float(init_step), int(max_events),
+                int(storm_events), float(storm_window), cap,
+            )
+            if isinstance(res, int):  # event log too small: rerun with the exact size
+                cap = res
+                continue
+            return res
+
+    def _run_once(
+        self, x0, p, t0, t_end, tout, method, rtol, atol, sig, mono, max_steps, max_step, init_step,
+        max_events, storm_events, storm_window, cap,
+    ) -> RunResult | int:
+        nx, nsw = self.nx, self.nsw
+        n_out = int(tout.shape[0])
+        y = np.full((n_out, nx), np.nan)
+        x_final = np.full(nx, np.nan)
+        sigma_final = np.zeros(max(nsw, 1))
+        mono_arr = np.full((nx, nx), np.nan) if mono else None
+        ev_t = np.empty(cap)
+        ev_s = np.empty(cap, dtype=np.intc)
+        ev_d = np.empty(cap, dtype=np.intc)
+        ev_v = np.empty(cap)
+        a = GsSimArgs()
+        a.method = method
+        a.rtol, a.atol, a.t0, a.t_end = rtol, atol, t0, t_end
+        a.x0 = _ptr(x0)
+        a.p = _ptr(p) if p.shape[0] else None
+        a.sigma0 = _ptr(sig)
+        a.n_out = n_out
+        a.t_out = _ptr(tout) if n_out else None
+        a.max_steps, a.max_events = max_steps, max_events
+        a.storm_events, a.storm_window = storm_events, storm_window
+        a.max_step, a.init_step = max_step, init_step
+        a.want_monodromy = 1 if mono else 0
+        a.max_events_out = cap
+        a.y_out = _ptr(y) if n_out else None
+        a.x_final = _ptr(x_final)
+        a.sigma_final = _ptr(sigma_final)
+        a.monodromy = _ptr(mono_arr)
+        a.ev_t, a.ev_surface, a.ev_dir, a.ev_speed = _ptr(ev_t), _ptr(ev_s, C.c_int), _ptr(ev_d, C.c_int), _ptr(ev_v)
+        status = self._lib.gs_simulate(C.byref(a))
+        if status != 0:
+            msg = a.errmsg.decode("utf-8", errors="replace")
+            raise error_for_status(int(status), msg, float(a.t_reached))
+        n_ev = int(a.n_events)
+        if n_ev > cap:
+            return n_ev
+        events = EventLog(
+            t=ev_t[:n_ev].copy(),
+            surface=ev_s[:n_ev].astype(int),
+            direction=ev_d[:n_ev].astype(int),
+            speed=ev_v[:n_ev].copy(),
+        )
+        stats = {
+            "n_steps": int(a.n_steps),
+            "n_rhs": int(a.n_rhs),
+            "n_jac": int(a.n_jac),
+            "n_root_evals": int(a.n_root_evals),
+            "n_breaks": int(a.n_breaks),
+            "n_reinit": int(a.n_reinit),
+            "n_events": n_ev,
+        }
+        return RunResult(
+            t=tout.copy(),
+            y=y,
+            x_final=x_final,
+            sigma_final=sigma_final[:nsw].copy(),
+            monodromy=mono_arr,
+            events=events,
+            stats=stats,
+            t_reached=float(a.t_reached),
+        )
+
+
+def load_engine(so_path: str | os.PathLike[str]) -> Engine:
+    """Load a model + driver shared object and check the SUNDIALS runtime.
+
+    ``dlopen`` caches libraries by path: a rebuilt object at the same path
+    silently keeps running the old code, so callers must name builds by
+    content hash (see :func:`gearsym.engine.build.content_hash`).
+
+    Parameters
+    ----------
+    so_path
+        The shared object built by :func:`gearsym.engine.build.build_shared_object`.
+
+    Returns
+    -------
+    Engine
+
+    Raises
+    ------
+    EngineABIError
+        If the object cannot be loaded, its ``gs_sim_args`` layout differs from
+        the ctypes mirror, or the SUNDIALS runtime is not version >= 7 with
+        32-bit indices.
+    """
+    path = Path(so_path).resolve()
+    try:
+        lib = C.CDLL(str(path))
+    except OSError as exc:
+        raise EngineABIError(f"cannot load the compiled model {path}: {exc}") from exc
+    for name in ("gs_simulate", "gs_check_abi", "gs_sizeof_args", "gs_model_info"):
+        if not hasattr(lib, name):
+            raise EngineABIError(f"{path} does not export {name}; was it built with gs_driver.c?")
+    lib.gs_sizeof_args.restype = C.c_int
+    lib.gs_sizeof_args.argtypes = []
+    lib.gs_check_abi.restype = C.c_int
+    lib.gs_check_abi.argtypes = [C.c_char_p, C.c_int]
+    lib.gs_simulate.restype = C.c_int
+    lib.gs_simulate.argtypes = [C.POINTER(GsSimArgs)]
+    lib.gs_model_info.restype = C.c_int
+    lib.gs_model_info.argtypes = [C.POINTER(C.c_int), C.c_int]
+    size_c = lib.gs_sizeof_args()
+    if size_c != C.sizeof(GsSimArgs):
+        raise EngineABIError(
+            f"{path}: sizeof(gs_sim_args) is {size_c} in C but {C.sizeof(GsSimArgs)} in the ctypes "
+            "mirror (gearsym/engine/driver.py out of sync with gs_driver.h)"
+        )
+    buf = C.create_string_buffer(256)
+    if lib.gs_check_abi(buf, 256) != 0:
+        raise EngineABIError(f"{path}: SUNDIALS runtime check failed: {buf.value.decode(errors='replace')}")
+    return Engine(lib, path, buf.value.decode())

@@ -1,0 +1,124 @@
+"""Figures of a trajectory: time history, phase portrait, Poincare section, spectrum."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .results import Trajectory  # noqa: E402
+
+
+def steady_part(traj: Trajectory, fraction: float = 0.5) -> slice:
+    """Index range of the last ``fraction`` of a trajectory (whole periods if possible)."""
+    n = len(traj.t)
+    start = int(n * (1 - fraction))
+    return slice(start, n)
+
+
+def amplitude_spectrum(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One-sided amplitude spectrum of an evenly sampled signal (mean removed).
+
+    Returns angular frequencies and amplitudes (a pure ``A*cos(w*t)`` on an
+    integer number of periods gives amplitude ``A`` at ``w``).
+    """
+    dt = t[1] - t[0]
+    yy = y - np.mean(y)
+    spec = np.abs(np.fft.rfft(yy)) * 2.0 / len(yy)
+    w = 2 * np.pi * np.fft.rfftfreq(len(yy), dt)
+    return w, spec
+
+
+def plot_all(traj: Trajectory, out_dir: str | Path, title: str = "", state: int = 0,
+             transient_fraction: float = 0.5, surfaces: list[float] | None = None) -> list[Path]:
+    """Write time history, phase portrait, Poincare section and spectrum PNGs.
+
+    Parameters
+    ----------
+    traj
+        The trajectory.
+    out_dir
+        Folder for the PNG files (created).
+    title
+        Figure title prefix.
+    state
+        Index of the coordinate to plot (its velocity is taken as the state
+        ``n_states // 2`` further on).
+    transient_fraction
+        The phase portrait, Poincare section and spectrum use the last
+        ``1 - transient_fraction`` of the run.
+    surfaces
+        Coordinate values of contact surfaces to draw as lines (e.g. ``[-b, b]``).
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    n = traj.y.shape[1]
+    qname = traj.state_names[state]
+    vidx = state + n // 2 if n >= 2 else state
+    vname = traj.state_names[vidx]
+    steady = steady_part(traj, 1 - transient_fraction)
+    files = []
+
+    fig, ax = plt.subplots(figsize=(8, 3.2))
+    ax.plot(traj.t, traj.y[:, state], lw=0.7)
+    for s in surfaces or []:
+        ax.axhline(s, color="0.6", lw=0.6, ls="--")
+    ax.set_xlabel("t")
+    ax.set_ylabel(qname)
+    ax.set_title(f"{title} time history".strip())
+    fig.tight_layout()
+    files.append(out / "time_history.png")
+    fig.savefig(files[-1], dpi=120)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(4.8, 4.2))
+    ax.plot(traj.y[steady, state], traj.y[steady, vidx], lw=0.7)
+    for s in surfaces or []:
+        ax.axvline(s, color="0.6", lw=0.6, ls="--")
+    if traj.period:
+        pts = traj.poincare()
+        pts = pts[len(pts) // 2:]
+        ax.plot(pts[:, state], pts[:, vidx], "o", ms=3, color="C3", label="Poincare")
+        ax.legend(loc="best", fontsize=8)
+    ax.set_xlabel(qname)
+    ax.set_ylabel(vname)
+    ax.set_title(f"{title} phase portrait".strip())
+    fig.tight_layout()
+    files.append(out / "phase_portrait.png")
+    fig.savefig(files[-1], dpi=120)
+    plt.close(fig)
+
+    if traj.period:
+        pts = traj.poincare()
+        fig, ax = plt.subplots(figsize=(4.8, 4.2))
+        half = len(pts) // 2
+        ax.plot(pts[half:, state], pts[half:, vidx], ".", ms=4)
+        ax.set_xlabel(qname)
+        ax.set_ylabel(vname)
+        ax.set_title(f"{title} Poincare section (t = kT)".strip())
+        fig.tight_layout()
+        files.append(out / "poincare.png")
+        fig.savefig(files[-1], dpi=120)
+        plt.close(fig)
+
+    w, a = amplitude_spectrum(traj.t[steady], traj.y[steady, state])
+    fig, ax = plt.subplots(figsize=(8, 3.2))
+    if traj.period:
+        wf = 2 * np.pi / traj.period
+        ax.semilogy(w / wf, np.maximum(a, 1e-16), lw=0.8)
+        ax.set_xlabel("frequency / forcing frequency")
+        ax.set_xlim(0, min(10, w[-1] / wf))
+    else:
+        ax.semilogy(w, np.maximum(a, 1e-16), lw=0.8)
+        ax.set_xlabel("angular frequency")
+    ax.set_ylabel(f"|{qname}| amplitude")
+    ax.set_title(f"{title} amplitude spectrum".strip())
+    fig.tight_layout()
+    files.append(out / "spectrum.png")
+    fig.savefig(files[-1], dpi=120)
+    plt.close(fig)
+    return files

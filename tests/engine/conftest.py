@@ -1,0 +1,182 @@
+"""Fixtures for the engine tests: hand-written CasADi test models compiled with
+the engine's own build helpers (no dependency on gearsym.symbolic/codegen)."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from gearsym.engine.build import ENGINE_DIR, build_shared_object, content_hash, driver_sources
+from gearsym.engine.driver import Engine, load_engine
+
+INFO_C = """\
+/* hand-written model metadata (gs_model_abi.h) */
+int gs_model_info(int* out, int len) {{
+  static const int info[] = {{ {vals} }};
+  int i, n = (int)(sizeof(info) / sizeof(info[0]));
+  if (len < n) return -1;
+  for (i = 0; i < n; ++i) out[i] = info[i];
+  return n;
+}}
+"""
+
+
+def compile_model(
+    out_dir: Path,
+    *,
+    t: ca.SX,
+    x: ca.SX,
+    p: ca.SX,
+    m: ca.SX,
+    g: ca.SX,
+    rhs: ca.SX | None = None,
+    res: ca.SX | None = None,
+    xd: ca.SX | None = None,
+    sched: list[float] | None = None,
+    nb: list[int] | None = None,
+) -> Engine:
+    """Generate gs_model.c/.h + gs_info.c for the given expressions, build with
+    the driver and load.  Explicit if ``rhs`` is given, implicit if ``res``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    nx, np_, nm = x.numel(), p.numel(), m.numel()
+    nsw = g.numel()
+    nb = nb or []
+    nsched = len(nb)
+    assert nm == nsw + 2 * nsched
+    funcs = []
+    if rhs is not None:
+        funcs.append(ca.Function("gs_rhs", [t, x, p, m], [rhs]))
+        funcs.append(ca.Function("gs_jac", [t, x, p, m], [ca.densify(ca.jacobian(rhs, x))]))
+        implicit = 0
+    else:
+        cj = ca.SX.sym("cj")
+        funcs.append(ca.Function("gs_res", [t, x, xd, p, m], [res]))
+        jr = ca.jacobian(res, x) + cj * ca.jacobian(res, xd)
+        funcs.append(ca.Function("gs_resjac", [t, x, xd, p, m, cj], [ca.densify(jr)]))
+        implicit = 1
+    g = ca.reshape(g, nsw, 1) if nsw else ca.SX(0, 1)
+    funcs.append(ca.Function("gs_sw", [t, x, p], [g]))
+    funcs.append(ca.Function("gs_swx", [t, x, p], [ca.densify(ca.jacobian(g, x)) if nsw else ca.SX(0, nx)]))
+    funcs.append(ca.Function("gs_swt", [t, x, p], [ca.densify(ca.jacobian(g, t)) if nsw else ca.SX(0, 1)]))
+    s = ca.vertcat(*[ca.SX(v) for v in (sched or [])]) if sched else ca.SX(0, 1)
+    funcs.append(ca.Function("gs_sched", [p], [s]))
+    cg = ca.CodeGenerator("gs_model.c", {"with_header": True})
+    for f in funcs:
+        cg.add(f)
+    cwd = Path.cwd()
+    try:
+        import os
+
+        os.chdir(out_dir)
+        cg.generate()
+    finally:
+        os.chdir(cwd)
+    vals = [nx, np_, nm, nsw, nsched, implicit, *nb]
+    (out_dir / "gs_info.c").write_text(INFO_C.format(vals=", ".join(str(v) for v in vals)))
+    dsrc, dinc = driver_sources()
+    srcs = [out_dir / "gs_model.c", out_dir / "gs_info.c", *dsrc]
+    h = content_hash([*srcs, out_dir / "gs_model.h", ENGINE_DIR / "gs_driver.h", ENGINE_DIR / "sundials7.h"])
+    so = build_shared_object(srcs, [out_dir, *dinc], out_dir / f"model_{h}.so")
+    return load_engine(so)
+
+
+# ----------------------------------------------------------------------------
+# Test model 1: backlash oscillator
+#   x'' + 2 zeta c(x) x' + (1 + eps cos(Om t)) f(x) = Fm + Fa Om^2 cos(Om t)
+#   f = x-b (x>b), 0 (|x|<=b), x+b (x<-b);  g0 = x-b, g1 = x+b
+#   c(x) = 1 (smooth damping) or 1 only in contact (|x|>b, jump_damping)
+# p = [zeta, eps, Om, Fm, Fa, b]
+# ----------------------------------------------------------------------------
+def backlash_exprs(jump_damping: bool = False):
+    t = ca.SX.sym("t")
+    x = ca.SX.sym("x", 2)
+    p = ca.SX.sym("p", 6)
+    m = ca.SX.sym("m", 2)
+    zeta, eps, Om, Fm, Fa, b = (p[i] for i in range(6))
+    f = ca.if_else(m[0] > 0, x[0] - b, ca.if_else(m[1] < 0, x[0] + b, 0))
+    if jump_damping:
+        c = ca.if_else(m[0] > 0, 1, ca.if_else(m[1] < 0, 1, 0))
+    else:
+        c = 1
+    F = -2 * zeta * c * x[1] - (1 + eps * ca.cos(Om * t)) * f + Fm + Fa * Om**2 * ca.cos(Om * t)
+    g = ca.vertcat(x[0] - b, x[0] + b)
+    return t, x, p, m, g, F
+
+
+def _cache_dir(tmp_path_factory, key: str) -> Path:
+    return tmp_path_factory.mktemp(hashlib.sha1(key.encode()).hexdigest()[:8])
+
+
+@pytest.fixture(scope="session")
+def backlash_engine(tmp_path_factory) -> Engine:
+    t, x, p, m, g, F = backlash_exprs()
+    return compile_model(_cache_dir(tmp_path_factory, "backlash"), t=t, x=x, p=p, m=m, g=g,
+                         rhs=ca.vertcat(x[1], F))
+
+
+@pytest.fixture(scope="session")
+def backlash_jump_engine(tmp_path_factory) -> Engine:
+    t, x, p, m, g, F = backlash_exprs(jump_damping=True)
+    return compile_model(_cache_dir(tmp_path_factory, "backlash_jump"), t=t, x=x, p=p, m=m, g=g,
+                         rhs=ca.vertcat(x[1], F))
+
+
+@pytest.fixture(scope="session")
+def backlash_ida_engine(tmp_path_factory) -> Engine:
+    t, x, p, m, g, F = backlash_exprs()
+    xd = ca.SX.sym("xd", 2)
+    res = ca.vertcat(xd[0] - x[1], 1 * xd[1] - F)
+    return compile_model(_cache_dir(tmp_path_factory, "backlash_ida"), t=t, x=x, p=p, m=m, g=g,
+                         res=res, xd=xd)
+
+
+# ----------------------------------------------------------------------------
+# Test model 2: one schedule (Meissner-type):  x'' + w^2 (1 + a s(t)) x = 0,
+# s = +1 for phase < d, -1 after;  p = [w, a, P, d];  schedule [P, 0, d]
+# ----------------------------------------------------------------------------
+MEISSNER_P = dict(w=1.3, a=0.4, P=2.1, d=0.35)
+
+
+@pytest.fixture(scope="session")
+def meissner_engine(tmp_path_factory) -> Engine:
+    t = ca.SX.sym("t")
+    x = ca.SX.sym("x", 2)
+    p = ca.SX.sym("p", 4)
+    m = ca.SX.sym("m", 2)  # [n_0, seg_0]
+    w, a = p[0], p[1]
+    s = ca.if_else(m[1] == 0, 1, -1)
+    rhs = ca.vertcat(x[1], -(w**2) * (1 + a * s) * x[0])
+    P, d = MEISSNER_P["P"], MEISSNER_P["d"]
+    # gs_sched takes p; here P and d are baked in as constants of the schedule
+    # (a generated model would compute them from p)
+    return compile_model(_cache_dir(tmp_path_factory, "meissner"), t=t, x=x, p=p, m=m, g=ca.SX(0, 1),
+                         rhs=rhs, sched=[P, 0.0, d], nb=[2])
+
+
+# ----------------------------------------------------------------------------
+# Error-path models
+# ----------------------------------------------------------------------------
+@pytest.fixture(scope="session")
+def nan_engine(tmp_path_factory) -> Engine:
+    """x' = -x + (NaN for t > p0): the RHS becomes non-finite at t = p0."""
+    t = ca.SX.sym("t")
+    x = ca.SX.sym("x", 1)
+    p = ca.SX.sym("p", 1)
+    m = ca.SX.sym("m", 0)
+    rhs = -x + ca.if_else(t > p[0], ca.SX(np.nan), 0)
+    return compile_model(_cache_dir(tmp_path_factory, "nan"), t=t, x=x, p=p, m=m, g=ca.SX(0, 1), rhs=rhs)
+
+
+@pytest.fixture(scope="session")
+def chatter_engine(tmp_path_factory) -> Engine:
+    """g = x, x' = -sigma * p0: the flow pushes straight back at the surface."""
+    t = ca.SX.sym("t")
+    x = ca.SX.sym("x", 1)
+    p = ca.SX.sym("p", 1)
+    m = ca.SX.sym("m", 1)
+    rhs = -m[0] * p[0] + 0 * x
+    return compile_model(_cache_dir(tmp_path_factory, "chatter"), t=t, x=x, p=p, m=m, g=x[0], rhs=rhs)
