@@ -516,6 +516,17 @@ def _validate(ctx: _Ctx, spec: ModelSpec) -> None:
             _expect(ctx, f"schedules.{s.name}.breaks[{i}]", b, units, ONE, "dimensionless")
     if spec.forcing_period is not None:
         _expect(ctx, "forcing.period", spec.forcing_period, units, spec.time_dims, "a time")
+    dynamic = {"t"} | set(spec.coordinates) | {c.velocity for c in spec.coordinates.values()}
+    if spec.reduction is not None:
+        dynamic |= {spec.reduction.coordinate, spec.reduction.velocity}
+    checks = [("forcing.period", spec.forcing_period)] if spec.forcing_period else []
+    for s in spec.schedules.values():
+        checks.append((f"schedules.{s.name}.period", s.period))
+        checks += [(f"schedules.{s.name}.breaks[{i}]", b) for i, b in enumerate(s.breaks)]
+    for where, text in checks:
+        bad = sorted(_names(ctx, where, text) & dynamic)
+        if bad:
+            raise ctx.error(where, f"must depend on parameters only, not on {', '.join(bad)}")
 
     # elements: a common energy unit
     energy: list[Unit | None] = [None]  # first one seen defines it

@@ -36,7 +36,7 @@ def compile_model(
     rhs: ca.SX | None = None,
     res: ca.SX | None = None,
     xd: ca.SX | None = None,
-    sched: list[float] | None = None,
+    sched: ca.SX | list[float] | None = None,
     nb: list[int] | None = None,
 ) -> Engine:
     """Generate gs_model.c/.h + gs_info.c for the given expressions, build with
@@ -62,7 +62,12 @@ def compile_model(
     funcs.append(ca.Function("gs_sw", [t, x, p], [g]))
     funcs.append(ca.Function("gs_swx", [t, x, p], [ca.densify(ca.jacobian(g, x)) if nsw else ca.SX(0, nx)]))
     funcs.append(ca.Function("gs_swt", [t, x, p], [ca.densify(ca.jacobian(g, t)) if nsw else ca.SX(0, 1)]))
-    s = ca.vertcat(*[ca.SX(v) for v in (sched or [])]) if sched else ca.SX(0, 1)
+    if isinstance(sched, ca.SX):
+        s = sched
+    elif sched:
+        s = ca.vertcat(*[ca.SX(v) for v in sched])
+    else:
+        s = ca.SX(0, 1)
     funcs.append(ca.Function("gs_sched", [p], [s]))
     cg = ca.CodeGenerator("gs_model.c", {"with_header": True})
     for f in funcs:
@@ -138,23 +143,65 @@ def backlash_ida_engine(tmp_path_factory) -> Engine:
 # Test model 2: one schedule (Meissner-type):  x'' + w^2 (1 + a s(t)) x = 0,
 # s = +1 for phase < d, -1 after;  p = [w, a, P, d];  schedule [P, 0, d]
 # ----------------------------------------------------------------------------
-MEISSNER_P = dict(w=1.3, a=0.4, P=2.1, d=0.35)
+MEISSNER_P = dict(w=1.3, a=0.4, P=2.1, d=0.35, c=10.0)
 
 
 @pytest.fixture(scope="session")
 def meissner_engine(tmp_path_factory) -> Engine:
+    """x'' + w^2 (1 + a s(t)) x = 0 with s = +1 for phase < d, -1 after.
+
+    p = [w, a, P, d, c]; schedule [P, 0, d] computed from p; one switching
+    function g = x - c whose side does NOT change the dynamics (to test event
+    bookkeeping at breakpoints).  m = [sigma_0, n_0, seg_0].
+    """
     t = ca.SX.sym("t")
     x = ca.SX.sym("x", 2)
-    p = ca.SX.sym("p", 4)
-    m = ca.SX.sym("m", 2)  # [n_0, seg_0]
+    p = ca.SX.sym("p", 5)
+    m = ca.SX.sym("m", 3)
     w, a = p[0], p[1]
-    s = ca.if_else(m[1] == 0, 1, -1)
-    rhs = ca.vertcat(x[1], -(w**2) * (1 + a * s) * x[0])
-    P, d = MEISSNER_P["P"], MEISSNER_P["d"]
-    # gs_sched takes p; here P and d are baked in as constants of the schedule
-    # (a generated model would compute them from p)
-    return compile_model(_cache_dir(tmp_path_factory, "meissner"), t=t, x=x, p=p, m=m, g=ca.SX(0, 1),
-                         rhs=rhs, sched=[P, 0.0, d], nb=[2])
+    s = ca.if_else(m[2] == 0, 1, -1)
+    rhs = ca.vertcat(x[1], -(w**2) * (1 + a * s) * x[0] + 0 * m[0])
+    return compile_model(_cache_dir(tmp_path_factory, "meissner"), t=t, x=x, p=p, m=m, g=x[0] - p[4],
+                         rhs=rhs, sched=ca.vertcat(p[2], 0, p[3]), nb=[2])
+
+
+def meissner_exact(p: dict, x0, t0: float, ts) -> tuple[np.ndarray, np.ndarray]:
+    """Exact states at times ts (ascending, >= t0) and the transition matrix
+    Phi(ts[-1], t0), by products of matrix exponentials."""
+    from scipy.linalg import expm
+
+    w, a, P, d = p["w"], p["a"], p["P"], p["d"]
+
+    def A(seg):
+        s = 1.0 if seg == 0 else -1.0
+        return np.array([[0.0, 1.0], [-(w**2) * (1 + a * s), 0.0]])
+
+    def seg_at(t):
+        u = t / P
+        return 0 if (u - np.floor(u)) < d else 1
+
+    def breaks_between(ta, tb):
+        out = []
+        n = np.floor(ta / P) - 1
+        while (n) * P <= tb + P:
+            for c in (0.0, d):
+                tt = (n + c) * P
+                if ta < tt < tb:
+                    out.append(tt)
+            n += 1
+        return sorted(out)
+
+    Phi = np.eye(2)
+    t = t0
+    ys = []
+    for tt in ts:
+        knots = [t, *breaks_between(t, tt), tt]
+        for ta, tb in zip(knots[:-1], knots[1:]):
+            if tb > ta:
+                Phi = expm(A(seg_at(0.5 * (ta + tb))) * (tb - ta)) @ Phi
+        t = tt
+        ys.append(Phi @ np.asarray(x0, dtype=float))
+    return np.array(ys), Phi
 
 
 # ----------------------------------------------------------------------------
