@@ -213,6 +213,8 @@ class System:
             raise ParameterError("method='ida' needs a model in implicit form (model.form = 'implicit')")
         if max_step is None:
             max_step = T / 8 if T else 0.0
+        if not max_steps:
+            max_steps = int(self.defaults.get("max_steps", 0))
         res = self.engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
                               sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
                               max_step=max_step)

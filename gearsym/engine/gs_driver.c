@@ -14,6 +14,10 @@
  * message in args->errmsg, and every allocation is released on every path.
  * There is no global state, so concurrent calls from several threads are safe.
  */
+#if !defined(_POSIX_C_SOURCE) || _POSIX_C_SOURCE < 200809L
+#undef _POSIX_C_SOURCE
+#define _POSIX_C_SOURCE 200809L /* open_memstream */
+#endif
 #include <float.h>
 #include <math.h>
 #include <stdarg.h>
@@ -196,6 +200,29 @@ static int lu_solve(int n, double* A, double* b) {
     b[k] = s / A[k * n + k];
   }
   return 0;
+}
+
+/* Last line written to the SUNDIALS warning stream, as "; last SUNDIALS
+ * warning: ..." (or "" if none); the stream is then rewound. */
+static void last_warning(FILE* fp, char** bufp, size_t* len, char* out, int outlen) {
+  const char *s, *e, *p, *buf;
+  out[0] = '\0';
+  if (!fp) return;
+  fflush(fp); /* updates *bufp and *len */
+  buf = *bufp;
+  if (!buf || *len == 0) return;
+  e = buf + *len;
+  while (e > buf && (e[-1] == '\n' || e[-1] == ' ')) --e;
+  s = e;
+  while (s > buf && s[-1] != '\n') --s;
+  /* drop the "[WARNING][rank 0][file:line]" prefix, keep "[Function] text" */
+  p = strstr(s, "] ");
+  if (p && p < e) {
+    while (p > s && *p != '[') --p;
+    s = p;
+  }
+  snprintf(out, (size_t)outlen, "; last SUNDIALS warning: %.*s", (int)(e - s), s);
+  rewind(fp);
 }
 
 /* --------------------------------------------------------------------------
@@ -697,10 +724,12 @@ static int switch_surface(gs_ud* ud, gs_evlog* L, double t, double* yv, int j, i
 /* Surfaces sitting exactly on g_j = 0 (the root finder deactivates those at a
  * restart and would miss an immediate departure): decide from the flow in the
  * current mode whether the trajectory leaves to the other side; if so that is
- * another event at the same time.  `record` = 0 at the start without sigma0:
- * just choose the side.  xd_guess: xdot guess for implicit models. */
+ * another event at the same time (a surface attracting from both sides keeps
+ * firing until the event-storm limit).  silent > 0 (start without sigma0):
+ * that many side choices are made without recording an event.  xd_guess:
+ * xdot guess for implicit models. */
 static int resolve_zero_surfaces(gs_ud* ud, gs_evlog* L, double t, double* yv, const double* xd_guess,
-                                 int record) {
+                                 int silent) {
   int iter, j, k, nsw = ud->nsw, nx = ud->nx;
   int max_iter = nsw * (L->storm_events + 2) + 2;
   if (nsw == 0) return 0;
@@ -721,11 +750,12 @@ static int resolve_zero_surfaces(gs_ud* ud, gs_evlog* L, double t, double* yv, c
       for (k = 0; k < nx; ++k) d += ud->G[(size_t)k * nsw + j] * ud->f2[k];
       if (d * ud->m[j] < 0.0) {
         int side = d > 0.0 ? 1 : -1;
-        if (record) {
+        if (silent > 0) {
+          ud->m[j] = (double)side;
+          --silent;
+        } else {
           int rc = switch_surface(ud, L, t, yv, j, side, d);
           if (rc) return rc;
-        } else {
-          ud->m[j] = (double)side;
         }
         fired = 1;
         break; /* re-evaluate the flow in the new mode */
@@ -733,7 +763,7 @@ static int resolve_zero_surfaces(gs_ud* ud, gs_evlog* L, double t, double* yv, c
     }
     if (!fired) return 0;
   }
-  return 0;
+  return set_err(L->a, GS_ERR_EVENT_STORM, "switching surfaces keep flipping at t=%.17g (sliding motion?)", t);
 }
 
 /* --------------------------------------------------------------------------
@@ -805,6 +835,11 @@ int gs_simulate(gs_sim_args* a) {
   double t, tb, tiny, *yv = NULL, *ypv = NULL;
   long max_steps;
   char cmsg[512];
+  char lastwarn[300];
+  FILE* warn_fp = NULL;
+  char* warn_buf = NULL;
+  size_t warn_len = 0;
+  double hmin;
 
   if (!a) return GS_ERR_INPUT;
   memset(&U, 0, sizeof(U));
@@ -880,6 +915,10 @@ int gs_simulate(gs_sim_args* a) {
   ud->p = a->p;
   tiny = 32.0 * DBL_EPSILON * fmax(fabs(a->t0), fabs(a->t_end));
   if (tiny == 0.0) tiny = DBL_MIN;
+  /* minimal step: a few ulps of the largest |t|, so that t + h != t always;
+   * otherwise CVODE/IDA can stagnate forever in front of a time where the
+   * model becomes non-finite (steps of 1e-17 that never advance t) */
+  hmin = 8.0 * DBL_EPSILON * fmax(fabs(a->t0), fabs(a->t_end));
 
   /* ---- model functions ---- */
   GS_FN_SETUP(ud->rhs, gs_rhs);
@@ -989,6 +1028,18 @@ int gs_simulate(gs_sim_args* a) {
   }
   SUNContext_ClearErrHandlers(ctx);
   SUNContext_PushErrHandler(ctx, sun_err_handler, ud);
+  {
+    /* keep SUNDIALS' log output off stdout/stderr: errors arrive through
+     * sun_err_handler, warnings go to a memory stream quoted in messages */
+    SUNLogger logger = NULL;
+    if (SUNContext_GetLogger(ctx, &logger) == 0 && logger) {
+      warn_fp = open_memstream(&warn_buf, &warn_len);
+      SUNLogger_SetWarningFile(logger, warn_fp);
+      SUNLogger_SetErrorFile(logger, NULL);
+      SUNLogger_SetInfoFile(logger, NULL);
+      SUNLogger_SetDebugFile(logger, NULL);
+    }
+  }
   S.ida = ud->use_ida;
   S.y = N_VNew_Serial((sunindextype)nA, ctx);
   if (S.ida) {
@@ -1024,7 +1075,7 @@ int gs_simulate(gs_sim_args* a) {
     for (j = 0; j < nsw; ++j) ud->m[j] = a->sigma0 ? a->sigma0[j] : (ud->g[j] >= 0.0 ? 1.0 : -1.0);
   }
   if (S.ida) memset(ypv, 0, sizeof(double) * (size_t)nA);
-  rc = resolve_zero_surfaces(ud, &L, t, yv, ypv ? ypv : ud->f, a->sigma0 != NULL);
+  rc = resolve_zero_surfaces(ud, &L, t, yv, ypv ? ypv : ud->f, a->sigma0 ? 0 : nsw);
   if (rc) goto done;
   if (S.ida) {
     /* consistent initial derivative as a starting guess; IDACalcIC refines it */
@@ -1045,6 +1096,7 @@ int gs_simulate(gs_sim_args* a) {
     if (!flag) flag = IDASetJacFn(S.mem, ida_jac);
     if (!flag) flag = IDASetId(S.mem, S.id);
     if (!flag && a->max_step > 0.0) flag = IDASetMaxStep(S.mem, a->max_step);
+    if (!flag && hmin > 0.0) flag = IDASetMinStep(S.mem, hmin);
     if (!flag && a->init_step > 0.0) flag = IDASetInitStep(S.mem, a->init_step);
     if (!flag && nsw > 0) flag = IDARootInit(S.mem, nsw, ida_root);
     if (!flag && nsw > 0) flag = IDASetNoInactiveRootWarn(S.mem);
@@ -1061,6 +1113,7 @@ int gs_simulate(gs_sim_args* a) {
     if (!flag) flag = CVodeSetLinearSolver(S.mem, S.LS, S.A);
     if (!flag) flag = CVodeSetJacFn(S.mem, cv_jac);
     if (!flag && a->max_step > 0.0) flag = CVodeSetMaxStep(S.mem, a->max_step);
+    if (!flag && hmin > 0.0) flag = CVodeSetMinStep(S.mem, hmin);
     if (!flag && a->init_step > 0.0) flag = CVodeSetInitStep(S.mem, a->init_step);
     if (!flag && nsw > 0) flag = CVodeRootInit(S.mem, nsw, cv_root);
     if (!flag && nsw > 0) flag = CVodeSetNoInactiveRootWarn(S.mem);
@@ -1217,25 +1270,26 @@ int gs_simulate(gs_sim_args* a) {
         if (sp != speeds) free(sp);
         if (rc) goto done;
       }
-      rc = resolve_zero_surfaces(ud, &L, t, yv, S.ida ? ypv : ud->f3, 1);
+      rc = resolve_zero_surfaces(ud, &L, t, yv, S.ida ? ypv : ud->f3, 0);
       if (rc) goto done;
       pending_reinit = 1;
     } else {
       /* failure */
       t = tret;
+      last_warning(warn_fp, &warn_buf, &warn_len, lastwarn, (int)sizeof(lastwarn));
       if (flag == CV_TOO_MUCH_WORK) { /* == IDA_TOO_MUCH_WORK */
         set_err(a, GS_ERR_TOO_MUCH_WORK,
-                "too much work: max_steps=%ld internal steps exhausted at t=%.17g (t_end=%g)", max_steps, tret,
-                a->t_end);
+                "too much work: max_steps=%ld internal steps exhausted at t=%.17g (t_end=%g)%s", max_steps, tret,
+                a->t_end, lastwarn);
       } else if (ud->nf_seen) {
         char where[128] = "";
         if (ud->nf_state_index >= 0) snprintf(where, sizeof(where), "; state x[%d] is non-finite", ud->nf_state_index);
         set_err(a, GS_ERR_NONFINITE,
-                "non-finite value in %s, component %d, at t=%.17g%s (solver stopped at t=%.17g with %s)",
-                ud->nf_what, ud->nf_index, ud->nf_t, where, tret, slv_flagname(&S, flag));
+                "non-finite value in %s, component %d, at t=%.17g%s (solver stopped at t=%.17g with %s)%s",
+                ud->nf_what, ud->nf_index, ud->nf_t, where, tret, slv_flagname(&S, flag), lastwarn);
       } else {
-        set_err(a, GS_ERR_SOLVER, "%s failed at t=%.17g: %s: %s", S.ida ? "IDASolve" : "CVode", tret,
-                slv_flagname(&S, flag), ud->sunmsg[0] ? ud->sunmsg : "(no message)");
+        set_err(a, GS_ERR_SOLVER, "%s failed at t=%.17g: %s: %s%s", S.ida ? "IDASolve" : "CVode", tret,
+                slv_flagname(&S, flag), ud->sunmsg[0] ? ud->sunmsg : "(no message)", lastwarn);
       }
       goto done;
     }
@@ -1272,6 +1326,8 @@ done:
   if (S.yp) N_VDestroy(S.yp);
   if (S.id) N_VDestroy(S.id);
   if (ctx) SUNContext_Free(&ctx);
+  if (warn_fp) fclose(warn_fp);
+  free(warn_buf);
   free((void*)ud->arg);
   free(ud->resp);
   free(ud->iw);

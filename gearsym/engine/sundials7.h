@@ -19,6 +19,7 @@
  *                               SUNErrHandlerFn
  *   sundials/sundials_errors.h  SUN_SUCCESS
  *   sundials/sundials_context.h SUNContext_* functions
+ *   sundials/sundials_logger.h  SUNLogger, SUNLogger_Set*File
  *   sundials/sundials_version.h SUNDIALSGetVersion, SUNDIALSGetVersionNumber
  *   sundials/sundials_nvector.h, nvector/nvector_serial.h
  *   sundials/sundials_matrix.h, sunmatrix/sunmatrix_dense.h
@@ -33,6 +34,7 @@
 #define GS_SUNDIALS7_H
 
 #include <stdint.h>
+#include <stdio.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -70,6 +72,16 @@ SUNErrCode SUNContext_PushErrHandler(SUNContext sunctx, SUNErrHandlerFn err_fn,
                                      void* err_user_data);
 SUNErrCode SUNContext_ClearErrHandlers(SUNContext sunctx);
 SUNErrCode SUNContext_GetLastError(SUNContext sunctx);
+
+/* ---- sundials/sundials_logger.h (v7; the *_File setters exist in 7.9) ----
+ * Used to keep SUNDIALS warnings off stdout/stderr (the wheel's build prints
+ * them to stdout); a NULL FILE* disables a stream. */
+typedef struct SUNLogger_* SUNLogger;
+SUNErrCode SUNContext_GetLogger(SUNContext sunctx, SUNLogger* logger);
+SUNErrCode SUNLogger_SetErrorFile(SUNLogger logger, FILE* error_fp);
+SUNErrCode SUNLogger_SetWarningFile(SUNLogger logger, FILE* warning_fp);
+SUNErrCode SUNLogger_SetInfoFile(SUNLogger logger, FILE* info_fp);
+SUNErrCode SUNLogger_SetDebugFile(SUNLogger logger, FILE* debug_fp);
 
 /* ---- sundials/sundials_version.h ---------------------------------------- */
 int SUNDIALSGetVersion(char* version, int len);
@@ -135,6 +147,7 @@ int   CVodeSStolerances(void* cvode_mem, sunrealtype reltol, sunrealtype abstol)
 int   CVodeSetUserData(void* cvode_mem, void* user_data);
 int   CVodeSetMaxNumSteps(void* cvode_mem, long int mxsteps);
 int   CVodeSetMaxStep(void* cvode_mem, sunrealtype hmax);
+int   CVodeSetMinStep(void* cvode_mem, sunrealtype hmin);
 int   CVodeSetInitStep(void* cvode_mem, sunrealtype hin);
 int   CVodeSetStopTime(void* cvode_mem, sunrealtype tstop);
 int   CVodeClearStopTime(void* cvode_mem);
@@ -201,6 +214,7 @@ int   IDASetUserData(void* ida_mem, void* user_data);
 int   IDASetMaxNumSteps(void* ida_mem, long int mxsteps);
 int   IDASetInitStep(void* ida_mem, sunrealtype hin);
 int   IDASetMaxStep(void* ida_mem, sunrealtype hmax);
+int   IDASetMinStep(void* ida_mem, sunrealtype hmin);
 int   IDASetStopTime(void* ida_mem, sunrealtype tstop);
 int   IDAClearStopTime(void* ida_mem);
 int   IDASetId(void* ida_mem, N_Vector id);
