@@ -103,3 +103,18 @@ def test_repeatable_and_independent_runs(backlash_engine):
     b = backlash_engine.run([1.1, 0.0], p, 0.0, 100.0, [50.0, 100.0])
     np.testing.assert_array_equal(a.y, b.y)
     assert a.stats == b.stats
+
+
+@pytest.mark.parametrize("v0", [0.3, -0.3])
+@pytest.mark.parametrize("method", ["bdf", "ida"])
+def test_start_exactly_on_a_surface(backlash_engine, v0, method):
+    """x0 = b exactly: the side is chosen from the flow (into contact for
+    v0 > 0, free flight for v0 < 0), no spurious event, trajectory exact."""
+    p = params(0.8, 1.0)
+    t_end = 3 * 2 * np.pi / 0.8
+    t_out = np.linspace(0, t_end, 61)
+    r = backlash_engine.run([B, v0], p, 0.0, t_end, t_out, method=method, rtol=1e-10, atol=1e-12)
+    y_ref, ev_ref, _, _ = backlash_reference(p, [B, v0], t_end, t_out)
+    assert np.max(np.abs(r.y - y_ref)) < (1e-7 if method == "bdf" else 1e-6)
+    assert len(r.events) == len(ev_ref)
+    assert r.events.t[0] > 1e-3

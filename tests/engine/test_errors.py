@@ -98,3 +98,11 @@ def test_engine_usable_after_errors(backlash_engine, nan_engine, chatter_engine)
             chatter_engine.run([1.0], [1.0], 0.0, 3.0)
     r = backlash_engine.run([1.1, 0.0], P, 0.0, 10.0, [10.0])
     assert np.all(np.isfinite(r.y))
+
+
+@pytest.mark.parametrize("sigma0", [None, [1.0], [-1.0]])
+def test_event_storm_starting_on_the_surface(chatter_engine, sigma0):
+    """x0 exactly on a surface that attracts from both sides: the storm is
+    detected at t0 instead of silently integrating on the wrong side."""
+    with pytest.raises(EventStormError, match="t=0"):
+        chatter_engine.run([0.0], [1.0], 0.0, 3.0, sigma0=sigma0)
