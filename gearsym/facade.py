@@ -72,7 +72,7 @@ class Scene:
 
     def initial_state(self) -> list[float]:
         """Initial state from the model and scene ``[initial]`` tables (SI units)."""
-        return [self.resolved.initial[s] for s in self.model_spec.state_names()]
+        return [self.resolved.initial[s] for s in self.resolved.state_names()]
 
     def compile(self, generated_dir: str | Path | None = None, force: bool = False) -> "System":  # noqa: F821
         """Generate C, compile it (or reuse the cached build) and bind it to the engine.
@@ -91,7 +91,7 @@ class Scene:
         from .system import System
 
         gen = self.generate(generated_dir, force)
-        values = {k: self.resolved.values[k] for k in gen.param_names}
+        values = {k: self.resolved.values[k] for k in gen.input_names}
         return System(gen, values, self.initial_state(), self.spec.simulate, self.name)
 
     def generate(self, generated_dir: str | Path | None = None, force: bool = False) -> GeneratedModel:

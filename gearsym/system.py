@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from .bound_functions import evaluate as evaluate_bound
 from .codegen.generate import GeneratedModel
 from .engine.driver import Engine, load_engine
 from .errors import ParameterError
@@ -35,7 +36,9 @@ class System:
                  defaults: Mapping[str, object] | None = None, scene_name: str = ""):
         self.generated = generated
         self.engine: Engine = load_engine(generated.so_path)
-        self.params = {name: float(params[name]) for name in generated.param_names}
+        # run-time inputs: the generated parameters, except the bound ones (numeric
+        # functions of other parameters), which param_vector() evaluates from theirs
+        self.params = {name: float(params[name]) for name in generated.input_names}
         self.x0 = np.asarray(x0, dtype=float)
         self.defaults = dict(defaults or {})
         self.name = scene_name or generated.scene
@@ -70,6 +73,8 @@ class System:
             if not math.isfinite(v):
                 raise ParameterError(f"parameter '{k}': non-finite value {v}")
             values[k] = v
+        for name, (fn, args) in self.generated.bound.items():
+            values[name] = evaluate_bound(fn, [values[a] for a in args])
         return np.array([values[k] for k in self.generated.param_names], dtype=float)
 
     def period(self, params: Mapping[str, float] | None = None) -> float | None:
@@ -144,7 +149,8 @@ class System:
         t0
             Start time.
         method
-            ``"bdf"`` (default for explicit models), ``"adams"`` or ``"ida"``
+            ``"adams"`` (default for explicit models: non-stiff gear models take
+            fewer, more accurate steps with it), ``"bdf"`` (stiff models) or ``"ida"``
             (implicit models).
         max_step
             Largest internal step; default an eighth of the forcing period, so that
@@ -204,7 +210,7 @@ class System:
             grid = np.linspace(t0, t_end, max(int(n_out), 2))
             grid[-1] = t_end
         if method is None:
-            method = "ida" if self.generated.implicit else str(self.defaults.get("method", "bdf"))
+            method = "ida" if self.generated.implicit else str(self.defaults.get("method", "adams"))
         if method not in _METHODS:
             raise ParameterError(f"method must be one of {_METHODS}, got '{method}'")
         if self.generated.implicit and method != "ida":

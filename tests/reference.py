@@ -314,14 +314,14 @@ def _first_crossing(seg: _Segment, armed: list[tuple[int, int]], b: float, t_end
             for i in np.nonzero((dv[:-1] > 0) & (dv[1:] < 0))[0]:
                 if i + 1 >= i_out:
                     break
-                tm = brentq(lambda s: d * seg(s)[1, 0], grid[i], grid[i + 1], xtol=1e-15, rtol=8.9e-16)
+                tm = brentq(lambda s, d=d: d * seg(s)[1, 0], grid[i], grid[i + 1], xtol=1e-15, rtol=8.9e-16)
                 if d * (seg(tm)[0, 0] - shift) > 0:
                     cand = (grid[i], tm)
                     break
             if cand is None and out.size:
                 cand = (grid[i_out - 1], grid[i_out])
             if cand is not None:
-                tc = brentq(lambda s: seg(s)[0, 0] - shift, cand[0], cand[1], xtol=1e-15, rtol=8.9e-16)
+                tc = brentq(lambda s, c=shift: seg(s)[0, 0] - c, cand[0], cand[1], xtol=1e-15, rtol=8.9e-16)
                 if best is None or tc < best[0]:
                     best = (tc, j, d)
         if best is not None:

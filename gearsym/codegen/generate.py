@@ -66,6 +66,18 @@ class GeneratedModel:
     compile_seconds: float = 0.0
     cached: bool = False
     functions: dict[str, str] = field(default_factory=dict, repr=False)
+    #: parameters that are numeric functions of other parameters, evaluated at bind
+    #: time (:mod:`gearsym.bound_functions`): name -> [function name, [argument names]]
+    bound: dict[str, list] = field(default_factory=dict)
+
+    @property
+    def input_names(self) -> list[str]:
+        """Parameters a caller sets: ``param_names`` without the bound ones, plus the
+        arguments of the bound ones."""
+        out = [p for p in self.param_names if p not in self.bound]
+        for _, args in self.bound.values():
+            out += [a for a in args if a not in out]
+        return out
 
     @property
     def nx(self) -> int:
@@ -250,6 +262,7 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], directo
         compile_seconds=time.perf_counter() - t0,
         cached=cached,
         functions={name: f.serialize() for name, f in fns.items()},
+        bound={k: [f, list(a)] for k, (f, a) in getattr(model, "bound_parameters", {}).items()},
     )
     (directory / "meta.json").write_text(gen.to_json())
     return gen

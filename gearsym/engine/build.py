@@ -108,9 +108,7 @@ def find_sundials_libs() -> SundialsLibs:
         else:
             found.append(cands[-1])
     if missing:
-        raise SundialsNotFoundError(
-            f"SUNDIALS libraries missing in {libdir}: {', '.join(missing)}"
-        )
+        raise SundialsNotFoundError(f"SUNDIALS libraries missing in {libdir}: {', '.join(missing)}")
     return SundialsLibs(libdir=libdir, libs=tuple(found))
 
 

@@ -23,8 +23,10 @@ __all__ = ["Engine", "GsSimArgs", "RunResult", "load_engine", "METHODS"]
 #: Integration methods: name -> GS_METHOD_* code.
 METHODS: dict[str, int] = {"bdf": 0, "adams": 1, "ida": 2}
 
-_PD = C.POINTER(C.c_double)
-_PI = C.POINTER(C.c_int)
+# Pointer members are declared c_void_p (same layout as double*/int*) so that
+# numpy buffers can be passed as plain addresses (fast: no ctypes casts).
+_PD = C.c_void_p
+_PI = C.c_void_p
 
 
 class GsSimArgs(C.Structure):
@@ -131,10 +133,11 @@ class RunResult:
     t_reached: float = math.nan
 
 
-def _ptr(a: np.ndarray | None, ctype: Any = C.c_double) -> Any:
+def _ptr(a: np.ndarray | None) -> int | None:
+    """Address of a C-contiguous numpy buffer (None for NULL)."""
     if a is None:
         return None
-    return a.ctypes.data_as(C.POINTER(ctype))
+    return a.ctypes.data
 
 
 class Engine:
@@ -250,9 +253,7 @@ class Engine:
             raise EngineInputError(f"x0 has {x0a.shape[0]} entries, the model has nx={self.nx} states")
         if pa.shape[0] != self.np:
             raise EngineInputError(f"p has {pa.shape[0]} entries, the model has np={self.np} parameters")
-        tout = np.ascontiguousarray(
-            np.asarray(t_out if t_out is not None else [], dtype=float).reshape(-1)
-        )
+        tout = np.ascontiguousarray(np.asarray(t_out if t_out is not None else [], dtype=float).reshape(-1))
         sig = None
         if sigma0 is not None:
             sig = np.ascontiguousarray(np.asarray(sigma0, dtype=float).reshape(-1))
@@ -261,9 +262,23 @@ class Engine:
         cap = max(int(max_events_out), 1)
         while True:
             res = self._run_once(
-                x0a, pa, float(t0), float(t_end), tout, METHODS[method], float(rtol), float(atol), sig,
-                bool(want_monodromy), int(max_steps), float(max_step), float(init_step), int(max_events),
-                int(storm_events), float(storm_window), cap,
+                x0a,
+                pa,
+                float(t0),
+                float(t_end),
+                tout,
+                METHODS[method],
+                float(rtol),
+                float(atol),
+                sig,
+                bool(want_monodromy),
+                int(max_steps),
+                float(max_step),
+                float(init_step),
+                int(max_events),
+                int(storm_events),
+                float(storm_window),
+                cap,
             )
             if isinstance(res, int):  # event log too small: rerun with the exact size
                 cap = res
@@ -271,8 +286,24 @@ class Engine:
             return res
 
     def _run_once(
-        self, x0, p, t0, t_end, tout, method, rtol, atol, sig, mono, max_steps, max_step, init_step,
-        max_events, storm_events, storm_window, cap,
+        self,
+        x0,
+        p,
+        t0,
+        t_end,
+        tout,
+        method,
+        rtol,
+        atol,
+        sig,
+        mono,
+        max_steps,
+        max_step,
+        init_step,
+        max_events,
+        storm_events,
+        storm_window,
+        cap,
     ) -> RunResult | int:
         nx, nsw = self.nx, self.nsw
         n_out = int(tout.shape[0])
@@ -301,7 +332,12 @@ class Engine:
         a.x_final = _ptr(x_final)
         a.sigma_final = _ptr(sigma_final)
         a.monodromy = _ptr(mono_arr)
-        a.ev_t, a.ev_surface, a.ev_dir, a.ev_speed = _ptr(ev_t), _ptr(ev_s, C.c_int), _ptr(ev_d, C.c_int), _ptr(ev_v)
+        a.ev_t, a.ev_surface, a.ev_dir, a.ev_speed = (
+            _ptr(ev_t),
+            _ptr(ev_s),
+            _ptr(ev_d),
+            _ptr(ev_v),
+        )
         status = self._lib.gs_simulate(C.byref(a))
         if status != 0:
             msg = a.errmsg.decode("utf-8", errors="replace")

@@ -545,6 +545,7 @@ typedef struct {
   SUNMatrix A;
   SUNLinearSolver LS;
   long acc_steps, acc_rhs, acc_jac, acc_g;
+  char flagname[64];
 } gs_solver;
 
 static void slv_counters(const gs_solver* S, long* st, long* rhs, long* jac, long* ge) {
@@ -579,9 +580,13 @@ static long slv_total_steps(const gs_solver* S) {
   return S->acc_steps + st;
 }
 
-static const char* slv_flagname(const gs_solver* S, int flag) {
-  const char* s = S->ida ? IDAGetReturnFlagName(flag) : CVodeGetReturnFlagName(flag);
-  return s ? s : "?";
+/* Name of a return flag (the SUNDIALS function returns a malloc'ed string
+ * that the caller must free). */
+static const char* slv_flagname(gs_solver* S, int flag) {
+  char* s = S->ida ? IDAGetReturnFlagName(flag) : CVodeGetReturnFlagName(flag);
+  snprintf(S->flagname, sizeof(S->flagname), "%s", s ? s : "?");
+  free(s);
+  return S->flagname;
 }
 
 /* --------------------------------------------------------------------------
@@ -1223,7 +1228,7 @@ int gs_simulate(gs_sim_args* a) {
     else
       flag = CVode(S.mem, target, S.y, &tret, CV_NORMAL);
 
-    if (flag == CV_SUCCESS) { /* == IDA_SUCCESS: reached an output time */
+    if (flag == CV_SUCCESS || flag == CV_WARNING) { /* == IDA_*: reached an output time */
       t = tret;
     } else if (flag == CV_TSTOP_RETURN) { /* == IDA_TSTOP_RETURN */
       t = tb;

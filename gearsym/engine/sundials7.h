@@ -160,7 +160,7 @@ int   CVodeGetRootInfo(void* cvode_mem, int* rootsfound);
 int   CVodeGetNumSteps(void* cvode_mem, long int* nsteps);
 int   CVodeGetNumRhsEvals(void* cvode_mem, long int* nfevals);
 int   CVodeGetNumGEvals(void* cvode_mem, long int* ngevals);
-char* CVodeGetReturnFlagName(long int flag);
+char* CVodeGetReturnFlagName(long int flag); /* malloc'ed: caller frees */
 void  CVodeFree(void** cvode_mem);
 
 /* ---- cvode/cvode_ls.h (v7) ----------------------------------------------- */
@@ -228,7 +228,7 @@ int   IDAGetRootInfo(void* ida_mem, int* rootsfound);
 int   IDAGetNumSteps(void* ida_mem, long int* nsteps);
 int   IDAGetNumResEvals(void* ida_mem, long int* nrevals);
 int   IDAGetNumGEvals(void* ida_mem, long int* ngevals);
-char* IDAGetReturnFlagName(long int flag);
+char* IDAGetReturnFlagName(long int flag);   /* malloc'ed: caller frees */
 void  IDAFree(void** ida_mem);
 
 /* ---- ida/ida_ls.h (v7) --------------------------------------------------- */

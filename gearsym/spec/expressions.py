@@ -26,6 +26,14 @@ FUNCTIONS: dict[str, str] = {
 }
 #: Constants always available.
 CONSTANTS = {"pi", "E"}
+#: Numeric functions of parameters, evaluated when the parameters are bound (not
+#: symbolically, never inside the integrator): name -> (dimension of each argument,
+#: dimension of the result), dimensions as (kg, m, s) exponents.  Their arguments
+#: must be parameter names.  Implementations: :mod:`gearsym.bound_functions`.
+BOUND_FUNCTIONS: dict[str, tuple[tuple[tuple[int, int, int], ...], tuple[int, int, int]]] = {
+    # Weierstrass-Mandelbrot mean asperity height (D, G, lam, L, l_a) -> length
+    "wm_mean_height": (((0, 0, 0), (0, 1, 0), (0, 0, 0), (0, 1, 0), (0, 1, 0)), (0, 1, 0)),
+}
 
 _DIMLESS_ARG = {"sin", "cos", "tan", "exp", "log", "sinh", "cosh", "tanh", "atan", "asin",
                 "acos", "floor"}
@@ -62,10 +70,11 @@ def names_in(text: object) -> set[str]:
     tree = parse(text)
     out: set[str] = set()
     for node in ast.walk(tree):
-        if isinstance(node, ast.Name) and node.id not in FUNCTIONS and node.id not in CONSTANTS:
+        if (isinstance(node, ast.Name) and node.id not in FUNCTIONS and node.id not in CONSTANTS
+                and node.id not in BOUND_FUNCTIONS):
             out.add(node.id)
         if isinstance(node, ast.Call) and not (
-            isinstance(node.func, ast.Name) and node.func.id in FUNCTIONS
+            isinstance(node.func, ast.Name) and (node.func.id in FUNCTIONS or node.func.id in BOUND_FUNCTIONS)
         ):
             fname = ast.unparse(node.func)
             raise ExpressionError(f"unknown function '{fname}' (known: {', '.join(sorted(FUNCTIONS))})")
@@ -81,7 +90,8 @@ def check_identifier(name: str) -> str | None:
         return f"'{name}' is not a valid symbol name (letters, digits, underscores)"
     if keyword.iskeyword(name):
         return f"'{name}' is a Python keyword and cannot be a symbol name"
-    if name in FUNCTIONS or name in CONSTANTS or name in ("t", "I", "S", "N", "O", "Q"):
+    if (name in FUNCTIONS or name in CONSTANTS or name in BOUND_FUNCTIONS
+            or name in ("t", "I", "S", "N", "O", "Q")):
         return f"'{name}' is reserved (function, constant, time or sympy name)"
     return None
 
@@ -199,6 +209,17 @@ class _Dim:
                 raise ExpressionError("Piecewise needs at least one (value, condition) pair")
             return unit
         units = [self.visit(a) for a in args]
+        if name in BOUND_FUNCTIONS:
+            want, result = BOUND_FUNCTIONS[name]
+            if len(units) != len(want):
+                raise ExpressionError(f"{name}() takes {len(want)} arguments: '{ast.unparse(node)}'")
+            for i, (u, w) in enumerate(zip(units, want)):
+                wu = Unit(1.0, tuple(Fraction(d) for d in w))
+                if not u.same_dimension(wu):
+                    raise ExpressionError(
+                        f"argument {i + 1} of {name}() must be [{wu.si_string()}] in "
+                        f"'{ast.unparse(node)}', got [{u.si_string()}]")
+            return Unit(1.0, tuple(Fraction(d) for d in result))
         if name in _DIMLESS_ARG:
             if len(units) != 1:
                 raise ExpressionError(f"{name}() takes one argument: '{ast.unparse(node)}'")
@@ -230,3 +251,16 @@ def _const(node: ast.AST) -> Fraction | None:
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return Fraction(value).limit_denominator(1000)
     return None
+
+
+def bound_calls(text: object) -> list[tuple[str, list[str | None]]]:
+    """Calls of :data:`BOUND_FUNCTIONS` in an expression: ``(name, argument names)``.
+
+    An argument that is not a plain name is reported as ``None``.
+    """
+    out: list[tuple[str, list[str | None]]] = []
+    for node in ast.walk(parse(text)):
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                and node.func.id in BOUND_FUNCTIONS):
+            out.append((node.func.id, [a.id if isinstance(a, ast.Name) else None for a in node.args]))
+    return out

@@ -64,13 +64,19 @@ class Parameter:
 
 @dataclass(frozen=True)
 class Coordinate:
-    """A generalised coordinate and the name of its velocity state."""
+    """A generalised coordinate and the name of its velocity state.
+
+    ``effect``: if set, the coordinate (and its velocity) exists only while that
+    effect is on; when it is off the coordinate is identically zero, its state is
+    removed and its ``[equations]`` / inertia / force elements contribute nothing.
+    """
 
     name: str
     unit: str
     meaning: str
     velocity: str
     dims: Unit
+    effect: str | None = None
 
 
 @dataclass(frozen=True)
@@ -281,7 +287,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     for cname, c in _table(ctx, data, "coordinates", required=True).items():
         where = f"coordinates.{cname}"
         c = _as_table(ctx, where, c)
-        _only(ctx, where, c, {"unit", "meaning", "velocity"})
+        _only(ctx, where, c, {"unit", "meaning", "velocity", "effect"})
         unit = _str(ctx, c, f"{where}.unit") or "1"
         dims = _unit(ctx, f"{where}.unit", unit)
         if dims.scale != 1.0:
@@ -289,7 +295,8 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         vel = _str(ctx, c, f"{where}.velocity") or f"{cname}_dot"
         declare(cname, where)
         declare(vel, f"{where}.velocity")
-        coordinates[cname] = Coordinate(cname, unit, _str(ctx, c, f"{where}.meaning") or "", vel, dims)
+        coordinates[cname] = Coordinate(cname, unit, _str(ctx, c, f"{where}.meaning") or "", vel, dims,
+                                        _str(ctx, c, f"{where}.effect"))
     if not coordinates:
         raise ctx.error("coordinates", "a model needs at least one coordinate")
 
@@ -494,6 +501,16 @@ def _validate(ctx: _Ctx, spec: ModelSpec) -> None:
                                        f"'{term.effect}' (variants: {', '.join(eff.variants) or 'none'})")
         elif term.variant is not None:
             raise ctx.error(where, "a variant needs an effect")
+        for fname, args in _bound_calls(ctx, where, term.expr):
+            for i, a in enumerate(args):
+                if a not in spec.parameters:
+                    raise ctx.error(where, f"argument {i + 1} of {fname}() must be the name of a "
+                                           f"parameter (it is evaluated when parameters are bound), "
+                                           f"got {a or 'an expression'}")
+    for c in spec.coordinates.values():
+        if c.effect is not None and c.effect not in spec.effects:
+            raise ctx.error(f"coordinates.{c.name}.effect", f"effect '{c.effect}' is not in the model "
+                                                             f"(effects: {', '.join(spec.effects) or 'none'})")
 
     # derived: order by dependency (detect cycles), infer units
     order = _derived_order(ctx, spec)
@@ -652,6 +669,13 @@ def _derived_order(ctx: _Ctx, spec: ModelSpec) -> list[str]:
     return order
 
 
+def _bound_calls(ctx: _Ctx, where: str, text: str) -> list[tuple[str, list[str | None]]]:
+    try:
+        return ex.bound_calls(text)
+    except ex.ExpressionError as exc:
+        raise ctx.error(where, str(exc)) from None
+
+
 def _names(ctx: _Ctx, where: str, text: str) -> set[str]:
     try:
         return ex.names_in(text)
@@ -719,11 +743,14 @@ def _typed(ctx: _Ctx, where: str, kind: str, v: dict[str, Any], schedules: dict[
         freq = _expr_str(ctx, f"{where}.frequency", v.get("frequency"))
         phase = _expr_str(ctx, f"{where}.phase", v.get("phase", 0))
         mean = _expr_str(ctx, f"{where}.mean", v.get("mean", 0))
-        return f"({mean}) + ({amp})*cos(({freq})*t + ({phase}))"
+        wave = f"({amp})*cos(({freq})*t + ({phase}))"
+        # an absent mean adds nothing (a literal 0 would be dimensionless and clash
+        # with a dimensional amplitude in the unit check)
+        return f"({mean}) + {wave}" if "mean" in v else wave
     if kind == "fourier":
         freq = _expr_str(ctx, f"{where}.frequency", v.get("frequency"))
         mean = _expr_str(ctx, f"{where}.mean", v.get("mean", 0))
-        parts = [f"({mean})"]
+        parts = [f"({mean})"] if "mean" in v else []  # see sinusoid: no dimensionless 0
         for key, fn in (("cos", "cos"), ("sin", "sin")):
             coefs = v.get(key, [])
             if not isinstance(coefs, list):
@@ -731,7 +758,7 @@ def _typed(ctx: _Ctx, where: str, kind: str, v: dict[str, Any], schedules: dict[
             for n, c in enumerate(coefs, start=1):
                 c = _expr_str(ctx, f"{where}.{key}[{n - 1}]", c)
                 parts.append(f"({c})*{fn}({n}*({freq})*t)")
-        return " + ".join(parts)
+        return " + ".join(parts) if parts else "0"
     if kind == "piecewise_cycle":
         sname = v.get("schedule")
         if sname not in schedules:

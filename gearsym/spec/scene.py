@@ -103,6 +103,18 @@ class ResolvedScene:
         return (self.effect_active(element_effect, element_variant)
                 and self.effect_active(term.effect, term.variant))
 
+    def coordinate_active(self, name: str) -> bool:
+        """Whether a coordinate exists in this scene (its ``effect``, if any, is on)."""
+        return self.effect_active(self.model.coordinates[name].effect)
+
+    def state_names(self) -> list[str]:
+        """Names of the first-order states of this scene (coordinates of switched-off
+        effects removed)."""
+        if self.model.reduction is not None:
+            return self.model.state_names()
+        coords = [c for c in self.model.coordinates.values() if self.coordinate_active(c.name)]
+        return [c.name for c in coords] + [c.velocity for c in coords]
+
     @property
     def on_effects(self) -> dict[str, bool | str]:
         """The effects that are on, with their variant (or ``True``)."""
@@ -298,12 +310,15 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
 
 def _terms_with_owner(model: ModelSpec):
     for el in model.elements.values():
+        owner, variant = el.effect, el.variant
+        if owner is None and el.coordinate is not None:
+            owner = model.coordinates[el.coordinate].effect  # element on a gated coordinate
         for terms in el.fields.values():
             for t in terms:
-                yield t, el.effect, el.variant
+                yield t, owner, variant
     for eq in model.equations.values():
         for t in (*eq.mass, *eq.force):
-            yield t, None, None
+            yield t, model.coordinates[eq.coordinate].effect, None
     if model.reduction is not None:
         for t in model.reduction.definition:
             yield t, None, None

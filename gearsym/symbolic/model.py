@@ -157,6 +157,8 @@ class SymbolicModel:
             def field(key: str) -> sp.Expr:
                 return ns.sum_terms(el.fields.get(key, ()), el.effect, el.variant)
 
+            if el.coordinate is not None and el.coordinate not in index:
+                continue  # element on a coordinate of a switched-off effect
             if el.type == "inertia":
                 i = index[el.coordinate]  # type: ignore[index]
                 M[i, i] += field("value")
@@ -166,6 +168,11 @@ class SymbolicModel:
                 geom = field("deflection")
                 delta = geom - field("error") if el.type == "mesh" else geom
                 if not any(geom.has(qi) for qi in q):
+                    from ..spec.expressions import names_in
+
+                    gated = {c for c in spec.coordinates if c not in index}
+                    if any(names_in(t.expr) & gated for t in el.fields.get("deflection", ())):
+                        continue  # acts only on coordinates of switched-off effects
                     raise SpecError("the deflection does not depend on any coordinate",
                                     file=spec.path, field=f"{w}.deflection")
                 if el.type == "spring":
@@ -196,6 +203,8 @@ class SymbolicModel:
                     if dd != 0:
                         Q[i, 0] -= W * dd
         for eq in spec.equations.values():
+            if eq.coordinate not in index:
+                continue  # coordinate of a switched-off effect
             i = index[eq.coordinate]
             M[i, i] += ns.sum_terms(eq.mass)
             Q[i, 0] += ns.sum_terms(eq.force)
@@ -265,7 +274,10 @@ class SymbolicModel:
         free: set[sp.Symbol] = set()
         for e in exprs:
             free |= e.free_symbols
-        return [sym for name, sym in self.ns.params.items() if sym in free]
+        #: bound (numeric) functions of parameters used: symbol name -> (function, argument names)
+        self.bound_parameters = {str(b): spec for b, spec in self.ns.bound.items() if b in free}
+        return ([sym for name, sym in self.ns.params.items() if sym in free]
+                + [b for b in self.ns.bound if b in free])
 
     # ---------------------------------------------------------------- exposed
 

@@ -6,7 +6,7 @@ import sympy as sp
 from sympy.parsing.sympy_parser import parse_expr
 
 from ..errors import SpecError
-from ..spec.expressions import FUNCTIONS
+from ..spec.expressions import BOUND_FUNCTIONS, FUNCTIONS
 from ..spec.model import Term
 from ..spec.scene import ResolvedScene
 
@@ -21,7 +21,13 @@ class Namespace:
     params
         Parameter symbols by name (all model parameters).
     coords, vels
-        Coordinate and velocity symbols by name (before any reduction).
+        Coordinate and velocity symbols by name (before any reduction); coordinates
+        whose ``effect`` is off are left out and read as 0 in every expression.
+    bound
+        One symbol per distinct call of a bound (numeric) function of parameters,
+        e.g. ``wm_mean_height(D, G, lam, L_c, l_a)``, mapped to ``(function name,
+        argument parameter names)``; the compiled system evaluates it when the
+        parameters are bound and passes it as a parameter.
     sched_n, sched_seg
         Cycle-index and segment-index symbols of each schedule.
     """
@@ -31,8 +37,10 @@ class Namespace:
         m = rs.model
         self.t = sp.Symbol("t", real=True)
         self.params = {p: sp.Symbol(p, real=True) for p in m.parameters}
-        self.coords = {c: sp.Symbol(c, real=True) for c in m.coordinates}
-        self.vels = {c.velocity: sp.Symbol(c.velocity, real=True) for c in m.coordinates.values()}
+        on = [c for c in m.coordinates.values() if rs.effect_active(c.effect)]
+        self.coords = {c.name: sp.Symbol(c.name, real=True) for c in on}
+        self.vels = {c.velocity: sp.Symbol(c.velocity, real=True) for c in on}
+        self.bound: dict[sp.Symbol, tuple[str, tuple[str, ...]]] = {}
         self.sched_n = {s: sp.Symbol(f"n_{s}", real=True) for s in m.schedules}
         self.sched_seg = {s: sp.Symbol(f"seg_{s}", real=True) for s in m.schedules}
         self._local: dict[str, object] = {name: getattr(sp, fn) for name, fn in FUNCTIONS.items()}
@@ -40,6 +48,12 @@ class Namespace:
         self._local.update(self.params)
         self._local.update(self.coords)
         self._local.update(self.vels)
+        for c in m.coordinates.values():
+            if c.name not in self.coords:  # gated coordinate of a switched-off effect
+                self._local[c.name] = sp.Integer(0)
+                self._local[c.velocity] = sp.Integer(0)
+        for fname in BOUND_FUNCTIONS:
+            self._local[fname] = self._bound_function(fname)
         self.schedule_period: dict[str, sp.Expr] = {}
         self.schedule_breaks: dict[str, list[sp.Expr]] = {}
         for s in m.schedules.values():
@@ -64,6 +78,20 @@ class Namespace:
                 progressed = True
             if not progressed:  # pragma: no cover - the spec layer rejects cycles
                 raise SpecError("circular derived quantities", file=m.path, field="derived")
+
+    def _bound_function(self, fname: str):
+        """A callable that turns ``fname(p1, p2, ...)`` into a parameter-like symbol."""
+        def call(*args: sp.Basic) -> sp.Symbol:
+            names = []
+            for a in args:
+                if not (isinstance(a, sp.Symbol) and str(a) in self.params):
+                    raise SpecError(f"arguments of {fname}() must be parameter names, got '{a}'",
+                                    file=self.rs.model.path)
+                names.append(str(a))
+            sym = sp.Symbol(f"{fname}({', '.join(names)})", real=True)
+            self.bound[sym] = (fname, tuple(names))
+            return sym
+        return call
 
     def parse(self, text: str, where: str = "") -> sp.Expr:
         """Parse an expression string (already checked by the spec layer)."""

@@ -11,8 +11,9 @@ def backlash_f(x: float, b: float, region: int) -> float:
     return x - b if region > 0 else (x + b if region < 0 else 0.0)
 
 
-def backlash_reference(p, x0, t_end, t_out, *, jump_damping=False, rtol=1e-13, atol=1e-13,
-                       variational=False, saltation=True):
+def backlash_reference(
+    p, x0, t_end, t_out, *, jump_damping=False, rtol=1e-13, atol=1e-13, variational=False, saltation=True
+):
     """DOP853 with terminal events at x = +-b, restarted at each event.
 
     Returns (y at t_out, event times, x_final, monodromy or None).  With
@@ -30,7 +31,12 @@ def backlash_reference(p, x0, t_end, t_out, *, jump_damping=False, rtol=1e-13, a
 
     def rhs_state(t, x, v, region):
         c = 1.0 if (not jump_damping or region != 0) else 0.0
-        F = -2 * zeta * c * v - (1 + eps * np.cos(Om * t)) * backlash_f(x, b, region) + Fm + Fa * Om**2 * np.cos(Om * t)
+        F = (
+            -2 * zeta * c * v
+            - (1 + eps * np.cos(Om * t)) * backlash_f(x, b, region)
+            + Fm
+            + Fa * Om**2 * np.cos(Om * t)
+        )
         return np.array([v, F])
 
     def jac(t, x, v, region):
@@ -66,8 +72,16 @@ def backlash_reference(p, x0, t_end, t_out, *, jump_damping=False, rtol=1e-13, a
             e2.terminal = True
             e2.direction = 1 if region == -1 else -1
             evs.append(e2)
-        sol = solve_ivp(lambda tt, yy, r=region: rhs(tt, yy, r), (t, t_end), y, method="DOP853",
-                        rtol=rtol, atol=atol, events=evs, dense_output=True)
+        sol = solve_ivp(
+            lambda tt, yy, r=region: rhs(tt, yy, r),
+            (t, t_end),
+            y,
+            method="DOP853",
+            rtol=rtol,
+            atol=atol,
+            events=evs,
+            dense_output=True,
+        )
         t1 = sol.t[-1]
         mask = (t_out >= t) & (t_out <= t1)
         if mask.any():

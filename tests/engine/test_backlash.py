@@ -29,8 +29,14 @@ def params(Om, Fa, zeta=ZETA):
         (0.8, 0.6, "bdf", 8, 1e-12),
         (0.8, 0.6, "adams", 8, 1e-12),
     ],
-    ids=["single-sided-bdf", "single-sided-adams", "double-sided-bdf", "double-sided-adams",
-         "chaotic-double-sided-bdf", "chaotic-double-sided-adams"],
+    ids=[
+        "single-sided-bdf",
+        "single-sided-adams",
+        "double-sided-bdf",
+        "double-sided-adams",
+        "chaotic-double-sided-bdf",
+        "chaotic-double-sided-adams",
+    ],
 )
 def test_backlash_vs_reference(backlash_engine, Om, Fa, method, periods, rtol):
     p = params(Om, Fa)

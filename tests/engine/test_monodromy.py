@@ -36,8 +36,9 @@ def fd_monodromy(engine, x0, t_end, h=1e-6):
 def test_monodromy_with_saltation_vs_fd(backlash_jump_engine, method):
     T = 2 * np.pi / P_JUMP[2]
     t_end = 2 * T
-    r = backlash_jump_engine.run(X0, P_JUMP, 0.0, t_end, rtol=1e-10, atol=1e-12, want_monodromy=True,
-                                 method=method)
+    r = backlash_jump_engine.run(
+        X0, P_JUMP, 0.0, t_end, rtol=1e-10, atol=1e-12, want_monodromy=True, method=method
+    )
     M_fd, n_ev = fd_monodromy(backlash_jump_engine, X0, t_end)
     assert len(r.events) == n_ev >= 2
     # the events are transversal (no grazing)
@@ -48,8 +49,9 @@ def test_monodromy_with_saltation_vs_fd(backlash_jump_engine, method):
 
     # independent scipy variational reference, with and without saltation
     _, _, _, M_salt = backlash_reference(P_JUMP, X0, t_end, [], jump_damping=True, variational=True)
-    _, _, _, M_nosalt = backlash_reference(P_JUMP, X0, t_end, [], jump_damping=True, variational=True,
-                                           saltation=False)
+    _, _, _, M_nosalt = backlash_reference(
+        P_JUMP, X0, t_end, [], jump_damping=True, variational=True, saltation=False
+    )
     assert np.max(np.abs(M_salt - M_fd)) / scale < 1e-5
     assert np.max(np.abs(r.monodromy - M_salt)) / scale < 1e-6
     # leaving the saltation matrices out would be a visible error

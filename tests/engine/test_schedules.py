@@ -28,8 +28,9 @@ def test_schedule_vs_expm(meissner_engine, method, t0, t_end):
     bps = breakpoints(t0, t_end)
     # outputs: a grid plus every breakpoint plus t0 and t_end exactly
     t_out = np.unique(np.concatenate([[t0, t_end], np.linspace(t0, t_end, 57), bps]))
-    r = meissner_engine.run(x0, PV, t0, t_end, t_out, method=method, rtol=1e-11, atol=1e-13,
-                            want_monodromy=True)
+    r = meissner_engine.run(
+        x0, PV, t0, t_end, t_out, method=method, rtol=1e-11, atol=1e-13, want_monodromy=True
+    )
     y_ex, Phi_ex = meissner_exact(MEISSNER_P, x0, t0, t_out)
     assert np.max(np.abs(r.y - y_ex)) < 1e-8
     np.testing.assert_array_equal(r.y[0], x0)

@@ -1,0 +1,446 @@
+"""Harmonic balance with alternating frequency/time (AFT) and a quasi-Newton solve.
+
+The periodic solution of ``x' = f(t, x)`` with period ``P`` (``w = 2*pi/P``) is
+sought as a truncated Fourier series of every state::
+
+    x(t) = a_0 + sum_{k=1..H} a_k cos(k w (t - t0)) + b_k sin(k w (t - t0))
+
+(Liu, Lv & Zhao 2021, eq. 13, for the NFG: there the response's harmonics are
+combinations of the mesh and instantaneous-centre frequencies; with
+``w_e / w_c = Z2`` an integer they are all harmonics of ``w_c = 2*pi/P``, which is
+what a series in ``k w`` with ``H >= Z2 + 2`` contains).  Balancing the harmonics of
+``x'`` and ``f`` gives the algebraic system ``R(C) = D C - F(C) = 0`` (their eq. 14 and
+the set ``s_i = 0``).  The harmonics ``F`` of the nonlinear force are computed the
+way their eqs. 15-17 do: sample the series at ``M`` equidistant times (eq. 15),
+evaluate the right-hand side there -- the compiled model's, with the contact
+mode taken from the sign of each switching function at the sample (eq. 16) --
+and take the discrete Fourier transform (eq. 17).
+
+The algebraic system is solved by a quasi-Newton method (Broyden's good update,
+as in Liu et al.), started from the exact AFT Jacobian
+``D - DFT diag(df/dx(t_m)) IDFT`` and refreshed when the Broyden steps stop
+reducing the residual; steps are damped by backtracking.  The number of
+harmonics is given (``harmonics=H``) or grown ``1, 2, 4, ...`` until the time
+series changes by less than ``harmonics_tol`` relative to its peak-to-peak
+(each solve starts from the previous one).
+
+This is a second, independent periodic solver: it shares only the generated
+model functions with shooting, not the integrator.  The Floquet multipliers of
+the orbit it finds come from one engine integration of the variational
+equations from the balanced state ``x(t0)`` (``monodromy=False`` skips it).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..errors import ConvergenceError, GearsymError, ParameterError
+from .orbit import PeriodicOrbit, finish_orbit
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..system import System
+
+__all__ = ["HarmonicBalance", "harmonic_balance"]
+
+
+class HarmonicBalance:
+    """The AFT harmonic-balance residual of a compiled system for a fixed ``H``.
+
+    Parameters
+    ----------
+    system
+        An explicit compiled system.
+    period
+        Period of the sought orbit.
+    harmonics
+        Number of harmonics ``H``.
+    params
+        Parameter overrides (SI).
+    t0
+        Time origin of the series.
+    samples
+        Number of time samples ``M`` of the AFT (default: a power of two >= 4(2H+1),
+        at least 64).
+    """
+
+    def __init__(self, system: System, period: float, harmonics: int, params: Mapping[str, float] | None = None,
+                 t0: float = 0.0, samples: int | None = None):
+        if system.generated.implicit:
+            raise ParameterError("harmonic balance needs an explicit model (x' = f(t, x))")
+        self.system = system
+        self.H = H = int(harmonics)
+        if H < 0:
+            raise ParameterError(f"harmonics must be >= 0, got {harmonics}")
+        self.P = float(period)
+        self.w = 2 * np.pi / self.P
+        self.t0 = float(t0)
+        self.nx = system.generated.nx
+        self.nc = 2 * H + 1
+        M = samples or max(64, 1 << int(math.ceil(math.log2(4 * self.nc))))
+        if M < self.nc:
+            raise ParameterError(f"samples={M} must be at least 2*harmonics+1 = {self.nc}")
+        self.M = M
+        th = 2 * np.pi * np.arange(M) / M
+        self.t = self.t0 + th / self.w
+        E = np.ones((M, self.nc))
+        for k in range(1, H + 1):
+            E[:, 2 * k - 1] = np.cos(k * th)
+            E[:, 2 * k] = np.sin(k * th)
+        self.E = E
+        Ep = E.T * (2.0 / M)
+        Ep[0] = 1.0 / M
+        self.Ep = Ep
+        D = np.zeros((self.nc, self.nc))
+        for k in range(1, H + 1):
+            D[2 * k - 1, 2 * k] = k * self.w
+            D[2 * k, 2 * k - 1] = -k * self.w
+        self.D = D
+        self.p = system.param_vector(params)
+        gen = system.generated
+        self._rhs = gen.casadi_function("gs_rhs").map(M)
+        self._jac = gen.casadi_function("gs_jac").map(M)
+        self._sw = gen.casadi_function("gs_sw").map(M) if gen.nsw else None
+        self._P = np.tile(self.p[:, None], (1, M))
+        self._sched = self._sched_modes()
+        self.n_evals = 0
+
+    def _sched_modes(self) -> np.ndarray:
+        gen = self.system.generated
+        if not gen.schedules:
+            return np.zeros((0, self.M))
+        s = np.asarray(gen.casadi_function("gs_sched")(self.p)).ravel()
+        rows = []
+        i = 0
+        for sch in gen.schedules:
+            P = s[i]
+            br = s[i + 1: i + 1 + sch["n_breaks"]]
+            i += 1 + sch["n_breaks"]
+            u = self.t / P
+            n = np.floor(u)
+            seg = np.searchsorted(br, u - n, side="right") - 1
+            rows += [n, seg.astype(float)]
+        return np.array(rows)
+
+    # -------------------------------------------------------------- series
+    def samples_of(self, C: np.ndarray) -> np.ndarray:
+        """Time samples ``x(t_m)``, shape (M, nx), of coefficients ``C`` (nc, nx)."""
+        return self.E @ C
+
+    def _modes(self, X: np.ndarray) -> np.ndarray:
+        if self._sw is not None:
+            g = np.asarray(self._sw(self.t[None, :], X.T, self._P))
+            sig = np.where(g >= 0, 1.0, -1.0)
+        else:
+            sig = np.zeros((0, self.M))
+        return np.vstack([sig, self._sched])
+
+    def residual(self, C: np.ndarray) -> np.ndarray:
+        """``R(C) = D C - DFT(f(t_m, x(t_m)))``, shape (nc, nx)."""
+        X = self.samples_of(C)
+        F = np.asarray(self._rhs(self.t[None, :], X.T, self._P, self._modes(X))).T  # (M, nx)
+        self.n_evals += 1
+        return self.D @ C - self.Ep @ F
+
+    def jacobian(self, C: np.ndarray) -> np.ndarray:
+        """Exact AFT Jacobian ``dR/dC`` (ordering: state-major, then coefficient)."""
+        X = self.samples_of(C)
+        Jm = np.asarray(self._jac(self.t[None, :], X.T, self._P, self._modes(X)))  # (nx, nx*M)
+        Jm = Jm.reshape(self.nx, self.M, self.nx).transpose(1, 0, 2)  # (M, i, j)
+        # block (i, j) = D*delta_ij - Ep diag(J_ij) E
+        G = np.einsum("km,mij,ml->ikjl", self.Ep, Jm, self.E)
+        n = self.nx * self.nc
+        Jr = -G.reshape(n, n)
+        for i in range(self.nx):
+            Jr[i * self.nc:(i + 1) * self.nc, i * self.nc:(i + 1) * self.nc] += self.D
+        return Jr
+
+    @staticmethod
+    def _flat(C: np.ndarray) -> np.ndarray:
+        return C.T.ravel()  # state-major
+
+    def _unflat(self, z: np.ndarray) -> np.ndarray:
+        return z.reshape(self.nx, self.nc).T
+
+    # --------------------------------------------------------------- solve
+    def solve(self, C0: np.ndarray, tol: float = 1e-10, max_iter: int = 100
+              ) -> tuple[np.ndarray, int, float, bool, list[dict[str, Any]], str]:
+        """Quasi-Newton (Broyden) solve from ``C0``.
+
+        Returns ``(C, iterations, residual, converged, history, failure)``.
+        """
+        z = self._flat(np.asarray(C0, float))
+        R = self._flat(self.residual(self._unflat(z)))
+        r = float(np.max(np.abs(R)))
+        J = self.jacobian(self._unflat(z))
+        n_jac = 1
+        history: list[dict[str, Any]] = [{"iteration": 0, "residual": r, "jacobian": True}]
+        fresh = True
+        it = 0
+        failure = ""
+
+        def scale(zz: np.ndarray) -> float:
+            return max(1.0, float(np.max(np.abs(zz))))
+
+        while r > tol * scale(z) and it < max_iter:
+            it += 1
+            try:
+                dz = np.linalg.solve(J, -R)
+            except np.linalg.LinAlgError:
+                dz = np.linalg.lstsq(J, -R, rcond=None)[0]
+            lam, ok = 1.0, False
+            r2 = float(np.linalg.norm(R))
+            while lam >= 2.0 ** -10:
+                zn = z + lam * dz
+                Rn = self._flat(self.residual(self._unflat(zn)))
+                rn = float(np.max(np.abs(Rn)))
+                if math.isfinite(rn) and (float(np.linalg.norm(Rn)) < (1 - 1e-4 * lam) * r2
+                                          or rn <= tol * scale(zn)):
+                    ok = True
+                    break
+                lam *= 0.5
+            if not ok:
+                if not fresh:  # Broyden's Jacobian went stale: refresh and retry
+                    J = self.jacobian(self._unflat(z))
+                    n_jac += 1
+                    fresh = True
+                    history.append({"iteration": it, "residual": r, "jacobian": True, "note": "refresh"})
+                    continue
+                failure = "the damped quasi-Newton step does not reduce the residual"
+                break
+            s = zn - z
+            y = Rn - R
+            slow = float(np.linalg.norm(Rn)) > 0.5 * r2
+            z, R, r = zn, Rn, rn
+            if slow:
+                J = self.jacobian(self._unflat(z))
+                n_jac += 1
+                fresh = True
+            else:  # Broyden's good update
+                J = J + np.outer(y - J @ s, s) / float(s @ s)
+                fresh = False
+            history.append({"iteration": it, "residual": r, "step": lam, "jacobian": fresh})
+        conv = r <= tol * scale(z)
+        if not conv and not failure:
+            failure = f"no convergence in {max_iter} quasi-Newton iterations"
+        return self._unflat(z), it, r, conv, history, failure
+
+
+def _pad(C: np.ndarray, H_new: int) -> np.ndarray:
+    out = np.zeros((2 * H_new + 1, C.shape[1]))
+    n = min(C.shape[0], out.shape[0])
+    out[:n] = C[:n]
+    return out
+
+
+def _dense(C: np.ndarray, n: int = 4096) -> np.ndarray:
+    H = (C.shape[0] - 1) // 2
+    th = 2 * np.pi * np.arange(n) / n
+    y = np.tile(C[0], (n, 1))
+    for k in range(1, H + 1):
+        y += np.outer(np.cos(k * th), C[2 * k - 1]) + np.outer(np.sin(k * th), C[2 * k])
+    return y
+
+
+def harmonic_balance(system: System, period: float | None = None, periods: float = 1,
+                     x0: Sequence[float] | None = None, params: Mapping[str, float] | None = None, *,
+                     harmonics: int | None = None, max_harmonics: int = 256, harmonics_tol: float = 1e-6,
+                     samples: int | None = None, t0: float = 0.0, tol: float = 1e-10, max_iter: int = 100,
+                     guess: np.ndarray | PeriodicOrbit | None = None, monodromy: bool = True,
+                     rtol: float = 1e-11, atol: float = 1e-13, raise_on_failure: bool = True,
+                     initial_guess: str = "auto", transient: float = 50) -> PeriodicOrbit:
+    """Find a periodic orbit by harmonic balance (AFT + quasi-Newton).
+
+    Parameters
+    ----------
+    system
+        An explicit compiled system.
+    period, periods
+        Orbit period (default ``periods`` forcing periods).
+    x0
+        A state used as the constant term of the first guess (default: the
+        scene's initial state).
+    params
+        Parameter overrides (SI).
+    harmonics
+        Fixed number of harmonics; ``None``: grow ``1, 2, 4, ...`` up to
+        ``max_harmonics`` until the time series changes by less than
+        ``harmonics_tol`` (relative to each state's peak-to-peak).
+    samples
+        AFT samples per period (default: power of two >= 4(2H+1), >= 64).
+    t0
+        Time origin (the orbit's ``x0`` is ``x(t0)``).
+    tol
+        Residual tolerance of the algebraic system (relative to max(1, max|C|)).
+    max_iter
+        Quasi-Newton iterations per solve.
+    guess
+        Initial coefficients (shape (2H+1, nx)) or an orbit (e.g. from shooting)
+        to start from instead of the harmonic continuation.
+    monodromy
+        Integrate the variational equations once from ``x(t0)`` for the Floquet
+        multipliers, the events and the rattle state.
+    rtol, atol
+        Tolerances of that integration.
+    raise_on_failure
+        Raise :class:`ConvergenceError` if a solve fails.
+    initial_guess
+        ``"constant"``: continuation in the number of harmonics from the constant
+        state ``x0``; ``"simulation"``: the harmonics of the last of ``transient``
+        forcing periods simulated from ``x0`` (an initial guess only: the solution
+        is the harmonic balance's); ``"auto"``: the first, then the second if a
+        solve stalls (the constant start may sit in the basin of a local minimum of
+        the residual, e.g. below an impacting orbit).
+    transient
+        Forcing periods simulated for the ``"simulation"`` guess.
+
+    Returns
+    -------
+    PeriodicOrbit
+        With ``harmonics``, ``coefficients`` and ``info["harmonic_growth"]``
+        (``H``, change, peak-to-peak of the first state, iterations per step)
+        and ``info["defect"] = max |phi(t0 + P, x0) - x0|`` (truncation error seen by the integrator).
+    """
+    wall = time.perf_counter()
+    T = system.period(params)
+    if period is None:
+        if not T:
+            raise ParameterError("the scene has no forcing period: give period=")
+        period = float(periods) * T
+    else:
+        period = float(period)
+        periods = period / T if T else 1.0
+    nx = system.generated.nx
+    base = system.x0 if x0 is None else np.asarray(x0, float)
+    if base.shape != (nx,):
+        raise ParameterError(f"x0 must have {nx} entries, got shape {base.shape}")
+
+    def from_series(y: np.ndarray, H_g: int) -> np.ndarray:
+        Cf = np.fft.rfft(y, axis=0) / len(y)
+        Cg = np.zeros((2 * H_g + 1, nx))
+        Cg[0] = Cf[0].real
+        for k in range(1, min(H_g, Cf.shape[0] - 1) + 1):
+            Cg[2 * k - 1] = 2 * Cf[k].real
+            Cg[2 * k] = -2 * Cf[k].imag
+        return Cg
+
+    H_sim = int(harmonics or 16)
+    attempts: list[tuple[str, Any]] = []
+    if isinstance(guess, PeriodicOrbit):
+        attempts.append(("orbit", from_series(guess.trajectory(n_out=max(64, 8 * H_sim) + 1).y[:-1], H_sim)))
+    elif guess is not None:
+        attempts.append(("coefficients", np.asarray(guess, float)))
+    else:
+        C_const = np.zeros((3, nx))
+        C_const[0] = base
+        attempts.append(("constant", C_const))
+        if initial_guess == "auto":
+            attempts.append(("simulation", None))
+        elif initial_guess == "simulation":
+            attempts = [("simulation", None)]
+        elif initial_guess != "constant":
+            raise ParameterError(f"initial_guess must be 'auto', 'constant' or 'simulation', got "
+                                 f"'{initial_guess}'")
+
+    def simulation_guess() -> np.ndarray:
+        Tt = T if T else period
+        n_tr = max(1, int(math.ceil(transient)))
+        tr = system.simulate(t_end=t0, t0=t0 - n_tr * Tt, x0=base, rtol=1e-8, atol=1e-10, n_out=2,
+                             params=params)
+        tr = system.simulate(t_end=t0 + period, t0=t0, x0=tr.x_final, rtol=1e-8, atol=1e-10,
+                             n_out=max(64, 8 * H_sim) + 1, params=params)
+        return from_series(tr.y[:-1], H_sim)
+
+    def grow(C: np.ndarray, stop_on_stall: bool):
+        if harmonics is not None:
+            sequence = [int(harmonics)]
+        else:
+            sequence = []
+            H = max(1, (C.shape[0] - 1) // 2)
+            while H < max_harmonics:
+                sequence.append(H)
+                H *= 2
+            sequence.append(int(max_harmonics))
+        growth: list[dict[str, Any]] = []
+        prev_dense: np.ndarray | None = None
+        total_it = 0
+        history: list[dict[str, Any]] = []
+        hb: HarmonicBalance | None = None
+        r, conv, failure = math.inf, False, ""
+        h_conv = harmonics is not None
+        for H in sequence:
+            hb = HarmonicBalance(system, period, H, params, t0, samples)
+            C, it, r, conv, hist, failure = hb.solve(_pad(C, H), tol=tol, max_iter=max_iter)
+            total_it += it
+            history += [dict(h, harmonics=H) for h in hist]
+            if not conv:
+                growth.append({"harmonics": H, "change": math.nan, "peak_to_peak": math.nan,
+                               "iterations": it, "residual": r, "note": f"not converged ({failure})"})
+                if stop_on_stall or H == sequence[-1]:
+                    break
+                prev_dense = None  # an intermediate truncation only provides a starting point
+                continue
+            dense = _dense(C)
+            ptp = np.ptp(dense, axis=0)
+            change = math.nan
+            if prev_dense is not None:
+                rel = np.max(np.abs(dense - prev_dense), axis=0) / np.maximum(ptp, 1e-300)
+                change = float(np.max(rel))
+            growth.append({"harmonics": H, "change": change, "peak_to_peak": float(ptp[0]),
+                           "iterations": it, "residual": r})
+            prev_dense = dense
+            if harmonics is None and math.isfinite(change) and change < harmonics_tol:
+                h_conv = True
+                break
+        return hb, C, r, conv, failure, growth, total_it, history, h_conv
+
+    total_it = 0
+    history: list[dict[str, Any]] = []
+    growth: list[dict[str, Any]] = []
+    used = ""
+    for k, (name, C0) in enumerate(attempts):
+        if C0 is None:
+            C0 = simulation_guess()
+        last = k == len(attempts) - 1
+        hb, C, r, conv, failure, g, it, hist, harmonics_converged = grow(C0, stop_on_stall=not last)
+        total_it += it
+        history += [dict(h, initial_guess=name) for h in hist]
+        growth += [dict(x, initial_guess=name) for x in g]
+        used = name
+        if conv:
+            break
+    if not conv and raise_on_failure:
+        hist_txt = ", ".join(f"{h['residual']:.3g}" for h in history[-10:])
+        raise ConvergenceError(
+            f"harmonic balance did not converge (H={hb.H} harmonics, initial guess '{used}'): {failure}; "
+            f"residual history [{hist_txt}]. Try a guess (guess=<orbit from shooting>), a different x0, "
+            f"more harmonics, or method='shooting'.")
+    assert hb is not None and C is not None
+    H = hb.H
+    x_start = C[0] + sum(C[2 * k - 1] for k in range(1, H + 1)) if H else C[0].copy()
+    x_start = np.asarray(x_start, float)
+    mono = None
+    events = []
+    defect = math.nan
+    if monodromy and conv:
+        try:
+            tr = system.simulate(t_end=t0 + period, t0=t0, x0=x_start, rtol=rtol, atol=atol, n_out=2,
+                                 params=params, monodromy=True)
+            mono = tr.monodromy
+            events = list(tr.events)
+            defect = float(np.max(np.abs(tr.x_final - x_start)))
+        except GearsymError:
+            mono = None
+    p = system.param_vector(params)
+    return finish_orbit(
+        system, x0=x_start, period=period, periods=periods, t0=t0, monodromy=mono, iterations=total_it,
+        residual=r, converged=conv, method="hbm", params={k: float(v) for k, v in zip(system.param_names, p, strict=True)},
+        events=events, harmonics=H, coefficients=C, history=history,
+        info={"harmonic_growth": growth, "harmonics_converged": harmonics_converged, "defect": defect,
+              "initial_guess": used,
+              "samples": hb.M, "tol": tol, "rtol": rtol, "atol": atol,
+              "wall_s": time.perf_counter() - wall})

@@ -1,0 +1,323 @@
+"""Periodic orbits: the result object and the entry point ``periodic_orbit``.
+
+:func:`periodic_orbit` is what :meth:`gearsym.system.System.periodic_orbit` calls;
+it dispatches to :mod:`gearsym.analysis.shooting` (single / multiple shooting with
+the engine's variational equations) or :mod:`gearsym.analysis.hbm` (harmonic
+balance with alternating frequency/time), and both return a
+:class:`PeriodicOrbit`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..errors import ParameterError
+from .floquet import floquet_multipliers
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..results import Event, Trajectory
+    from ..system import System
+
+__all__ = ["PeriodicOrbit", "periodic_orbit", "rattle_state", "RATTLE_STATES"]
+
+#: Meaning of the rattle-state codes of :func:`rattle_state`.
+RATTLE_STATES: dict[int, str] = {
+    0: "no contact loss (permanent drive-side contact)",
+    1: "contact loss only (single-sided impacts / free flight)",
+    2: "back-side contact (double-sided impacts)",
+}
+
+
+@dataclass
+class PeriodicOrbit:
+    """A periodic orbit of a compiled system and its Floquet multipliers.
+
+    Attributes
+    ----------
+    x0 : ndarray
+        The state on the orbit at ``t0`` (a whole multiple of the forcing period,
+        ``t0 = 0`` by default: the start of the forcing period).
+    period : float
+        Period of the orbit (``periods`` forcing periods).
+    periods : float
+        Number of forcing periods the orbit spans (1: period-one orbit).
+    t0 : float
+        Time at which ``x0`` is taken.
+    monodromy : ndarray or None
+        ``d x(t0 + period) / d x(t0)``, with saltation matrices at the events.
+    multipliers : ndarray (complex)
+        Floquet multipliers (eigenvalues of the monodromy), by decreasing modulus.
+    stable : bool
+        All multipliers strictly inside the unit circle (``max |mu| < 1``).
+    iterations : int
+        Newton (shooting) or quasi-Newton (harmonic balance) iterations.
+    residual : float
+        Final residual: ``max |phi(t0 + period, x0) - x0|`` over the shooting
+        segments (shooting), or the maximum harmonic-balance residual (hbm).
+    converged : bool
+        Whether the solver met its tolerance.
+    method : str
+        ``"shooting"`` or ``"hbm"``.
+    state_names : list of str
+    params : dict
+        Parameter values (SI) of the solve.
+    rattle_state : int or None
+        For backlash models: 0 no contact loss, 1 contact loss only, 2 back-side
+        contact (see :data:`RATTLE_STATES`); ``None`` without contact surfaces.
+    events : list of Event
+        Surface crossings along one period of the orbit.
+    segments : int
+        Number of shooting segments (1: single shooting).
+    segment_states : ndarray, shape (segments, nx)
+        The state at the start of each segment.
+    segment_monodromies : list of ndarray
+        Monodromy of each segment (their product, last first, is ``monodromy``).
+    harmonics : int or None
+        Number of harmonics (harmonic balance).
+    coefficients : ndarray or None
+        Harmonic-balance coefficients, shape (2*harmonics + 1, nx), rows
+        ``[a0, a1, b1, a2, b2, ...]`` of ``a0 + sum a_k cos(k w t) + b_k sin(k w t)``
+        with ``w = 2*pi/period`` and ``t`` measured from ``t0``.
+    history : list of dict
+        One entry per iteration: ``residual``, ``step`` (damping factor), ...
+    info : dict
+        Method-specific extras (tolerances, harmonic growth history, wall time).
+    """
+
+    x0: np.ndarray
+    period: float
+    periods: float
+    t0: float
+    monodromy: np.ndarray | None
+    multipliers: np.ndarray
+    stable: bool
+    iterations: int
+    residual: float
+    converged: bool
+    method: str
+    state_names: list[str]
+    params: dict[str, float]
+    rattle_state: int | None = None
+    events: list[Event] = field(default_factory=list)
+    segments: int = 1
+    segment_states: np.ndarray | None = None
+    segment_monodromies: list[np.ndarray] = field(default_factory=list)
+    harmonics: int | None = None
+    coefficients: np.ndarray | None = None
+    history: list[dict[str, Any]] = field(default_factory=list)
+    info: dict[str, Any] = field(default_factory=dict)
+    system: System | None = field(default=None, repr=False, compare=False)
+    _traj: Trajectory | None = field(default=None, repr=False, compare=False)
+
+    # ------------------------------------------------------------ derived
+    @property
+    def max_multiplier(self) -> float:
+        """``max |mu|`` (the stability parameter lambda of Vaishya & Singh)."""
+        return float(np.max(np.abs(self.multipliers))) if len(self.multipliers) else math.nan
+
+    def trajectory(self, n_out: int | None = None, rtol: float | None = None,
+                   atol: float | None = None) -> Trajectory:
+        """One period of the orbit, integrated from ``x0`` with the engine.
+
+        Parameters
+        ----------
+        n_out
+            Output points (default 1024 per forcing period, at least 2048).
+        rtol, atol
+            Tolerances (default: those of the solve).
+        """
+        if self.system is None:
+            raise ParameterError("this orbit is not attached to a system")
+        if n_out is None and rtol is None and atol is None and self._traj is not None:
+            return self._traj
+        n = n_out or max(2048, int(1024 * self.periods) + 1)
+        tr = self.system.simulate(t_end=self.t0 + self.period, t0=self.t0, x0=self.x0,
+                                  rtol=rtol or self.info.get("rtol", 1e-10),
+                                  atol=atol or self.info.get("atol", 1e-12),
+                                  n_out=n, params=self.params)
+        if n_out is None and rtol is None and atol is None:
+            self._traj = tr
+        return tr
+
+    def extrema(self, state: int | str = 0) -> tuple[float, float]:
+        """``(min, max)`` of one state over the orbit.
+
+        From the harmonic series for harmonic balance, from a dense engine
+        trajectory (refined by parabolic interpolation) for shooting.
+        """
+        i = self.state_names.index(state) if isinstance(state, str) else int(state)
+        if self.method == "hbm" and self.coefficients is not None and self.system is None:
+            y = _series(self.coefficients[:, i], 8192)
+            return float(y.min()), float(y.max())
+        if self.method == "hbm" and self.coefficients is not None:
+            y = _series(self.coefficients[:, i], 8192)
+            return _refined_min(y), _refined_max(y)
+        y = self.trajectory().y[:, i]
+        return _refined_min(y), _refined_max(y)
+
+    def peak_to_peak(self, state: int | str = 0) -> float:
+        """``max - min`` of one state over the orbit."""
+        lo, hi = self.extrema(state)
+        return hi - lo
+
+    def to_dict(self, extrema: bool = True) -> dict[str, Any]:
+        """JSON-ready summary (multipliers as ``[re, im]`` pairs)."""
+        d: dict[str, Any] = {
+            "method": self.method,
+            "state_names": list(self.state_names),
+            "x0": [float(v) for v in self.x0],
+            "t0": self.t0,
+            "period": self.period,
+            "periods": self.periods,
+            "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
+            "max_multiplier": self.max_multiplier,
+            "monodromy": None if self.monodromy is None else self.monodromy.tolist(),
+            "stable": bool(self.stable),
+            "converged": bool(self.converged),
+            "iterations": int(self.iterations),
+            "residual": float(self.residual),
+            "rattle_state": self.rattle_state,
+            "rattle_state_meaning": RATTLE_STATES.get(self.rattle_state) if self.rattle_state is not None
+            else None,
+            "segments": self.segments,
+            "harmonics": self.harmonics,
+            "n_events": len(self.events),
+            "params": dict(self.params),
+        }
+        if extrema:
+            lo, hi = self.extrema(0)
+            d["min"], d["max"] = lo, hi
+        for k in ("wall_s", "harmonic_growth", "rtol", "atol", "tol"):
+            if k in self.info:
+                d[k] = self.info[k]
+        return d
+
+
+def _series(c: np.ndarray, n: int) -> np.ndarray:
+    """Evaluate ``a0 + sum a_k cos + b_k sin`` on ``n`` points of one period."""
+    H = (len(c) - 1) // 2
+    th = 2 * np.pi * np.arange(n) / n
+    y = np.full(n, c[0])
+    for k in range(1, H + 1):
+        y += c[2 * k - 1] * np.cos(k * th) + c[2 * k] * np.sin(k * th)
+    return y
+
+
+def _refined_max(y: np.ndarray) -> float:
+    """Maximum of samples refined by a parabola through the top three points."""
+    i = int(np.argmax(y))
+    if 0 < i < len(y) - 1:
+        a, b, c = y[i - 1], y[i], y[i + 1]
+        den = a - 2 * b + c
+        if den < 0:
+            return float(b - 0.125 * (c - a) ** 2 / den)
+    return float(y[i])
+
+
+def _refined_min(y: np.ndarray) -> float:
+    return -_refined_max(-np.asarray(y))
+
+
+def rattle_state(system: System, x0: Sequence[float], t0: float, events: Sequence[Event],
+                 params: Mapping[str, float] | None = None) -> int | None:
+    """Classify the contact regime of a periodic orbit of a backlash model.
+
+    Uses the contact surfaces of the compiled model (``kind`` drive/back, as the
+    symbolic layer names them) and is exact in the events: the side of every
+    surface at ``t0`` plus every crossing along the period.
+
+    Returns
+    -------
+    int or None
+        0: the drive side is in contact all the time (no contact loss); 1: the
+        drive-side contact is lost (single-sided impacts, or no contact at all);
+        2: back-side contact occurs (double-sided impacts).  ``None`` if the model
+        has no contact surfaces.  With several meshes, the worst one counts.
+    """
+    surfaces = system.generated.surfaces
+    kinds = {s["name"]: (s.get("kind"), int(s.get("contact_sign", 0))) for s in surfaces}
+    if not any(k in ("drive", "back") for k, _ in kinds.values()):
+        return None
+    p = system.param_vector(params)
+    g = np.asarray(system.generated.casadi_function("gs_sw")(t0, np.asarray(x0, float), p)).ravel()
+    meshes: dict[str, dict[str, bool]] = {}
+    for j, s in enumerate(surfaces):
+        kind, sign = kinds[s["name"]]
+        if kind not in ("drive", "back"):
+            continue
+        mesh = s["name"].rsplit(".", 1)[0]
+        st = meshes.setdefault(mesh, {"drive_always": True, "drive_ever": False, "back_ever": False})
+        in_contact = (g[j] > 0) if sign > 0 else (g[j] < 0)
+        crossed = any(e.surface == s["name"] for e in events)
+        if kind == "drive":
+            st["drive_ever"] |= bool(in_contact or crossed)
+            st["drive_always"] &= bool(in_contact and not crossed)
+        else:
+            st["back_ever"] |= bool(in_contact or crossed)
+    worst = 0
+    for st in meshes.values():
+        code = 2 if st["back_ever"] else (0 if st["drive_always"] else 1)
+        worst = max(worst, code)
+    return worst
+
+
+def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: float, t0: float,
+                 monodromy: np.ndarray | None, iterations: int, residual: float, converged: bool,
+                 method: str, params: Mapping[str, float], events: Sequence[Event], **extra: Any
+                 ) -> PeriodicOrbit:
+    """Assemble a :class:`PeriodicOrbit` (multipliers, verdict, rattle state)."""
+    mults = floquet_multipliers(monodromy) if monodromy is not None else np.zeros(0, complex)
+    stable = bool(len(mults) and np.max(np.abs(mults)) < 1.0)
+    rs = rattle_state(system, x0, t0, events, params)
+    return PeriodicOrbit(x0=np.asarray(x0, float), period=float(period), periods=float(periods),
+                         t0=float(t0), monodromy=monodromy, multipliers=mults, stable=stable,
+                         iterations=int(iterations), residual=float(residual), converged=bool(converged),
+                         method=method, state_names=system.state_names, params=dict(params),
+                         rattle_state=rs, events=list(events), system=system, **extra)
+
+
+def periodic_orbit(system: System, period: float | None = None, periods: float = 1,
+                   x0: Sequence[float] | None = None, method: str = "shooting",
+                   params: Mapping[str, float] | None = None, **options: Any) -> PeriodicOrbit:
+    """Find a periodic orbit of a compiled system.
+
+    Parameters
+    ----------
+    system
+        The compiled system.
+    period
+        Period of the orbit; default ``periods`` times the forcing period.
+    periods
+        Number of forcing periods the orbit spans (``k`` for a period-``k`` orbit).
+    x0
+        Initial guess of the state at ``t0`` (shooting) or the starting point of
+        the harmonic balance's initial guess; default: the scene's initial state
+        after a transient (shooting) / a harmonic-balance continuation in the
+        number of harmonics (hbm).
+    method
+        ``"shooting"`` (single or multiple shooting, ``segments=N``) or ``"hbm"``
+        (harmonic balance, ``harmonics=H`` or grown until converged).
+    params
+        Parameter overrides (SI).
+    **options
+        Passed on to :func:`gearsym.analysis.shooting.shoot` or
+        :func:`gearsym.analysis.hbm.harmonic_balance`.
+
+    Returns
+    -------
+    PeriodicOrbit
+    """
+    if method == "shooting":
+        from .shooting import shoot
+
+        return shoot(system, period=period, periods=periods, x0=x0, params=params, **options)
+    if method == "hbm":
+        from .hbm import harmonic_balance
+
+        return harmonic_balance(system, period=period, periods=periods, x0=x0, params=params, **options)
+    raise ParameterError(f"method must be 'shooting' or 'hbm', got '{method}'")

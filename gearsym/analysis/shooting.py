@@ -1,0 +1,297 @@
+"""Shooting: periodic orbits by damped Newton on ``phi(t0 + P, t0, x0) - x0``.
+
+Single shooting integrates one orbit period ``P`` (``periods`` forcing periods)
+with the variational equations in the C engine, which returns the monodromy
+``M = d phi / d x0`` including the saltation matrices at every crossing of a
+switching surface where the vector field jumps (e.g. mesh damping acting only in
+contact); the Newton matrix is ``M - I``.
+
+Multiple shooting splits the period into ``segments`` pieces
+``t0 = s_0 < s_1 < ... < s_N = t0 + P``; the unknowns are the states ``X_i`` at
+``s_i`` and the residuals ``phi(s_{i+1}, s_i, X_i) - X_{i+1}`` (cyclically,
+``X_N = X_0``).  The monodromy is the product of the segment monodromies, which
+keeps the Floquet multipliers accurate for long periods (each segment's
+variational equations start from the identity, so the integrator's tolerance is
+relative to each segment's growth, not to the whole period's).
+
+The Newton step is damped (halved until the residual norm decreases; a failed
+integration also halves it); when no step helps or the iteration budget is spent
+a :class:`~gearsym.errors.ConvergenceError` reports the residual history, the
+last iterate and what to try.  For implicit (IDA) models the monodromy comes from
+central finite differences of the flow.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..errors import ConvergenceError, GearsymError, ParameterError
+from .floquet import monodromy_product
+from .orbit import PeriodicOrbit, finish_orbit
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..results import Event
+    from ..system import System
+
+__all__ = ["flow", "shoot"]
+
+
+def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mapping[str, float] | None,
+         rtol: float, atol: float, jacobian: bool = True, fd_step: float = 1e-6,
+         method: str | None = None) -> tuple[np.ndarray, np.ndarray | None, list[Event]]:
+    """The flow map ``phi(t1, t0, x)``, its Jacobian and the events on the way.
+
+    The Jacobian is the engine's variational monodromy (explicit models) or
+    central finite differences with step ``fd_step * max(1, |x_j|)`` (implicit models).
+    """
+    x = np.asarray(x, float)
+    implicit = system.generated.implicit
+    tr = system.simulate(t_end=t1, t0=t0, x0=x, rtol=rtol, atol=atol, n_out=2, params=params,
+                         monodromy=bool(jacobian and not implicit), method=method)
+    M = tr.monodromy
+    if jacobian and implicit:
+        n = len(x)
+        M = np.empty((n, n))
+        for j in range(n):
+            h = fd_step * max(1.0, abs(x[j]))
+            e = np.zeros(n)
+            e[j] = h
+            xp = system.simulate(t_end=t1, t0=t0, x0=x + e, rtol=rtol, atol=atol, n_out=2,
+                                 params=params, method=method).x_final
+            xm = system.simulate(t_end=t1, t0=t0, x0=x - e, rtol=rtol, atol=atol, n_out=2,
+                                 params=params, method=method).x_final
+            M[:, j] = (xp - xm) / (2 * h)
+    return np.asarray(tr.x_final, float), M, list(tr.events)
+
+
+def _segment_times(t0: float, P: float, segments: int) -> np.ndarray:
+    s = t0 + P * np.arange(segments + 1) / segments
+    s[-1] = t0 + P
+    return s
+
+
+def shoot(system: System, period: float | None = None, periods: float = 1,
+          x0: Sequence[float] | None = None, params: Mapping[str, float] | None = None, *,
+          segments: int = 1, t0: float = 0.0, transient: float | None = None, tol: float = 1e-10,
+          rtol: float = 1e-11, atol: float = 1e-13, max_iter: int = 50, min_step: float = 2.0 ** -12,
+          raise_on_failure: bool = True, method: str | None = None,
+          relax_periods: float = 200) -> PeriodicOrbit:
+    """Find a periodic orbit by (multiple) shooting with damped Newton.
+
+    Parameters
+    ----------
+    system
+        The compiled system.
+    period
+        Orbit period; default ``periods`` forcing periods.
+    periods
+        Number of forcing periods of the orbit (period-``k`` orbit).
+    x0
+        Initial guess of the state at ``t0``.  Default: the scene's initial state
+        after ``transient`` periods.
+    params
+        Parameter overrides (SI).
+    segments
+        Number of shooting segments (1: single shooting).
+    t0
+        Phase of the orbit's reference state (a multiple of the forcing period).
+    transient
+        Number of forcing periods to integrate before Newton (default: 0 when
+        ``x0`` is given, else the scene's ``transient_periods`` or 20), ending at a
+        time congruent to ``t0``.
+    tol
+        Convergence: ``max |residual| <= tol * max(1, max |x|)``.
+    rtol, atol
+        Integrator tolerances (the variational equations use them too).
+    max_iter
+        Newton iteration limit.
+    min_step
+        Smallest damping factor tried before giving up.
+    raise_on_failure
+        Raise :class:`ConvergenceError` if Newton fails (else return the last
+        iterate with ``converged=False``).
+    method
+        Integrator (``"bdf"``, ``"adams"``; ``"ida"`` for implicit models).
+    relax_periods
+        When the damped Newton step cannot reduce the residual, integrate blocks
+        of forcing periods from the current iterate (this converges towards an
+        attracting orbit) and resume Newton, up to this many periods in all
+        (0: never; unstable orbits need a good ``x0`` instead).
+
+    Returns
+    -------
+    PeriodicOrbit
+
+    Raises
+    ------
+    ConvergenceError
+        Newton did not converge (message: residual history, last iterate, advice).
+    SimulationError
+        The first integration already fails.
+    """
+    wall = time.perf_counter()
+    T = system.period(params)
+    if period is None:
+        if not T:
+            raise ParameterError("the scene has no forcing period: give period= (autonomous orbits "
+                                 "need a phase condition, not supported by shooting yet)")
+        period = float(periods) * T
+    else:
+        period = float(period)
+        periods = period / T if T else 1.0
+    if not (math.isfinite(period) and period > 0):
+        raise ParameterError(f"orbit period must be finite and > 0, got {period}")
+    segments = int(segments)
+    if segments < 1:
+        raise ParameterError(f"segments must be >= 1, got {segments}")
+    nx = system.generated.nx
+
+    # ---------------------------------------------------------------- initial guess
+    guess = system.x0 if x0 is None else np.asarray(x0, float)
+    if guess.shape != (nx,):
+        raise ParameterError(f"x0 must have {nx} entries ({', '.join(system.state_names)}), got {guess.shape}")
+    if transient is None:
+        transient = 0 if x0 is not None else float(system.defaults.get("transient_periods", 20))
+    Tt = T if T else period
+    if transient and transient > 0:
+        n_tr = max(1, int(math.ceil(transient)))
+        tr = system.simulate(t_end=t0, t0=t0 - n_tr * Tt, x0=guess, rtol=max(rtol, 1e-9),
+                             atol=max(atol, 1e-11), n_out=2, params=params, method=method)
+        guess = tr.x_final
+    s = _segment_times(t0, period, segments)
+    if segments == 1:
+        X = guess[None, :].copy()
+    else:
+        tr = system.simulate(t_end=s[-1], t0=s[0], x0=guess, rtol=max(rtol, 1e-9), atol=max(atol, 1e-11),
+                             t_out=s, params=params, method=method)
+        X = np.array(tr.y[:-1], float)
+
+    # ---------------------------------------------------------------- residual
+    def evaluate(X: np.ndarray, jac: bool = True):
+        xs, Ms, evs = [], [], []
+        for i in range(segments):
+            xe, M, ev = flow(system, X[i], s[i], s[i + 1], params, rtol, atol, jacobian=jac, method=method)
+            xs.append(xe)
+            Ms.append(M)
+            evs.extend(ev)
+        R = np.array([xs[i] - X[(i + 1) % segments] for i in range(segments)])
+        return R, Ms, evs
+
+    def scale_of(X: np.ndarray) -> float:
+        return max(1.0, float(np.max(np.abs(X))))
+
+    def _relax(X: np.ndarray, n_periods: int) -> np.ndarray:
+        tr = system.simulate(t_end=s[0], t0=s[0] - n_periods * Tt, x0=X[0], rtol=max(rtol, 1e-9),
+                             atol=max(atol, 1e-11), n_out=2, params=params, method=method)
+        x = tr.x_final
+        if segments == 1:
+            return x[None, :].copy()
+        tr = system.simulate(t_end=s[-1], t0=s[0], x0=x, rtol=max(rtol, 1e-9), atol=max(atol, 1e-11),
+                             t_out=s, params=params, method=method)
+        return np.array(tr.y[:-1], float)
+
+    relaxed = 0
+    relax_block = max(1, int(math.ceil(10 * max(1.0, float(periods)))))
+    history: list[dict[str, Any]] = []
+    R, Ms, evs = evaluate(X)
+    rnorm = float(np.max(np.abs(R)))
+    history.append({"iteration": 0, "residual": rnorm, "step": None})
+    converged = rnorm <= tol * scale_of(X)
+    it = 0
+    failure = ""
+    while not converged and it < max_iter:
+        it += 1
+        n = segments * nx
+        J = np.zeros((n, n))
+        for i in range(segments):
+            J[i * nx:(i + 1) * nx, i * nx:(i + 1) * nx] = Ms[i]
+            k = (i + 1) % segments
+            J[i * nx:(i + 1) * nx, k * nx:(k + 1) * nx] -= np.eye(nx)
+        rhs = -R.ravel()
+        try:
+            dz = np.linalg.solve(J, rhs)
+            if not np.all(np.isfinite(dz)):
+                raise np.linalg.LinAlgError
+        except np.linalg.LinAlgError:
+            dz = np.linalg.lstsq(J, rhs, rcond=None)[0]
+        dX = dz.reshape(segments, nx)
+        lam = 1.0
+        accepted = False
+        last_err = ""
+        while lam >= min_step:
+            Xn = X + lam * dX
+            try:
+                Rn, Msn, evsn = evaluate(Xn)
+                rn = float(np.max(np.abs(Rn)))
+                ok = math.isfinite(rn) and rn < (1.0 - 1e-4 * lam) * rnorm
+            except GearsymError as exc:
+                ok = False
+                last_err = str(exc)
+            if ok:
+                accepted = True
+                break
+            lam *= 0.5
+        if not accepted:
+            step_norm = float(np.max(np.abs(dX)))
+            # at the integration noise floor a tiny Newton step cannot reduce the residual any more
+            if step_norm <= 10 * tol * scale_of(X) and rnorm <= 1e3 * tol * scale_of(X):
+                converged = True
+                history.append({"iteration": it, "residual": rnorm, "step": 0.0,
+                                "note": "noise floor: Newton step below tolerance"})
+                break
+            if relaxed < relax_periods:
+                # Newton is stuck in a local minimum of the residual (the flow map of a
+                # nonsmooth system is far from linear over large distances): integrate
+                # a block of forcing periods (contracts towards an attracting orbit),
+                # then resume Newton from there
+                n_blk = int(min(relax_block, relax_periods - relaxed))
+                try:
+                    X = _relax(X, n_blk)
+                    R, Ms, evs = evaluate(X)
+                except GearsymError as exc:
+                    failure = f"relaxation by integration failed: {exc}"
+                    break
+                relaxed += n_blk
+                rnorm = float(np.max(np.abs(R)))
+                history.append({"iteration": it, "residual": rnorm, "step": None,
+                                "note": f"Newton stalled: integrated {n_blk} forcing periods"})
+                converged = rnorm <= tol * scale_of(X)
+                continue
+            failure = ("the damped Newton step does not reduce the residual (tried down to a factor "
+                       f"{min_step:g}, after {relaxed} forcing periods of relaxation by integration)"
+                       + (f"; last integration error: {last_err}" if last_err else ""))
+            break
+        X, R, Ms, evs, rnorm = Xn, Rn, Msn, evsn, rn
+        history.append({"iteration": it, "residual": rnorm, "step": lam})
+        converged = rnorm <= tol * scale_of(X)
+        if not converged and lam == 1.0 and float(np.max(np.abs(dX))) <= 0.1 * tol * scale_of(X):
+            converged = rnorm <= 1e3 * tol * scale_of(X)
+    if not converged and not failure:
+        failure = f"no convergence in max_iter={max_iter} Newton iterations"
+    mono = monodromy_product(Ms) if all(M is not None for M in Ms) else None
+    wall = time.perf_counter() - wall
+    if not converged and raise_on_failure:
+        hist = ", ".join(f"{h['residual']:.3g}" for h in history[-12:])
+        raise ConvergenceError(
+            f"shooting did not converge for the orbit of period {period:.6g} ({periods:g} forcing "
+            f"period(s), {segments} segment(s)): {failure}. Residual history (max |phi(T,x0)-x0|): "
+            f"[{hist}]; last x0 = {np.array2string(X[0], precision=8)}. Try a better initial guess "
+            f"(x0=..., or transient=<more periods>), more segments (segments=N) for long or unstable "
+            f"orbits, or method='hbm'.")
+    orbit = finish_orbit(
+        system, x0=X[0].copy(), period=period, periods=periods, t0=t0, monodromy=mono, iterations=it,
+        residual=rnorm, converged=converged, method="shooting", params=_params_used(system, params),
+        events=evs, segments=segments, segment_states=X.copy(),
+        segment_monodromies=[np.asarray(M) for M in Ms if M is not None], history=history,
+        info={"rtol": rtol, "atol": atol, "tol": tol, "wall_s": wall, "failure": failure or None})
+    return orbit
+
+
+def _params_used(system: System, params: Mapping[str, float] | None) -> dict[str, float]:
+    p = system.param_vector(params)
+    return {k: float(v) for k, v in zip(system.param_names, p, strict=True)}

@@ -1,0 +1,91 @@
+"""Build helpers, loading, ABI check, thread safety."""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+from gearsym.engine.build import ENGINE_DIR, build_shared_object, content_hash, find_sundials_libs
+from gearsym.engine.driver import GsSimArgs, load_engine
+from gearsym.engine.errors import EngineABIError, EngineBuildError
+from gearsym.errors import CompileError
+
+
+def test_find_sundials_libs():
+    sl = find_sundials_libs()
+    names = " ".join(p.name for p in sl.libs)
+    for stem in ("core", "cvode", "ida", "nvecserial", "sunmatrixdense", "sunlinsoldense"):
+        assert f"libsundials_{stem}-" in names
+    assert all(p.parent == sl.libdir for p in sl.libs)
+
+
+def test_driver_sources_are_package_files():
+    for f in ("gs_driver.c", "gs_driver.h", "gs_model_abi.h", "sundials7.h"):
+        assert (ENGINE_DIR / f).is_file()
+
+
+def test_build_failure_reports_compiler_stderr(tmp_path):
+    src = tmp_path / "bad.c"
+    src.write_text("int f(void) { return this_is_not_declared; }\n")
+    with pytest.raises(EngineBuildError, match="this_is_not_declared") as ei:
+        build_shared_object([src], [], tmp_path / "bad.so")
+    assert isinstance(ei.value, CompileError)
+    assert not (tmp_path / "bad.so").exists()
+    assert not list(tmp_path.glob(".bad.so.*"))  # no temporary left behind
+
+
+def test_content_hash_changes_with_content(tmp_path):
+    a = tmp_path / "a.c"
+    a.write_text("x")
+    h1 = content_hash([a])
+    a.write_text("y")
+    assert content_hash([a]) != h1
+    assert content_hash([a], "flags") != content_hash([a])
+
+
+def test_load_checks(backlash_engine, tmp_path):
+    assert backlash_engine.sundials_version.startswith("7.")
+    assert backlash_engine._lib.gs_sizeof_args() == __import__("ctypes").sizeof(GsSimArgs)
+    assert (backlash_engine.nx, backlash_engine.np, backlash_engine.nsw, backlash_engine.nsched) == (
+        2,
+        6,
+        2,
+        0,
+    )
+    with pytest.raises(EngineABIError, match="cannot load"):
+        load_engine(tmp_path / "missing.so")
+
+
+def test_parallel_threads_give_identical_results(backlash_engine):
+    """No global state in the driver: concurrent runs (GIL released) agree
+    with sequential ones."""
+    Om = 0.8
+    cases = [[0.05, 0.2, Om, 0.1, Fa, 1.0] for Fa in (0.3, 0.6, 1.0, 0.05)] * 2
+    t_out = np.linspace(0, 100, 11)
+
+    def run(p):
+        return backlash_engine.run([1.1, 0.0], p, 0.0, 100.0, t_out, want_monodromy=True)
+
+    seq = [run(p) for p in cases]
+    with ThreadPoolExecutor(4) as ex:
+        par = list(ex.map(run, cases))
+    for a, b in zip(seq, par, strict=True):
+        np.testing.assert_array_equal(a.y, b.y)
+        np.testing.assert_array_equal(a.monodromy, b.monodromy)
+        np.testing.assert_array_equal(a.events.t, b.events.t)
+
+
+def test_missing_model_function_is_a_clear_error(tmp_path):
+    """Model functions are weak symbols in the driver: a model without gs_jac
+    loads, and running it gives a message naming the missing function."""
+    import casadi as ca
+    from conftest import backlash_exprs, compile_model
+
+    from gearsym.engine.errors import EngineInputError
+
+    t, x, p, m, g, F = backlash_exprs()
+    eng = compile_model(tmp_path, t=t, x=x, p=p, m=m, g=g, rhs=ca.vertcat(x[1], F), omit=("gs_jac",))
+    with pytest.raises(EngineInputError, match="lacks the function gs_jac"):
+        eng.run([1.1, 0.0], [0.05, 0.2, 0.8, 0.1, 1.0, 1.0], 0.0, 1.0)
