@@ -33,7 +33,7 @@ def test_inspect_json_fields():
     assert info["model"] == "kahraman_singh"
     assert info["states"] == ["x", "v"]
     assert info["parameters"]["Omega"]["value"] == 0.9
-    assert set(info["effects"]) == {"backlash", "mesh_stiffness_variation", "static_transmission_error"}
+    assert {"backlash", "mesh_stiffness_variation", "static_transmission_error"} <= set(info["effects"])
     assert [s["name"] for s in info["switching_functions"]] == ["mesh.drive", "mesh.back"]
     assert [m["name"] for m in info["modes"]] == ["mesh: drive-side contact", "mesh: separation",
                                                   "mesh: back-side contact"]

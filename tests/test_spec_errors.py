@@ -29,7 +29,7 @@ def _scene(tmp_path: Path, model: Path, extra: str = "") -> Path:
 
 CASES = [
     # (description, substitution on the KS model text, expected field, expected words)
-    ("unknown symbol", ('damping = "2*zeta"', 'damping = "2*zetta"'), "elements.mesh.damping",
+    ("unknown symbol", ('value = "1"\n', 'value = "1 + zetta"\n'), "elements.inertia.value",
      "unknown symbol 'zetta'"),
     ("unit mismatch", ('zeta  = { value = 0.05, meaning', 'zeta  = { value = 0.05, unit = "N", meaning'),
      "elements.mesh.damping", "unit mismatch"),
@@ -39,9 +39,9 @@ CASES = [
      "elements.mesh.backlash", "effect 'backlasch' is not in the model"),
     ("duplicate name", ('velocity = "v"', 'velocity = "x"'), "coordinates.x.velocity", "duplicate name 'x'"),
     ("wrong type", ('value = "1"\n', "value = true\n"), "elements.inertia.value", "wrong type"),
-    ("syntax error in expression", ('damping = "2*zeta"', 'damping = "2*(zeta"'), "elements.mesh.damping",
+    ("syntax error in expression", ('value = "1"\n', 'value = "(1"\n'), "elements.inertia.value",
      "syntax error"),
-    ("unknown function", ('damping = "2*zeta"', 'damping = "2*foo(zeta)"'), "elements.mesh.damping",
+    ("unknown function", ('value = "1"\n', 'value = "foo(1)"\n'), "elements.inertia.value",
      "unknown function 'foo'"),
     ("unknown element type", ('type = "mesh"', 'type = "gearmesh"'), "elements.mesh.type",
      "unknown element type"),

@@ -151,12 +151,17 @@ class HarmonicBalance:
         X = self.samples_of(C)
         Jm = np.asarray(self._jac(self.t[None, :], X.T, self._P, self._modes(X)))  # (nx, nx*M)
         Jm = Jm.reshape(self.nx, self.M, self.nx).transpose(1, 0, 2)  # (M, i, j)
-        # block (i, j) = D*delta_ij - Ep diag(J_ij) E
-        G = np.einsum("km,mij,ml->ikjl", self.Ep, Jm, self.E)
-        n = self.nx * self.nc
-        Jr = -G.reshape(n, n)
+        # block (i, j) = D*delta_ij - Ep diag(J_ij) E   (BLAS products per block)
+        nc = self.nc
+        n = self.nx * nc
+        Jr = np.zeros((n, n))
         for i in range(self.nx):
-            Jr[i * self.nc:(i + 1) * self.nc, i * self.nc:(i + 1) * self.nc] += self.D
+            for j in range(self.nx):
+                col = Jm[:, i, j]
+                if not np.any(col):
+                    continue
+                Jr[i * nc:(i + 1) * nc, j * nc:(j + 1) * nc] = -(self.Ep @ (col[:, None] * self.E))
+            Jr[i * nc:(i + 1) * nc, i * nc:(i + 1) * nc] += self.D
         return Jr
 
     @staticmethod
@@ -167,12 +172,17 @@ class HarmonicBalance:
         return z.reshape(self.nx, self.nc).T
 
     # --------------------------------------------------------------- solve
-    def solve(self, C0: np.ndarray, tol: float = 1e-10, max_iter: int = 100
+    def solve(self, C0: np.ndarray, tol: float = 1e-10, max_iter: int = 100, floor_tol: float = 0.0
               ) -> tuple[np.ndarray, int, float, bool, list[dict[str, Any]], str]:
         """Quasi-Newton (Broyden) solve from ``C0``.
 
+        ``floor_tol``: when no damped step reduces the residual any more but it is
+        below ``floor_tol * max(1, max|C|)``, accept it (``self.floor = True``):
+        the residual floor of a discontinuous vector field.
+
         Returns ``(C, iterations, residual, converged, history, failure)``.
         """
+        self.floor = False
         z = self._flat(np.asarray(C0, float))
         R = self._flat(self.residual(self._unflat(z)))
         r = float(np.max(np.abs(R)))
@@ -210,6 +220,13 @@ class HarmonicBalance:
                     fresh = True
                     history.append({"iteration": it, "residual": r, "jacobian": True, "note": "refresh"})
                     continue
+                if r <= floor_tol * scale(z):
+                    # a vector field that jumps across a switching surface makes the AFT
+                    # residual jump whenever a sample changes side: the residual has a
+                    # floor of the order of (jump)/M that no step can go below
+                    self.floor = True
+                    history.append({"iteration": it, "residual": r, "note": "residual floor"})
+                    break
                 failure = "the damped quasi-Newton step does not reduce the residual"
                 break
             s = zn - z
@@ -224,7 +241,7 @@ class HarmonicBalance:
                 J = J + np.outer(y - J @ s, s) / float(s @ s)
                 fresh = False
             history.append({"iteration": it, "residual": r, "step": lam, "jacobian": fresh})
-        conv = r <= tol * scale(z)
+        conv = r <= tol * scale(z) or self.floor
         if not conv and not failure:
             failure = f"no convergence in {max_iter} quasi-Newton iterations"
         return self._unflat(z), it, r, conv, history, failure
@@ -252,7 +269,8 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
                      samples: int | None = None, t0: float = 0.0, tol: float = 1e-10, max_iter: int = 100,
                      guess: np.ndarray | PeriodicOrbit | None = None, monodromy: bool = True,
                      rtol: float = 1e-11, atol: float = 1e-13, raise_on_failure: bool = True,
-                     initial_guess: str = "auto", transient: float = 50) -> PeriodicOrbit:
+                     initial_guess: str = "auto", transient: float = 50, floor_tol: float = 1e-5
+                     ) -> PeriodicOrbit:
     """Find a periodic orbit by harmonic balance (AFT + quasi-Newton).
 
     Parameters
@@ -297,6 +315,12 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
         the residual, e.g. below an impacting orbit).
     transient
         Forcing periods simulated for the ``"simulation"`` guess.
+    floor_tol
+        Accept a residual that no damped step can reduce if it is below
+        ``floor_tol * max(1, max|C|)``: with a vector field that jumps across a
+        switching surface (mesh damping only in contact) the AFT residual jumps
+        whenever a sample changes side and has a floor of order jump/samples.
+        Recorded as ``"residual floor"`` in the history.
 
     Returns
     -------
@@ -374,7 +398,8 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
         h_conv = harmonics is not None
         for H in sequence:
             hb = HarmonicBalance(system, period, H, params, t0, samples)
-            C, it, r, conv, hist, failure = hb.solve(_pad(C, H), tol=tol, max_iter=max_iter)
+            C, it, r, conv, hist, failure = hb.solve(_pad(C, H), tol=tol, max_iter=max_iter,
+                                                     floor_tol=floor_tol)
             total_it += it
             history += [dict(h, harmonics=H) for h in hist]
             if not conv:
