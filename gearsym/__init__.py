@@ -9,8 +9,7 @@ event-exact simulation through SUNDIALS.
 >>> traj = scene.compile().simulate(periods=200)               # doctest: +SKIP
 """
 
-from .errors import (CompileError, ConvergenceError, GearsymError, ParameterError, SimulationError,
-                     SpecError)
+from .errors import CompileError, ConvergenceError, GearsymError, ParameterError, SimulationError, SpecError
 from .facade import Scene, load_scene
 from .results import Event, Trajectory
 

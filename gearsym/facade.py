@@ -74,7 +74,7 @@ class Scene:
         """Initial state from the model and scene ``[initial]`` tables (SI units)."""
         return [self.resolved.initial[s] for s in self.resolved.state_names()]
 
-    def compile(self, generated_dir: str | Path | None = None, force: bool = False) -> "System":  # noqa: F821
+    def compile(self, generated_dir: str | Path | None = None, force: bool = False) -> System:  # noqa: F821
         """Generate C, compile it (or reuse the cached build) and bind it to the engine.
 
         Parameters

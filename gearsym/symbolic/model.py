@@ -154,7 +154,7 @@ class SymbolicModel:
                 continue
             w = f"elements.{el.name}"
 
-            def field(key: str) -> sp.Expr:
+            def field(key: str, el=el) -> sp.Expr:
                 return ns.sum_terms(el.fields.get(key, ()), el.effect, el.variant)
 
             if el.coordinate is not None and el.coordinate not in index:
@@ -307,7 +307,7 @@ class SymbolicModel:
             out.append(Mode(f"{el}: separation",
                             " and ".join(f"not ({c})" for c in conds.values())))
             out.append(Mode(f"{el}: back-side contact", conds.get("back", "")))
-        for j, g in enumerate(self.switching):
+        for g in self.switching:
             if g.kind == "switch":
                 out += [Mode(f"{g.name}: g > 0", f"{sp.sstr(g.expr)} > 0"),
                         Mode(f"{g.name}: g < 0", f"{sp.sstr(g.expr)} < 0")]

@@ -105,12 +105,15 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
         return s < 0
 
     def smooth_out(expr: sp.Expr) -> sp.Expr:
-        # rewrite nonsmooth functions of states as Piecewise so that their kinks are surfaces
+        # rewrite nonsmooth functions of states as Piecewise so that their kinks are surfaces;
+        # not inside conditions: a continuous nonsmooth switching function (e.g. a contact
+        # condition x > B(state) whose B has a Max) stays ONE surface -- rewriting it would
+        # make sympy split the condition into ITE branches, i.e. spurious extra surfaces
         def fix(e: sp.Basic) -> sp.Basic:
             if isinstance(e, _NONSMOOTH) and (e.free_symbols & states):
                 return e.rewrite(sp.Piecewise)
             return e
-        return _bottom_up(expr, fix)
+        return _bottom_up(expr, fix, skip=Relational)
 
     def modalise(expr: sp.Expr) -> sp.Expr:
         expr = smooth_out(expr)
@@ -144,10 +147,13 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
     return ModalForm(rhs, forces, surfaces, sigma, used)
 
 
-def _bottom_up(expr: sp.Basic, fn) -> sp.Basic:
-    """Apply ``fn`` to every node, children first (like sympy's bottom_up)."""
+def _bottom_up(expr: sp.Basic, fn, skip: type | tuple[type, ...] = ()) -> sp.Basic:
+    """Apply ``fn`` to every node, children first (like sympy's bottom_up); nodes of
+    the types ``skip`` are left as they are, with their subtrees."""
+    if skip and isinstance(expr, skip):
+        return expr
     if expr.args:
-        new_args = [_bottom_up(a, fn) for a in expr.args]
+        new_args = [_bottom_up(a, fn, skip) for a in expr.args]
         if any(a is not b for a, b in zip(new_args, expr.args)):
             try:
                 expr = expr.func(*new_args)

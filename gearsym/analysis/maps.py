@@ -1,0 +1,435 @@
+"""Two-parameter stability / response maps (Vaishya & Singh Figs. 5 and 10).
+
+:func:`stability_map` evaluates, on a grid over two run-time parameters, the
+maximum Floquet multiplier modulus ``max |mu|`` of the periodic orbit (the
+stability parameter lambda of V&S section 6), the peak-to-peak of the first
+state over the orbit, and the rattle state, and returns an ``xarray.Dataset``;
+:func:`save_map` writes it to netCDF with a heat-map PNG.
+
+Per grid point the method is
+
+* ``"exact"``: the monodromy as a product of matrix exponentials
+  (:class:`~gearsym.analysis.floquet.PiecewiseLTV`), for linear systems with
+  piecewise-constant coefficients (V&S formulation A, Meissner);
+* ``"shooting"``: the periodic orbit by Newton shooting and its monodromy from the
+  engine's variational equations (any explicit model; for a linear system the
+  orbit solve is one Newton step);
+* ``"hbm"``: harmonic balance;
+* ``"auto"`` (default): ``"exact"`` where the system is piecewise-constant LTV, else
+  ``"shooting"``.
+
+The grid is cut into rows (tasks, each a sweep in ``x`` that starts every Newton
+solve from the previous point's orbit) and run on all local cores by default
+(a process pool) or on a Dask cluster when a scheduler address (or a
+``distributed.Client``) is passed: both go through the same
+``concurrent.futures.Executor.map`` call with the same task function, and the
+workers rebuild the compiled system from its picklable recipe (the build meta
+data; the scene is recompiled if the shared object is not on the worker).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from collections.abc import Mapping, Sequence
+from concurrent.futures import Executor, ProcessPoolExecutor
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..errors import GearsymError, ParameterError
+
+if TYPE_CHECKING:  # pragma: no cover
+    import xarray as xr
+
+    from ..facade import Scene
+    from ..system import System
+
+__all__ = ["QUANTITIES", "save_map", "stability_map"]
+
+#: Quantities a map can show (all are stored; ``quantity`` picks the plotted one).
+QUANTITIES: dict[str, str] = {
+    "max_multiplier": "maximum Floquet multiplier modulus max|mu| (unstable > 1)",
+    "peak_to_peak": "peak-to-peak of the first state over the periodic orbit",
+    "rattle_state": "0 no contact loss, 1 contact loss only, 2 back-side contact",
+}
+
+_SYSTEMS: dict[str, System] = {}
+
+
+# ------------------------------------------------------------------ recipes
+def _recipe(system: System, scene: Scene | None) -> dict[str, Any]:
+    rec: dict[str, Any] = {
+        "meta": system.generated.to_json(),
+        "params": dict(system.params),
+        "x0": [float(v) for v in system.x0],
+        "defaults": dict(system.defaults),
+        "name": system.name,
+        "scene": None,
+    }
+    if scene is not None:
+        rec["scene"] = {"path": str(Path(scene.path).resolve()),
+                        "effects": {k: v for k, v in scene.resolved.effects.items()},
+                        "values": dict(scene.resolved.values)}
+    return rec
+
+
+def _system_from(rec: Mapping[str, Any]) -> System:
+    from ..codegen.generate import GeneratedModel
+    from ..system import System
+
+    gen = GeneratedModel.from_json(rec["meta"])
+    key = f"{gen.so_path}|{json.dumps(rec['params'], sort_keys=True)}"
+    if key in _SYSTEMS:
+        return _SYSTEMS[key]
+    if not Path(gen.so_path).exists():
+        if rec.get("scene") is None:
+            raise GearsymError(f"the compiled model {gen.so_path} is not on this worker and no scene "
+                               f"is known to rebuild it")
+        from ..facade import load_scene
+
+        sc = rec["scene"]
+        scene = load_scene(sc["path"], effects=sc["effects"])
+        gen = scene.generate()
+    system = System(gen, rec["params"], rec["x0"], rec["defaults"], rec["name"])
+    _SYSTEMS[key] = system
+    return system
+
+
+# ----------------------------------------------------------------- one point
+def _point(system: System, params: dict[str, float], method: str, periods: float, guess: np.ndarray | None,
+           want_ptp: bool, options: Mapping[str, Any]) -> dict[str, Any]:
+    from .floquet import NotPiecewiseConstantError, PiecewiseLTV
+    from .orbit import periodic_orbit
+
+    out: dict[str, Any] = {"max_multiplier": math.nan, "peak_to_peak": math.nan, "rattle_state": -1,
+                           "converged": False, "iterations": 0, "method": method, "x0": None, "error": ""}
+    if method in ("auto", "exact"):
+        try:
+            ltv = PiecewiseLTV.from_system(system, params, periods=periods)
+            mu = ltv.multipliers()
+            out.update(max_multiplier=float(np.max(np.abs(mu))), converged=True, method="exact")
+            if want_ptp:
+                if ltv.B is None:
+                    out["peak_to_peak"] = 0.0
+                else:
+                    x0 = ltv.periodic_state()
+                    t = np.linspace(ltv.times[0], ltv.times[-1], 257)
+                    _, y = ltv.propagate(x0, t)
+                    out["peak_to_peak"] = float(np.ptp(y[:, 0]))
+            return out
+        except NotPiecewiseConstantError as exc:
+            if method == "exact":
+                out["error"] = str(exc)
+                return out
+        method = "shooting"
+        out["method"] = method
+    opts = dict(options)
+    if method == "shooting":
+        opts.setdefault("transient", 0 if guess is not None else None)
+    orbit = None
+    for attempt in range(2):
+        try:
+            orbit = periodic_orbit(system, periods=periods, x0=guess, method=method, params=params, **opts)
+            break
+        except GearsymError as exc:
+            out["error"] = str(exc)
+            if attempt == 0 and guess is not None:
+                guess = None  # retry from the scene's initial state (with a transient)
+                opts.pop("transient", None)
+                continue
+            return out
+    assert orbit is not None
+    out.update(max_multiplier=orbit.max_multiplier, converged=bool(orbit.converged),
+               iterations=orbit.iterations, x0=orbit.x0.tolist(), error="",
+               rattle_state=-1 if orbit.rattle_state is None else int(orbit.rattle_state))
+    if want_ptp:
+        try:
+            out["peak_to_peak"] = orbit.peak_to_peak(0) if method == "hbm" else float(
+                np.ptp(orbit.trajectory(n_out=513).y[:, 0]))
+        except GearsymError:
+            pass
+    return out
+
+
+def _run_chunk(recipe: Mapping[str, Any], task: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """Task function (module level, picklable): one run of grid points in x."""
+    system = _system_from(recipe)
+    base = dict(recipe["params"])
+    guess = None
+    res = []
+    for (xv, yv) in task["points"]:
+        params = dict(base)
+        params[task["xname"]] = float(xv)
+        params[task["yname"]] = float(yv)
+        r = _point(system, params, task["method"], task["periods"], guess, task["want_ptp"], task["options"])
+        if r["converged"] and r["x0"] is not None and np.all(np.isfinite(r["x0"])):
+            guess = np.asarray(r["x0"], float)
+        res.append(r)
+    return res
+
+
+def _apply_chunk(args: tuple[Mapping[str, Any], Mapping[str, Any]]) -> list[dict[str, Any]]:
+    return _run_chunk(*args)
+
+
+class _SerialExecutor(Executor):
+    """In-process executor (one worker, or tiny grids)."""
+
+    def map(self, fn, *iterables, timeout=None, chunksize=1):  # noqa: D102
+        return [fn(*a) for a in zip(*iterables, strict=True)]
+
+
+# ----------------------------------------------------------------- the map
+def _axis(spec: Sequence[Any], what: str) -> tuple[str, np.ndarray]:
+    if len(spec) != 4:
+        raise ParameterError(f"{what} must be (NAME, LO, HI, N), got {spec!r}")
+    name, lo, hi, n = spec
+    n = int(n)
+    lo, hi = float(lo), float(hi)
+    if n < 1 or not (math.isfinite(lo) and math.isfinite(hi)):
+        raise ParameterError(f"{what}: need finite LO, HI and N >= 1 (got {lo}, {hi}, {n})")
+    return str(name), np.linspace(lo, hi, n)
+
+
+def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
+                  quantity: str = "max_multiplier", *, method: str = "auto", periods: float = 1,
+                  params: Mapping[str, float] | None = None, dask: Any = None, workers: int | None = None,
+                  rows_per_task: int | None = None, orbit_options: Mapping[str, Any] | None = None,
+                  units: str | None = None) -> xr.Dataset:
+    """Evaluate a stability / response map over two parameters.
+
+    Parameters
+    ----------
+    target
+        A scene (grid values in the model's declared units, as ``--set``) or a
+        compiled system (grid values in SI units).
+    x, y
+        ``(NAME, LO, HI, N)``: parameter and grid of each axis.
+    quantity
+        One of :data:`QUANTITIES` (the one plotted; ``max_multiplier`` and
+        ``rattle_state`` are always stored, ``peak_to_peak`` when asked for).
+    method
+        ``"auto"``, ``"exact"``, ``"shooting"`` or ``"hbm"`` (see module docstring).
+    periods
+        Orbit period in forcing periods.
+    params
+        Further parameter overrides (SI) for every point.
+    dask
+        Scheduler address (``"tcp://host:8786"``) or a ``distributed.Client``: run
+        the tasks on that cluster.  Default: a process pool on all local cores.
+    workers
+        Local processes (default ``os.cpu_count()``; 1: run in this process).
+    rows_per_task
+        Grid rows per task (default: enough tasks for 4 per worker).
+    orbit_options
+        Passed to the orbit solver (e.g. ``{"rtol": 1e-9}``, ``{"harmonics": 32}``).
+    units
+        ``"declared"`` or ``"si"``: the units of the grid values (default:
+        declared for a scene, SI for a system).
+
+    Returns
+    -------
+    xarray.Dataset
+        Variables ``max_multiplier``, ``stable`` (0/1), ``rattle_state``,
+        ``converged``, ``iterations`` (and ``peak_to_peak``) on dims ``(y, x)`` named by
+        the parameters, with the grid in the chosen units as coordinates and the
+        SI values as ``<name>_si`` coordinates.
+    """
+    import xarray as xr
+
+    from ..facade import Scene
+
+    if quantity not in QUANTITIES:
+        raise ParameterError(f"quantity must be one of {', '.join(QUANTITIES)}, got '{quantity}'")
+    if method not in ("auto", "exact", "shooting", "hbm"):
+        raise ParameterError(f"method must be auto, exact, shooting or hbm, got '{method}'")
+    wall = time.perf_counter()
+    xname, xs = _axis(x, "x")
+    yname, ys = _axis(y, "y")
+    if xname == yname:
+        raise ParameterError("the two axes must be different parameters")
+    scene = target if isinstance(target, Scene) else None
+    system = scene.compile() if scene is not None else target
+    if units is None:
+        units = "declared" if scene is not None else "si"
+    scale = {xname: 1.0, yname: 1.0}
+    unit_names = {xname: "SI", yname: "SI"}
+    if units == "declared":
+        if scene is None:
+            raise ParameterError("units='declared' needs a scene (a compiled system knows only SI values)")
+        for nm in (xname, yname):
+            if nm not in scene.model_spec.parameters:
+                raise ParameterError(f"'{nm}' is not a parameter of model {scene.model_spec.name} "
+                                     f"(have: {', '.join(scene.model_spec.parameters)})")
+            par = scene.model_spec.parameters[nm]
+            scale[nm] = par.si_scale
+            unit_names[nm] = par.unit
+    elif units != "si":
+        raise ParameterError(f"units must be 'declared' or 'si', got '{units}'")
+    for nm in (xname, yname):
+        if nm not in system.param_names:
+            raise ParameterError(f"'{nm}' is not a run-time parameter of this system (have: "
+                                 f"{', '.join(system.param_names)}); parameters of switched-off effects "
+                                 f"are not inputs")
+    base = dict(system.params)
+    base.update({k: float(v) for k, v in (params or {}).items()})
+    system.param_vector(base)  # validates
+    recipe = _recipe(system, scene)
+    recipe["params"] = base
+    want_ptp = quantity == "peak_to_peak"
+    ny, nx = len(ys), len(xs)
+    n_workers = int(workers or os.cpu_count() or 1)
+    if rows_per_task is None:
+        rows_per_task = max(1, int(math.ceil(ny / max(1, 4 * n_workers))))
+    tasks = []
+    for j0 in range(0, ny, rows_per_task):
+        pts = [(xv * scale[xname], ys[j] * scale[yname]) for j in range(j0, min(ny, j0 + rows_per_task))
+               for xv in xs]
+        tasks.append({"points": pts, "xname": xname, "yname": yname, "method": method, "periods": periods,
+                      "want_ptp": want_ptp, "options": dict(orbit_options or {})})
+
+    own = None
+    if dask is not None:
+        from distributed import Client
+
+        client = dask if isinstance(dask, Client) else Client(dask)
+        if not isinstance(dask, Client):
+            own = client
+        executor: Executor = client.get_executor()
+        runner = "dask"
+    elif n_workers <= 1 or len(tasks) <= 1:
+        executor = _SerialExecutor()
+        _SYSTEMS[f"{system.generated.so_path}|{json.dumps(base, sort_keys=True)}"] = system
+        runner = "serial"
+    else:
+        import multiprocessing as mp
+
+        executor = ProcessPoolExecutor(max_workers=min(n_workers, len(tasks)),
+                                       mp_context=mp.get_context("forkserver"))
+        own = executor
+        runner = f"processes({min(n_workers, len(tasks))})"
+    try:
+        chunks = list(executor.map(_apply_chunk, [(recipe, t) for t in tasks]))
+    finally:
+        if own is not None:
+            if hasattr(own, "shutdown"):
+                own.shutdown()
+            if hasattr(own, "close"):
+                own.close()
+    flat = [r for c in chunks for r in c]
+    arr = {k: np.full((ny, nx), np.nan) for k in ("max_multiplier", "peak_to_peak")}
+    rattle = np.full((ny, nx), -1, dtype=np.int8)
+    conv = np.zeros((ny, nx), dtype=np.int8)
+    iters = np.zeros((ny, nx), dtype=np.int32)
+    methods: set[str] = set()
+    errors: list[str] = []
+    for idx, r in enumerate(flat):
+        j, i = divmod(idx, nx)
+        arr["max_multiplier"][j, i] = r["max_multiplier"]
+        arr["peak_to_peak"][j, i] = r["peak_to_peak"]
+        rattle[j, i] = r["rattle_state"]
+        conv[j, i] = 1 if r["converged"] else 0
+        iters[j, i] = r["iterations"]
+        methods.add(r["method"])
+        if r["error"] and len(errors) < 5:
+            errors.append(f"({xname}={xs[i]:g}, {yname}={ys[j]:g}): {r['error'][:300]}")
+    dims = (yname, xname)
+    data = {
+        "max_multiplier": (dims, arr["max_multiplier"], {"long_name": QUANTITIES["max_multiplier"]}),
+        "stable": (dims, np.where(np.isfinite(arr["max_multiplier"]),
+                                  (arr["max_multiplier"] < 1).astype(np.int8), -1).astype(np.int8),
+                   {"long_name": "1 stable, 0 unstable, -1 unknown"}),
+        "rattle_state": (dims, rattle, {"long_name": QUANTITIES["rattle_state"] + " (-1: none/unknown)"}),
+        "converged": (dims, conv, {"long_name": "orbit solve converged (1) or not (0)"}),
+        "iterations": (dims, iters, {"long_name": "Newton / quasi-Newton iterations"}),
+    }
+    if want_ptp:
+        data["peak_to_peak"] = (dims, arr["peak_to_peak"], {"long_name": QUANTITIES["peak_to_peak"]})
+    coords = {
+        xname: (xname, xs, {"units": unit_names[xname]}),
+        yname: (yname, ys, {"units": unit_names[yname]}),
+        f"{xname}_si": (xname, xs * scale[xname]),
+        f"{yname}_si": (yname, ys * scale[yname]),
+    }
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update({
+        "title": f"{QUANTITIES[quantity]} over {xname} x {yname}",
+        "quantity": quantity,
+        "scene": system.name,
+        "method": method,
+        "methods_used": ",".join(sorted(methods)),
+        "periods": float(periods),
+        "params_json": json.dumps(base, sort_keys=True),
+        "runner": runner,
+        "wall_s": time.perf_counter() - wall,
+        "n_points": int(nx * ny),
+        "n_failed": int(np.sum(conv == 0)),
+        "errors": "\n".join(errors),
+        "source": "gearsym.analysis.maps.stability_map",
+    })
+    return ds
+
+
+# ------------------------------------------------------------------- output
+def _netcdf_engine() -> str:
+    for eng, mod in (("netcdf4", "netCDF4"), ("h5netcdf", "h5netcdf")):
+        try:
+            __import__(mod)
+            return eng
+        except ImportError:
+            continue
+    return "scipy"
+
+
+def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, stem: str = "map"
+             ) -> list[Path]:
+    """Write ``<stem>.nc`` (netCDF) and ``<stem>.png`` (heat map) into ``out_dir``.
+
+    The heat map shows ``quantity`` (default: the dataset's) over the two axes;
+    for ``max_multiplier`` the colour scale is centred on 1 and the stability
+    boundary ``max|mu| = 1`` is drawn as a contour.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import TwoSlopeNorm
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    nc = out / f"{stem}.nc"
+    ds.to_netcdf(nc, engine=_netcdf_engine())
+    q = quantity or str(ds.attrs.get("quantity", "max_multiplier"))
+    if q not in ds:
+        raise ParameterError(f"the map has no variable '{q}' (have: {', '.join(ds.data_vars)})")
+    yname, xname = ds[q].dims
+    X, Y = ds[xname].values, ds[yname].values
+    Z = ds[q].values.astype(float)
+    fig, ax = plt.subplots(figsize=(7, 5.2))
+    if q == "max_multiplier":
+        zmin, zmax = np.nanmin(Z), np.nanmax(Z)
+        lo = min(zmin, 0.999) if np.isfinite(zmin) else 0.5
+        hi = max(zmax, 1.001) if np.isfinite(zmax) else 1.5
+        pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="RdBu_r", norm=TwoSlopeNorm(1.0, lo, hi))
+        if np.isfinite(Z).any() and lo < 1 < hi and min(Z.shape) > 1:
+            ax.contour(X, Y, Z, levels=[1.0], colors="k", linewidths=0.8)
+    elif q == "rattle_state":
+        pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="viridis", vmin=-1, vmax=2)
+    else:
+        pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="viridis")
+    cb = fig.colorbar(pc, ax=ax)
+    cb.set_label(q.replace("_", " "))
+    xu = ds[xname].attrs.get("units", "")
+    yu = ds[yname].attrs.get("units", "")
+    ax.set_xlabel(f"{xname} [{xu}]" if xu and xu != "1" else xname)
+    ax.set_ylabel(f"{yname} [{yu}]" if yu and yu != "1" else yname)
+    ax.set_title(f"{ds.attrs.get('scene', '')}: {q.replace('_', ' ')}")
+    fig.tight_layout()
+    png = out / f"{stem}.png"
+    fig.savefig(png, dpi=120)
+    plt.close(fig)
+    return [nc, png]
