@@ -155,7 +155,8 @@ class CasadiCvodes(Peer):
         p = ca.SX.sym("p", 6)
         zeta, Fm, Fa, eps, b, Om = (p[i] for i in range(6))
         f = ca.if_else(x[0] > b, x[0] - b, ca.if_else(x[0] < -b, x[0] + b, 0))
-        ode = ca.vertcat(x[1], Fm + Fa * Om**2 * ca.cos(Om * t) - 2 * zeta * x[1] - (1 + eps * ca.cos(Om * t)) * f)
+        c = ca.cos(Om * t)
+        ode = ca.vertcat(x[1], Fm + Fa * Om**2 * c - 2 * zeta * x[1] - (1 + eps * c) * f)
         opts = {"reltol": rtol, "abstol": atol, "max_num_steps": 10_000_000}
         self._F = ca.integrator("F", "cvodes", {"x": x, "t": t, "p": p, "ode": ode},
                                 float(self.grid[0]), [float(v) for v in self.grid[1:]], opts)

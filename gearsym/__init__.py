@@ -9,11 +9,14 @@ event-exact simulation through SUNDIALS.
 >>> traj = scene.compile().simulate(periods=200)               # doctest: +SKIP
 """
 
+from .analysis.branch import Bifurcation, Branch, BranchPoint
+from .analysis.continuation import continuation
 from .errors import CompileError, ConvergenceError, GearsymError, ParameterError, SimulationError, SpecError
 from .facade import Scene, load_scene
 from .results import Event, Trajectory
 
 __version__ = "0.1.0"
 
-__all__ = ["CompileError", "ConvergenceError", "Event", "GearsymError", "ParameterError", "Scene",
-           "SimulationError", "SpecError", "Trajectory", "__version__", "load_scene"]
+__all__ = ["Bifurcation", "Branch", "BranchPoint", "CompileError", "ConvergenceError", "Event", "GearsymError",
+           "ParameterError", "Scene", "SimulationError", "SpecError", "Trajectory", "__version__", "continuation",
+           "load_scene"]

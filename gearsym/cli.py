@@ -92,6 +92,10 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         head = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise SpecError("file not found", file=str(path)) from None
+    except OSError as exc:
+        raise SpecError(f"cannot read file: {exc.strerror}", file=str(path)) from None
+    except UnicodeDecodeError:
+        raise SpecError("not a text (UTF-8) file", file=str(path)) from None
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"TOML syntax error: {exc}", file=str(path)) from None
     if "scene" in head:
@@ -110,7 +114,8 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         "states": m.state_names,
         "parameters": {
             name: {"value": p.value, "unit": p.unit, "meaning": p.meaning,
-                   "active": name in m.parameter_names}
+                   "active": name in m.parameter_names
+                   or any(name in args for _, args in m.bound_parameters.values())}
             for name, p in ms.parameters.items()
         },
         "effects": {
@@ -229,13 +234,20 @@ def cmd_compile(args: argparse.Namespace) -> int:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Simulate a scene; print statistics, optionally write the trajectory and plots."""
+    if args.out:
+        from .bench import check_out_dir
+
+        check_out_dir(args.out)  # before any work: a bad --out is bad input, not a late failure
     scene = _load(args)
     system = scene.compile()
     kw: dict[str, Any] = {}
     rtol = args.rtol if args.rtol is not None else float(scene.spec.simulate.get("rtol", 1e-8))
     atol = args.atol if args.atol is not None else float(scene.spec.simulate.get("atol", 1e-10))
     if args.x0:
-        kw["x0"] = [float(v) for v in args.x0.split(",")]
+        try:
+            kw["x0"] = [float(v) for v in args.x0.split(",")]
+        except ValueError:
+            raise ParameterError(f"--x0: '{args.x0}' is not a comma-separated list of numbers") from None
     traj = system.simulate(t_end=args.t_end, periods=args.periods, rtol=rtol, atol=atol,
                            method=args.method, **kw)
     info = {
@@ -272,6 +284,226 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print("final state: " + ", ".join(f"{n} = {v:.10g}" for n, v in zip(traj.state_names,
                                                                            traj.final_state)))
         for f in info.get("files", []):
+            print(f"wrote {f}")
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    """Work-precision benchmark of a scene: error vs wall time for gearsym and the peers."""
+    from . import bench
+
+    rtols = bench.parse_rtols(args.rtols) if args.rtols else None
+    methods = bench.parse_methods(args.methods) if args.methods else None
+    out = bench.check_out_dir(args.out) if args.out else None
+    if args.periods is not None and not (math.isfinite(args.periods) and args.periods > 0):
+        raise ParameterError(f"--periods must be positive and finite, got {args.periods}")
+    if args.points_per_period < 2 or args.rounds < 0:
+        raise ParameterError("--points-per-period must be >= 2 and --rounds >= 0")
+    scene = _load(args)
+    data = bench.bench_scene(scene, rtols=rtols, methods=methods, periods=args.periods,
+                             points_per_period=args.points_per_period, rounds=args.rounds,
+                             compile_timing=not args.no_compile_times, analyses=not args.no_analyses,
+                             progress=None if args.json else (lambda s: print(s, file=sys.stderr)))
+    if out is not None:
+        data["files"] = bench.write_outputs(data, out, f"work_precision_{scene.name}")
+    if args.json:
+        _emit(data)
+    else:
+        print(bench.format_table(data["case"]))
+        for f in data.get("files", []):
+            print(f"wrote {f}")
+    return 0
+
+
+def cmd_continue(args: argparse.Namespace) -> int:
+    """Continue periodic orbits in one parameter: branch, stability, located bifurcations."""
+    from .analysis.continuation import continuation
+
+    scene = _load(args)
+    name = args.param
+    spec_p = scene.model_spec.parameters.get(name)
+    if spec_p is None:
+        raise ParameterError(f"--param {name}: not a parameter of model '{scene.model_spec.name}' (have: "
+                             f"{', '.join(scene.model_spec.parameters)})")
+    for flag, v in (("--from", args.start), ("--to", args.stop)):
+        if not math.isfinite(v):
+            raise ParameterError(f"{flag}: non-finite value {v}")
+    if args.start == args.stop:
+        raise ParameterError(f"--from and --to must differ (both {args.start:g})")
+    if args.periods <= 0 or args.segments < 1 or args.max_points < 2 or args.switch < 0:
+        raise ParameterError("--periods must be > 0, --segments >= 1, --max-points >= 2, --switch >= 0")
+    si = float(spec_p.si_scale)
+    system = scene.compile()
+    kw: dict[str, Any] = {}
+    if args.x0:
+        try:
+            kw["x0"] = [float(v) for v in args.x0.split(",")]
+        except ValueError:
+            raise ParameterError(f"--x0: expected comma-separated numbers, got '{args.x0}'") from None
+    if args.rtol is not None:
+        kw["rtol"] = args.rtol
+    if args.harmonics is not None:
+        kw["harmonics"] = args.harmonics
+    if args.ds_max is not None:
+        kw["ds_max"] = args.ds_max
+    branch = continuation(system, name, args.start * si, args.stop * si, periods=args.periods,
+                          method=args.method, segments=args.segments, max_points=args.max_points,
+                          switch=args.switch, progress=False if args.no_progress else None, **kw)
+    data = branch.to_dict()
+
+    def to_declared(d: dict[str, Any]) -> None:
+        if si != 1.0:
+            for item in d["points"] + d["bifurcations"]:
+                item["value"] = item["value"] / si
+            for k in ("start", "stop", "switched_at"):
+                if isinstance(d.get(k), (int, float)):
+                    d[k] = d[k] / si
+        d["unit"] = spec_p.unit
+        for c in d.get("children", []):
+            to_declared(c)
+
+    to_declared(data)
+    data["scene"] = scene.name
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "branch.json").write_text(json.dumps(data, indent=1, default=_json_default))
+        files = [out / "branch.json"]
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        label = f"{name} [{spec_p.unit}]" if spec_p.unit not in ("", "1") else name
+        for fname, draw in (("response.png", lambda ax: branch.plot(ax, quantity=["max", "min"], xscale=1 / si)),
+                            ("multipliers.png", lambda ax: branch.plot_multipliers(ax, children=True,
+                                                                                    xscale=1 / si))):
+            fig, ax = plt.subplots(figsize=(7, 4.2))
+            draw(ax)
+            ax.set_xlabel(label)
+            ax.set_title(f"{scene.name}: continuation in {name}")
+            fig.tight_layout()
+            fig.savefig(out / fname, dpi=110)
+            plt.close(fig)
+            files.append(out / fname)
+        data["files"] = [str(f) for f in files]
+    if args.json:
+        _emit(data)
+    else:
+        for br in branch.all_branches():
+            print(f"{scene.name}: period-{br.periods:g} branch in {name}, {len(br.points)} points, "
+                  f"{br.values.min() / si:.6g} .. {br.values.max() / si:.6g} {spec_p.unit}, "
+                  f"{int(np.sum(br.stable))} stable; {br.stop_reason}")
+            for b in br.bifurcations:
+                mu = b.point.multipliers
+                big = mu[np.argsort(-np.abs(mu))][:2]
+                extra = f" ({b.info['surface']}, {b.info['side']} g)" if b.type == "grazing" else ""
+                print(f"  {b.type:16s} {name} = {b.value / si:.8g}{extra}  multipliers "
+                      + ", ".join(f"{m.real:.4f}{m.imag:+.4f}j" for m in big))
+        for f in data.get("files", []):
+            print(f"wrote {f}")
+    return 0
+
+
+def _float_list(text: str, what: str) -> list[float]:
+    try:
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise ParameterError(f"{what}: '{text}' is not a comma-separated list of numbers") from None
+
+
+def cmd_orbit(args: argparse.Namespace) -> int:
+    """Find a periodic orbit (shooting or harmonic balance) and its Floquet multipliers."""
+    if not (math.isfinite(args.periods) and args.periods > 0):
+        raise ParameterError(f"--periods must be positive and finite, got {args.periods}")
+    scene = _load(args)
+    system = scene.compile()
+    opts: dict[str, Any] = {}
+    x0 = _float_list(args.x0, "--x0") if args.x0 else None
+    if args.method == "shooting":
+        opts["segments"] = args.segments
+        if args.transient is not None:
+            opts["transient"] = args.transient
+    elif args.harmonics is not None:
+        opts["harmonics"] = args.harmonics
+    for key in ("tol", "rtol", "atol"):
+        if getattr(args, key) is not None:
+            opts[key] = getattr(args, key)
+    orbit = system.periodic_orbit(periods=args.periods, x0=x0, method=args.method, **opts)
+    info: dict[str, Any] = {"scene": scene.name, **orbit.to_dict()}
+    if args.out:
+        out = Path(args.out)
+        files = orbit.save_plots(out, title=f"{scene.name}: periodic orbit ({orbit.method})")
+        (out / "orbit.json").write_text(json.dumps(info, indent=1, default=_json_default))
+        info["files"] = [str(out / "orbit.json")] + [str(f) for f in files]
+    if args.json:
+        _emit(info)
+    else:
+        verdict = "stable" if orbit.stable else "UNSTABLE"
+        print(f"{scene.name}: periodic orbit by {orbit.method}, period {orbit.period:.10g} "
+              f"({orbit.periods:g} forcing period(s)), {orbit.iterations} iterations, residual "
+              f"{orbit.residual:.3g}")
+        print("x0: " + ", ".join(f"{n} = {v:.12g}" for n, v in zip(orbit.state_names, orbit.x0)))
+        print("multipliers: " + ", ".join(f"{m.real:.8g}{m.imag:+.8g}j (|mu| = {abs(m):.8g})"
+                                          for m in orbit.multipliers))
+        print(f"{verdict}, max|mu| = {orbit.max_multiplier:.10g}; {orbit.state_names[0]} in "
+              f"[{info['min']:.10g}, {info['max']:.10g}]"
+              + (f"; rattle state {orbit.rattle_state}" if orbit.rattle_state is not None else ""))
+        for f in info.get("files", []):
+            print(f"wrote {f}")
+    return 0
+
+
+def _axis_arg(values: list[str], flag: str) -> tuple[str, float, float, int]:
+    name, lo, hi, n = values
+    try:
+        lo_f, hi_f, n_i = float(lo), float(hi), int(n)
+    except ValueError:
+        raise ParameterError(f"{flag} expects NAME LO HI N (numbers LO, HI and an integer N), got "
+                             f"{' '.join(values)}") from None
+    if not (math.isfinite(lo_f) and math.isfinite(hi_f)) or n_i < 1:
+        raise ParameterError(f"{flag}: need finite LO, HI and N >= 1, got {' '.join(values)}")
+    return name, lo_f, hi_f, n_i
+
+
+def cmd_map(args: argparse.Namespace) -> int:
+    """Two-parameter stability / response map (netCDF + heat-map PNG)."""
+    from .analysis.maps import save_map, stability_map
+
+    xa, ya = _axis_arg(args.x, "--x"), _axis_arg(args.y, "--y")
+    scene = _load(args)
+    opts: dict[str, Any] = {}
+    if args.harmonics is not None:
+        opts["harmonics"] = args.harmonics
+    if args.rtol is not None:
+        opts["rtol"] = args.rtol
+    ds = stability_map(scene, xa, ya, quantity=args.quantity, method=args.method, periods=args.periods,
+                       dask=args.dask, workers=args.workers, orbit_options=opts)
+    files = save_map(ds, args.out)
+    q = ds[args.quantity].values
+    mm = ds["max_multiplier"].values
+    info = {
+        "scene": scene.name,
+        "x": {"name": xa[0], "lo": xa[1], "hi": xa[2], "n": xa[3]},
+        "y": {"name": ya[0], "lo": ya[1], "hi": ya[2], "n": ya[3]},
+        "quantity": args.quantity,
+        "min": float(np.nanmin(q)) if np.isfinite(q).any() else None,
+        "max": float(np.nanmax(q)) if np.isfinite(q).any() else None,
+        "fraction_unstable": float(np.mean(mm[np.isfinite(mm)] >= 1)) if np.isfinite(mm).any() else None,
+        "n_points": int(ds.attrs["n_points"]),
+        "n_failed": int(ds.attrs["n_failed"]),
+        "methods_used": ds.attrs["methods_used"],
+        "runner": ds.attrs["runner"],
+        "wall_s": float(ds.attrs["wall_s"]),
+        "files": [str(f) for f in files],
+    }
+    if args.json:
+        _emit(info)
+    else:
+        print(f"{scene.name}: {args.quantity} on {xa[3]} x {ya[3]} points ({info['methods_used']}, "
+              f"{info['runner']}) in {info['wall_s']:.2f} s; range [{info['min']}, {info['max']}], "
+              f"unstable fraction {info['fraction_unstable']}, failed {info['n_failed']}")
+        for f in info["files"]:
             print(f"wrote {f}")
     return 0
 
@@ -331,6 +563,71 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--x0", help="initial state, comma-separated")
     p.add_argument("--out", help="folder for trajectory.npz and PNG plots")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("bench", help="work-precision benchmark: error vs wall time, gearsym vs peer integrators")
+    _scene_args(p)
+    p.add_argument("--out", help="folder for work_precision_<scene>.json and .png (written at the end)")
+    p.add_argument("--rtols", help="comma-separated relative tolerances (default 1e-3 .. 1e-10, and 1e-11, "
+                   "1e-12 where the reference allows)")
+    p.add_argument("--periods", type=float, help="horizon in forcing periods (default: the scene's)")
+    p.add_argument("--points-per-period", type=int, default=32, help="output grid density (default 32)")
+    p.add_argument("--methods", help="comma-separated subset of the methods (default: all)")
+    p.add_argument("--rounds", type=int, default=3, help="interleaved timing rounds (default 3)")
+    p.add_argument("--no-compile-times", action="store_true", help="skip the cold/cached compile timing")
+    p.add_argument("--no-analyses", action="store_true", help="skip the shooting / continuation costs")
+    p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("continue", help="continue periodic orbits in one parameter (branch, folds, period "
+                       "doubling, Neimark-Sacker, grazing)")
+    _scene_args(p)
+    p.add_argument("--param", required=True, help="the parameter to vary")
+    p.add_argument("--from", dest="start", type=float, required=True,
+                   help="start value (in the model's declared unit)")
+    p.add_argument("--to", dest="stop", type=float, required=True, help="end value")
+    p.add_argument("--periods", type=float, default=1, help="forcing periods per orbit (default 1)")
+    p.add_argument("--method", choices=["shooting", "hbm"], default="shooting", help="periodic-orbit residual")
+    p.add_argument("--segments", type=int, default=1, help="shooting segments (default 1)")
+    p.add_argument("--harmonics", type=int, help="harmonics (hbm)")
+    p.add_argument("--switch", type=int, default=0,
+                   help="branch switching depth at period doublings (default 0: none)")
+    p.add_argument("--ds-max", type=float, help="largest step in scaled arclength (default 0.02)")
+    p.add_argument("--max-points", type=int, default=5000, help="limit on branch points (default 5000)")
+    p.add_argument("--rtol", type=float, help="integrator relative tolerance (default 1e-10)")
+    p.add_argument("--x0", help="initial guess of the orbit's state at t = 0, comma-separated")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--out", help="folder for branch.json, response.png, multipliers.png")
+    p.set_defaults(func=cmd_continue)
+
+    p = sub.add_parser("orbit", help="periodic orbit by shooting or harmonic balance, Floquet multipliers")
+    _scene_args(p)
+    p.add_argument("--periods", type=float, default=1, help="forcing periods per orbit (default 1)")
+    p.add_argument("--method", choices=["shooting", "hbm"], default="shooting", help="periodic solver")
+    p.add_argument("--segments", type=int, default=1, help="shooting segments (default 1: single shooting)")
+    p.add_argument("--harmonics", type=int, help="harmonics (hbm; default: grown until converged)")
+    p.add_argument("--x0", help="initial guess of the state at t = 0, comma-separated")
+    p.add_argument("--transient", type=float, help="forcing periods integrated before Newton (shooting)")
+    p.add_argument("--tol", type=float, help="residual tolerance (default 1e-10)")
+    p.add_argument("--rtol", type=float, help="integrator relative tolerance (default 1e-11)")
+    p.add_argument("--atol", type=float, help="integrator absolute tolerance (default 1e-13)")
+    p.add_argument("--out", help="folder for orbit.json, orbit_phase.png, orbit_multipliers.png")
+    p.set_defaults(func=cmd_orbit)
+
+    p = sub.add_parser("map", help="two-parameter stability / response map (netCDF + heat map)")
+    _scene_args(p)
+    p.add_argument("--x", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"),
+                   help="horizontal axis: parameter (declared unit), range and number of points")
+    p.add_argument("--y", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"), help="vertical axis")
+    p.add_argument("--quantity", choices=["max_multiplier", "peak_to_peak", "rattle_state"],
+                   default="max_multiplier", help="what the heat map shows (default max_multiplier)")
+    p.add_argument("--method", choices=["auto", "exact", "shooting", "hbm"], default="auto",
+                   help="auto: exact matrix exponentials for piecewise-constant LTV models, else shooting")
+    p.add_argument("--periods", type=float, default=1, help="forcing periods per orbit (default 1)")
+    p.add_argument("--harmonics", type=int, help="harmonics (hbm)")
+    p.add_argument("--rtol", type=float, help="integrator relative tolerance")
+    p.add_argument("--dask", metavar="ADDRESS", help="run on this Dask scheduler (default: local processes)")
+    p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
+    p.add_argument("--out", required=True, help="folder for map.nc and map.png")
+    p.set_defaults(func=cmd_map)
     return parser
 
 

@@ -8,6 +8,7 @@ never sees sympy, and a cached compile does not even derive the equations.
 from __future__ import annotations
 
 import os
+import shutil
 from collections.abc import Mapping
 from functools import cached_property
 from pathlib import Path
@@ -110,12 +111,21 @@ class Scene:
                     return gen
             except (ValueError, TypeError, KeyError):
                 pass  # corrupt cache entry: rebuild it
+        fns = build_functions(self.model)  # derive first: a model that fails leaves no folder behind
+        created = directory  # the outermost folder this call creates, removed again on failure
+        while not created.parent.exists():
+            created = created.parent
+        created = created if not created.exists() else None
         try:
             directory.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise GearsymError(f"cannot create build folder {directory}: {exc.strerror}") from None
-        fns = build_functions(self.model)
-        return write_and_compile(self.model, fns, directory, self.name, key, self.resolved.effects)
+        try:
+            return write_and_compile(self.model, fns, directory, self.name, key, self.resolved.effects)
+        except BaseException:
+            if created is not None:
+                shutil.rmtree(created, ignore_errors=True)
+            raise
 
 
 def load_scene(path: str | Path, effects: Mapping[str, bool | str] | None = None,

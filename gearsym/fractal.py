@@ -110,31 +110,31 @@ def wm_levels(D: float, G: float, lam: float, l_a: float, n_levels: int) -> tupl
     return f, G ** (D - 1.0) * f ** (D - 2.0)
 
 
-def wm_profile(l: np.ndarray, D: float, G: float, lam: float, l_a: float, n_levels: int) -> np.ndarray:
+def wm_profile(pos: np.ndarray, D: float, G: float, lam: float, l_a: float, n_levels: int) -> np.ndarray:
     """The truncated W-M profile ``z(l)`` with ``n_levels`` levels (eq. 2)."""
     f, a = wm_levels(D, G, lam, l_a, n_levels)
-    l = np.asarray(l, dtype=float)
-    return np.cos(2.0 * np.pi * np.multiply.outer(l, f)) @ a
+    pos = np.asarray(pos, dtype=float)
+    return np.cos(2.0 * np.pi * np.multiply.outer(pos, f)) @ a
 
 
-def _angle(l: np.ndarray, f: np.ndarray) -> np.ndarray:
+def _angle(pos: np.ndarray, f: np.ndarray) -> np.ndarray:
     """``2*pi*f*l`` reduced to [-pi, pi] (whole cycles removed before the trig call)."""
-    ph = np.multiply.outer(l, f)
+    ph = np.multiply.outer(pos, f)
     ph -= np.round(ph)
     ph *= 2.0 * np.pi
     return ph
 
 
-def _z(l: np.ndarray, f: np.ndarray, a: np.ndarray) -> np.ndarray:
-    return np.cos(_angle(l, f)) @ a
+def _z(pos: np.ndarray, f: np.ndarray, a: np.ndarray) -> np.ndarray:
+    return np.cos(_angle(pos, f)) @ a
 
 
-def _dz(l: np.ndarray, f: np.ndarray, a: np.ndarray) -> np.ndarray:
-    return -np.sin(_angle(l, f)) @ (2.0 * np.pi * f * a)
+def _dz(pos: np.ndarray, f: np.ndarray, a: np.ndarray) -> np.ndarray:
+    return -np.sin(_angle(pos, f)) @ (2.0 * np.pi * f * a)
 
 
-def _Z(l: np.ndarray, f: np.ndarray, a: np.ndarray) -> np.ndarray:
-    return np.sin(_angle(l, f)) @ (a / (2.0 * np.pi * f))
+def _Z(pos: np.ndarray, f: np.ndarray, a: np.ndarray) -> np.ndarray:
+    return np.sin(_angle(pos, f)) @ (a / (2.0 * np.pi * f))
 
 
 def _roots(f: np.ndarray, a: np.ndarray, L: float, ppw: int) -> np.ndarray:
@@ -142,18 +142,18 @@ def _roots(f: np.ndarray, a: np.ndarray, L: float, ppw: int) -> np.ndarray:
     h = 1.0 / (f[-1] * ppw)
     n = max(int(math.ceil(L / h)), 2)
     out = []
-    prev_l = prev_s = prev_z = None
+    prev_l = prev_z = None
     for start in range(0, n + 1, _CHUNK):
         idx = np.arange(start, min(start + _CHUNK, n + 1))
-        l = idx * (L / n)
-        z = _z(l, f, a)
+        pos = idx * (L / n)
+        z = _z(pos, f, a)
         if prev_l is not None:
-            l = np.concatenate([[prev_l], l])
+            pos = np.concatenate([[prev_l], pos])
             z = np.concatenate([[prev_z], z])
         s = z >= 0.0
         k = np.nonzero(s[:-1] != s[1:])[0]
         if k.size:
-            lo, hi, zlo, zhi = l[k], l[k + 1], z[k], z[k + 1]
+            lo, hi, zlo, zhi = pos[k], pos[k + 1], z[k], z[k + 1]
             x = lo - zlo * (hi - lo) / (zhi - zlo)  # secant start inside the bracket
             slo = zlo >= 0.0
             for _ in range(40):
@@ -170,7 +170,7 @@ def _roots(f: np.ndarray, a: np.ndarray, L: float, ppw: int) -> np.ndarray:
                 if np.all(done):
                     break
             out.append(x)
-        prev_l, prev_s, prev_z = l[-1], s[-1], z[-1]
+        prev_l, prev_z = pos[-1], z[-1]
     return np.sort(np.concatenate(out)) if out else np.zeros(0)
 
 

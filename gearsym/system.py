@@ -187,6 +187,8 @@ class System:
             if t_end is None:
                 if not T:
                     raise ParameterError("periods= needs a scene with a forcing period; give t_end")
+                if not (math.isfinite(float(periods)) and float(periods) > 0):
+                    raise ParameterError(f"periods must be positive and finite, got {periods}")
                 t_end = t0 + float(periods) * T
         if not (math.isfinite(t_end) and t_end > t0):
             raise ParameterError(f"t_end must be finite and greater than t0={t0}, got {t_end}")
@@ -194,6 +196,8 @@ class System:
             raise ParameterError(f"tolerances must be positive and finite (rtol={rtol}, atol={atol})")
         if rtol < 1e-15:
             raise ParameterError(f"rtol={rtol} is below what double precision can deliver (1e-15)")
+        if rtol >= 1:
+            raise ParameterError(f"rtol={rtol} asks for no accuracy at all (need rtol < 1)")
         x0v = self.x0 if x0 is None else np.asarray(x0, dtype=float)
         if x0v.shape != (self.generated.nx,):
             raise ParameterError(f"x0 must have {self.generated.nx} entries "
@@ -234,3 +238,47 @@ class System:
                           period=T, params={k: float(v) for k, v in zip(self.param_names, p)},
                           x_final=res.x_final, monodromy=res.monodromy,
                           event_speed=np.asarray(res.events.speed))
+
+    # --------------------------------------------------------- periodic orbits
+
+    def periodic_orbit(self, period: float | None = None, periods: float = 1,
+                       x0: Sequence[float] | None = None, method: str = "shooting",
+                       params: Mapping[str, float] | None = None, **options):
+        """Find a periodic orbit and its Floquet multipliers.
+
+        Delegates to :func:`gearsym.analysis.orbit.periodic_orbit`: ``method="shooting"``
+        (Newton on ``phi(T, x0) - x0`` with the engine's variational equations and
+        saltation matrices; ``segments=N`` for multiple shooting) or ``"hbm"``
+        (harmonic balance with alternating frequency/time; ``harmonics=H`` or grown).
+
+        Parameters
+        ----------
+        period
+            Orbit period (default ``periods`` forcing periods).
+        periods
+            Number of forcing periods of the orbit.
+        x0
+            Initial guess of the state at ``t = 0``.
+        method
+            ``"shooting"`` or ``"hbm"``.
+        params
+            Parameter overrides (SI units).
+        **options
+            Solver options (``tol``, ``rtol``, ``atol``, ``segments``, ``transient``,
+            ``harmonics``, ...).
+
+        Returns
+        -------
+        gearsym.analysis.orbit.PeriodicOrbit
+            ``.x0``, ``.period``, ``.monodromy``, ``.multipliers``, ``.stable``,
+            ``.iterations``, ``.residual``, ``.rattle_state``, ...
+
+        Raises
+        ------
+        ConvergenceError
+            The solver did not converge (with its residual history).
+        """
+        from .analysis.orbit import periodic_orbit
+
+        return periodic_orbit(self, period=period, periods=periods, x0=x0, method=method, params=params,
+                              **options)

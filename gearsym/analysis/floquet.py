@@ -33,15 +33,14 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.linalg import expm
 
 from ..errors import GearsymError
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
 
-__all__ = ["NotPiecewiseConstantError", "PiecewiseLTV", "floquet_multipliers", "monodromy_product",
-           "segment_breaks"]
+__all__ = ["NotPiecewiseConstantError", "PiecewiseLTV", "exact_multipliers", "expm", "expm_batch",
+           "floquet_multipliers", "monodromy_product", "segment_breaks"]
 
 
 class NotPiecewiseConstantError(GearsymError):
@@ -88,9 +87,28 @@ def segment_breaks(system: System, period: float, params: Mapping[str, float] | 
     """All scheduled breakpoints in ``[t0, t0 + period]`` (both ends included), sorted."""
     p = system.param_vector(params)
     s = np.asarray(system.generated.casadi_function("gs_sched")(p)).ravel()
+    return _breaks_from(s, system.generated.schedules, period, t0)
+
+
+def _sched_modes_from(s: np.ndarray, schedules: Sequence[Mapping], t: np.ndarray) -> np.ndarray:
+    """Schedule part of the mode vector at times ``t`` (rows: n_0, seg_0, n_1, seg_1, ...)."""
+    t = np.atleast_1d(np.asarray(t, float))
+    rows = []
+    i = 0
+    for sch in schedules:
+        P = float(s[i])
+        br = np.asarray(s[i + 1: i + 1 + sch["n_breaks"]], float)
+        i += 1 + sch["n_breaks"]
+        u = t / P
+        n = np.floor(u)
+        rows += [n, (np.searchsorted(br, u - n, side="right") - 1).astype(float)]
+    return np.array(rows).reshape(len(rows), len(t))
+
+
+def _breaks_from(s: np.ndarray, schedules: Sequence[Mapping], period: float, t0: float) -> np.ndarray:
     times = [t0, t0 + period]
     i = 0
-    for sch in system.generated.schedules:
+    for sch in schedules:
         P = float(s[i])
         fr = s[i + 1: i + 1 + sch["n_breaks"]]
         i += 1 + sch["n_breaks"]
@@ -107,6 +125,79 @@ def segment_breaks(system: System, period: float, params: Mapping[str, float] | 
     out = times[keep]
     out[-1] = t0 + period
     return out
+
+
+_PADE13 = (64764752532480000.0, 32382376266240000.0, 7771770303897600.0, 1187353796428800.0,
+           129060195264000.0, 10559470521600.0, 670442572800.0, 33522128640.0, 1323241920.0, 40840800.0,
+           960960.0, 16380.0, 182.0, 1.0)
+_THETA13 = 5.371920351148152
+
+
+def expm(A: np.ndarray) -> np.ndarray:
+    """Matrix exponential: scaling and squaring with the [13/13] Pade approximant.
+
+    Higham (SIAM J. Matrix Anal. Appl. 26, 2005), the algorithm of
+    ``scipy.linalg.expm`` without its degree selection, in plain numpy: for the
+    small matrices here it avoids the per-call threading overhead of scipy's
+    compiled version (milliseconds per 2x2 matrix on a loaded machine).
+    """
+    A = np.asarray(A, dtype=float)
+    n = A.shape[0]
+    norm = float(np.max(np.sum(np.abs(A), axis=0))) if n else 0.0
+    if not math.isfinite(norm):
+        return np.full_like(A, np.nan)
+    sq = max(0, int(math.ceil(math.log2(norm / _THETA13)))) if norm > _THETA13 else 0
+    A = A / (2.0 ** sq)
+    b = _PADE13
+    ident = np.eye(n)
+    A2 = A @ A
+    A4 = A2 @ A2
+    A6 = A4 @ A2
+    U = A @ (A6 @ (b[13] * A6 + b[11] * A4 + b[9] * A2) + b[7] * A6 + b[5] * A4 + b[3] * A2 + b[1] * ident)
+    V = A6 @ (b[12] * A6 + b[10] * A4 + b[8] * A2) + b[6] * A6 + b[4] * A4 + b[2] * A2 + b[0] * ident
+    R = np.linalg.solve(V - U, V + U)
+    for _ in range(sq):
+        R = R @ R
+    return R
+
+
+def expm_batch(A: np.ndarray) -> np.ndarray:
+    """:func:`expm` of a stack of matrices, shape (..., n, n), vectorised."""
+    A = np.asarray(A, dtype=float)
+    shp = A.shape
+    n = shp[-1]
+    A = A.reshape(-1, n, n)
+    norm = np.max(np.sum(np.abs(A), axis=1), axis=1)
+    with np.errstate(divide="ignore"):
+        sq = np.where(norm > _THETA13, np.ceil(np.log2(np.maximum(norm, 1e-300) / _THETA13)), 0)
+    sq = np.nan_to_num(sq, nan=0.0, posinf=0.0).astype(int)
+    A = A / (2.0 ** sq)[:, None, None]
+    b = _PADE13
+    ident = np.eye(n)[None]
+    A2 = A @ A
+    A4 = A2 @ A2
+    A6 = A4 @ A2
+    U = A @ (A6 @ (b[13] * A6 + b[11] * A4 + b[9] * A2) + b[7] * A6 + b[5] * A4 + b[3] * A2 + b[1] * ident)
+    V = A6 @ (b[12] * A6 + b[10] * A4 + b[8] * A2) + b[6] * A6 + b[4] * A4 + b[2] * A2 + b[0] * ident
+    R = np.linalg.solve(V - U, V + U)
+    for k in range(int(sq.max()) if len(sq) else 0):
+        m = sq > k
+        R[m] = R[m] @ R[m]
+    return R.reshape(shp)
+
+
+_MAPPED: dict[tuple[str, str, int], object] = {}
+
+
+def _mapped(gen, name: str, n: int):
+    """``gen.casadi_function(name).map(n)``, cached."""
+    key = (gen.so_path, name, n)
+    f = _MAPPED.get(key)
+    if f is None:
+        if len(_MAPPED) > 256:
+            _MAPPED.clear()
+        f = _MAPPED[key] = gen.casadi_function(name).map(n)
+    return f
 
 
 def _basis(t: np.ndarray, omega: float, K: int) -> np.ndarray:
@@ -274,48 +365,141 @@ class PiecewiseLTV:
                 raise NotPiecewiseConstantError("the scene has no forcing period; give period=")
             period = periods * T
         p = system.param_vector(params)
-        jac = gen.casadi_function("gs_jac")
-        rhs = gen.casadi_function("gs_rhs")
         times = segment_breaks(system, period, params, t0)
         nx = gen.nx
-        rng = np.random.default_rng(12345)
-        A_list: list[np.ndarray] = []
-        B_list: list[np.ndarray] = []
+        nseg = len(times) - 1
         omega = 2 * np.pi / period
         K = int(max(1, round(harmonics * periods)))
-        for i in range(len(times) - 1):
-            ts, te = times[i], times[i + 1]
-            tm = 0.5 * (ts + te)
-            m = system._sched_mode(tm, p)
-            A = np.asarray(jac(tm, np.zeros(nx), p, m), float)
-            if check:
-                scale = max(1.0, float(np.max(np.abs(A))))
-                for frac in (0.13, 0.87):
-                    tt = ts + frac * (te - ts)
-                    xr = rng.standard_normal(nx)
-                    A2 = np.asarray(jac(tt, xr, p, m), float)
-                    if np.max(np.abs(A2 - A)) > 1e-11 * scale:
-                        raise NotPiecewiseConstantError(
-                            f"the Jacobian changes inside the segment [{ts:.6g}, {te:.6g}] (by "
-                            f"{np.max(np.abs(A2 - A)):.3g}): the coefficients are not piecewise constant, "
-                            f"or the system is nonlinear")
-            A_list.append(A)
-            if forcing:
-                ns = 4 * (2 + 2 * K)
-                tt = ts + (te - ts) * (np.arange(ns) + 0.5) / ns
-                fs = np.array([np.asarray(rhs(t_, np.zeros(nx), p, m), float).ravel() for t_ in tt])
-                Phi_b = _basis(tt, omega, K).T  # (ns, nb)
+        ts, te = times[:-1], times[1:]
+        modes = np.array([system._sched_mode(0.5 * (a + b), p) for a, b in zip(ts, te, strict=True)]).T
+        modes = modes.reshape(-1, nseg)
+        # Jacobian at the midpoint (x = 0) and at two more points with random x (checks)
+        fr = np.array([0.5, 0.13, 0.87])
+        tj = (ts[None, :] + fr[:, None] * (te - ts)[None, :]).ravel()  # (3*nseg,), row-major by fr
+        xj = np.zeros((nx, 3 * nseg))
+        xj[:, nseg:] = np.random.default_rng(12345).standard_normal((nx, 2 * nseg))
+        mj = np.tile(modes, (1, 3))
+        J = _mapped(gen, "gs_jac", 3 * nseg)(tj[None, :], xj, np.tile(p[:, None], (1, 3 * nseg)), mj)
+        J = np.asarray(J, float).reshape(nx, 3 * nseg, nx).transpose(1, 0, 2)
+        A_list = [J[i].copy() for i in range(nseg)]
+        if check:
+            for i in range(nseg):
+                scale = max(1.0, float(np.max(np.abs(A_list[i]))))
+                dev = max(float(np.max(np.abs(J[nseg + i] - A_list[i]))),
+                          float(np.max(np.abs(J[2 * nseg + i] - A_list[i]))))
+                if dev > 1e-11 * scale:
+                    raise NotPiecewiseConstantError(
+                        f"the Jacobian changes inside the segment [{ts[i]:.6g}, {te[i]:.6g}] (by {dev:.3g}): "
+                        f"the coefficients are not piecewise constant, or the system is nonlinear")
+        B_list: list[np.ndarray] = []
+        if forcing:
+            ns = 4 * (2 + 2 * K)
+            u = (np.arange(ns) + 0.5) / ns
+            tt = (ts[:, None] + u[None, :] * (te - ts)[:, None]).ravel()  # segment-major
+            mm = np.repeat(modes, ns, axis=1)
+            F = _mapped(gen, "gs_rhs", nseg * ns)(tt[None, :], np.zeros((nx, nseg * ns)),
+                                                  np.tile(p[:, None], (1, nseg * ns)), mm)
+            F = np.asarray(F, float).T.reshape(nseg, ns, nx)
+            for i in range(nseg):
+                fs = F[i]
                 if not np.any(fs):
-                    B_list.append(np.zeros((nx, Phi_b.shape[1])))
+                    B_list.append(np.zeros((nx, 2 + 2 * K)))
                     continue
-                # the ramp column makes the fit ill-conditioned on short segments; scale it
+                Phi_b = _basis(tt[i * ns:(i + 1) * ns], omega, K).T  # (ns, nb)
                 coef, *_ = np.linalg.lstsq(Phi_b, fs, rcond=None)
-                fit = Phi_b @ coef
-                err = float(np.max(np.abs(fit - fs)))
+                err = float(np.max(np.abs(Phi_b @ coef - fs)))
                 if check and err > 1e-9 * max(1.0, float(np.max(np.abs(fs)))):
                     raise NotPiecewiseConstantError(
-                        f"the excitation rhs(t, 0) on segment [{ts:.6g}, {te:.6g}] is not a constant + ramp "
-                        f"+ harmonics of 2*pi/{period:.6g} up to order {K} (fit error {err:.3g})")
+                        f"the excitation rhs(t, 0) on segment [{ts[i]:.6g}, {te[i]:.6g}] is not a constant + "
+                        f"ramp + harmonics of 2*pi/{period:.6g} up to order {K} (fit error {err:.3g})")
                 B_list.append(coef.T.copy())
         B = B_list if forcing and any(np.any(b) for b in B_list) else None
         return cls(times=times, A=A_list, B=B, omega=omega, K=K)
+
+
+def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]], periods: float = 1,
+                      check: bool = True) -> np.ndarray:
+    """Floquet multipliers of a piecewise-constant LTV system at many parameter points.
+
+    The vectorised form of ``PiecewiseLTV.from_system(...).multipliers()`` for
+    stability maps: one mapped call of the generated Jacobian for all points and
+    segments, a batched matrix exponential and batched eigenvalues.
+
+    Parameters
+    ----------
+    system
+        Explicit compiled system without switching surfaces.
+    params_list
+        Parameter overrides (SI) of each point.
+    periods
+        Period in forcing periods.
+    check
+        Verify that the Jacobian is constant on each segment (and independent of x).
+
+    Returns
+    -------
+    ndarray, shape (len(params_list), nx), complex
+        Multipliers of each point, by decreasing modulus.
+
+    Raises
+    ------
+    NotPiecewiseConstantError
+    """
+    gen = system.generated
+    if gen.implicit or gen.nsw:
+        raise NotPiecewiseConstantError("the exact monodromy needs an explicit model without switching")
+    N = len(params_list)
+    nx = gen.nx
+    P = np.array([system.param_vector(p) for p in params_list]).T.reshape(-1, N)
+    T = np.asarray(_mapped(gen, "gs_period", N)(P), float).ravel() * periods
+    if not np.all(np.isfinite(T) & (T > 0)):
+        raise NotPiecewiseConstantError("the scene has no finite forcing period at some points")
+    S = np.asarray(_mapped(gen, "gs_sched", N)(P), float).reshape(-1, N) if gen.schedules else np.zeros((0, N))
+    seg_times = [_breaks_from(S[:, k], gen.schedules, float(T[k]), 0.0) for k in range(N)]
+    out = np.full((N, nx), complex(math.nan, math.nan))
+    groups: dict[int, list[int]] = {}
+    for k, tt in enumerate(seg_times):
+        groups.setdefault(len(tt) - 1, []).append(k)
+    rng = np.random.default_rng(12345)
+    for nseg, idx in groups.items():
+        idx_a = np.array(idx)
+        G = len(idx)
+        tt = np.array([seg_times[k] for k in idx])  # (G, nseg+1)
+        ts, te = tt[:, :-1], tt[:, 1:]
+        fr = np.array([0.5, 0.13, 0.87]) if check else np.array([0.5])
+        nf = len(fr)
+        tj = ts[None] + fr[:, None, None] * (te - ts)[None]  # (nf, G, nseg)
+        mid = 0.5 * (ts + te)
+        nm = 2 * len(gen.schedules)
+        modes = np.zeros((nm, G, nseg))
+        for gi, k in enumerate(idx):
+            modes[:, gi, :] = _sched_modes_from(S[:, k], gen.schedules, mid[gi])
+        ncol = nf * G * nseg
+        tcol = tj.reshape(1, ncol)
+        xcol = np.zeros((nx, nf, G * nseg))
+        if check:
+            xcol[:, 1:, :] = rng.standard_normal((nx, nf - 1, G * nseg))
+        xcol = xcol.reshape(nx, ncol)
+        pcol = np.repeat(P[:, idx_a][:, None, :, None], nf, axis=1)
+        pcol = np.repeat(pcol, nseg, axis=3).reshape(P.shape[0], ncol)
+        mcol = np.repeat(modes[:, None], nf, axis=1).reshape(nm, ncol)
+        J = np.asarray(_mapped(gen, "gs_jac", ncol)(tcol, xcol, pcol, mcol), float)
+        J = J.reshape(nx, nf, G, nseg, nx).transpose(1, 2, 3, 0, 4)  # (nf, G, nseg, i, j)
+        A = J[0]
+        if check and nf > 1:
+            dev = np.max(np.abs(J[1:] - A[None]), axis=(0, 3, 4))
+            scale = np.maximum(1.0, np.max(np.abs(A), axis=(2, 3)))
+            bad = dev > 1e-11 * scale
+            if np.any(bad):
+                gi, si = np.argwhere(bad)[0]
+                raise NotPiecewiseConstantError(
+                    f"the Jacobian changes inside segment {si} (by {dev[gi, si]:.3g}) at point "
+                    f"{idx[gi]}: the coefficients are not piecewise constant, or the system is nonlinear")
+        E = expm_batch(A * (te - ts)[:, :, None, None])  # (G, nseg, nx, nx)
+        Mono = E[:, 0]
+        for si in range(1, nseg):
+            Mono = E[:, si] @ Mono
+        mu = np.linalg.eigvals(Mono)
+        order = np.argsort(-np.abs(mu), axis=1, kind="stable")
+        out[idx_a] = np.take_along_axis(mu, order, axis=1)
+    return out

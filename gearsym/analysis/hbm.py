@@ -65,7 +65,10 @@ class HarmonicBalance:
         Time origin of the series.
     samples
         Number of time samples ``M`` of the AFT (default: a power of two >= 4(2H+1),
-        at least 64).
+        at least 64).  Equidistant (a DFT, Liu et al. eqs. 15-17), except when the
+        model has scheduled coefficient jumps: then Gauss-Legendre nodes on each
+        segment between breakpoints (about ``M`` in all), because the DFT of an
+        integrand that jumps between samples is only first-order accurate.
     """
 
     def __init__(self, system: System, period: float, harmonics: int, params: Mapping[str, float] | None = None,
@@ -84,23 +87,45 @@ class HarmonicBalance:
         M = samples or max(64, 1 << int(math.ceil(math.log2(4 * self.nc))))
         if M < self.nc:
             raise ParameterError(f"samples={M} must be at least 2*harmonics+1 = {self.nc}")
+        self.p = system.param_vector(params)
+        breaks = None
+        if system.generated.schedules:
+            from .floquet import segment_breaks
+
+            breaks = segment_breaks(system, self.P, params, self.t0)
+        if breaks is not None and len(breaks) > 2:
+            # coefficients that jump at scheduled times: the uniform DFT of a
+            # discontinuous integrand is only O(1/M); integrate segment by segment
+            # with Gauss-Legendre nodes instead (spectral within each segment)
+            ts, ws = [], []
+            for a, b in zip(breaks[:-1], breaks[1:], strict=True):
+                n = max(8, int(math.ceil(M * (b - a) / self.P)))
+                xg, wg = np.polynomial.legendre.leggauss(n)
+                ts.append(0.5 * (a + b) + 0.5 * (b - a) * xg)
+                ws.append(0.5 * (b - a) * wg)
+            self.t = np.concatenate(ts)
+            weights = np.concatenate(ws) / self.P
+            M = len(self.t)
+            self.quadrature = "gauss-legendre per scheduled segment"
+        else:
+            self.t = self.t0 + self.P * np.arange(M) / M
+            weights = np.full(M, 1.0 / M)
+            self.quadrature = "uniform (DFT)"
         self.M = M
-        th = 2 * np.pi * np.arange(M) / M
-        self.t = self.t0 + th / self.w
+        th = self.w * (self.t - self.t0)
         E = np.ones((M, self.nc))
         for k in range(1, H + 1):
             E[:, 2 * k - 1] = np.cos(k * th)
             E[:, 2 * k] = np.sin(k * th)
         self.E = E
-        Ep = E.T * (2.0 / M)
-        Ep[0] = 1.0 / M
+        Ep = E.T * (2.0 * weights)[None, :]
+        Ep[0] = weights
         self.Ep = Ep
         D = np.zeros((self.nc, self.nc))
         for k in range(1, H + 1):
             D[2 * k - 1, 2 * k] = k * self.w
             D[2 * k, 2 * k - 1] = -k * self.w
         self.D = D
-        self.p = system.param_vector(params)
         gen = system.generated
         self._rhs = gen.casadi_function("gs_rhs").map(M)
         self._jac = gen.casadi_function("gs_jac").map(M)
@@ -466,6 +491,6 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
         residual=r, converged=conv, method="hbm", params={k: float(v) for k, v in zip(system.param_names, p, strict=True)},
         events=events, harmonics=H, coefficients=C, history=history,
         info={"harmonic_growth": growth, "harmonics_converged": harmonics_converged, "defect": defect,
-              "initial_guess": used,
+              "initial_guess": used, "quadrature": hb.quadrature,
               "samples": hb.M, "tol": tol, "rtol": rtol, "atol": atol,
               "wall_s": time.perf_counter() - wall})

@@ -183,6 +183,41 @@ class _SerialExecutor(Executor):
         return [fn(*a) for a in zip(*iterables, strict=True)]
 
 
+def _run_tasks(system: System, recipe: dict[str, Any], tasks: list[dict[str, Any]], dask: Any,
+               n_workers: int, base: Mapping[str, float]) -> tuple[list[dict[str, Any]], str]:
+    """Run the row tasks through one ``Executor.map`` (serial, process pool or Dask)."""
+    own = None
+    if dask is not None:
+        from distributed import Client
+
+        client = dask if isinstance(dask, Client) else Client(dask)
+        if not isinstance(dask, Client):
+            own = client
+        executor: Executor = client.get_executor()
+        runner = "dask"
+    elif n_workers <= 1 or len(tasks) <= 1:
+        executor = _SerialExecutor()
+        _SYSTEMS[f"{system.generated.so_path}|{json.dumps(base, sort_keys=True)}"] = system
+        runner = "serial"
+    else:
+        import multiprocessing as mp
+
+        # fork: no re-import of the caller's __main__ (scripts without a main guard work);
+        # the workers load the compiled model themselves (ctypes handles are not inherited state)
+        ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context("spawn")
+        executor = ProcessPoolExecutor(max_workers=min(n_workers, len(tasks)), mp_context=ctx)
+        own = executor
+        runner = f"processes({min(n_workers, len(tasks))})"
+    try:
+        chunks = list(executor.map(_apply_chunk, [(recipe, t) for t in tasks]))
+    finally:
+        if isinstance(own, ProcessPoolExecutor):
+            own.shutdown()
+        elif own is not None:  # our own Client: close it (Client.shutdown would stop the cluster)
+            own.close()
+    return [r for c in chunks for r in c], runner
+
+
 # ----------------------------------------------------------------- the map
 def _axis(spec: Sequence[Any], what: str) -> tuple[str, np.ndarray]:
     if len(spec) != 4:
@@ -292,35 +327,26 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         tasks.append({"points": pts, "xname": xname, "yname": yname, "method": method, "periods": periods,
                       "want_ptp": want_ptp, "options": dict(orbit_options or {})})
 
-    own = None
-    if dask is not None:
-        from distributed import Client
+    flat: list[dict[str, Any]] | None = None
+    runner = ""
+    if method in ("auto", "exact") and not want_ptp:
+        # the fast path: all points at once (one mapped Jacobian call, batched expm)
+        from .floquet import NotPiecewiseConstantError, exact_multipliers
 
-        client = dask if isinstance(dask, Client) else Client(dask)
-        if not isinstance(dask, Client):
-            own = client
-        executor: Executor = client.get_executor()
-        runner = "dask"
-    elif n_workers <= 1 or len(tasks) <= 1:
-        executor = _SerialExecutor()
-        _SYSTEMS[f"{system.generated.so_path}|{json.dumps(base, sort_keys=True)}"] = system
-        runner = "serial"
-    else:
-        import multiprocessing as mp
-
-        executor = ProcessPoolExecutor(max_workers=min(n_workers, len(tasks)),
-                                       mp_context=mp.get_context("forkserver"))
-        own = executor
-        runner = f"processes({min(n_workers, len(tasks))})"
-    try:
-        chunks = list(executor.map(_apply_chunk, [(recipe, t) for t in tasks]))
-    finally:
-        if own is not None:
-            if hasattr(own, "shutdown"):
-                own.shutdown()
-            if hasattr(own, "close"):
-                own.close()
-    flat = [r for c in chunks for r in c]
+        pts = [dict(base, **{xname: float(xv * scale[xname]), yname: float(yv * scale[yname])})
+               for yv in ys for xv in xs]
+        try:
+            mu = exact_multipliers(system, pts, periods=periods)
+            mm = np.max(np.abs(mu), axis=1)
+            flat = [{"max_multiplier": float(v), "peak_to_peak": math.nan, "rattle_state": -1,
+                     "converged": bool(np.isfinite(v)), "iterations": 0, "method": "exact", "error": ""}
+                    for v in mm]
+            runner = "vectorised (exact)"
+        except NotPiecewiseConstantError:
+            if method == "exact":
+                raise
+    if flat is None:
+        flat, runner = _run_tasks(system, recipe, tasks, dask, n_workers, base)
     arr = {k: np.full((ny, nx), np.nan) for k in ("max_multiplier", "peak_to_peak")}
     rattle = np.full((ny, nx), -1, dtype=np.int8)
     conv = np.zeros((ny, nx), dtype=np.int8)

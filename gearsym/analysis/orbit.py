@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -164,6 +165,76 @@ class PeriodicOrbit:
         """``max - min`` of one state over the orbit."""
         lo, hi = self.extrema(state)
         return hi - lo
+
+    def save_plots(self, out_dir: str | Path, title: str = "") -> list[Path]:
+        """Write ``orbit_phase.png`` (phase portrait and time history over one
+        period, events marked) and ``orbit_multipliers.png`` (the multipliers and
+        the unit circle) into ``out_dir``."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        files = []
+        names = self.state_names
+        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.3))
+        if self.system is not None:
+            tr = self.trajectory()
+            t, y = tr.t, tr.y
+        elif self.coefficients is not None:
+            n = 2048
+            t = self.t0 + self.period * np.arange(n + 1) / n
+            y = np.array([_series(self.coefficients[:, i], n) for i in range(len(names))]).T
+            y = np.vstack([y, y[:1]])
+        else:
+            t, y = np.array([self.t0]), self.x0[None, :]
+        j = 1 if len(names) > 1 else 0
+        ax1.plot(y[:, 0], y[:, j], lw=1.0)
+        ax1.plot(self.x0[0], self.x0[j], "ko", ms=5, label="x0 (t = t0)")
+        if self.system is not None and self.events:
+            ev_t = np.array([e.t for e in self.events])
+            ev_y = np.array([np.interp(ev_t, t, y[:, k]) for k in range(y.shape[1])]).T
+            ax1.plot(ev_y[:, 0], ev_y[:, j], "r.", ms=6, label="surface crossings")
+        ax1.set_xlabel(names[0])
+        ax1.set_ylabel(names[j])
+        ax1.set_title("phase portrait (one period)")
+        ax1.legend(loc="best", fontsize=8)
+        ax2.plot(t, y[:, 0], lw=1.0)
+        ax2.set_xlabel("t")
+        ax2.set_ylabel(names[0])
+        ax2.set_title(f"period {self.period:.6g} ({self.periods:g} forcing period(s))")
+        fig.suptitle(title or f"periodic orbit ({self.method}), "
+                     f"{'stable' if self.stable else 'unstable'}, max|mu| = {self.max_multiplier:.6g}")
+        fig.tight_layout()
+        f1 = out / "orbit_phase.png"
+        fig.savefig(f1, dpi=120)
+        plt.close(fig)
+        files.append(f1)
+        fig, ax = plt.subplots(figsize=(5, 5))
+        th = np.linspace(0, 2 * np.pi, 400)
+        ax.plot(np.cos(th), np.sin(th), "k-", lw=0.8)
+        mu = self.multipliers
+        inside = np.abs(mu) < 1
+        ax.plot(mu.real[inside], mu.imag[inside], "bo", label="|mu| < 1")
+        ax.plot(mu.real[~inside], mu.imag[~inside], "rx", ms=9, mew=2, label="|mu| >= 1")
+        r = max(1.1, float(np.max(np.abs(mu))) * 1.1 if len(mu) else 1.1)
+        ax.set_xlim(-r, r)
+        ax.set_ylim(-r, r)
+        ax.set_aspect("equal")
+        ax.axhline(0, color="0.8", lw=0.5)
+        ax.axvline(0, color="0.8", lw=0.5)
+        ax.set_xlabel("Re mu")
+        ax.set_ylabel("Im mu")
+        ax.set_title("Floquet multipliers")
+        ax.legend(loc="upper right", fontsize=8)
+        fig.tight_layout()
+        f2 = out / "orbit_multipliers.png"
+        fig.savefig(f2, dpi=120)
+        plt.close(fig)
+        files.append(f2)
+        return files
 
     def to_dict(self, extrema: bool = True) -> dict[str, Any]:
         """JSON-ready summary (multipliers as ``[re, im]`` pairs)."""

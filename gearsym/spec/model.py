@@ -17,6 +17,15 @@ Expression fields (stiffness, damping, deflection, forces, ...) take either
 * a table ``{ expr = "...", effect = "...", variant = "..." }``; or
 * an array of the above, whose active terms are summed.
 
+A coordinate may carry ``effect = "NAME"``: it (and its velocity state) exists only
+while that effect is on; switched off, it reads as 0 everywhere and its equations,
+inertia/force elements and the parameters only they use disappear.
+
+Expressions may call the bound (numeric) functions of
+:data:`~gearsym.spec.expressions.BOUND_FUNCTIONS` with parameter names as arguments,
+e.g. ``wm_mean_height(D, G, lam, L_c, l_a)``; the compiled system evaluates them
+whenever the parameters are bound (:mod:`gearsym.bound_functions`).
+
 The spec layer knows nothing of sympy: expressions are checked with :mod:`ast`.
 """
 
@@ -247,6 +256,8 @@ def load_model(path: str | Path) -> ModelSpec:
         raise ctx.error(None, "model file not found") from None
     except OSError as exc:
         raise ctx.error(None, f"cannot read model file: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise ctx.error(None, "not a text (UTF-8) file") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

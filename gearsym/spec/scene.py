@@ -135,6 +135,10 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise SpecError("scene file not found", file=where_file) from None
+    except OSError as exc:
+        raise SpecError(f"cannot read scene file: {exc.strerror}", file=where_file) from None
+    except UnicodeDecodeError:
+        raise SpecError("not a text (UTF-8) file", file=where_file) from None
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(f"TOML syntax error: {exc}", file=where_file) from None
 
@@ -274,6 +278,20 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
                         new |= ex.names_in(e)
         frontier = new - used_active
         used_active |= new
+    # names reached only through derived quantities of switched-off terms belong to those effects
+    changed = True
+    while changed:
+        changed = False
+        for dname, d in model.derived.items():
+            for t in d.terms:
+                effs = set(used_inactive.get(dname, ()))
+                if t.effect is not None and not probe.is_active(t):
+                    effs.add(t.effect)
+                for n in ex.names_in(t.expr) if effs else ():
+                    cur = used_inactive.setdefault(n, set())
+                    if not effs <= cur:
+                        cur |= effs
+                        changed = True
     active_params = tuple(p for p in model.parameters if p in used_active)
 
     values = {p.name: p.si_value for p in model.parameters.values()}
@@ -305,7 +323,118 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
                 raise SpecError(f"'{k}' is not a state (states: {', '.join(initial)})", file=file,
                                 field=f"{label}.{k}")
             initial[k] = v
-    return ResolvedScene(model, scene, state, values, active_params, initial)
+    rs = ResolvedScene(model, scene, state, values, active_params, initial)
+    _check_inertias(rs)
+    return rs
+
+
+_MATH = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "exp": math.exp, "log": math.log,
+         "sqrt": math.sqrt, "abs": abs, "Abs": abs, "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh,
+         "atan": math.atan, "atan2": math.atan2, "Max": max, "Min": min, "max": max, "min": min}
+
+
+def _constant_value(text: str, env: Mapping[str, float]) -> float | None:
+    """Numeric value of an expression of constants only (``None`` if it uses anything else:
+    time, states, schedules, conditions, unknown functions)."""
+    import ast
+
+    try:
+        node = ex.parse(text).body
+    except ex.ExpressionError:
+        return None
+
+    def ev(n: ast.AST) -> float:
+        if isinstance(n, ast.Constant) and isinstance(n.value, (int, float)) and not isinstance(n.value, bool):
+            return float(n.value)
+        if isinstance(n, ast.Name):
+            if n.id == "pi":
+                return math.pi
+            if n.id == "E":
+                return math.e
+            return env[n.id]  # KeyError: not a constant
+        if isinstance(n, ast.UnaryOp) and isinstance(n.op, (ast.USub, ast.UAdd)):
+            v = ev(n.operand)
+            return -v if isinstance(n.op, ast.USub) else v
+        if isinstance(n, ast.BinOp):
+            a, b = ev(n.left), ev(n.right)
+            ops = {ast.Add: lambda: a + b, ast.Sub: lambda: a - b, ast.Mult: lambda: a * b,
+                   ast.Div: lambda: a / b, ast.Pow: lambda: a ** b}
+            return float(ops[type(n.op)]())
+        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id in _MATH and not n.keywords:
+            return float(_MATH[n.func.id](*[ev(a) for a in n.args]))
+        raise KeyError("not constant")
+
+    try:
+        v = ev(node)
+    except (KeyError, ArithmeticError, ValueError, TypeError):
+        return None
+    return v if isinstance(v, float) and math.isfinite(v) else None
+
+
+def _check_inertias(rs: ResolvedScene) -> None:
+    """Every active inertia element whose value is a constant must be positive."""
+    model = rs.model
+    cache: dict[str, float | None] = {}
+
+    def derived_value(name: str, depth: int = 0) -> float | None:
+        if name not in cache:
+            cache[name] = None
+            if depth < 50:
+                total = 0.0
+                for t in model.derived[name].terms:
+                    if not rs.is_active(t):
+                        continue
+                    v = value_of(t.expr, depth + 1)
+                    if v is None:
+                        return None
+                    total += v
+                cache[name] = total
+        return cache[name]
+
+    def value_of(text: str, depth: int = 0) -> float | None:
+        try:
+            names = ex.names_in(text)
+        except ex.ExpressionError:
+            return None
+        env: dict[str, float] = {}
+        for n in names:
+            if n in rs.values:
+                env[n] = rs.values[n]
+            elif n in model.derived:
+                v = derived_value(n, depth)
+                if v is None:
+                    return None
+                env[n] = v
+            else:
+                return None
+        return _constant_value(text, env)
+
+    for el in model.elements.values():
+        if el.type != "inertia" or not rs.effect_active(el.effect, el.variant):
+            continue
+        if el.coordinate is not None and not rs.coordinate_active(el.coordinate):
+            continue
+        terms = [t for t in el.fields.get("value", ()) if rs.is_active(t, el.effect, el.variant)]
+        vals = [value_of(t.expr) for t in terms]
+        if not terms or any(v is None for v in vals):
+            continue
+        total = sum(v for v in vals if v is not None)
+        if total <= 0:
+            exprs = " + ".join(t.expr for t in terms)
+            seen: dict[str, float] = {}
+            todo = [n for t in terms for n in ex.names_in(t.expr)]
+            while todo:  # the parameters and derived quantities the value comes from
+                n = todo.pop()
+                if n in seen:
+                    continue
+                if n in model.derived:
+                    seen[n] = cache.get(n) or 0.0
+                    todo += [m for t in model.derived[n].terms if rs.is_active(t) for m in ex.names_in(t.expr)]
+                elif n in rs.values:
+                    seen[n] = rs.values[n]
+            with_ = f" with {', '.join(f'{n} = {v:g}' for n, v in seen.items())} (SI)" if seen else ""
+            raise SpecError(f"inertia must be positive, got {total:g} from '{exprs}'{with_}",
+                            file=model.path, field=f"elements.{el.name}.value")
 
 
 def _terms_with_owner(model: ModelSpec):
@@ -313,6 +442,11 @@ def _terms_with_owner(model: ModelSpec):
         owner, variant = el.effect, el.variant
         if owner is None and el.coordinate is not None:
             owner = model.coordinates[el.coordinate].effect  # element on a gated coordinate
+        elif owner is None:  # spring/damper/mesh whose deflection uses only gated coordinates
+            names = set().union(*(ex.names_in(t.expr) for t in el.fields.get("deflection", ())))
+            effs = {model.coordinates[n].effect for n in names if n in model.coordinates}
+            if len(effs) == 1 and None not in effs:
+                owner = effs.pop()
         for terms in el.fields.values():
             for t in terms:
                 yield t, owner, variant

@@ -24,6 +24,36 @@ from .parsing import Namespace
 from .switching import ModalForm, make_modal
 
 
+def _expand_in_states(expr: sp.Expr, states: tuple[sp.Symbol, ...], t: sp.Symbol) -> sp.Expr:
+    """``sp.expand(expr)``, except when ``expr`` has time-dependent denominators.
+
+    With a rational function of time (e.g. a time-varying base radius ``rb2(t)`` in
+    a reduction ``q = q2 + e(t)/rb2(t)``) a full expansion multiplies every product of
+    sums out over the expanded denominators (a 555-operation right-hand side became
+    24 000 operations and lost the cancellation ``rb2*(e/rb2) = e``).  In that case the
+    expression is expanded in the states only: every state-free subexpression is kept
+    as one block (so identical blocks still cancel when the products are rebuilt).
+    Models without such denominators keep the full expansion.
+    """
+    rational_in_t = any(p.exp.is_negative and p.base.has(t) for p in expr.atoms(sp.Pow))
+    if not rational_in_t:
+        return sp.expand(expr)
+    wanted = set(states)
+    blocks: dict[sp.Expr, sp.Dummy] = {}
+
+    def atomize(e: sp.Basic) -> sp.Basic:
+        if e.is_Atom:
+            return e
+        if isinstance(e, sp.Expr) and not isinstance(e, sp.Piecewise) and not (e.free_symbols & wanted):
+            if e not in blocks:
+                blocks[e] = sp.Dummy(f"c{len(blocks)}")
+            return blocks[e]
+        return e.func(*[atomize(a) for a in e.args])
+
+    out = sp.expand(atomize(expr))
+    return out.xreplace({d: e for e, d in blocks.items()})
+
+
 @dataclass(frozen=True)
 class SwitchingFunction:
     """A switching surface ``g(t, x, p) = 0`` whose crossing changes the mode.
@@ -224,7 +254,9 @@ class SymbolicModel:
         if any(ai.has(*q, *v) for ai in a):
             raise SpecError("the reduced coordinate must be linear in the coordinates",
                             file=self.spec.path, field=where)
-        s = sp.simplify(definition - sum(ai * qi for ai, qi in zip(a, q)))
+        s = definition - sum(ai * qi for ai, qi in zip(a, q))
+        if s.has(*q, *v):  # keep the structure of s when it is already state-free
+            s = sp.simplify(s)
         if s.has(*q, *v):
             raise SpecError("cannot separate the definition into coordinates and time",
                             file=self.spec.path, field=where)
@@ -241,7 +273,7 @@ class SymbolicModel:
         vk = (xd - sdot - sum(a[i] * v[i] for i in range(len(q)) if i != k)) / a[k]
         sub = {q[k]: qk, v[k]: vk}
         acc = sum(a[i] * Q[i, 0] / M[i, i] for i in range(len(q)) if a[i] != 0) + sp.diff(s, ns.t, 2)
-        acc = sp.expand(acc.subs(sub))
+        acc = _expand_in_states(acc.subs(sub), (x, xd), ns.t)
         acc = sp.piecewise_fold(acc)
         others = [q[i] for i in range(len(q)) if i != k] + [v[i] for i in range(len(q)) if i != k]
         if acc.has(*others):
@@ -253,11 +285,12 @@ class SymbolicModel:
         m_eq = sp.simplify(m_eq)
         self.reduced_mass = m_eq
         self._surface_hints = [
-            SwitchingFunction(h.name, sp.expand(h.expr.subs(sub)), h.meaning, h.contact_sign, h.kind)
+            SwitchingFunction(h.name, _expand_in_states(h.expr.subs(sub), (x, xd), ns.t), h.meaning,
+                              h.contact_sign, h.kind)
             for h in self._surface_hints
         ]
         acc = self._collect(acc)
-        return [x], [xd], sp.Matrix([[m_eq]]), sp.Matrix([sp.expand(m_eq * acc)])
+        return [x], [xd], sp.Matrix([[m_eq]]), sp.Matrix([_expand_in_states(m_eq * acc, (x, xd), ns.t)])
 
     @staticmethod
     def _collect(expr: sp.Expr) -> sp.Expr:

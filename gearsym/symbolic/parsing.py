@@ -56,12 +56,13 @@ class Namespace:
             self._local[fname] = self._bound_function(fname)
         self.schedule_period: dict[str, sp.Expr] = {}
         self.schedule_breaks: dict[str, list[sp.Expr]] = {}
+        # Schedule periods/breaks may use derived quantities, and derived quantities may
+        # use a schedule's phase: the phase is first written with a placeholder period,
+        # the periods and breaks are parsed after the derived quantities, and the
+        # placeholders are then replaced (see the end of __init__).
+        placeholder = {s: sp.Dummy(f"period_{s}", positive=True) for s in m.schedules}
         for s in m.schedules.values():
-            period = self.parse(s.period, f"schedules.{s.name}.period")
-            self.schedule_period[s.name] = period
-            self.schedule_breaks[s.name] = [self.parse(b, f"schedules.{s.name}.breaks[{i}]")
-                                            for i, b in enumerate(s.breaks)]
-            self._local[f"{s.name}_phase"] = self.t / period - self.sched_n[s.name]
+            self._local[f"{s.name}_phase"] = self.t / placeholder[s.name] - self.sched_n[s.name]
             self._local[f"{s.name}_segment"] = self.sched_seg[s.name]
         # derived quantities, in dependency order (validated acyclic by the spec layer)
         pending = dict(m.derived)
@@ -78,6 +79,18 @@ class Namespace:
                 progressed = True
             if not progressed:  # pragma: no cover - the spec layer rejects cycles
                 raise SpecError("circular derived quantities", file=m.path, field="derived")
+        for s in m.schedules.values():
+            self.schedule_period[s.name] = self.parse(s.period, f"schedules.{s.name}.period")
+            self.schedule_breaks[s.name] = [self.parse(b, f"schedules.{s.name}.breaks[{i}]")
+                                            for i, b in enumerate(s.breaks)]
+        fill = {placeholder[s]: self.schedule_period[s] for s in m.schedules}
+        if fill:
+            for s in m.schedules:
+                self.schedule_period[s] = sp.sympify(self.schedule_period[s]).xreplace(fill)
+                self.schedule_breaks[s] = [sp.sympify(b).xreplace(fill) for b in self.schedule_breaks[s]]
+                self._local[f"{s}_phase"] = self.t / self.schedule_period[s] - self.sched_n[s]
+            for name in m.derived:
+                self._local[name] = sp.sympify(self._local[name]).xreplace(fill)
 
     def _bound_function(self, fname: str):
         """A callable that turns ``fname(p1, p2, ...)`` into a parameter-like symbol."""

@@ -1,0 +1,222 @@
+"""Work-precision diagrams: error against a reference versus wall time, for every shipped scene.
+
+For each case (every scene in ``scenes/``, plus two variants of the benchmark
+oscillator), at rtol 1e-3 ... 1e-10 (and 1e-11, 1e-12 where the reference allows),
+all in one run:
+
+* gearsym ``System.simulate`` (CVODE Adams, the default, and BDF): generated C, located
+  events, scheduled breakpoints;
+* scipy DOP853 with located events in Python (the same algorithm as gearsym, no C);
+* the peers a user would otherwise write, stepping over the kinks with one right-hand
+  side: scipy ``solve_ivp`` RK45 / DOP853 / LSODA / Radau and scikit-sundae CVODE
+  with a Python (numpy) right-hand side, and CasADi's ``integrator('cvodes')``.
+
+The machinery is :mod:`gearsym.bench` (also behind ``gearsym bench SCENE``).  This
+script adds the references that need more than the generic ones:
+
+* ``kahraman_singh eps=0``: the exact piecewise closed form of
+  ``tests/reference.py:closed_form_linear`` (linear between contacts; contact times by
+  a root solve);
+* ``kahraman_singh`` and ``kahraman_singh chaotic`` (Omega = 0.8, Fa = 0.6):
+  ``tests/reference.py:reference_solution``, a hand-written event-located DOP853 at
+  rtol 1e-13 (independent of gearsym's symbolic layer), with a second run at 1e-12
+  for the floor and the divergence horizon;
+* ``meissner``: the exact matrix-exponential solution (found automatically);
+* every other scene: the generic event-located DOP853 reference of gearsym.bench.
+
+It also records cold and cached compile times per scene, and the cost of one
+shooting solve per tolerance when ``System.periodic_orbit`` exists.
+
+Usage::
+
+    .venv/bin/python benchmarks/work_precision.py [--out DIR] [--cases NAME ...] [--quick]
+
+Writes ``DIR/work_precision.json``, one ``DIR/wp_<case>.png`` per case and
+``DIR/work_precision_table.md`` (default ``out/bench``); ``--docs`` also copies the
+plots to ``docs/performance/``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+for _p in (ROOT, ROOT / "tests"):
+    if str(_p) not in sys.path:
+        sys.path.insert(0, str(_p))
+
+import reference as ks_reference  # noqa: E402  (tests/reference.py)
+
+import gearsym  # noqa: E402
+from gearsym import bench  # noqa: E402
+
+KS = ROOT / "scenes" / "kahraman_singh.toml"
+
+
+def ks_reference_for(system, x0, grid, exact: bool) -> bench.Reference:
+    """The hand-written references of tests/reference.py on the grid."""
+    p = dict(system.params)
+    t = time.perf_counter()
+    if exact:
+        y, ev, _, _ = ks_reference.closed_form_linear(p, x0, grid)
+        y_chk = None
+        kind = "exact"
+        desc = ("piecewise closed form for eps = 0 (tests/reference.py closed_form_linear): exact between "
+                "contacts, contact times by brentq to ~1e-15")
+    else:
+        y, ev, _, _ = ks_reference.reference_solution(p, x0, grid)
+        y_chk, _, _, _ = ks_reference.reference_solution(p, x0, grid, rtol=1e-12, atol=1e-14)
+        kind = "tight"
+        desc = ("hand-written event-located DOP853, rtol 1e-13 / atol 1e-15, restarted in the new contact mode "
+                "at every crossing (tests/reference.py reference_solution); floor from a run at rtol 1e-12")
+    return bench.Reference(y, kind, desc, y_chk, time.perf_counter() - t, int(len(ev)))
+
+
+def cases() -> list[dict]:
+    """The benchmark cases: label, scene, overrides, horizon, reference."""
+    out = [
+        {"label": "kahraman_singh", "scene": KS, "ks": "tight"},
+        {"label": "kahraman_singh eps=0", "scene": KS, "overrides": {"eps": 0.0}, "ks": "exact"},
+        {"label": "kahraman_singh chaotic", "scene": KS, "overrides": {"Omega": 0.8, "Fa": 0.6}, "ks": "tight",
+         "periods": 500},
+    ]
+    for f in sorted((ROOT / "scenes").glob("*.toml")):
+        if f.name == KS.name:
+            continue
+        out.append({"label": f.stem, "scene": f})
+    return out
+
+
+def run_case(c: dict, args) -> dict:
+    scene = gearsym.load_scene(c["scene"], **c.get("overrides", {}))
+    system = scene.compile()
+    T = system.period()
+    periods = c.get("periods") or float(scene.spec.simulate.get("periods", 100))
+    if args.max_periods:
+        periods = min(periods, args.max_periods)
+    if args.quick:
+        periods = min(periods, 20)
+    ref = None
+    if "ks" in c:
+        n = int(round(periods * args.points_per_period))
+        grid = np.linspace(0.0, periods * T, n + 1)
+        ref = ks_reference_for(system, system.x0, grid, c["ks"] == "exact")
+    return bench.bench_scene(scene, label=c["label"], periods=periods, points_per_period=args.points_per_period,
+                             rounds=args.rounds, reference=ref, rtols=args.rtols,
+                             progress=lambda s: print(f"  [{c['label']}] {s}", flush=True),
+                             max_seconds=args.max_seconds, single_run_s=args.single_run_s)
+
+
+def event_effect(case: dict) -> list[dict]:
+    """Error of stepping over the kinks relative to locating the events, same integrator."""
+    rows = []
+    by = {(r["method"], r["rtol"]): r for r in case["results"] if "best_s" in r}
+    for rtol in case["rtols"]:
+        row = {"rtol": rtol}
+        for plain, located in (("scipy DOP853", "scipy DOP853 + events"), ("CasADi cvodes", "gearsym (bdf)")):
+            a, b = by.get((plain, rtol)), by.get((located, rtol))
+            if a and b:
+                row[f"{plain} / {located}"] = {"error_ratio": a["error"] / max(b["error"], 1e-300),
+                                               "time_ratio": a["best_s"] / b["best_s"]}
+        rows.append(row)
+    return rows
+
+
+def markdown_table(all_cases: list[dict]) -> str:
+    """One table per case: rtol -> time and error of gearsym and each peer, Pareto status."""
+    lines = []
+    for res in all_cases:
+        case = res["case"]
+        meths = list(dict.fromkeys(r["method"] for r in case["results"]))
+        lines.append(f"#### {case['case']}\n")
+        ref = case["reference"]
+        div = case["divergence"]
+        note = (f"; chaotic: error over the first {div['horizon_periods']:.3g} periods"
+                if div["chaotic"] and div["horizon_periods"] else "")
+        lines.append(f"{case['periods']:g} periods, {ref['kind']} reference (floor {ref['floor']:.0e}){note}. "
+                     f"Each cell: wall ms / max normalised error.\n")
+        lines.append("| rtol | " + " | ".join(meths) + " | gearsym on front |")
+        lines.append("|---" * (len(meths) + 2) + "|")
+        by = {(r["method"], r["rtol"]): r for r in case["results"]}
+        par = case["pareto"]["by_rtol"]
+        for rtol in case["rtols"]:
+            cells = []
+            for m in meths:
+                r = by.get((m, rtol), {})
+                if "best_s" in r:
+                    cells.append(f"{r['best_s'] * 1e3:.3g} / {r['error']:.1e}")
+                elif r.get("skipped"):
+                    cells.append("skipped")
+                else:
+                    cells.append("failed" if r.get("failed") else "-")
+            pr = par.get(f"{rtol:g}")
+            front = "-" if pr is None else ("yes" if pr["on_front"] else "no: " + "; ".join(pr["dominated_by"][:2]))
+            lines.append(f"| {rtol:.0e} | " + " | ".join(cells) + f" | {front} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", default=str(ROOT / "out" / "bench"))
+    ap.add_argument("--cases", nargs="+", help="labels of the cases to run (default: all)")
+    ap.add_argument("--quick", action="store_true", help="20 periods per case, one timing round")
+    ap.add_argument("--rtols", type=float, nargs="+", help="override the tolerances")
+    ap.add_argument("--points-per-period", type=int, default=32)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--max-periods", type=float, help="cap the horizon of every case")
+    ap.add_argument("--max-seconds", type=float, default=20.0,
+                    help="a method slower than this at one rtol is skipped at tighter ones")
+    ap.add_argument("--single-run-s", type=float, default=0.5,
+                    help="a method slower than this is timed by its first run alone")
+    ap.add_argument("--docs", action="store_true", help="copy the plots to docs/performance/")
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.rounds = 1
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    selected = [c for c in cases() if not args.cases or c["label"] in args.cases]
+    results = []
+    t_all = time.perf_counter()
+    for c in selected:
+        print(f"{c['label']} ...", flush=True)
+        t = time.perf_counter()
+        try:
+            res = run_case(c, args)
+        except Exception as exc:  # one broken scene must not lose the others
+            print(f"  FAILED: {type(exc).__name__}: {exc}", flush=True)
+            results.append({"case": {"case": c["label"]}, "failed": f"{type(exc).__name__}: {exc}"})
+            continue
+        res["case"]["event_effect"] = event_effect(res["case"])
+        res["wall_s"] = time.perf_counter() - t
+        stem = "wp_" + c["label"].replace(" ", "_").replace("=", "")
+        bench.plot_work_precision(res["case"], out / f"{stem}.png")
+        res["plot"] = f"{stem}.png"
+        results.append(res)
+        print(bench.format_table(res["case"]), flush=True)
+        # write after every case: a long run that is interrupted keeps what it measured
+        good = [r for r in results if "failed" not in r]
+        (out / "work_precision.json").write_text(json.dumps(
+            {"benchmark": "work_precision", "environment": bench.environment(),
+             "total_wall_s": time.perf_counter() - t_all, "cases": results}, indent=1, default=bench._json_default))
+        (out / "work_precision_table.md").write_text(markdown_table(good))
+    if args.docs:
+        dest = ROOT / "docs" / "performance"
+        dest.mkdir(parents=True, exist_ok=True)
+        for r in results:
+            if "plot" in r:
+                shutil.copy(out / r["plot"], dest / r["plot"])
+    n_fail = sum(1 for r in results if "failed" in r)
+    print(f"done in {time.perf_counter() - t_all:.0f} s, {n_fail} failed case(s); wrote {out}")
+    return 1 if n_fail and n_fail == len(results) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,482 @@
+"""Branches of periodic orbits: the result of :func:`gearsym.continuation`.
+
+A :class:`Branch` is the list of :class:`BranchPoint` (periodic orbits along a
+one-parameter curve, in the order of the arclength) and the list of located
+:class:`Bifurcation` (fold, period doubling, Neimark-Sacker, grazing, branch
+point).  It serialises to the JSON object of ``gearsym continue --json``
+(:meth:`Branch.to_dict`) and draws the response curve (stable parts solid,
+unstable parts dashed, bifurcation markers) and the Floquet multipliers along
+the branch.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.axes import Axes
+
+    from ..system import System
+
+__all__ = ["BIFURCATION_TYPES", "Bifurcation", "Branch", "BranchPoint"]
+
+#: Types of located special points and what they mean.
+BIFURCATION_TYPES: dict[str, str] = {
+    "fold": "turning point of the branch: a real multiplier through +1 (saddle-node, jump in a sweep)",
+    "period_doubling": "a real multiplier through -1 (flip): a period-2k orbit branches off",
+    "neimark_sacker": "a complex pair of multipliers through the unit circle (torus, quasi-periodic motion)",
+    "grazing": "the orbit starts or stops touching a switching (contact) surface: the rattle state changes",
+    "branch_point": "a real multiplier through +1 without a turning point (symmetry-breaking pitchfork)",
+}
+
+
+@dataclass
+class BranchPoint:
+    """One periodic orbit on a branch.
+
+    Attributes
+    ----------
+    value : float
+        The continuation parameter (SI).
+    x0 : ndarray
+        State at ``t0`` (the start of the forcing period).
+    period : float
+        Orbit period (``periods`` forcing periods at this parameter value).
+    periods : float
+        Forcing periods per orbit period.
+    multipliers : ndarray (complex)
+        Floquet multipliers by decreasing modulus.
+    stable : bool
+        ``max |mu| < 1``.
+    n_unstable : int
+        Number of multipliers with ``|mu| > 1``.
+    max, min, rms : float
+        Of the observed state (the first state unless chosen) over one period.
+    rattle_state : int or None
+        0 no contact loss, 1 contact loss only, 2 back-side contact (backlash models).
+    n_events : int
+        Surface crossings in one period.
+    surface_extrema : dict
+        ``{surface: (min g, max g)}`` of each switching function over the orbit
+        (grazing: one of them crosses 0).
+    tangent : ndarray
+        Unit tangent of the branch in scaled variables (unknowns, parameter).
+    bifurcation : str or None
+        Type of the special point this is (located bifurcation), else ``None``.
+    residual : float
+        Scaled residual of the corrector.
+    iterations : int
+        Corrector (Newton) iterations.
+    u : ndarray
+        The unknowns of the continuation (shooting states or harmonic coefficients).
+    """
+
+    value: float
+    x0: np.ndarray
+    period: float
+    periods: float
+    multipliers: np.ndarray
+    stable: bool
+    n_unstable: int
+    max: float
+    min: float
+    rms: float
+    rattle_state: int | None
+    n_events: int
+    surface_extrema: dict[str, tuple[float, float]]
+    tangent: np.ndarray | None = None
+    bifurcation: str | None = None
+    residual: float = math.nan
+    iterations: int = 0
+    u: np.ndarray | None = field(default=None, repr=False)
+    monodromy: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def peak_to_peak(self) -> float:
+        """``max - min`` of the observed state."""
+        return self.max - self.min
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary (the keys of ``gearsym continue --json``)."""
+        return {
+            "value": float(self.value),
+            "stable": bool(self.stable),
+            "max": float(self.max),
+            "min": float(self.min),
+            "rms": float(self.rms),
+            "rattle_state": self.rattle_state,
+            "x0": [float(v) for v in self.x0],
+            "period": float(self.period),
+            "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
+            "n_unstable": int(self.n_unstable),
+            "n_events": int(self.n_events),
+            "bifurcation": self.bifurcation,
+        }
+
+
+@dataclass
+class Bifurcation:
+    """A located special point of a branch.
+
+    Attributes
+    ----------
+    type : str
+        ``"fold"``, ``"period_doubling"``, ``"neimark_sacker"``, ``"grazing"`` or
+        ``"branch_point"`` (see :data:`BIFURCATION_TYPES`).
+    value : float
+        Parameter value at the point.
+    point : BranchPoint
+        The orbit there.
+    index : int
+        Index of the point in ``Branch.points``.
+    info : dict
+        Details: ``surface`` and ``side`` ("min"/"max" of g) for grazing, the crossing
+        multiplier, ``n_unstable`` before/after, whether the test function jumped
+        (``nonsmooth``), the test-function residual at the located point.
+    """
+
+    type: str
+    value: float
+    point: BranchPoint
+    index: int = -1
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def multipliers(self) -> np.ndarray:
+        """Floquet multipliers at the point."""
+        return self.point.multipliers
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary."""
+        d = {"type": self.type, "value": float(self.value),
+             "multipliers": [[float(m.real), float(m.imag)] for m in self.point.multipliers],
+             "x0": [float(v) for v in self.point.x0], "period": float(self.point.period),
+             "max": float(self.point.max), "min": float(self.point.min),
+             "rattle_state": self.point.rattle_state, "index": int(self.index)}
+        for k, v in self.info.items():
+            d[k] = _jsonable(v)
+        return d
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, (np.floating, np.integer)):
+        return v.item()
+    if isinstance(v, complex):
+        return [v.real, v.imag]
+    if isinstance(v, np.ndarray):
+        if np.iscomplexobj(v):
+            return [[float(z.real), float(z.imag)] for z in v.ravel()]
+        return v.tolist()
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, dict):
+        return {k: _jsonable(x) for k, x in v.items()}
+    return v
+
+
+@dataclass
+class Branch:
+    """A continued branch of periodic orbits.
+
+    Attributes
+    ----------
+    param : str
+        The continuation parameter.
+    points : list of BranchPoint
+        Orbits in the order of the arclength (located special points included).
+    bifurcations : list of Bifurcation
+        Located special points, in the order of the arclength.
+    periods : float
+        Forcing periods per orbit (2 for a branch switched on at a period doubling).
+    method : str
+        ``"shooting"`` or ``"hbm"``.
+    state : str
+        The observed state (``max``, ``min``, ``rms``).
+    stop_reason : str
+        Why the continuation ended.
+    children : list of Branch
+        Branches switched onto at period doublings of this one.
+    info : dict
+        Settings, counts of residual evaluations, wall time.
+    """
+
+    param: str
+    points: list[BranchPoint]
+    bifurcations: list[Bifurcation]
+    periods: float = 1
+    method: str = "shooting"
+    state: str = ""
+    state_names: list[str] = field(default_factory=list)
+    stop_reason: str = ""
+    children: list[Branch] = field(default_factory=list)
+    parent: Bifurcation | None = field(default=None, repr=False)
+    info: dict[str, Any] = field(default_factory=dict)
+    system: System | None = field(default=None, repr=False, compare=False)
+
+    # ------------------------------------------------------------- arrays
+    def __len__(self) -> int:
+        return len(self.points)
+
+    @property
+    def values(self) -> np.ndarray:
+        """Parameter values of the points."""
+        return np.array([p.value for p in self.points])
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Stability of the points."""
+        return np.array([p.stable for p in self.points], bool)
+
+    @property
+    def max(self) -> np.ndarray:
+        """Maximum of the observed state along the branch."""
+        return np.array([p.max for p in self.points])
+
+    @property
+    def min(self) -> np.ndarray:
+        """Minimum of the observed state along the branch."""
+        return np.array([p.min for p in self.points])
+
+    @property
+    def rms(self) -> np.ndarray:
+        """RMS of the observed state along the branch."""
+        return np.array([p.rms for p in self.points])
+
+    @property
+    def peak_to_peak(self) -> np.ndarray:
+        """Peak-to-peak of the observed state along the branch."""
+        return self.max - self.min
+
+    @property
+    def n_unstable(self) -> np.ndarray:
+        """Number of unstable multipliers along the branch."""
+        return np.array([p.n_unstable for p in self.points], int)
+
+    @property
+    def rattle_states(self) -> list[int | None]:
+        """Rattle state of each point."""
+        return [p.rattle_state for p in self.points]
+
+    def quantity(self, name: str) -> np.ndarray:
+        """``"max"``, ``"min"``, ``"rms"``, ``"ptp"`` (peak-to-peak) or ``"x0"`` (first entry)."""
+        if name in ("ptp", "peak_to_peak"):
+            return self.peak_to_peak
+        if name == "x0":
+            return np.array([p.x0[0] for p in self.points])
+        if name in ("max", "min", "rms"):
+            return getattr(self, name)
+        raise ValueError(f"unknown branch quantity '{name}' (max, min, rms, ptp, x0)")
+
+    def of_type(self, kind: str) -> list[Bifurcation]:
+        """The located bifurcations of one type."""
+        return [b for b in self.bifurcations if b.type == kind]
+
+    def params_at(self, value: float) -> dict[str, float]:
+        """Parameter overrides of the orbit at ``value`` (the branch's fixed ones plus ``param``)."""
+        p = dict(self.info.get("params", {}))
+        p[self.param] = float(value)
+        return p
+
+    def poincare(self, state: int | str | None = None, rtol: float = 1e-10, atol: float = 1e-12
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Poincare points (one per forcing period) of every orbit of the branch.
+
+        Returns ``(values, points)`` with ``points`` of shape ``(n_points, k)`` for a
+        period-``k`` branch: the observed state at ``t0, t0 + T, ..., t0 + (k-1) T``.
+        """
+        if self.system is None:
+            raise ValueError("the branch is not attached to a system")
+        names = self.state_names or self.system.state_names
+        i = names.index(state or self.state or names[0]) if not isinstance(state, int) else state
+        k = max(1, int(round(self.periods)))
+        pts = np.empty((len(self.points), k))
+        for j, p in enumerate(self.points):
+            pts[j, 0] = p.x0[i]
+            if k > 1:
+                T = p.period / self.periods
+                t0 = float(self.info.get("t0", 0.0))
+                tr = self.system.simulate(t_end=t0 + (k - 1) * T, t0=t0, x0=p.x0, rtol=rtol, atol=atol,
+                                          t_out=t0 + T * np.arange(k), params=self.params_at(p.value))
+                pts[j] = tr.y[:, i]
+        return self.values, pts
+
+    def all_branches(self) -> list[Branch]:
+        """This branch and, recursively, its children."""
+        out = [self]
+        for c in self.children:
+            out += c.all_branches()
+        return out
+
+    # --------------------------------------------------------------- I/O
+    def to_dict(self, children: bool = True) -> dict[str, Any]:
+        """The JSON object of ``gearsym continue --json``.
+
+        ``{"param", "points": [{"value", "stable", "max", "min", "rms",
+        "rattle_state", "x0", "period", "multipliers": [[re, im], ...], ...}],
+        "bifurcations": [{"type", "value", "multipliers", ...}], ...}``.
+        """
+        d: dict[str, Any] = {
+            "param": self.param,
+            "points": [p.to_dict() for p in self.points],
+            "bifurcations": [b.to_dict() for b in self.bifurcations],
+            "periods": self.periods,
+            "method": self.method,
+            "state": self.state,
+            "state_names": list(self.state_names),
+            "stop_reason": self.stop_reason,
+        }
+        if self.parent is not None:
+            d["switched_at"] = {"type": self.parent.type, "value": float(self.parent.value)}
+        for k, v in self.info.items():
+            d[k] = _jsonable(v)
+        if children:
+            d["children"] = [c.to_dict() for c in self.children]
+        return d
+
+    def save_json(self, path: str | Path) -> Path:
+        """Write :meth:`to_dict` to a file."""
+        path = Path(path)
+        path.write_text(json.dumps(self.to_dict(), indent=1))
+        return path
+
+    # ------------------------------------------------------------- plots
+    def plot(self, ax: Axes | None = None, quantity: str | list[str] = "max", color: str | None = None,
+             label: str | None = None, markers: bool = True, children: bool = True,
+             legend: bool = True, xscale: float = 1.0) -> Axes:
+        """The response curve: stable parts solid, unstable dashed, bifurcation markers.
+
+        Parameters
+        ----------
+        ax
+            Axes to draw into (new figure if ``None``).
+        quantity
+            ``"max"``, ``"min"``, ``"rms"``, ``"ptp"`` or a list of them.
+        color
+            Line colour (default: next in the cycle; children get their own).
+        label
+            Legend label of the branch.
+        markers
+            Mark the located bifurcations.
+        children
+            Also draw the branches switched onto at period doublings.
+        legend
+            Add a legend (line styles and marker types).
+        xscale
+            Multiply the parameter by this for the horizontal axis (unit change).
+        """
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 4.2))
+        quantities = [quantity] if isinstance(quantity, str) else list(quantity)
+        branches = self.all_branches() if children else [self]
+        cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+        seen: set[str] = set()
+        for k, br in enumerate(branches):
+            col = color if (color and k == 0) else cycle[k % len(cycle)]
+            lab = label if k == 0 else f"period-{int(round(br.periods))} branch"
+            if lab is None:
+                lab = f"period-{int(round(br.periods))} branch" if br.periods != 1 else "branch"
+            x = br.values * xscale
+            st = br.stable
+            for qi, q in enumerate(quantities):
+                y = br.quantity(q)
+                _styled_line(ax, x, y, st, col, lab if qi == 0 else None)
+            if markers:
+                for b in br.bifurcations:
+                    for q in quantities:
+                        y = {"max": b.point.max, "min": b.point.min, "rms": b.point.rms,
+                             "ptp": b.point.max - b.point.min, "peak_to_peak": b.point.max - b.point.min,
+                             "x0": b.point.x0[0]}[q]
+                        mk, mc = _MARKERS.get(b.type, ("x", "k"))
+                        name = b.type.replace("_", " ")
+                        ax.plot([b.value * xscale], [y], mk, color=mc, ms=7, mfc="none" if mk != "x" else mc,
+                                mew=1.5, label=None if name in seen else name, zorder=5)
+                        seen.add(name)
+        ax.set_xlabel(self.param)
+        sname = self.state or "x"
+        ax.set_ylabel(" / ".join(f"{q} {sname}" for q in quantities))
+        if legend:
+            from matplotlib.lines import Line2D
+
+            h, lab = ax.get_legend_handles_labels()
+            h.append(Line2D([], [], color="0.3", ls="-"))
+            lab.append("stable")
+            h.append(Line2D([], [], color="0.3", ls="--"))
+            lab.append("unstable")
+            ax.legend(h, lab, fontsize=8, loc="best")
+        ax.grid(alpha=0.3)
+        return ax
+
+    def plot_multipliers(self, ax: Axes | None = None, children: bool = False, xscale: float = 1.0,
+                         color: str | None = None) -> Axes:
+        """``|mu|`` of every Floquet multiplier along the branch (log scale), the unit
+        circle as a line, bifurcations as vertical lines."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 3.2))
+        branches = self.all_branches() if children else [self]
+        for br in branches:
+            x = br.values * xscale
+            mus = [p.multipliers for p in br.points]
+            n = max(len(m) for m in mus)
+            A = np.full((len(x), n), np.nan)
+            R = np.full((len(x), n), np.nan)
+            for i, m in enumerate(mus):
+                A[i, :len(m)] = np.abs(m)
+                R[i, :len(m)] = np.abs(m.imag) < 1e-9 * np.maximum(1, np.abs(m))
+            for j in range(n):
+                ax.semilogy(x, A[:, j], ".", ms=2.5, color=color or f"C{j % 10}")
+            for b in br.bifurcations:
+                mk, mc = _MARKERS.get(b.type, ("x", "k"))
+                ax.axvline(b.value * xscale, color=mc, lw=0.8, ls=":")
+        ax.axhline(1.0, color="k", lw=0.8)
+        ax.set_xlabel(self.param)
+        ax.set_ylabel("|Floquet multiplier|")
+        ax.grid(alpha=0.3, which="both")
+        return ax
+
+    def plot_figure(self, path: str | Path | None = None, quantity: str | list[str] = "max",
+                    title: str = "", xscale: float = 1.0, children: bool = True):
+        """A two-panel figure: response curve above, multipliers below.  Saved if ``path``."""
+        import matplotlib.pyplot as plt
+
+        fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 6.4), sharex=True,
+                                     gridspec_kw={"height_ratios": [2.2, 1]})
+        self.plot(a1, quantity=quantity, xscale=xscale, children=children)
+        self.plot_multipliers(a2, children=children, xscale=xscale)
+        a1.set_xlabel("")
+        if title:
+            a1.set_title(title)
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=110)
+            plt.close(fig)
+        return fig
+
+
+_MARKERS = {"fold": ("o", "C3"), "period_doubling": ("s", "C2"), "neimark_sacker": ("D", "C4"),
+            "grazing": ("^", "k"), "branch_point": ("x", "C5")}
+
+
+def _styled_line(ax: Axes, x: np.ndarray, y: np.ndarray, stable: np.ndarray, color: str,
+                 label: str | None) -> None:
+    """Draw ``y(x)`` solid where stable, dashed where not (segments share end points)."""
+    if len(x) == 0:
+        return
+    start = 0
+    first = True
+    for i in range(1, len(x) + 1):
+        if i == len(x) or stable[i] != stable[start]:
+            j = min(i + 1, len(x)) if i < len(x) else i
+            ax.plot(x[start:j], y[start:j], "-" if stable[start] else "--", color=color,
+                    lw=1.6 if stable[start] else 1.2, label=label if first else None)
+            first = False
+            start = i

@@ -1,0 +1,1 @@
+"""Bad-input suite: malformed specs, scenes and CLI calls through the ``gearsym`` command."""

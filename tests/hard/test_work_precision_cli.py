@@ -1,0 +1,69 @@
+"""``gearsym bench`` (the work-precision benchmark behind benchmarks/work_precision.py): it
+writes its JSON and plot, and the errors it reports agree with an independent
+computation against the exact solution of the damped Meissner equation."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+from scipy.linalg import expm
+
+import gearsym
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENE = ROOT / "scenes" / "meissner.toml"
+
+
+def _exact(p, x0, t):
+    """x'' + 2 zeta w0 x' + w0^2 (1 +- a) x = 0, stiff on [nT, (n + d)T), soft after (by hand)."""
+    A = {s: np.array([[0.0, 1.0], [-p["w0"] ** 2 * (1 + s * p["a"]), -2 * p["zeta"] * p["w0"]]]) for s in (1, -1)}
+    T, d = p["T"], p["d"]
+    knots = np.unique(np.concatenate([np.arange(0, t[-1] / T + 1) * T, (np.arange(0, t[-1] / T + 1) + d) * T]))
+    y, x, out = 0.0, np.asarray(x0, float), np.empty((t.size, 2))
+    for k in range(knots.size - 1):
+        ts, te = knots[k], knots[k + 1]
+        Ak = A[1] if ((ts / T) % 1.0) < d - 1e-12 else A[-1]
+        sel = (t >= ts) & (t <= te)
+        out[sel] = np.array([expm(Ak * (tt - ts)) @ x for tt in t[sel]])
+        x = expm(Ak * (te - ts)) @ x
+        y = te
+    assert y >= t[-1]
+    return out
+
+
+def test_bench_cli_reports_errors_against_the_exact_solution(tmp_path):
+    out = tmp_path / "bench"
+    r = subprocess.run([sys.executable, "-m", "gearsym.cli", "bench", str(SCENE), "--periods", "5", "--rtols",
+                        "1e-4,1e-8", "--methods", "gearsym,scipy DOP853", "--rounds", "0", "--no-compile-times",
+                        "--no-analyses", "--points-per-period", "16", "--json", "--out", str(out)],
+                       capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert r.returncode == 0, r.stderr
+    data = json.loads(r.stdout)
+    assert sorted(p.name for p in out.iterdir()) == ["work_precision_meissner.json", "work_precision_meissner.png"]
+    assert json.loads((out / "work_precision_meissner.json").read_text())["case"]["rtols"] == [1e-4, 1e-8]
+    case = data["case"]
+    assert case["reference"]["kind"] == "exact"
+    rows = {(row["method"], row["rtol"]): row for row in case["results"]}
+    assert set(rows) == {(m, r) for m in ("gearsym", "scipy DOP853") for r in (1e-4, 1e-8)}
+    # recompute gearsym's error at rtol 1e-8 independently (same grid, same normalisation)
+    system = gearsym.load_scene(SCENE).compile()
+    p = dict(system.params)
+    t = np.linspace(0.0, 5 * p["T"], 5 * 16 + 1)
+    y_ex = _exact(p, system.x0, t)
+    tr = system.simulate(t_end=t[-1], t_out=t, rtol=1e-8, atol=1e-8 * case_atol_ratio(case))
+    scale = np.max(np.abs(y_ex), axis=0)
+    err = float(np.max(np.abs(tr.y - y_ex) / scale))
+    np.testing.assert_allclose(case["state_scale"], scale, rtol=1e-9)
+    assert abs(rows[("gearsym", 1e-8)]["error"] - err) <= 1e-3 * err + 1e-14
+    assert rows[("gearsym", 1e-8)]["error"] < 1e-6 < rows[("gearsym", 1e-4)]["error"]
+    for row in rows.values():
+        assert row["best_s"] > 0 and np.isfinite(row["error"])
+    assert "gearsym" in r.stdout and data["analysis"] is None
+
+
+def case_atol_ratio(case) -> float:
+    return float(case["atol_rule"].split("*")[1].split("(")[0])

@@ -1,0 +1,151 @@
+"""Harmonic balance (AFT + quasi-Newton) against shooting and exact references.
+
+Shooting (Newton on the flow map integrated by the C engine) and harmonic
+balance (Fourier series, DFT of the compiled right-hand side, Broyden) share
+only the generated model functions, so agreement between them checks both.
+The Meissner forced response is checked against the closed form written by hand
+(matrix exponentials of the augmented system) in this file.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+import gearsym
+from gearsym.analysis.hbm import HarmonicBalance, harmonic_balance
+
+ROOT = Path(__file__).resolve().parent.parent
+KS = ROOT / "scenes" / "kahraman_singh.toml"
+MEISSNER = ROOT / "scenes" / "meissner.toml"
+
+
+@pytest.fixture(scope="module")
+def ks():
+    return gearsym.load_scene(KS).compile()
+
+
+@pytest.fixture(scope="module")
+def ks_cd():
+    return gearsym.load_scene(KS, effects={"contact_damping": True}).compile()
+
+
+def test_non_impacting_orbit_agrees_with_shooting(ks):
+    """Omega = 1.4: permanent contact (linear time-varying in contact), the
+    harmonics converge fast and the peak-to-peak agrees to 1e-4 (in fact ~1e-9)."""
+    p = {"Omega": 1.4}
+    shot = ks.periodic_orbit(params=p)
+    assert shot.rattle_state == 0
+    hb = ks.periodic_orbit(method="hbm", params=p, harmonics_tol=1e-9)
+    assert hb.converged and hb.info["harmonics_converged"]
+    assert hb.harmonics <= 16
+    rel = abs(hb.peak_to_peak() - shot.peak_to_peak()) / shot.peak_to_peak()
+    assert rel < 1e-4, rel
+    assert rel < 1e-8  # smooth in contact: spectral accuracy
+    assert np.max(np.abs(hb.x0 - shot.x0)) < 1e-8
+    assert hb.info["defect"] < 1e-8  # the balanced state closes under the integrator
+    assert hb.rattle_state == 0 and hb.stable
+    assert np.max(np.abs(np.sort_complex(hb.multipliers) - np.sort_complex(shot.multipliers))) < 1e-7
+
+
+def test_impacting_orbit_harmonics_needed(ks):
+    """Omega = 0.9, impacting: the peak-to-peak error against shooting falls with
+    the number of harmonics; H = 8 is the first from which it stays below 1e-3
+    (non-monotone below: H = 6 gives 1.03e-3)."""
+    shot = ks.periodic_orbit()
+    pp = shot.peak_to_peak()
+    errs = {}
+    for H in (2, 4, 6, 8, 12, 16, 32):
+        hb = harmonic_balance(ks, harmonics=H, initial_guess="simulation")
+        assert hb.converged
+        errs[H] = abs(hb.peak_to_peak() - pp) / pp
+    needed = min(H for H in errs if all(errs[K] < 1e-3 for K in errs if K >= H))
+    print(f"impacting orbit: peak-to-peak relative error by harmonics {errs}; needed for 1e-3: H = {needed}")
+    assert needed == 8
+    assert errs[32] < 1e-5
+    assert errs[2] > 1e-3  # two harmonics are not enough for an impacting orbit
+
+
+def test_growth_from_constant_guess_falls_back_and_converges(ks):
+    """Automatic growth of the harmonics.  From the static state the harmonic
+    continuation gets stuck below the impacting orbit (no small-amplitude orbit
+    exists at Omega = 0.9); 'auto' then restarts from a simulated period."""
+    shot = ks.periodic_orbit()
+    hb = ks.periodic_orbit(method="hbm", harmonics_tol=1e-3, max_harmonics=64)
+    assert hb.converged and hb.info["initial_guess"] == "simulation"
+    growth = hb.info["harmonic_growth"]
+    assert growth[-1]["change"] < 1e-3
+    assert abs(hb.peak_to_peak() - shot.peak_to_peak()) / shot.peak_to_peak() < 1e-3
+    assert hb.rattle_state == 1
+    # quasi-Newton: some iterations reuse Broyden's updated Jacobian
+    assert any(h.get("jacobian") is False for h in hb.history) or hb.iterations <= len(growth) * 2
+
+
+def test_contact_damping_orbit(ks_cd):
+    """Vector field jumping at x = +-b: the AFT residual has a floor ~ jump/M, the
+    solution still approaches shooting's as H grows."""
+    shot = ks_cd.periodic_orbit()
+    pp = shot.peak_to_peak()
+    e16 = abs(harmonic_balance(ks_cd, harmonics=16, initial_guess="simulation").peak_to_peak() - pp) / pp
+    e64 = abs(harmonic_balance(ks_cd, harmonics=64, initial_guess="simulation").peak_to_peak() - pp) / pp
+    assert e64 < 2e-4 and e64 < e16 < 2e-3
+
+
+def test_aft_jacobian_matches_finite_differences(ks):
+    hb = HarmonicBalance(ks, ks.period(), 5)
+    rng = np.random.default_rng(3)
+    C = np.zeros((11, 2))
+    C[0] = [1.05, 0.0]
+    C[1:] = 0.05 * rng.standard_normal((10, 2))
+    J = hb.jacobian(C)
+    z = hb._flat(C)
+    h = 1e-7
+    Jfd = np.empty_like(J)
+    for k in range(len(z)):
+        e = np.zeros_like(z)
+        e[k] = h
+        Jfd[:, k] = (hb._flat(hb.residual(hb._unflat(z + e))) - hb._flat(hb.residual(hb._unflat(z - e)))) / (2 * h)
+    # samples near a surface make the residual only piecewise smooth: compare in norm
+    assert np.linalg.norm(J - Jfd) / np.linalg.norm(J) < 1e-5
+
+
+def test_meissner_forced_hbm_vs_closed_form():
+    """Linear forced Meissner: harmonic balance against the exact periodic state
+    from matrix exponentials (hand-written here), in a stable region."""
+    system = gearsym.load_scene(MEISSNER, effects={"excitation": True}).compile()
+    p = {"zeta": 0.05, "w0": 1.0, "a": 0.3, "d": 0.5, "T": 4.6, "F0": 1.0, "F1": 0.5, "phi": 0.0}
+    T, d, w0, z, a = p["T"], p["d"], p["w0"], p["zeta"], p["a"]
+    om = 2 * np.pi / T
+
+    def aug(sign):
+        # z = [x, v, 1, cos(om t), sin(om t)]
+        Z = np.zeros((5, 5))
+        Z[0, 1] = 1
+        Z[1, 0] = -w0**2 * (1 + sign * a)
+        Z[1, 1] = -2 * z * w0
+        Z[1, 2] = p["F0"]
+        Z[1, 3] = p["F1"]
+        Z[3, 4] = -om
+        Z[4, 3] = om
+        return Z
+
+    E = expm(aug(-1) * (1 - d) * T) @ expm(aug(+1) * d * T)
+    Phi, xp = E[:2, :2], E[:2, 2:] @ np.array([1.0, 1.0, 0.0])
+    x0_ref = np.linalg.solve(np.eye(2) - Phi, xp)
+    hb16 = harmonic_balance(system, params=p, harmonics=16)
+    hb = harmonic_balance(system, params=p, harmonics=32)
+    assert "gauss" in hb.info["quadrature"]
+    # the rectangular stiffness makes x'' jump at t = 0 and d*T: the coefficients of x
+    # decay like k^-3 (error ~H^-3 in x), those of v = x' like k^-2, and v has a kink
+    # at t = 0 exactly where x0 is taken (error ~1/H there)
+    ex32, ex16 = abs(hb.x0[0] - x0_ref[0]), abs(hb16.x0[0] - x0_ref[0])
+    assert ex32 < 1e-6 and ex16 / ex32 > 5
+    assert abs(hb.x0[1] - x0_ref[1]) < 4e-3
+    # the peak-to-peak response from the series vs from shooting (the same forced orbit)
+    shot = system.periodic_orbit(params=p, x0=[0.0, 0.0])
+    assert np.max(np.abs(shot.x0 - x0_ref)) < 1e-8
+    assert abs(hb.peak_to_peak() - shot.peak_to_peak()) / shot.peak_to_peak() < 1e-5
+    assert hb.stable
