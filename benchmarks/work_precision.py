@@ -163,6 +163,72 @@ def markdown_table(all_cases: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def tolerance_table(all_cases: list[dict]) -> str:
+    """Choosing a tolerance: gearsym's error (and wall ms) at each rtol, one column per case."""
+    cases_ = [r["case"] for r in all_cases]
+    rtols = sorted({t for c in cases_ for t in c["rtols"]}, reverse=True)
+    lines = ["| rtol | " + " | ".join(c["case"] for c in cases_) + " |", "|---" * (len(cases_) + 1) + "|"]
+    for rtol in rtols:
+        cells = []
+        for c in cases_:
+            r = next((r for r in c["results"] if r["method"] == "gearsym" and r["rtol"] == rtol), None)
+            if r is None or "best_s" not in r:
+                cells.append("-")
+            else:
+                floor = "≤" if r.get("below_floor") else ""
+                cells.append(f"{floor}{r['error']:.0e} ({r['best_s'] * 1e3:.2g} ms)")
+        lines.append(f"| {rtol:.0e} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def summary_table(all_cases: list[dict]) -> str:
+    """One row per case: reference, horizon, compile, speed and error at rtol 1e-8, Pareto status."""
+    lines = ["| case | reference (floor) | horizon | cold / cached compile | gearsym at 1e-8 | fastest peer at 1e-8 "
+             "| most accurate peer at 1e-8 | gearsym on the front |", "|---" * 8 + "|"]
+    for res in all_cases:
+        c = res["case"]
+        at = {r["method"]: r for r in c["results"] if r["rtol"] == 1e-8 and "best_s" in r}
+        g = at.get("gearsym")
+        peers = [r for m, r in at.items() if not r["gearsym"]]
+        fast = min(peers, key=lambda r: r["best_s"]) if peers else None
+        acc = min(peers, key=lambda r: r["error"]) if peers else None
+        comp = res.get("compile") or {}
+        div = c["divergence"]
+        hor = f"{c['periods']:g} periods" + (f" (error over {div['horizon_periods']:.3g})" if div["chaotic"] else "")
+        bad = [k for k, v in c["pareto"]["by_rtol"].items() if not v["on_front"]]
+
+        def cell(r):
+            return "-" if r is None else f"{r['method']}: {r['best_s'] * 1e3:.3g} ms, {r['error']:.0e}"
+        lines.append(
+            f"| {c['case']} | {c['reference']['kind']} ({c['reference']['floor']:.0e}) | {hor} | "
+            f"{comp.get('cold_s', float('nan')):.1f} s / {comp.get('cached_s', float('nan')) * 1e3:.0f} ms | "
+            f"{cell(g)} | {cell(fast)}" + (f" ({fast['best_s'] / g['best_s']:.0f}x)" if g and fast else "")
+            + f" | {cell(acc)} | " + ("yes" if not bad else "no at rtol " + ", ".join(bad)) + " |")
+    return "\n".join(lines)
+
+
+def analysis_table(all_cases: list[dict]) -> str:
+    """Shooting solve and continuation step: wall ms and multiplier error at each rtol."""
+    lines = ["| case | rtol | shooting ms (Newton its) | multiplier error | continuation ms/step |", "|---" * 5 + "|"]
+    for res in all_cases:
+        an = res.get("analysis") or {}
+        sh = (an.get("shooting") or {})
+        co = {r["rtol"]: r for r in ((an.get("continuation") or {}).get("rows") or [])}
+        if not sh.get("rows"):
+            reason = sh.get("failed") or sh.get("reason") or "not available"
+            lines.append(f"| {res['case']['case']} | - | {reason[:80]} | - | - |")
+            continue
+        for r in sh["rows"]:
+            if r["rtol"] not in (1e-4, 1e-6, 1e-8, 1e-10):
+                continue
+            c = co.get(r["rtol"], {})
+            shc = "failed" if "failed" in r else f"{r['wall_s'] * 1e3:.3g} ({r['iterations']})"
+            me = "-" if r.get("multiplier_error") is None else f"{r['multiplier_error']:.0e}"
+            cc = "failed" if "failed" in c else (f"{c['wall_per_step_s'] * 1e3:.3g}" if c else "-")
+            lines.append(f"| {res['case']['case']} | {r['rtol']:.0e} | {shc} | {me} | {cc} |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=str(ROOT / "out" / "bench"))
@@ -177,6 +243,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--single-run-s", type=float, default=0.5,
                     help="a method slower than this is timed by its first run alone")
     ap.add_argument("--docs", action="store_true", help="copy the plots to docs/performance/")
+    ap.add_argument("--append", action="store_true",
+                    help="keep the other cases of an existing DIR/work_precision.json (re-running some cases)")
     args = ap.parse_args(argv)
     if args.quick:
         args.rounds = 1
@@ -184,6 +252,11 @@ def main(argv: list[str] | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     selected = [c for c in cases() if not args.cases or c["label"] in args.cases]
     results = []
+    kept: list[dict] = []
+    jfile = out / "work_precision.json"
+    if args.append and jfile.exists():
+        labels = {c["label"] for c in selected}
+        kept = [r for r in json.loads(jfile.read_text())["cases"] if r["case"]["case"] not in labels]
     t_all = time.perf_counter()
     for c in selected:
         print(f"{c['label']} ...", flush=True)
@@ -202,15 +275,19 @@ def main(argv: list[str] | None = None) -> int:
         results.append(res)
         print(bench.format_table(res["case"]), flush=True)
         # write after every case: a long run that is interrupted keeps what it measured
-        good = [r for r in results if "failed" not in r]
-        (out / "work_precision.json").write_text(json.dumps(
+        good = [r for r in kept + results if "failed" not in r]
+        jfile.write_text(json.dumps(
             {"benchmark": "work_precision", "environment": bench.environment(),
-             "total_wall_s": time.perf_counter() - t_all, "cases": results}, indent=1, default=bench._json_default))
-        (out / "work_precision_table.md").write_text(markdown_table(good))
+             "total_wall_s": time.perf_counter() - t_all, "cases": kept + results}, indent=1,
+            default=bench._json_default))
+        (out / "work_precision_table.md").write_text(
+            "## Summary\n\n" + summary_table(good) + "\n\n## gearsym error (wall ms) by rtol\n\n"
+            + tolerance_table(good) + "\n\n## Periodic-orbit analyses\n\n" + analysis_table(good)
+            + "\n\n## Every method\n\n" + markdown_table(good))
     if args.docs:
         dest = ROOT / "docs" / "performance"
         dest.mkdir(parents=True, exist_ok=True)
-        for r in results:
+        for r in kept + results:
             if "plot" in r:
                 shutil.copy(out / r["plot"], dest / r["plot"])
     n_fail = sum(1 for r in results if "failed" in r)

@@ -974,11 +974,10 @@ def plot_work_precision(data: Mapping[str, Any], path: str | Path) -> None:
         for r, xx, yy in zip(rows, x, y):
             if r["rtol"] in (rows[0]["rtol"], rows[-1]["rtol"]) and r["gearsym"]:
                 ax.annotate(f"{r['rtol']:.0e}", (xx, yy), fontsize=7, xytext=(4, 2), textcoords="offset points")
-    ax.axhline(floor, color="0.6", lw=0.8, ls=":")
-    ax.text(ax.get_xlim()[0] if ax.lines else 1e-3, floor, " reference floor", fontsize=7, va="bottom",
-            color="0.4")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ax.axhline(floor, color="0.6", lw=0.8, ls=":")
+    ax.text(ax.get_xlim()[1], floor, "reference floor ", fontsize=7, va="bottom", ha="right", color="0.4")
     ax.set_xlabel("wall time of one integration, best of repeats [s] (compile excluded)")
     ax.set_ylabel("max normalised state error on the output grid")
     sub = data["reference"]["kind"]

@@ -16,8 +16,12 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 import gearsym
-from gearsym.analysis.floquet import (NotPiecewiseConstantError, PiecewiseLTV, exact_multipliers,
-                                      floquet_multipliers)
+from gearsym.analysis.floquet import (
+    NotPiecewiseConstantError,
+    PiecewiseLTV,
+    exact_multipliers,
+    floquet_multipliers,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "scenes" / "meissner.toml"

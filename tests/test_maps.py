@@ -66,7 +66,7 @@ def test_dask_local_cluster_same_code_path(meissner_scene):
     distributed = pytest.importorskip("distributed")
     serial = stability_map(meissner_scene, ("T", 2.5, 4.0, 4), ("a", 0.2, 0.6, 3), method="shooting",
                            workers=1)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True,
                                   dashboard_address=None) as cluster:
         ds = stability_map(meissner_scene, ("T", 2.5, 4.0, 4), ("a", 0.2, 0.6, 3), method="shooting",
                            dask=cluster.scheduler_address, rows_per_task=1)

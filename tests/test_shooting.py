@@ -230,3 +230,34 @@ def test_system_api_and_json(ks):
     assert d["max"] > d["min"]
     tr = orbit.trajectory()
     assert d["max"] == pytest.approx(tr.y[:, 0].max(), abs=1e-5)
+
+
+def test_long_period_multipliers_need_segment_products():
+    """NFG (liu_nfg_160): the orbit spans Z2 = 64 mesh cycles and the multipliers are
+    ~1e-21 and ~1e-32.  Their product must equal Liouville's determinant
+    exp(int trace J dt) (trace of the generated Jacobian along the orbit, trapezoid
+    rule; the saltation determinants are 1 for the continuous backlash force).  The
+    product of segment monodromies (multiple shooting) gets it to ~1e-7; one
+    monodromy over the whole period does not (its entries sit far below atol)."""
+    from scipy.integrate import trapezoid
+
+    system = gearsym.load_scene(ROOT / "scenes" / "liu_nfg_160.toml").compile()
+    single = system.periodic_orbit(transient=10, rtol=1e-10, atol=1e-14)
+    n = 4001  # the trace is smooth and periodic: the trapezoid rule converges fast
+    tr = system.simulate(t_end=single.period, x0=single.x0, rtol=1e-12, atol=1e-16, n_out=n)
+    p = np.tile(system.param_vector()[:, None], (1, n))
+    g = np.asarray(system.generated.casadi_function("gs_sw").map(n)(tr.t[None, :], tr.y.T, p))
+    J = np.asarray(system.generated.casadi_function("gs_jac").map(n)(tr.t[None, :], tr.y.T, p,
+                                                                     np.where(g >= 0, 1.0, -1.0)))
+    J = J.reshape(2, n, 2)
+    log_det = trapezoid(J[0, :, 0] + J[1, :, 1], tr.t)
+    multi = system.periodic_orbit(segments=8, x0=single.x0, transient=0, rtol=1e-10, atol=1e-14)
+    assert np.max(np.abs(multi.x0 - single.x0)) < 1e-9
+    log_det_multi = float(np.sum(np.log(np.abs(multi.multipliers))))
+    log_det_single = float(np.sum(np.log(np.abs(single.multipliers))))
+    assert abs(log_det_multi - log_det) < 1e-4 * abs(log_det)
+    assert abs(log_det_multi - log_det) < 1e-4
+    assert abs(log_det_single - log_det) > 1e-2  # single shooting loses the small multiplier
+    # the dominant multiplier is robust either way
+    assert abs(multi.multipliers[0] - single.multipliers[0]) < 1e-5 * abs(single.multipliers[0])
+    assert multi.stable and multi.rattle_state == 1

@@ -104,9 +104,15 @@ class _Residual:
         return p
 
     def period(self, lam: float) -> float:
-        T = self.system.period(self.params(lam))
-        if not T:
-            raise ParameterError("continuation of periodic orbits needs a forcing period ([forcing] period)")
+        cache = self.__dict__.setdefault("_period_cache", {})
+        T = cache.get(lam)
+        if T is None:
+            T = self.system.period(self.params(lam))
+            if not T:
+                raise ParameterError("continuation of periodic orbits needs a forcing period ([forcing] period)")
+            if len(cache) > 64:
+                cache.clear()
+            cache[lam] = T
         return float(self.periods) * T
 
     def evaluate(self, u: np.ndarray, lam: float, jac: bool = True, dlam: bool = True
@@ -123,9 +129,12 @@ class _Residual:
         """``(t, Y)``: the orbit on ``n`` evenly spaced times of one period (end excluded)."""
         raise NotImplementedError  # pragma: no cover
 
-    def _fd_lambda(self, u: np.ndarray, lam: float) -> np.ndarray:
+    def _fd_lambda(self, u: np.ndarray, lam: float, R: np.ndarray | None = None) -> np.ndarray:
+        """``dF/dlambda`` by a forward difference from ``R = F(u, lambda)`` (central without it)."""
         h = self.fd_step
         Rp = self.evaluate(u, lam + h, jac=False).R
+        if R is not None:
+            return (Rp - R) / h
         Rm = self.evaluate(u, lam - h, jac=False).R
         return (Rp - Rm) / (2 * h)
 
@@ -221,7 +230,7 @@ class ShootingResidual(_Residual):
             J[i * nx:(i + 1) * nx, i * nx:(i + 1) * nx] = Ms[i]
             k = (i + 1) % N
             J[i * nx:(i + 1) * nx, k * nx:(k + 1) * nx] -= np.eye(nx)
-        Flam = self._fd_lambda(u, lam) if dlam else None
+        Flam = self._fd_lambda(u, lam, R) if dlam else None
         return _Eval(R, J, Flam, monodromy=monodromy_product(Ms), events=evs)
 
     def dense(self, u: np.ndarray, lam: float, n_per_period: int) -> tuple[np.ndarray, np.ndarray]:
@@ -316,7 +325,7 @@ class HBResidual(_Residual):
         if not jac:
             return _Eval(R, None, None)
         J = hb.jacobian(C)
-        Flam = self._fd_lambda(u, lam) if dlam else None
+        Flam = self._fd_lambda(u, lam, R) if dlam else None
         x0 = self.x0_of(u)
         mono, events = None, []
         try:
@@ -431,7 +440,7 @@ class _Continuer:
                 raise ConvergenceError("non-finite residual in the corrector")
             if (r <= self.tol or (step <= self.tol and r <= 100 * self.tol)) and abs(c) <= 1e-9:
                 if ev.Flam is None:
-                    ev.Flam = self.res._fd_lambda(z[:-1], float(z[-1]))
+                    ev.Flam = self.res._fd_lambda(z[:-1], float(z[-1]), ev.R)
                 return z, ev, it
             if it >= self.max_newton:
                 raise ConvergenceError(f"corrector: no convergence in {it} Newton steps (residual {r:.3g})")
@@ -783,7 +792,7 @@ def _first_orbit_shooting(system: System, param: str, start: float, p_start: dic
 
 
 def _fd_step(start: float, stop: float) -> float:
-    return 1e-5 * max(abs(stop - start), 1e-3 * max(abs(start), abs(stop)))
+    return 1e-6 * max(abs(stop - start), 1e-3 * max(abs(start), abs(stop)))
 
 
 def _detect_types(detect: Sequence[str] | bool) -> tuple[str, ...]:

@@ -54,6 +54,34 @@ def _expand_in_states(expr: sp.Expr, states: tuple[sp.Symbol, ...], t: sp.Symbol
     return out.xreplace({d: e for e, d in blocks.items()})
 
 
+def _fold_segments(expr: sp.Expr, segments: dict[sp.Symbol, int]) -> sp.Expr:
+    """``sp.piecewise_fold(expr)``, one schedule segment at a time.
+
+    Folding a sum of many schedule ``Piecewise`` (piecewise-constant stiffness,
+    damping, load sharing, friction sign, ...) with ``piecewise_fold`` multiplies out
+    every combination of their branches (exponential in time and memory).  The
+    segment index of a schedule takes only the values ``0 .. n-1``, so the exact fold
+    is one branch per segment: ``Piecewise((expr|seg=0, seg < 0.5), (expr|seg=1,
+    seg < 1.5), ..., (expr|seg=n-1, True))``, each branch folded in the remaining
+    (state-dependent) conditions only.
+
+    Parameters
+    ----------
+    expr
+        The expression to fold.
+    segments
+        Segment-index symbol of each schedule -> number of segments.
+    """
+    present = [(sym, n) for sym, n in segments.items() if expr.has(sym)]
+    if not present:
+        return sp.piecewise_fold(expr)
+    sym, n = present[0]
+    rest = {k: v for k, v in segments.items() if k != sym}
+    pieces = [(_fold_segments(expr.subs(sym, i), rest), sym < sp.Float(i + 0.5)) for i in range(n - 1)]
+    pieces.append((_fold_segments(expr.subs(sym, n - 1), rest), sp.true))
+    return sp.Piecewise(*pieces)
+
+
 @dataclass(frozen=True)
 class SwitchingFunction:
     """A switching surface ``g(t, x, p) = 0`` whose crossing changes the mode.
@@ -274,7 +302,7 @@ class SymbolicModel:
         sub = {q[k]: qk, v[k]: vk}
         acc = sum(a[i] * Q[i, 0] / M[i, i] for i in range(len(q)) if a[i] != 0) + sp.diff(s, ns.t, 2)
         acc = _expand_in_states(acc.subs(sub), (x, xd), ns.t)
-        acc = sp.piecewise_fold(acc)
+        acc = _fold_segments(acc, {ns.sched_seg[sn]: len(b) + 1 for sn, b in ns.schedule_breaks.items()})
         others = [q[i] for i in range(len(q)) if i != k] + [v[i] for i in range(len(q)) if i != k]
         if acc.has(*others):
             leftover = sorted(str(o) for o in others if acc.has(o))

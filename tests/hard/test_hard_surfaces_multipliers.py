@@ -135,3 +135,55 @@ def test_multipliers_near_plus_and_minus_one(meissner, sign, window):
         assert (np.max(np.abs(mu)) < 1) == (np.max(np.abs(exact)) < 1)
         mus.append(np.max(np.abs(mu)))
     assert (mus[0] < 1) != (mus[1] < 1)          # the two sides of the boundary differ
+
+
+# ------------------------------------------- nonlinear orbits at a fold and a period doubling
+def _fd_monodromy(params, x0, T, h=1e-6):
+    """Central finite differences of the hand-written event-located DOP853 flow over one period."""
+    from ._ref import ks
+
+    R = ks()
+    cols = []
+    for k in range(2):
+        e = np.zeros(2)
+        e[k] = h
+        yp = R.reference_solution(params, np.asarray(x0) + e, [0.0, T], rtol=1e-13, atol=1e-15)[0][-1]
+        ym = R.reference_solution(params, np.asarray(x0) - e, [0.0, T], rtol=1e-13, atol=1e-15)[0][-1]
+        cols.append((yp - ym) / (2 * h))
+    y0 = R.reference_solution(params, x0, [0.0, T], rtol=1e-13, atol=1e-15)[0][-1]
+    return np.array(cols).T, y0
+
+
+@pytest.mark.parametrize("kind,window,extra", [("fold", (0.6, 1.4), {}),
+                                               ("period_doubling", (0.58, 0.64), {"Fa": 0.4})])
+def test_backlash_orbit_multiplier_at_a_fold_and_a_period_doubling(kind, window, extra):
+    """The benchmark oscillator's period-1 orbit at a located fold (multiplier +1) and period
+    doubling (-1): the orbit is a fixed point of the hand-written reference flow, and the
+    variational monodromy's multipliers match finite differences of that flow; shooting
+    next to the point (ill-conditioned Newton) converges and reports the multiplier near +-1."""
+    from ._ref import ks
+
+    R = ks()
+    system = gearsym.load_scene(ROOT / "scenes" / "kahraman_singh.toml").compile()
+    br = gearsym.continuation(system, "Omega", *window, params=extra, progress=False)
+    # (the fold at Omega ~ 0.894 sits next to a grazing; take the smooth one at ~ 0.836)
+    pts = [b for b in br.of_type(kind) if kind != "fold" or b.value < 0.87]
+    assert len(pts) == 1
+    b = pts[0]
+    sign = 1.0 if kind == "fold" else -1.0
+    params = dict(R.DEFAULTS, **extra, Omega=b.value)
+    T = 2 * math.pi / b.value
+    M_fd, y_T = _fd_monodromy(params, b.point.x0, T)
+    assert np.max(np.abs(y_T - b.point.x0)) < 1e-8                  # a periodic orbit of the reference flow
+    mu_fd = np.linalg.eigvals(M_fd)
+    mu_gs = np.asarray(b.point.multipliers)
+    assert np.min(np.abs(mu_gs - sign)) < 1e-6
+    np.testing.assert_allclose(np.sort_complex(mu_gs), np.sort_complex(mu_fd), rtol=0, atol=1e-5)
+    # shooting from a neighbouring branch point (slightly perturbed) converges back to it
+    k = next(i for i, p in enumerate(br.points) if p.bifurcation == kind)
+    nb = br.points[k - 1] if k > 0 else br.points[k + 1]
+    orb = system.periodic_orbit(x0=nb.x0 * (1 + 1e-4), params={**extra, "Omega": nb.value}, rtol=1e-11,
+                                atol=1e-13, tol=1e-10, relax_periods=0)
+    assert orb.converged and np.max(np.abs(orb.x0 - nb.x0)) < 1e-7
+    near = orb.multipliers[np.argmin(np.abs(orb.multipliers - sign))]
+    assert abs(near - sign) < 0.1 and abs(near - sign) < 10 * abs(nb.value - b.value) ** 0.5 + 1e-3
