@@ -500,7 +500,18 @@ class _Continuer:
             self._sw_maps[n] = f
         return f
 
-    def make_node(self, z: np.ndarray, ev: _Eval, t_ref: np.ndarray, iterations: int = 0) -> _Node:
+    def make_node(self, z: np.ndarray, ev: _Eval, t_ref: np.ndarray, iterations: int = 0,
+                  ref: _Node | None = None) -> _Node:
+        """Post-process a corrected point: multipliers, extrema, grazing tests, tangent.
+
+        The tangent is oriented along ``t_ref``; but when neither this point nor
+        ``ref`` (the previous point) has a multiplier near +1 and no real multiplier
+        crossed +1 between them, the branch is locally a graph over the parameter
+        (implicit function theorem: no turning point is possible), and the
+        tangent is oriented so that the parameter keeps its direction -- a rattling
+        orbit whose state moves fast and erratically with the parameter could
+        otherwise flip it and send the continuation backwards.
+        """
         res = self.res
         u, lam = z[:-1], float(z[-1])
         mu = floquet_multipliers(ev.monodromy) if ev.monodromy is not None else np.zeros(0, complex)
@@ -523,6 +534,8 @@ class _Continuer:
         except Exception:  # noqa: BLE001 - the classification is informative only
             rs = None
         t = self.tangent(ev, t_ref)
+        if ref is not None and _graph_like(mu, ref.point.multipliers) and ref.t[-1] * t[-1] < 0:
+            t = -t
         n_unst = count_unstable(mu)
         pt = BranchPoint(
             value=lam, x0=np.asarray(x0, float), period=res.period(lam), periods=res.periods, multipliers=mu,
@@ -850,8 +863,10 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
             wA = A.z / C.S
             try:
                 z, ev, it = C.correct((wA + h * A.t) * C.S, A.t, float(A.t @ wA) + h)
-                B = C.make_node(z, ev, A.t, it)
+                B = C.make_node(z, ev, A.t, it, ref=A)
                 cosang = float(B.t @ A.t)
+                if _graph_like(B.point.multipliers, A.point.multipliers):
+                    cosang = abs(cosang)
                 if cosang < math.cos(max_angle) and h > 4 * ds_min:
                     raise ConvergenceError(f"tangent turned by {math.degrees(math.acos(max(-1, cosang))):.1f} deg")
             except GearsymError as exc:
@@ -916,6 +931,15 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
     return br
 
 
+def _graph_like(mu_b: np.ndarray, mu_a: np.ndarray, margin: float = 0.05) -> bool:
+    """No multiplier within ``margin`` of +1 at either point and none crossed +1 in between."""
+    if len(mu_a) == 0 or len(mu_b) == 0:
+        return False
+    if np.min(np.abs(mu_a - 1.0)) <= margin or np.min(np.abs(mu_b - 1.0)) <= margin:
+        return False
+    return (tau_branch_point(mu_a) > 0) == (tau_branch_point(mu_b) > 0)
+
+
 def _period_defect(res: _Residual, node: _Node) -> float:
     """``max |x(t0 + P/2) - x(t0)|`` (scaled): zero when a period-2k orbit is a period-k orbit."""
     if res.periods < 2 or int(round(res.periods)) % 2:
@@ -955,7 +979,7 @@ def _boundary_node(C: _Continuer, A: _Node, B: _Node, bound: float) -> _Node:
     row = np.zeros(len(A.z))
     row[-1] = 1.0
     z, ev, it = C.correct(z_guess, row, bound / C.S[-1])
-    return C.make_node(z, ev, A.t, it)
+    return C.make_node(z, ev, A.t, it, ref=A)
 
 
 def _node_at(C: _Continuer, A: _Node, B: _Node, sigma: float, sigma_B: float, cache: dict[float, _Node]) -> _Node:
@@ -965,7 +989,7 @@ def _node_at(C: _Continuer, A: _Node, B: _Node, sigma: float, sigma_B: float, ca
     f = sigma / sigma_B if sigma_B else 0.0
     z_guess = A.z + f * (B.z - A.z)
     z, ev, it = C.correct(z_guess, A.t, float(A.t @ (A.z / C.S)) + sigma)
-    nd = C.make_node(z, ev, A.t, it)
+    nd = C.make_node(z, ev, A.t, it, ref=A)
     cache[sigma] = nd
     return nd
 
@@ -1034,7 +1058,10 @@ def _detect_between(C: _Continuer, A: _Node, B: _Node, types: tuple[str, ...], l
         if kind in ("fold", "branch_point"):
             mu = nd.point.multipliers
             if len(mu):
-                info["multiplier"] = complex(mu[np.argmin(np.abs(mu - 1.0))])
+                m1 = complex(mu[np.argmin(np.abs(mu - 1.0))])
+                if abs(m1 - 1.0) > 0.05 and not nonsmooth and kind == "fold":
+                    continue  # no multiplier at +1: a numerical flip of the tangent, not a fold
+                info["multiplier"] = m1
         found.append((s_root, nd, kind, info))
     # an unexplained change of the number of unstable multipliers (a jump at a non-smooth point)
     if locate and A.point.n_unstable != B.point.n_unstable and not any(

@@ -200,6 +200,29 @@ def _mapped(gen, name: str, n: int):
     return f
 
 
+_CHUNK = 2048
+
+
+def _call_columns(gen, name: str, *args: np.ndarray) -> np.ndarray:
+    """Evaluate a generated function column-wise over many points (inputs (n_i, N)),
+    in chunks of a fixed mapped size (building a CasADi map is costly for huge N)."""
+    N = args[0].shape[1]
+    if N <= _CHUNK:
+        return np.asarray(_mapped(gen, name, N)(*args), float)
+    f = _mapped(gen, name, _CHUNK)
+    outs = []
+    for a in range(0, N, _CHUNK):
+        b = min(N, a + _CHUNK)
+        chunk = [x[:, a:b] for x in args]
+        if b - a < _CHUNK:  # pad with the last column
+            chunk = [np.concatenate([c, np.repeat(c[:, -1:], _CHUNK - (b - a), axis=1)], axis=1)
+                     for c in chunk]
+        out = np.asarray(f(*chunk), float)
+        k = out.shape[1] // _CHUNK
+        outs.append(out[:, : (b - a) * k])
+    return np.concatenate(outs, axis=1)
+
+
 def _basis(t: np.ndarray, omega: float, K: int) -> np.ndarray:
     """Exosystem states ``[1, t, cos(w t), sin(w t), ..., cos(K w t), sin(K w t)]`` (rows)."""
     t = np.atleast_1d(np.asarray(t, float))
@@ -451,10 +474,10 @@ def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]]
     N = len(params_list)
     nx = gen.nx
     P = np.array([system.param_vector(p) for p in params_list]).T.reshape(-1, N)
-    T = np.asarray(_mapped(gen, "gs_period", N)(P), float).ravel() * periods
+    T = _call_columns(gen, "gs_period", P).ravel() * periods
     if not np.all(np.isfinite(T) & (T > 0)):
         raise NotPiecewiseConstantError("the scene has no finite forcing period at some points")
-    S = np.asarray(_mapped(gen, "gs_sched", N)(P), float).reshape(-1, N) if gen.schedules else np.zeros((0, N))
+    S = _call_columns(gen, "gs_sched", P).reshape(-1, N) if gen.schedules else np.zeros((0, N))
     seg_times = [_breaks_from(S[:, k], gen.schedules, float(T[k]), 0.0) for k in range(N)]
     out = np.full((N, nx), complex(math.nan, math.nan))
     groups: dict[int, list[int]] = {}
@@ -483,7 +506,7 @@ def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]]
         pcol = np.repeat(P[:, idx_a][:, None, :, None], nf, axis=1)
         pcol = np.repeat(pcol, nseg, axis=3).reshape(P.shape[0], ncol)
         mcol = np.repeat(modes[:, None], nf, axis=1).reshape(nm, ncol)
-        J = np.asarray(_mapped(gen, "gs_jac", ncol)(tcol, xcol, pcol, mcol), float)
+        J = _call_columns(gen, "gs_jac", tcol, xcol, pcol, mcol)
         J = J.reshape(nx, nf, G, nseg, nx).transpose(1, 2, 3, 0, 4)  # (nf, G, nseg, i, j)
         A = J[0]
         if check and nf > 1:
