@@ -114,3 +114,22 @@ def test_bad_axis_is_a_parameter_error(meissner_scene):
         stability_map(meissner_scene, ("F0", 0, 1, 3), Y_AX)  # effect excitation is off
     with pytest.raises(ParameterError, match="quantity"):
         stability_map(meissner_scene, X_AX, Y_AX, quantity="colour")
+
+
+def test_cli_map(tmp_path, capsys):
+    import json
+
+    from gearsym.cli import main
+
+    out = tmp_path / "m"
+    rc = main(["map", str(MEISSNER), "--x", "T", "1", "9", "9", "--y", "a", "0.05", "0.75", "5", "--json",
+               "--out", str(out)])
+    assert rc == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["methods_used"] == "exact" and info["n_points"] == 45 and info["n_failed"] == 0
+    assert 0 < info["fraction_unstable"] < 1
+    assert (out / "map.nc").exists() and (out / "map.png").exists()
+    assert main(["map", str(MEISSNER), "--x", "T", "1", "x", "3", "--y", "a", "0", "1", "2", "--out",
+                 str(out)]) == 2
+    assert main(["map", str(MEISSNER), "--x", "bogus", "1", "2", "3", "--y", "a", "0", "1", "2", "--out",
+                 str(out)]) == 2

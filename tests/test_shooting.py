@@ -261,3 +261,25 @@ def test_long_period_multipliers_need_segment_products():
     # the dominant multiplier is robust either way
     assert abs(multi.multipliers[0] - single.multipliers[0]) < 1e-5 * abs(single.multipliers[0])
     assert multi.stable and multi.rattle_state == 1
+
+
+def test_cli_orbit(tmp_path, capsys):
+    import json
+
+    from gearsym.cli import main
+
+    rc = main(["orbit", str(SCENE), "--effect", "contact_damping", "--json", "--out", str(tmp_path / "o")])
+    assert rc == 0
+    info = json.loads(capsys.readouterr().out)
+    for key in ("x0", "period", "multipliers", "monodromy", "stable", "iterations", "residual",
+                "rattle_state", "max", "min"):
+        assert key in info
+    assert info["rattle_state"] == 1 and info["stable"] is True
+    assert all(isinstance(m, list) and len(m) == 2 for m in info["multipliers"])
+    for name in ("orbit.json", "orbit_phase.png", "orbit_multipliers.png"):
+        assert (tmp_path / "o" / name).stat().st_size > 0
+    rc = main(["orbit", str(SCENE), "--method", "hbm", "--harmonics", "16", "--set", "Omega=1.4"])
+    assert rc == 0 and "stable" in capsys.readouterr().out
+    assert main(["orbit", str(SCENE), "--periods", "0"]) == 2
+    assert main(["orbit", str(SCENE), "--x0", "1,a"]) == 2
+    assert main(["orbit", str(SCENE), "--set", "nope=1"]) == 2
