@@ -30,6 +30,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import gearsym  # noqa: E402
+from gearsym.analysis.branch import add_legend  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -87,10 +88,10 @@ def main() -> None:
     np.savez(out / "sweeps.npz", up=up, down=down)
 
     fig, (ax, axm) = plt.subplots(2, 1, figsize=(7.2, 6.6), sharex=True, gridspec_kw={"height_ratios": [2.3, 1]})
-    branch.plot(ax, quantity="ptp", label="continued branch (peak-to-peak)")
+    branch.plot(ax, quantity="ptp", label="continued branch (peak-to-peak)", legend=False)
     ax.plot(up[:, 0], up[:, 1] - up[:, 2], ">", ms=3.5, color="C1", mfc="none", label="sweep up")
     ax.plot(down[:, 0], down[:, 1] - down[:, 2], "<", ms=3.5, color="C2", mfc="none", label="sweep down")
-    ax.legend(fontsize=8, loc="upper right")
+    add_legend(ax, loc="upper right")
     ax.set_ylabel("peak-to-peak of x")
     ax.set_xlabel("")
     ax.set_title("Kahraman-Singh backlash oscillator: frequency response")

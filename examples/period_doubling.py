@@ -29,6 +29,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import gearsym  # noqa: E402
+from gearsym.analysis.branch import add_legend  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 FA = 0.4
@@ -94,7 +95,7 @@ def main() -> None:
         br.plot_multipliers(axm, color=col)
     ax.set_ylabel("x at t = kT (Poincare section)")
     ax.set_title(f"Kahraman-Singh oscillator, Fa = {FA}: period-doubling cascade")
-    ax.legend(fontsize=8, loc="lower left")
+    add_legend(ax, loc="lower left")
     axm.set_xlabel("Omega")
     axm.set_ylim(1e-2, 10)
     fig.tight_layout()

@@ -489,7 +489,8 @@ def cmd_map(args: argparse.Namespace) -> int:
         "quantity": args.quantity,
         "min": float(np.nanmin(q)) if np.isfinite(q).any() else None,
         "max": float(np.nanmax(q)) if np.isfinite(q).any() else None,
-        "fraction_unstable": float(np.mean(mm[np.isfinite(mm)] >= 1)) if np.isfinite(mm).any() else None,
+        "fraction_unstable": float(np.mean(ds["stable"].values[np.isfinite(mm)] == 0))
+        if np.isfinite(mm).any() else None,
         "n_points": int(ds.attrs["n_points"]),
         "n_failed": int(ds.attrs["n_failed"]),
         "methods_used": ds.attrs["methods_used"],

@@ -133,3 +133,63 @@ def test_cli_map(tmp_path, capsys):
                  str(out)]) == 2
     assert main(["map", str(MEISSNER), "--x", "bogus", "1", "2", "3", "--y", "a", "0", "1", "2", "--out",
                  str(out)]) == 2
+
+
+# ------------------------------------------------------- Vaishya & Singh Fig. 5
+VS_MODEL = ROOT / "models" / "vaishya_singh.toml"
+RPM = 2 * np.pi / 60
+
+
+def _vs_system(tmp_path, formulation):
+    """Undamped V&S gear pair (Figs. 5-6: zeta = 0, mu0 = 0.1), friction formulation A
+    (quasi-static load: rectangular coefficients) or B (dynamic load: sawtooth)."""
+    scene = tmp_path / f"vs_{formulation}.toml"
+    scene.write_text(f'[scene]\nname = "vs_fig5_{formulation}"\nmodel = "{VS_MODEL.as_posix()}"\n'
+                     f'[effects]\nsliding_friction = "{formulation}"\nmesh_stiffness_variation = true\n'
+                     f'static_transmission_error = true\n[parameters]\nzeta = 0.0\nmu0 = 0.1\n')
+    sc = gearsym.load_scene(scene)
+    sc.compile(generated_dir=ROOT / "generated")
+    return sc
+
+
+@pytest.mark.skipif(not VS_MODEL.exists(), reason="models/vaishya_singh.toml not present")
+def test_vaishya_singh_fig5_tongues_and_fig6_statements(tmp_path):
+    from scipy import ndimage
+
+    scA = _vs_system(tmp_path, "A")
+    scB = _vs_system(tmp_path, "B")
+    # Fig. 5 / Fig. 6 statements, formulation B (sawtooth coefficients: numerical monodromy)
+    sysB = scB.compile(generated_dir=ROOT / "generated")
+    verdict = {}
+    for G, W in ((1.24, 1500), (1.374, 1484), (1.453, 1484)):
+        o = sysB.periodic_orbit(x0=[0.0, 0.0], params={"Gamma": G, "Omega_p": W * RPM})
+        verdict[(G, W)] = o.max_multiplier
+    assert verdict[(1.24, 1500)] > 1.05  # Fig. 5: the zone containing 1500 rpm and Gamma = 1.24
+    assert abs(verdict[(1.374, 1484)] - 1) < 1e-6  # Fig. 6(a): stable (undamped: on the unit circle)
+    assert verdict[(1.453, 1484)] > 1.05  # Fig. 6(b): unstable
+    # B has no exact path: its coefficients vary inside the segments
+    small = stability_map(scB, ("Omega_p", 1480, 1520, 9), ("Gamma", 1.36, 1.44, 5))
+    assert small.attrs["methods_used"] == "shooting" and small.attrs["n_failed"] == 0
+    # Fig. 5: diagonally laid instability zones (exact path, formulation A)
+    ds = stability_map(scA, ("Omega_p", 1400, 1600, 81), ("Gamma", 1.15, 1.55, 41))
+    assert ds.attrs["methods_used"] == "exact"
+    unstable = ds["stable"].values == 0
+    assert 0.05 < unstable.mean() < 0.4
+    labels, n = ndimage.label(unstable)
+    W, G = np.meshgrid(ds["Omega_p"].values, ds["Gamma"].values)
+    slopes = []
+    for k in range(1, n + 1):
+        m = labels == k
+        if m.sum() >= 15 and len(np.unique(G[m])) >= 4:
+            slopes.append(np.polyfit(G[m], W[m], 1)[0])  # rpm per unit contact ratio
+    assert len(slopes) >= 4
+    # every zone leans the same way: higher contact ratio, stiffer mesh, higher speed
+    assert all(150 < s < 1500 for s in slopes), slopes
+    # the same zones from the numerical monodromy of formulation A (shooting) on a sub-grid
+    sub = stability_map(scA, ("Omega_p", 1400, 1600, 11), ("Gamma", 1.15, 1.55, 5), method="shooting",
+                        workers=1)
+    exact = stability_map(scA, ("Omega_p", 1400, 1600, 11), ("Gamma", 1.15, 1.55, 5))
+    # (default atol 1e-13 m on a DTE of ~1e-5 m: ~1e-7 here)
+    assert np.max(np.abs(sub["max_multiplier"].values - exact["max_multiplier"].values)) < 1e-6
+    assert np.array_equal(sub["stable"].values, exact["stable"].values)
+    assert 0 < int(exact["stable"].sum()) < exact["stable"].size

@@ -173,3 +173,27 @@ def test_dimensional_argument_of_cos(tmp_path):
     with pytest.raises(SpecError, match="argument of cos\\(\\) must be dimensionless") as info:
         load_model(_model(tmp_path, text))
     assert info.value.field == "elements.mesh.stiffness[1]"
+
+
+def test_typed_excitations_with_units(tmp_path):
+    """sinusoid / fourier fields with dimensional amplitudes pass the unit check (no '0' mean)."""
+    text = (ROOT / "models" / "spur_pair_torsional.toml").read_text()
+    text = text.replace('{ expr = "k_a*cos(omega*t)", effect = "mesh_stiffness_variation" }',
+                        '{ type = "fourier", frequency = "omega", cos = ["k_a"], '
+                        'effect = "mesh_stiffness_variation" }')
+    text = text.replace('stiffness = ["k_m", ', 'stiffness = [{ type = "sinusoid", mean = "k_m", '
+                        'amplitude = "0*k_m", frequency = "omega" }, ')
+    spec = load_model(_model(tmp_path, text))
+    terms = spec.elements["mesh"].fields["stiffness"]
+    assert [t.effect for t in terms] == [None, "mesh_stiffness_variation"]
+    assert "cos(1*(omega)*t)" in terms[1].expr.replace(" ", "")
+
+
+def test_reduction_with_time_dependent_coefficient_is_rejected(tmp_path):
+    text = (ROOT / "models" / "spur_pair_torsional.toml").read_text()
+    text = text.replace('definition = "rb1*th1 - rb2*th2 - e_s"',
+                        'definition = "rb1*(1 + 0.1*cos(omega*t))*th1 - rb2*th2 - e_s"')
+    scene = _scene(tmp_path, _model(tmp_path, text))
+    with pytest.raises(SpecError, match="must not depend on time") as info:
+        gearsym.load_scene(scene).model
+    assert info.value.field == "reduction.definition"

@@ -24,7 +24,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from ..system import System
 
-__all__ = ["BIFURCATION_TYPES", "Bifurcation", "Branch", "BranchPoint"]
+__all__ = ["BIFURCATION_TYPES", "Bifurcation", "Branch", "BranchPoint", "add_legend"]
 
 #: Types of located special points and what they mean.
 BIFURCATION_TYPES: dict[str, str] = {
@@ -403,14 +403,7 @@ class Branch:
         sname = self.state or "x"
         ax.set_ylabel(" / ".join(f"{q} {sname}" for q in quantities))
         if legend:
-            from matplotlib.lines import Line2D
-
-            h, lab = ax.get_legend_handles_labels()
-            h.append(Line2D([], [], color="0.3", ls="-"))
-            lab.append("stable")
-            h.append(Line2D([], [], color="0.3", ls="--"))
-            lab.append("unstable")
-            ax.legend(h, lab, fontsize=8, loc="best")
+            add_legend(ax)
         ax.grid(alpha=0.3)
         return ax
 
@@ -460,6 +453,16 @@ class Branch:
             fig.savefig(path, dpi=110)
             plt.close(fig)
         return fig
+
+
+def add_legend(ax: Axes, loc: str = "best", fontsize: float = 8) -> None:
+    """A legend of everything drawn on ``ax`` plus the line styles (stable solid, unstable dashed)."""
+    from matplotlib.lines import Line2D
+
+    h, lab = ax.get_legend_handles_labels()
+    h += [Line2D([], [], color="0.3", ls="-"), Line2D([], [], color="0.3", ls="--")]
+    lab += ["stable", "unstable"]
+    ax.legend(h, lab, fontsize=fontsize, loc=loc)
 
 
 _MARKERS = {"fold": ("o", "C3"), "period_doubling": ("s", "C2"), "neimark_sacker": ("D", "C4"),

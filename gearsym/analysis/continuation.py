@@ -14,12 +14,20 @@ in variables scaled by the state magnitudes and the parameter range):
   tangent, so turning points (folds) are passed without special treatment.
   ``F_u`` is the monodromy minus the identity from the engine's variational
   equations (with saltation matrices), ``F_lambda`` a central difference;
-* **step control**: the step grows after easy corrections (<= 2 Newton steps)
+* **step control**: the step grows after easy corrections (<= 3 Newton steps)
   and shrinks after hard ones; a step is rejected (and halved) when Newton
   fails, the integration fails, or the tangent turns by more than
   ``max_angle`` -- which keeps the steps small where the branch turns sharply,
   e.g. next to grazing points where the multipliers of a non-smooth system
-  change like a square root.
+  change like a square root;
+* **parameter steps where no fold is possible**: when no Floquet multiplier is
+  near +1 (none within 0.2 at the last point, none crossed +1 since the point
+  before), the implicit function theorem makes the branch a graph over the
+  parameter; if the orbit's state also moves fast with the parameter (a
+  rattling orbit whose impacts appear and disappear), the predictor-corrector
+  steps in the parameter itself (Newton at fixed parameter), and the tangent is
+  oriented so that the parameter keeps its direction.  A step in which a real
+  multiplier crosses +1 is redone with the arclength.
 
 Between two accepted points the test functions of
 :mod:`gearsym.analysis.bifurcation` are compared; a sign change is *located*
@@ -372,6 +380,7 @@ class _Node:
     tau: dict[str, float]
     iterations: int = 0
     scale: np.ndarray | None = None
+    graph: bool = False    # the branch is a graph over the parameter between the previous point and this
 
 
 class _Continuer:
@@ -704,7 +713,23 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     if system.generated.implicit:
         raise ParameterError("continuation needs an explicit model (variational equations for the monodromy)")
     types = _detect_types(detect)
-    state_idx = system.state_names.index(state) if isinstance(state, str) else int(state)
+    if method == "hbm" and detect is True:
+        # the multipliers of a harmonic-balance point come from integrating its truncated
+        # orbit, so +1 is crossed slightly away from the balance's own fold: no branch points
+        types = tuple(t for t in types if t != "branch_point")
+    if isinstance(state, str):
+        if state not in system.state_names:
+            raise ParameterError(f"state '{state}' is not a state of this system (have: "
+                                 f"{', '.join(system.state_names)})")
+        state_idx = system.state_names.index(state)
+    else:
+        state_idx = int(state)
+        if not 0 <= state_idx < system.generated.nx:
+            raise ParameterError(f"state index {state} out of range (0..{system.generated.nx - 1})")
+    if not (0 < ds_min <= ds <= ds_max) or max_points < 2 or tol <= 0 or periods <= 0 or switch < 0 \
+            or not 0 < state_weight or not 0 < max_angle:
+        raise ParameterError("need 0 < ds_min <= ds <= ds_max, max_points >= 2, tol > 0, periods > 0, "
+                             "switch >= 0, state_weight > 0, max_angle > 0")
     base = dict(params or {})
     base.pop(param, None)
     p_start = dict(base)
@@ -851,7 +876,8 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
     specials: list[tuple[int, str, dict[str, Any]]] = []  # (node index, type, info)
     prog = _Progress(progress, start, stop, res.param)
     stop_reason = ""
-    h = float(ds)
+    h = h_arc = h_nat = float(ds)
+    force_arc = False
     n_rejected = 0
     merge_ref = None
     try:
@@ -861,17 +887,42 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
                 stop_reason = f"max_points={max_points} reached"
                 break
             wA = A.z / C.S
+            # where no turning point is possible (no multiplier near +1) and the state moves fast
+            # with the parameter, step in the parameter itself (natural parameter): Newton on a
+            # contracting map at fixed parameter is robust even when the branch is kinked by
+            # many grazing impacts
+            natural = (A.graph and abs(A.t[-1]) < 0.7 and not force_arc
+                       and np.min(np.abs(A.point.multipliers - 1.0)) > 0.2)
+            h = h_nat if natural else h_arc
             try:
-                z, ev, it = C.correct((wA + h * A.t) * C.S, A.t, float(A.t @ wA) + h)
+                if natural:
+                    row = np.zeros(n + 1)
+                    row[-1] = 1.0
+                    dl = math.copysign(h, A.t[-1])
+                    w_pred = wA.copy()
+                    w_pred[-1] += dl
+                    z, ev, it = C.correct(w_pred * C.S, row, float(wA[-1]) + dl)
+                else:
+                    row = A.t
+                    z, ev, it = C.correct((wA + h * A.t) * C.S, A.t, float(A.t @ wA) + h)
                 B = C.make_node(z, ev, A.t, it, ref=A)
+                B.graph = _graph_like(B.point.multipliers, A.point.multipliers)
+                if natural and (tau_branch_point(B.point.multipliers) > 0) != (tau_branch_point(
+                        A.point.multipliers) > 0):
+                    force_arc = True  # a real multiplier crossed +1: a fold may be near, use the arclength
+                    raise ConvergenceError("a multiplier crossed +1 in a parameter step")
                 cosang = float(B.t @ A.t)
-                if _graph_like(B.point.multipliers, A.point.multipliers):
+                if B.graph:
                     cosang = abs(cosang)
-                if cosang < math.cos(max_angle) and h > 4 * ds_min:
+                if not natural and cosang < math.cos(max_angle) and h > 4 * ds_min:
                     raise ConvergenceError(f"tangent turned by {math.degrees(math.acos(max(-1, cosang))):.1f} deg")
             except GearsymError as exc:
                 n_rejected += 1
                 h *= 0.5
+                if natural:
+                    h_nat = h
+                else:
+                    h_arc = h
                 if h < ds_min:
                     stop_reason = (f"step size below ds_min={ds_min:g} at {res.param} = {A.z[-1]:.8g} "
                                    f"({exc})")
@@ -887,7 +938,7 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
                     pass
                 stop_reason = (f"reached {res.param} = {bound:g}" if bound == (hi if stop > start else lo)
                                else f"left the range at {res.param} = {bound:g}")
-            new_specials = _detect_between(C, A, B, types, locate) if types else []
+            new_specials = _detect_between(C, A, B, types, locate, row) if types else []
             for nd, kind, info in new_specials:
                 nodes.append(nd)
                 specials.append((len(nodes) - 1, kind, info))
@@ -904,13 +955,20 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
                     break
                 merge_ref = max(merge_ref, d)
             # step control
-            if it <= 3:
+            force_arc = False
+            if it <= 1:
+                h = min(2.0 * h, ds_max)
+            elif it <= 3:
                 h = min(1.5 * h, ds_max)
             elif it >= 5:
                 h = max(0.6 * h, ds_min)
-            cosang = float(B.t @ A.t)
-            if cosang < math.cos(0.5 * max_angle):
+            cosang = abs(float(B.t @ A.t)) if B.graph else float(B.t @ A.t)
+            if not natural and cosang < math.cos(0.5 * max_angle):
                 h = max(0.7 * h, ds_min)
+            if natural:
+                h_nat = h
+            else:
+                h_arc = h
             C, nodes[-1] = _rescale(C, nodes[-1])
     finally:
         prog.close()
@@ -982,13 +1040,15 @@ def _boundary_node(C: _Continuer, A: _Node, B: _Node, bound: float) -> _Node:
     return C.make_node(z, ev, A.t, it, ref=A)
 
 
-def _node_at(C: _Continuer, A: _Node, B: _Node, sigma: float, sigma_B: float, cache: dict[float, _Node]) -> _Node:
+def _node_at(C: _Continuer, A: _Node, B: _Node, sigma: float, sigma_B: float, cache: dict[float, _Node],
+             row: np.ndarray) -> _Node:
+    """The branch point with ``row . (w - w_A) = sigma`` between A and B (corrected)."""
     nd = cache.get(sigma)
     if nd is not None:
         return nd
     f = sigma / sigma_B if sigma_B else 0.0
     z_guess = A.z + f * (B.z - A.z)
-    z, ev, it = C.correct(z_guess, A.t, float(A.t @ (A.z / C.S)) + sigma)
+    z, ev, it = C.correct(z_guess, row, float(row @ (A.z / C.S)) + sigma)
     nd = C.make_node(z, ev, A.t, it, ref=A)
     cache[sigma] = nd
     return nd
@@ -998,11 +1058,17 @@ def _sign_change(a: float, b: float) -> bool:
     return math.isfinite(a) and math.isfinite(b) and (a > 0) != (b > 0) and a != 0 and b != 0
 
 
-def _detect_between(C: _Continuer, A: _Node, B: _Node, types: tuple[str, ...], locate: bool
-                    ) -> list[tuple[_Node, str, dict[str, Any]]]:
-    """Locate the special points between two neighbouring branch points."""
+def _detect_between(C: _Continuer, A: _Node, B: _Node, types: tuple[str, ...], locate: bool,
+                    row: np.ndarray | None = None) -> list[tuple[_Node, str, dict[str, Any]]]:
+    """Locate the special points between two neighbouring branch points.
+
+    The points in between are parametrised by ``sigma = row . (w - w_A)`` (``row``:
+    A's tangent for an arclength step, the parameter axis for a natural step).
+    """
+    if row is None:
+        row = A.t
     wA = A.z / C.S
-    sigma_B = float(A.t @ (B.z / C.S - wA))
+    sigma_B = float(row @ (B.z / C.S - wA))
     cache: dict[float, _Node] = {0.0: A, sigma_B: B}
     found: list[tuple[float, _Node, str, dict[str, Any]]] = []
     keys = []
@@ -1021,20 +1087,20 @@ def _detect_between(C: _Continuer, A: _Node, B: _Node, types: tuple[str, ...], l
         if kind == "grazing":
             _, surf, side = key.split("|")
             info = {"surface": surf, "side": side}
-        if not locate or sigma_B <= 0:
+        if not locate or sigma_B == 0:
             found.append((sigma_B, B, kind, dict(info, located=False)))
             continue
 
         def f(s: float, key: str = key) -> float:
             try:
-                return _node_at(C, A, B, s, sigma_B, cache).tau.get(key, math.nan)
+                return _node_at(C, A, B, s, sigma_B, cache, row).tau.get(key, math.nan)
             except GearsymError:
                 return math.nan
 
-        xtol = max(1e-12, 1e-7 * sigma_B)
+        xtol = max(1e-12, 1e-7 * abs(sigma_B))
         s_root, a, fa, b, fb = bracket_root(f, 0.0, A.tau[key], sigma_B, B.tau[key], xtol)
         try:
-            nd = _node_at(C, A, B, s_root, sigma_B, cache)
+            nd = _node_at(C, A, B, s_root, sigma_B, cache, row)
         except GearsymError:
             continue
         scale = max(abs(A.tau[key]), abs(B.tau[key]))
@@ -1042,8 +1108,8 @@ def _detect_between(C: _Continuer, A: _Node, B: _Node, types: tuple[str, ...], l
         info["test_function"] = float(nd.tau.get(key, math.nan))
         if nonsmooth:
             info["nonsmooth"] = True
-        left = cache.get(min(a, b))
-        right = cache.get(max(a, b))
+        left = cache.get(a if abs(a) < abs(b) else b)
+        right = cache.get(b if abs(a) < abs(b) else a)
         if left is not None and right is not None:
             info["n_unstable_before"] = int(left.point.n_unstable)
             info["n_unstable_after"] = int(right.point.n_unstable)
@@ -1066,24 +1132,25 @@ def _detect_between(C: _Continuer, A: _Node, B: _Node, types: tuple[str, ...], l
     # an unexplained change of the number of unstable multipliers (a jump at a non-smooth point)
     if locate and A.point.n_unstable != B.point.n_unstable and not any(
             k in ("fold", "period_doubling", "neimark_sacker", "branch_point", "grazing") for _, _, k, _ in found):
-        nd_info = _locate_jump(C, A, B, sigma_B, cache)
-        if nd_info is not None:
+        nd_info = _locate_jump(C, A, B, sigma_B, cache, row)
+        if nd_info is not None and nd_info[2] in types:
             found.append(nd_info)
-    found.sort(key=lambda x: x[0])
+    found.sort(key=lambda x: abs(x[0]))
     return [(nd, kind, info) for _, nd, kind, info in found]
 
 
-def _locate_jump(C: _Continuer, A: _Node, B: _Node, sigma_B: float, cache: dict[float, _Node]):
+def _locate_jump(C: _Continuer, A: _Node, B: _Node, sigma_B: float, cache: dict[float, _Node],
+                 row: np.ndarray):
     """Bisection on the number of unstable multipliers; classification by the crossing multiplier."""
     a, b = 0.0, sigma_B
     na = A.point.n_unstable
     left, right = A, B
     for _ in range(40):
-        if b - a <= max(1e-12, 1e-8 * sigma_B):
+        if abs(b - a) <= max(1e-12, 1e-8 * abs(sigma_B)):
             break
         c = 0.5 * (a + b)
         try:
-            nd = _node_at(C, A, B, c, sigma_B, cache)
+            nd = _node_at(C, A, B, c, sigma_B, cache, row)
         except GearsymError:
             return None
         if nd.point.n_unstable == na:

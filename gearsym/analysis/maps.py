@@ -234,7 +234,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
                   quantity: str = "max_multiplier", *, method: str = "auto", periods: float = 1,
                   params: Mapping[str, float] | None = None, dask: Any = None, workers: int | None = None,
                   rows_per_task: int | None = None, orbit_options: Mapping[str, Any] | None = None,
-                  units: str | None = None) -> xr.Dataset:
+                  units: str | None = None, stability_tol: float = 1e-6) -> xr.Dataset:
     """Evaluate a stability / response map over two parameters.
 
     Parameters
@@ -265,6 +265,10 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     units
         ``"declared"`` or ``"si"``: the units of the grid values (default:
         declared for a scene, SI for a system).
+    stability_tol
+        A point is stable when ``max|mu| <= 1 + stability_tol``: undamped (e.g.
+        Hamiltonian) systems have their multipliers ON the unit circle where they
+        are stable, and the computed ``max|mu|`` is 1 only to rounding there.
 
     Returns
     -------
@@ -367,8 +371,8 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     data = {
         "max_multiplier": (dims, arr["max_multiplier"], {"long_name": QUANTITIES["max_multiplier"]}),
         "stable": (dims, np.where(np.isfinite(arr["max_multiplier"]),
-                                  (arr["max_multiplier"] < 1).astype(np.int8), -1).astype(np.int8),
-                   {"long_name": "1 stable, 0 unstable, -1 unknown"}),
+                                  (arr["max_multiplier"] <= 1 + stability_tol).astype(np.int8), -1).astype(np.int8),
+                   {"long_name": f"1 stable (max|mu| <= 1 + {stability_tol:g}), 0 unstable, -1 unknown"}),
         "rattle_state": (dims, rattle, {"long_name": QUANTITIES["rattle_state"] + " (-1: none/unknown)"}),
         "converged": (dims, conv, {"long_name": "orbit solve converged (1) or not (0)"}),
         "iterations": (dims, iters, {"long_name": "Newton / quasi-Newton iterations"}),
@@ -396,6 +400,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         "n_failed": int(np.sum(conv == 0)),
         "errors": "\n".join(errors),
         "source": "gearsym.analysis.maps.stability_map",
+        "stability_tol": float(stability_tol),
     })
     return ds
 
@@ -417,7 +422,7 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
 
     The heat map shows ``quantity`` (default: the dataset's) over the two axes;
     for ``max_multiplier`` the colour scale is centred on 1 and the stability
-    boundary ``max|mu| = 1`` is drawn as a contour.
+    boundary ``max|mu| = 1 + stability_tol`` is drawn as a contour.
     """
     import matplotlib
 
@@ -441,8 +446,9 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
         lo = min(zmin, 0.999) if np.isfinite(zmin) else 0.5
         hi = max(zmax, 1.001) if np.isfinite(zmax) else 1.5
         pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="RdBu_r", norm=TwoSlopeNorm(1.0, lo, hi))
-        if np.isfinite(Z).any() and lo < 1 < hi and min(Z.shape) > 1:
-            ax.contour(X, Y, Z, levels=[1.0], colors="k", linewidths=0.8)
+        level = 1.0 + float(ds.attrs.get("stability_tol", 0.0))
+        if np.isfinite(Z).any() and np.nanmin(Z) < level < np.nanmax(Z) and min(Z.shape) > 1:
+            ax.contour(X, Y, Z, levels=[level], colors="k", linewidths=0.8)
     elif q == "rattle_state":
         pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="viridis", vmin=-1, vmax=2)
     else:

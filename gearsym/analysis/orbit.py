@@ -152,9 +152,6 @@ class PeriodicOrbit:
         trajectory (refined by parabolic interpolation) for shooting.
         """
         i = self.state_names.index(state) if isinstance(state, str) else int(state)
-        if self.method == "hbm" and self.coefficients is not None and self.system is None:
-            y = _series(self.coefficients[:, i], 8192)
-            return float(y.min()), float(y.max())
         if self.method == "hbm" and self.coefficients is not None:
             y = _series(self.coefficients[:, i], 8192)
             return _refined_min(y), _refined_max(y)
@@ -295,12 +292,17 @@ def _refined_min(y: np.ndarray) -> float:
 
 
 def rattle_state(system: System, x0: Sequence[float], t0: float, events: Sequence[Event],
-                 params: Mapping[str, float] | None = None) -> int | None:
+                 params: Mapping[str, float] | None = None,
+                 samples: tuple[np.ndarray, np.ndarray] | None = None) -> int | None:
     """Classify the contact regime of a periodic orbit of a backlash model.
 
     Uses the contact surfaces of the compiled model (``kind`` drive/back, as the
     symbolic layer names them) and is exact in the events: the side of every
     surface at ``t0`` plus every crossing along the period.
+
+    With ``samples = (t, Y)`` (states ``Y[k]`` at times ``t[k]`` along the orbit, e.g.
+    from a harmonic series) the sides are taken at the samples instead of from the
+    events (approximate: a contact shorter than the sampling step can be missed).
 
     Returns
     -------
@@ -316,6 +318,11 @@ def rattle_state(system: System, x0: Sequence[float], t0: float, events: Sequenc
         return None
     p = system.param_vector(params)
     g = np.asarray(system.generated.casadi_function("gs_sw")(t0, np.asarray(x0, float), p)).ravel()
+    G = None
+    if samples is not None:
+        ts, Y = np.asarray(samples[0], float), np.asarray(samples[1], float)
+        G = np.asarray(system.generated.casadi_function("gs_sw").map(len(ts))(
+            ts[None, :], Y.T, np.tile(p[:, None], (1, len(ts)))))
     meshes: dict[str, dict[str, bool]] = {}
     for j, s in enumerate(surfaces):
         kind, sign = kinds[s["name"]]
@@ -325,6 +332,10 @@ def rattle_state(system: System, x0: Sequence[float], t0: float, events: Sequenc
         st = meshes.setdefault(mesh, {"drive_always": True, "drive_ever": False, "back_ever": False})
         in_contact = (g[j] > 0) if sign > 0 else (g[j] < 0)
         crossed = any(e.surface == s["name"] for e in events)
+        if G is not None:
+            side = (G[j] > 0) if sign > 0 else (G[j] < 0)
+            in_contact = bool(np.all(side)) if kind == "drive" else bool(np.any(side))
+            crossed = crossed or bool(np.any(side != side[0]))
         if kind == "drive":
             st["drive_ever"] |= bool(in_contact or crossed)
             st["drive_always"] &= bool(in_contact and not crossed)
@@ -339,12 +350,12 @@ def rattle_state(system: System, x0: Sequence[float], t0: float, events: Sequenc
 
 def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: float, t0: float,
                  monodromy: np.ndarray | None, iterations: int, residual: float, converged: bool,
-                 method: str, params: Mapping[str, float], events: Sequence[Event], **extra: Any
-                 ) -> PeriodicOrbit:
+                 method: str, params: Mapping[str, float], events: Sequence[Event],
+                 samples: tuple[np.ndarray, np.ndarray] | None = None, **extra: Any) -> PeriodicOrbit:
     """Assemble a :class:`PeriodicOrbit` (multipliers, verdict, rattle state)."""
     mults = floquet_multipliers(monodromy) if monodromy is not None else np.zeros(0, complex)
     stable = bool(len(mults) and np.max(np.abs(mults)) < 1.0)
-    rs = rattle_state(system, x0, t0, events, params)
+    rs = rattle_state(system, x0, t0, events, params, samples=samples)
     return PeriodicOrbit(x0=np.asarray(x0, float), period=float(period), periods=float(periods),
                          t0=float(t0), monodromy=monodromy, multipliers=mults, stable=stable,
                          iterations=int(iterations), residual=float(residual), converged=bool(converged),

@@ -218,10 +218,16 @@ def peak_to_peak(data: Trajectory | tuple[np.ndarray, np.ndarray] | np.ndarray, 
 # ------------------------------------------------------------------- internals
 
 
-def _bound(b: Bound, t: np.ndarray) -> np.ndarray:
+def _bound(b: Bound, t: np.ndarray, on: np.ndarray) -> np.ndarray:
+    """Flank positions at the window samples ``t[on]`` (scalar, array like t, or callable)."""
     if callable(b):
-        return np.broadcast_to(np.asarray(b(t), float), t.shape)
-    return np.broadcast_to(np.asarray(b, float), t.shape)
+        return np.broadcast_to(np.asarray(b(t[on]), float), t[on].shape)
+    arr = np.asarray(b, float)
+    if arr.ndim == 0:
+        return np.broadcast_to(arr, t[on].shape)
+    if arr.shape != t.shape:
+        raise ValueError(f"a flank given as an array must have the shape of t {t.shape}, got {arr.shape}")
+    return arr[on]
 
 
 def _from_samples(t: np.ndarray, x: np.ndarray, lower: Bound, upper: Bound, drive_side: str,
@@ -231,8 +237,8 @@ def _from_samples(t: np.ndarray, x: np.ndarray, lower: Bound, upper: Bound, driv
         raise ValueError(f"t and x must be 1-D arrays of the same length, got {t.shape} and {x.shape}")
     ts, te = steady_window(t, steady_fraction, t_start, period)
     on = t >= ts - 1e-12 * max(1.0, abs(ts))
-    tw, xw = t[on], x[on]
-    lo, up = _bound(lower, tw), _bound(upper, tw)
+    xw = x[on]
+    lo, up = _bound(lower, t, on), _bound(upper, t, on)
     if np.any(lo > up):
         raise ValueError("lower must not exceed upper")
     if drive_side == "positive":

@@ -35,7 +35,6 @@ from .floquet import monodromy_product
 from .orbit import PeriodicOrbit, finish_orbit
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..results import Event
     from ..system import System
 
 __all__ = ["flow", "shoot"]
@@ -43,15 +42,17 @@ __all__ = ["flow", "shoot"]
 
 def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mapping[str, float] | None,
          rtol: float, atol: float, jacobian: bool = True, fd_step: float = 1e-6,
-         method: str | None = None) -> tuple[np.ndarray, np.ndarray | None, list[Event]]:
+         method: str | None = None, n_out: int = 2, with_amplitude: bool = False
+         ) -> tuple[Any, ...]:
     """The flow map ``phi(t1, t0, x)``, its Jacobian and the events on the way.
 
     The Jacobian is the engine's variational monodromy (explicit models) or
     central finite differences with step ``fd_step * max(1, |x_j|)`` (implicit models).
+    With ``with_amplitude`` also ``max |x_i(t)|`` over ``n_out`` output points.
     """
     x = np.asarray(x, float)
     implicit = system.generated.implicit
-    tr = system.simulate(t_end=t1, t0=t0, x0=x, rtol=rtol, atol=atol, n_out=2, params=params,
+    tr = system.simulate(t_end=t1, t0=t0, x0=x, rtol=rtol, atol=atol, n_out=n_out, params=params,
                          monodromy=bool(jacobian and not implicit), method=method)
     M = tr.monodromy
     if jacobian and implicit:
@@ -66,6 +67,8 @@ def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mappi
             xm = system.simulate(t_end=t1, t0=t0, x0=x - e, rtol=rtol, atol=atol, n_out=2,
                                  params=params, method=method).x_final
             M[:, j] = (xp - xm) / (2 * h)
+    if with_amplitude:
+        return np.asarray(tr.x_final, float), M, list(tr.events), np.max(np.abs(tr.y), axis=0)
     return np.asarray(tr.x_final, float), M, list(tr.events)
 
 
@@ -105,7 +108,11 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         ``x0`` is given, else the scene's ``transient_periods`` or 20), ending at a
         time congruent to ``t0``.
     tol
-        Convergence: ``max |residual| <= tol * max(1, max |x|)``.
+        Convergence: ``max_i |residual_i| / s_i <= tol`` with ``s_i`` the largest
+        ``|x_i|`` along the trajectory, at least ``atol / tol`` (a relative tolerance per
+        state, so states in different units are treated alike, and a residual below
+        ``atol`` always converges); also accepted: a full Newton step below ``tol``
+        (relative) with the residual within ``100 tol`` (integration noise).
     rtol, atol
         Integrator tolerances (the variational equations use them too).
     max_iter
@@ -172,18 +179,35 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         X = np.array(tr.y[:-1], float)
 
     # ---------------------------------------------------------------- residual
+    n_amp = max(3, int(math.ceil(16 / segments)) + 1)
+    amp = np.zeros(nx)
+
     def evaluate(X: np.ndarray, jac: bool = True):
         xs, Ms, evs = [], [], []
+        a = np.zeros(nx)
         for i in range(segments):
-            xe, M, ev = flow(system, X[i], s[i], s[i + 1], params, rtol, atol, jacobian=jac, method=method)
+            xe, M, ev, ai = flow(system, X[i], s[i], s[i + 1], params, rtol, atol, jacobian=jac,
+                                 method=method, n_out=n_amp, with_amplitude=True)
             xs.append(xe)
             Ms.append(M)
             evs.extend(ev)
+            a = np.maximum(a, ai)
+        amp[:] = a
         R = np.array([xs[i] - X[(i + 1) % segments] for i in range(segments)])
         return R, Ms, evs
 
-    def scale_of(X: np.ndarray) -> float:
-        return max(1.0, float(np.max(np.abs(X))))
+    def scales() -> np.ndarray:
+        # per-state scale: the largest |x_i| along the current trajectory (states in
+        # different units, e.g. m and m/s, each get a relative tolerance)
+        # (floor atol/tol: a residual below the integrator's atol always counts as
+        # converged, e.g. for the trivial orbit x = 0 of a homogeneous linear system)
+        top = float(np.max(amp)) if amp.size else 0.0
+        if not math.isfinite(top):
+            return np.ones(nx)
+        return np.maximum(amp, max(1e-9 * top, atol / tol))
+
+    def rel(A: np.ndarray) -> float:
+        return float(np.max(np.abs(A) / scales()[None, :]))
 
     def _relax(X: np.ndarray, n_periods: int) -> np.ndarray:
         tr = system.simulate(t_end=s[0], t0=s[0] - n_periods * Tt, x0=X[0], rtol=max(rtol, 1e-9),
@@ -200,8 +224,8 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     history: list[dict[str, Any]] = []
     R, Ms, evs = evaluate(X)
     rnorm = float(np.max(np.abs(R)))
-    history.append({"iteration": 0, "residual": rnorm, "step": None})
-    converged = rnorm <= tol * scale_of(X)
+    history.append({"iteration": 0, "residual": rnorm, "relative": rel(R), "step": None})
+    converged = rel(R) <= tol
     it = 0
     failure = ""
     while not converged and it < max_iter:
@@ -237,9 +261,8 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
                 break
             lam *= 0.5
         if not accepted:
-            step_norm = float(np.max(np.abs(dX)))
             # at the integration noise floor a tiny Newton step cannot reduce the residual any more
-            if step_norm <= 10 * tol * scale_of(X) and rnorm <= 1e3 * tol * scale_of(X):
+            if rel(dX) <= 10 * tol and rel(R) <= 100 * tol:
                 converged = True
                 history.append({"iteration": it, "residual": rnorm, "step": 0.0,
                                 "note": "noise floor: Newton step below tolerance"})
@@ -258,19 +281,21 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
                     break
                 relaxed += n_blk
                 rnorm = float(np.max(np.abs(R)))
-                history.append({"iteration": it, "residual": rnorm, "step": None,
+                history.append({"iteration": it, "residual": rnorm, "relative": rel(R), "step": None,
                                 "note": f"Newton stalled: integrated {n_blk} forcing periods"})
-                converged = rnorm <= tol * scale_of(X)
+                converged = rel(R) <= tol
                 continue
             failure = ("the damped Newton step does not reduce the residual (tried down to a factor "
                        f"{min_step:g}, after {relaxed} forcing periods of relaxation by integration)"
                        + (f"; last integration error: {last_err}" if last_err else ""))
             break
         X, R, Ms, evs, rnorm = Xn, Rn, Msn, evsn, rn
-        history.append({"iteration": it, "residual": rnorm, "step": lam})
-        converged = rnorm <= tol * scale_of(X)
-        if not converged and lam == 1.0 and float(np.max(np.abs(dX))) <= 0.1 * tol * scale_of(X):
-            converged = rnorm <= 1e3 * tol * scale_of(X)
+        history.append({"iteration": it, "residual": rnorm, "relative": rel(R), "step": lam})
+        converged = rel(R) <= tol
+        if not converged and lam == 1.0 and rel(dX) <= tol and rel(R) <= 100 * tol:
+            # a full Newton step below the tolerance: the residual left is integration noise
+            converged = True
+            history[-1]["note"] = "Newton step below tolerance (residual at the integration noise level)"
     if not converged and not failure:
         failure = f"no convergence in max_iter={max_iter} Newton iterations"
     mono = monodromy_product(Ms) if all(M is not None for M in Ms) else None
@@ -288,7 +313,8 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         residual=rnorm, converged=converged, method="shooting", params=_params_used(system, params),
         events=evs, segments=segments, segment_states=X.copy(),
         segment_monodromies=[np.asarray(M) for M in Ms if M is not None], history=history,
-        info={"rtol": rtol, "atol": atol, "tol": tol, "wall_s": wall, "failure": failure or None})
+        info={"rtol": rtol, "atol": atol, "tol": tol, "wall_s": wall, "failure": failure or None,
+              "relative_residual": rel(R), "state_scales": scales().tolist()})
     return orbit
 
 
