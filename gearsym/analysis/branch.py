@@ -306,6 +306,13 @@ class Branch:
                 pts[j] = tr.y[:, i]
         return self.values, pts
 
+    def switch(self, bifurcation: Bifurcation | int | None = None, **options: Any) -> Branch:
+        """Continue the period-doubled branch born at a located period doubling
+        (:func:`gearsym.analysis.continuation.switch_period_doubling`); appended to ``children``."""
+        from .continuation import switch_period_doubling
+
+        return switch_period_doubling(self, bifurcation, **options)
+
     def all_branches(self) -> list[Branch]:
         """This branch and, recursively, its children."""
         out = [self]
