@@ -319,5 +319,6 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
 
 
 def _params_used(system: System, params: Mapping[str, float] | None) -> dict[str, float]:
+    """Parameter values of a run, keyed like ``system.params`` (bound values excluded)."""
     p = system.param_vector(params)
-    return {k: float(v) for k, v in zip(system.param_names, p, strict=True)}
+    return {k: float(v) for k, v in zip(system.param_names, p, strict=True) if k in system.params}
