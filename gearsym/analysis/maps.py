@@ -202,9 +202,13 @@ def _run_tasks(system: System, recipe: dict[str, Any], tasks: list[dict[str, Any
     else:
         import multiprocessing as mp
 
-        # fork: no re-import of the caller's __main__ (scripts without a main guard work);
-        # the workers load the compiled model themselves (ctypes handles are not inherited state)
-        ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context("spawn")
+        # forkserver, not fork: forking a parent that runs threads (a Dask client, BLAS,
+        # tqdm's monitor, user threads) can deadlock the children.  The workers load the
+        # compiled model themselves from the recipe (ctypes handles are not inherited
+        # state); scripts that build maps in parallel need an ``if __name__ == "__main__"``
+        # guard, as with any multiprocessing code.
+        methods = mp.get_all_start_methods()
+        ctx = mp.get_context("forkserver" if "forkserver" in methods else "spawn")
         executor = ProcessPoolExecutor(max_workers=min(n_workers, len(tasks)), mp_context=ctx)
         own = executor
         runner = f"processes({min(n_workers, len(tasks))})"
