@@ -25,7 +25,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 import gearsym  # noqa: E402
-from gearsym.plots import plot_all  # noqa: E402
+from gearsym.plots import plot_all, plot_outputs  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,6 +37,7 @@ def simulate_scene(path: Path, out: Path):
     sim = scene.spec.simulate
     traj = system.simulate(rtol=float(sim.get("rtol", 1e-8)), atol=float(sim.get("atol", 1e-10)))
     plot_all(traj, out / scene.name, title=scene.name)
+    plot_outputs(traj.t, system.outputs(traj), out / scene.name, system.generated.output_units, scene.name)
     traj.save_npz(out / scene.name / "trajectory.npz")
     return scene, traj
 

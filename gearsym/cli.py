@@ -275,6 +275,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         traj.save_npz(out / "trajectory.npz")
         surfaces = _surface_levels(system, traj)
         files = plot_all(traj, out, title=scene.name, surfaces=surfaces)
+        outputs = system.outputs(traj)
+        if outputs:
+            from .plots import plot_outputs
+
+            files.append(plot_outputs(traj.t, outputs, out, system.generated.output_units, scene.name))
+            np.savez_compressed(out / "outputs.npz", t=traj.t, **outputs)
+            files.append(out / "outputs.npz")
+            info["outputs"] = {k: {"min": float(v.min()), "max": float(v.max())} for k, v in outputs.items()}
         info["files"] = [str(out / "trajectory.npz")] + [str(f) for f in files]
     if args.json:
         _emit(info)

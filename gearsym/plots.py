@@ -122,3 +122,25 @@ def plot_all(traj: Trajectory, out_dir: str | Path, title: str = "", state: int 
     fig.savefig(files[-1], dpi=120)
     plt.close(fig)
     return files
+
+
+def plot_outputs(t: np.ndarray, outputs: dict[str, np.ndarray], out_dir: str | Path,
+                 units: dict[str, str] | None = None, title: str = "") -> Path | None:
+    """Time histories of a model's ``[outputs]`` (one panel each) -> ``outputs.png``."""
+    if not outputs:
+        return None
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(len(outputs), 1, figsize=(8, 2.4 * len(outputs)), sharex=True,
+                             squeeze=False)
+    for ax, (name, y) in zip(axes[:, 0], outputs.items()):
+        ax.plot(t, y, lw=0.7)
+        unit = (units or {}).get(name, "")
+        ax.set_ylabel(f"{name} [{unit}]" if unit else name)
+    axes[-1, 0].set_xlabel("t")
+    axes[0, 0].set_title(f"{title} outputs".strip())
+    fig.tight_layout()
+    path = out / "outputs.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

@@ -107,6 +107,39 @@ class System:
         m = np.concatenate([np.asarray(sigma, float), self._sched_mode(t, p)])
         return np.asarray(self.generated.casadi_function("gs_jac")(t, x, p, m))
 
+    @property
+    def output_names(self) -> list[str]:
+        """Names of the model's ``[outputs]`` (quantities evaluated along trajectories)."""
+        return list(self.generated.outputs)
+
+    def outputs(self, traj: Trajectory) -> dict[str, np.ndarray]:
+        """Evaluate the model's ``[outputs]`` along a trajectory.
+
+        Parameters
+        ----------
+        traj
+            A trajectory of this system (its parameters are used).
+
+        Returns
+        -------
+        dict
+            Output name -> array of values at ``traj.t`` (SI units).
+        """
+        if not self.generated.outputs:
+            return {}
+        fn = self.generated.casadi_function("gs_out")
+        p = self.param_vector({k: v for k, v in traj.params.items() if k in self.params})
+        sw = self.generated.casadi_function("gs_sw")
+        n = len(traj.t)
+        tt = traj.t.reshape(1, n)
+        xx = traj.y.T
+        g = np.asarray(sw.map(n)(tt, xx, p)).reshape(-1, n)
+        sigma = np.where(g >= 0, 1.0, -1.0)
+        sched = np.array([self._sched_mode(float(t), p) for t in traj.t]).reshape(n, -1).T
+        m = np.vstack([sigma, sched]) if sched.size else sigma
+        vals = np.asarray(fn.map(n)(tt, xx, p, m)).reshape(len(self.generated.outputs), n)
+        return {name: vals[i] for i, name in enumerate(self.generated.outputs)}
+
     def _sched_mode(self, t: float, p: np.ndarray) -> np.ndarray:
         s = np.asarray(self.generated.casadi_function("gs_sched")(p)).ravel()
         out = []

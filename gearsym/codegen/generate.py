@@ -25,7 +25,7 @@ from ..symbolic.model import SymbolicModel
 from .sx import SXTranslator
 
 #: Bump when the generated code's layout changes (invalidates caches).
-CODEGEN_VERSION = "1"
+CODEGEN_VERSION = "2"
 ENGINE_DIR = Path(__file__).resolve().parent.parent / "engine"
 
 
@@ -69,6 +69,9 @@ class GeneratedModel:
     #: parameters that are numeric functions of other parameters, evaluated at bind
     #: time (:mod:`gearsym.bound_functions`): name -> [function name, [argument names]]
     bound: dict[str, list] = field(default_factory=dict)
+    #: names of the model's [outputs] (evaluated by ``gs_out``), with their units
+    outputs: list[str] = field(default_factory=list)
+    output_units: dict[str, str] = field(default_factory=dict)
 
     @property
     def input_names(self) -> list[str]:
@@ -173,6 +176,10 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     fns["gs_sched"] = ca.Function("gs_sched", [p], [sv], ["p"], ["s"])
     period = tr(model.forcing_period) if model.forcing_period is not None else ca.SX(float("nan"))
     fns["gs_period"] = ca.Function("gs_period", [p], [period], ["p"], ["T"])
+    outputs = getattr(model, "outputs", {})
+    if outputs:
+        o = ca.vertcat(*[tr(e) for e in outputs.values()])
+        fns["gs_out"] = ca.Function("gs_out", [t, x, p, m], [o], ["t", "x", "p", "m"], ["y"])
     return fns
 
 
@@ -197,6 +204,7 @@ _DOCS = {
     "gs_swt": "d g / d t, for saltation matrices",
     "gs_sched": "schedules: [period, break fractions...] for each schedule",
     "gs_period": "the scene's forcing period T(p)",
+    "gs_out": "the model's [outputs] along a trajectory (post-processing, not used by the driver)",
 }
 
 
@@ -263,6 +271,8 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], directo
         cached=cached,
         functions={name: f.serialize() for name, f in fns.items()},
         bound={k: [f, list(a)] for k, (f, a) in getattr(model, "bound_parameters", {}).items()},
+        outputs=list(getattr(model, "outputs", {})),
+        output_units={k: (o.unit or "") for k, o in model.spec.outputs.items()},
     )
     (directory / "meta.json").write_text(gen.to_json())
     return gen

@@ -197,6 +197,7 @@ class ModelSpec:
     dimensionless: Dimensionless | None
     notes: str = ""
     units: dict[str, Unit] = field(default_factory=dict, repr=False)
+    outputs: dict[str, Derived] = field(default_factory=dict)
 
     def state_names(self) -> list[str]:
         """Names of the first-order states: coordinates then velocities."""
@@ -209,7 +210,7 @@ class ModelSpec:
 # ------------------------------------------------------------------------ parsing
 
 _TOP = {"model", "coordinates", "parameters", "derived", "effects", "schedules", "elements",
-        "equations", "reduction", "forcing", "initial", "dimensionless"}
+        "equations", "reduction", "forcing", "initial", "dimensionless", "outputs"}
 _ELEMENT_FIELDS = {
     "inertia": ({"value"}, set()),
     "spring": ({"deflection", "stiffness"}, set()),
@@ -470,13 +471,25 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
             tuple(groups),
         )
 
+    # outputs: quantities evaluated along trajectories (e.g. the dynamic backlash B(t))
+    outputs: dict[str, Derived] = {}
+    for oname, o in _table(ctx, data, "outputs").items():
+        where = f"outputs.{oname}"
+        if isinstance(o, (str, list)) or (isinstance(o, dict) and "value" not in o):
+            o = {"value": o}
+        o = _as_table(ctx, where, o)
+        _only(ctx, where, o, {"value", "unit", "meaning"})
+        declare(oname, where)
+        outputs[oname] = Derived(oname, _terms(ctx, f"{where}.value", o["value"], schedules),
+                                 _str(ctx, o, f"{where}.unit"), _str(ctx, o, f"{where}.meaning") or "")
+
     spec = ModelSpec(
         path=path, name=name, description=_str(ctx, meta, "model.description") or "",
         reference=_str(ctx, meta, "model.reference") or "", form=form, time_unit=time_unit,
         time_dims=time_dims, coordinates=coordinates, parameters=parameters, derived=derived,
         effects=effects, schedules=schedules, elements=elements, equations=equations,
         reduction=reduction, forcing_period=period, initial=initial, dimensionless=dimless,
-        notes=_str(ctx, meta, "model.notes") or "",
+        notes=_str(ctx, meta, "model.notes") or "", outputs=outputs,
     )
     _validate(ctx, spec)
     return spec
@@ -636,6 +649,13 @@ def _validate(ctx: _Ctx, spec: ModelSpec) -> None:
     for k in spec.initial:
         if k not in spec.state_names():
             raise ctx.error(f"initial.{k}", f"'{k}' is not a state (states: {', '.join(spec.state_names())})")
+    for o in spec.outputs.values():
+        u = _terms_unit(ctx, o.terms, units)
+        if o.unit is not None and u is not None:
+            declared = _unit(ctx, f"outputs.{o.name}.unit", o.unit)
+            if not u.same_dimension(declared):
+                raise ctx.error(f"outputs.{o.name}.value", f"unit mismatch: value is [{u.si_string()}] "
+                                                           f"but unit says [{declared.si_string()}]")
     spec.units.update(units)
 
 

@@ -456,6 +456,9 @@ def _terms_with_owner(model: ModelSpec):
     if model.reduction is not None:
         for t in model.reduction.definition:
             yield t, None, None
+    for o in model.outputs.values():
+        for t in o.terms:
+            yield t, None, None
 
 
 def _structural_exprs(model: ModelSpec) -> list[str]:

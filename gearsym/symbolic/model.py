@@ -199,6 +199,7 @@ class SymbolicModel:
         ]
         self.forcing_period = ns.parse(self.spec.forcing_period, "forcing.period") \
             if self.spec.forcing_period else None
+        self.outputs = self._outputs(ns)
         self.parameters = self._parameter_list()
 
     # ----------------------------------------------------------------- assembly
@@ -310,6 +311,7 @@ class SymbolicModel:
         qk = (x - s - sum(a[i] * q[i] for i in range(len(q)) if i != k)) / a[k]
         vk = (xd - sdot - sum(a[i] * v[i] for i in range(len(q)) if i != k)) / a[k]
         sub = {q[k]: qk, v[k]: vk}
+        self._reduction_sub = sub
         acc = sum(a[i] * Q[i, 0] / M[i, i] for i in range(len(q)) if a[i] != 0) + sp.diff(s, ns.t, 2)
         sched = acc.has(ns.t, *ns.sched_seg.values())  # time-varying: keep parameter blocks
         acc = _expand_in_states(acc.subs(sub), (x, xd), ns.t, blocks=sched)
@@ -336,8 +338,25 @@ class SymbolicModel:
     def _collect(expr: sp.Expr) -> sp.Expr:
         return expr
 
+    def _outputs(self, ns: Namespace) -> dict[str, sp.Expr]:
+        """The model's [outputs], in terms of the final states (after reduction)."""
+        out: dict[str, sp.Expr] = {}
+        allowed = set(self.states)
+        dynamic = set(ns.coords.values()) | set(ns.vels.values())
+        for name, o in self.spec.outputs.items():
+            expr = ns.sum_terms(o.terms)
+            if self.spec.reduction is not None and hasattr(self, "_reduction_sub"):
+                expr = expr.xreplace(self._reduction_sub)
+            bad = sorted(str(s) for s in (expr.free_symbols & dynamic) - allowed)
+            if bad:
+                raise SpecError(f"output '{name}' uses {', '.join(bad)}, which are not states of the "
+                                f"(reduced) model", file=self.spec.path, field=f"outputs.{name}")
+            out[name] = expr
+        return out
+
     def _parameter_list(self) -> list[sp.Symbol]:
         exprs = list(self.modal.rhs) + list(self.modal.forces) + [g.expr for g in self.switching]
+        exprs += list(getattr(self, "outputs", {}).values())
         if self.form == "implicit":
             exprs += list(self.mass_matrix) + list(self.forces)
         for s in self.schedules:
