@@ -52,7 +52,7 @@ def test_output_on_a_reduced_away_coordinate_is_an_error(tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text('[scene]\nname = "s"\nmodel = "m.toml"\n')
     with pytest.raises(SpecError, match="output 'angle' uses th2") as info:
-        gearsym.load_scene(scene).model
+        _ = gearsym.load_scene(scene).model
     assert info.value.field == "outputs.angle"
 
 

@@ -195,5 +195,5 @@ def test_reduction_with_time_dependent_coefficient_is_rejected(tmp_path):
                         'definition = "rb1*(1 + 0.1*cos(omega*t))*th1 - rb2*th2 - e_s"')
     scene = _scene(tmp_path, _model(tmp_path, text))
     with pytest.raises(SpecError, match="must not depend on time") as info:
-        gearsym.load_scene(scene).model
+        _ = gearsym.load_scene(scene).model
     assert info.value.field == "reduction.definition"
