@@ -88,24 +88,23 @@ class System:
 
         ``sigma`` defaults to the sides of the switching surfaces at ``x``.
         """
-        p = self.param_vector(params)
-        x = np.asarray(x, dtype=float)
-        if sigma is None:
-            g = np.asarray(self.generated.casadi_function("gs_sw")(t, x, p)).ravel()
-            sigma = np.where(g >= 0, 1.0, -1.0)
-        m = np.concatenate([np.asarray(sigma, float), self._sched_mode(t, p)])
-        return np.asarray(self.generated.casadi_function("gs_rhs")(t, x, p, m)).ravel()
+        return np.asarray(self._call("gs_rhs", t, x, sigma, params)).ravel()
 
     def jacobian(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
                  params: Mapping[str, float] | None = None) -> np.ndarray:
-        """The generated Jacobian ``df/dx`` (explicit models)."""
+        """The generated Jacobian ``df/dx`` (explicit models), ``sigma`` as in :meth:`rhs`."""
+        return np.asarray(self._call("gs_jac", t, x, sigma, params))
+
+    def _call(self, name: str, t: float, x: Sequence[float], sigma: Sequence[float] | None,
+              params: Mapping[str, float] | None):
+        """Call a generated (t, x, p, m) function with the mode at (t, x)."""
         p = self.param_vector(params)
         x = np.asarray(x, dtype=float)
         if sigma is None:
             g = np.asarray(self.generated.casadi_function("gs_sw")(t, x, p)).ravel()
             sigma = np.where(g >= 0, 1.0, -1.0)
         m = np.concatenate([np.asarray(sigma, float), self._sched_mode(t, p)])
-        return np.asarray(self.generated.casadi_function("gs_jac")(t, x, p, m))
+        return self.generated.casadi_function(name)(t, x, p, m)
 
     @property
     def output_names(self) -> list[str]:

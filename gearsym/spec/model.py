@@ -375,16 +375,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
                                     _str(ctx, s, f"{where}.meaning") or "")
 
     # derived
-    derived: dict[str, Derived] = {}
-    for dname, d in _table(ctx, data, "derived").items():
-        where = f"derived.{dname}"
-        if isinstance(d, (str, list)) or (isinstance(d, dict) and "value" not in d):
-            d = {"value": d}
-        d = _as_table(ctx, where, d)
-        _only(ctx, where, d, {"value", "unit", "meaning"})
-        declare(dname, where)
-        derived[dname] = Derived(dname, _terms(ctx, f"{where}.value", d["value"], schedules),
-                                 _str(ctx, d, f"{where}.unit"), _str(ctx, d, f"{where}.meaning") or "")
+    derived = _quantities(ctx, data, "derived", declare, schedules)
 
     # elements
     elements: dict[str, Element] = {}
@@ -472,16 +463,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         )
 
     # outputs: quantities evaluated along trajectories (e.g. the dynamic backlash B(t))
-    outputs: dict[str, Derived] = {}
-    for oname, o in _table(ctx, data, "outputs").items():
-        where = f"outputs.{oname}"
-        if isinstance(o, (str, list)) or (isinstance(o, dict) and "value" not in o):
-            o = {"value": o}
-        o = _as_table(ctx, where, o)
-        _only(ctx, where, o, {"value", "unit", "meaning"})
-        declare(oname, where)
-        outputs[oname] = Derived(oname, _terms(ctx, f"{where}.value", o["value"], schedules),
-                                 _str(ctx, o, f"{where}.unit"), _str(ctx, o, f"{where}.meaning") or "")
+    outputs = _quantities(ctx, data, "outputs", declare, schedules)
 
     spec = ModelSpec(
         path=path, name=name, description=_str(ctx, meta, "model.description") or "",
@@ -739,6 +721,22 @@ def _expect(ctx: _Ctx, where: str, text: str, units: dict[str, Unit], want: Unit
 
 
 # --------------------------------------------------------------------- helpers
+
+
+def _quantities(ctx: _Ctx, data: dict[str, Any], section: str, declare: Any,
+                schedules: dict[str, Schedule]) -> dict[str, Derived]:
+    """Parse a table of named quantities ([derived] or [outputs]): value, unit, meaning."""
+    out: dict[str, Derived] = {}
+    for name, d in _table(ctx, data, section).items():
+        where = f"{section}.{name}"
+        if isinstance(d, (str, list)) or (isinstance(d, dict) and "value" not in d):
+            d = {"value": d}
+        d = _as_table(ctx, where, d)
+        _only(ctx, where, d, {"value", "unit", "meaning"})
+        declare(name, where)
+        out[name] = Derived(name, _terms(ctx, f"{where}.value", d["value"], schedules),
+                            _str(ctx, d, f"{where}.unit"), _str(ctx, d, f"{where}.meaning") or "")
+    return out
 
 
 def _terms(ctx: _Ctx, where: str, value: Any, schedules: dict[str, Schedule],
