@@ -214,7 +214,8 @@ class HybridSolution:
 
 def solve_with_events(pm: PythonModel, x0: Sequence[float], t_eval: Sequence[float], *, t0: float = 0.0,
                       rtol: float = 1e-13, atol: float | np.ndarray = 1e-15, method: str = "DOP853",
-                      max_step: float = np.inf, max_events: int = 1_000_000) -> HybridSolution:
+                      max_step: float = np.inf, max_events: int = 1_000_000,
+                      deadline: _Deadline | None = None) -> HybridSolution:
     """Event-located, mode-switched integration with scipy ``solve_ivp``.
 
     The modal right-hand side is integrated with the surface sides ``sigma`` fixed;
@@ -247,6 +248,8 @@ def solve_with_events(pm: PythonModel, x0: Sequence[float], t_eval: Sequence[flo
         sched = pm.sched_mode(0.5 * (t + tb))
         while t < tb:
             f = pm.modal_function(sigma, sched)
+            if deadline is not None:
+                f = _guarded(f, deadline)
             # each g_j starts on the side sigma_j says (a root located a hair early leaves g_j on
             # the old side at the restart, and scipy would then miss the next crossing)
             events = [_event(gfun[j], -sigma[j], t, sigma[j]) for j in range(pm.nsw)]
@@ -298,6 +301,34 @@ def _event(g: Callable[[float, np.ndarray], float], direction: float, t_start: f
     return ev
 
 
+class RunTimeout(RuntimeError):
+    """A Python right-hand side ran past its method's time limit (the run is abandoned)."""
+
+
+class _Deadline:
+    """A wall-clock limit shared by a right-hand side and the run that uses it."""
+
+    def __init__(self) -> None:
+        self.t = math.inf
+        self.limit = math.inf
+
+    def start(self, limit: float) -> None:
+        self.limit = limit
+        self.t = time.perf_counter() + limit
+
+
+def _guarded(f: Callable[[float, np.ndarray], np.ndarray], dl: _Deadline) -> Callable[[float, np.ndarray], np.ndarray]:
+    """``f`` that raises :class:`RunTimeout` once the deadline has passed (some peers never
+    finish on stiff jumps at tight tolerances, e.g. LSODA)."""
+    clock = time.perf_counter
+
+    def g(t, y):
+        if clock() > dl.t:
+            raise RunTimeout(f"abandoned after {dl.limit:g} s")
+        return f(t, y)
+    return g
+
+
 # ----------------------------------------------------------------------- methods
 @dataclass
 class RunOutput:
@@ -329,6 +360,9 @@ class Method:
         self.ctx = ctx
         self.rtol = 1e-8
         self.atol = 1e-10
+        #: Wall-clock limit of one run of a Python right-hand side method (seconds).
+        self.max_run_s = math.inf
+        self._dl = _Deadline()
 
     def setup(self, rtol: float, atol: float) -> None:
         """Prepare for runs at these tolerances (not timed)."""
@@ -379,7 +413,9 @@ class ScipyEventsMethod(Method):
     def run(self) -> RunOutput:
         c = self.ctx
         assert c.pm is not None
-        sol = solve_with_events(c.pm, c.x0, c.grid, t0=float(c.grid[0]), rtol=self.rtol, atol=self.atol)
+        self._dl.start(self.max_run_s)
+        sol = solve_with_events(c.pm, c.x0, c.grid, t0=float(c.grid[0]), rtol=self.rtol, atol=self.atol,
+                                deadline=self._dl)
         return RunOutput(sol.y, {"n_steps": None, "n_rhs": sol.n_rhs, "n_events": int(sol.event_t.size)})
 
 
@@ -394,12 +430,13 @@ class ScipyMethod(Method):
     def setup(self, rtol: float, atol: float) -> None:
         super().setup(rtol, atol)
         assert self.ctx.pm is not None
-        self._f = self.ctx.pm.rhs_function()
+        self._f = _guarded(self.ctx.pm.rhs_function(), self._dl)
 
     def run(self) -> RunOutput:
         from scipy.integrate import solve_ivp
 
         c = self.ctx
+        self._dl.start(self.max_run_s)
         sol = solve_ivp(self._f, (float(c.grid[0]), float(c.grid[-1])), c.x0, method=self.method,
                         t_eval=c.grid, rtol=self.rtol, atol=self.atol)
         if not sol.success:
@@ -416,7 +453,7 @@ class SksundaeMethod(Method):
 
         super().setup(rtol, atol)
         assert self.ctx.pm is not None
-        f = self.ctx.pm.rhs_function()
+        f = _guarded(self.ctx.pm.rhs_function(), self._dl)
 
         def rhsfn(t, y, yp):
             yp[:] = f(t, y)
@@ -425,6 +462,7 @@ class SksundaeMethod(Method):
 
     def run(self) -> RunOutput:
         c = self.ctx
+        self._dl.start(self.max_run_s)
         soln = self._solver.solve(c.grid, c.x0)
         if not soln.success:
             raise RuntimeError(f"{self.name}: {soln.message}")
@@ -783,6 +821,8 @@ def run_work_precision(scene, *, label: str | None = None, rtols: Sequence[float
     ref_cross = _grid_crossings(pm, grid, y_ref, skip)
     ctx = _Context(system, pm, x0v, grid, dict(params) if params else None, T)
     mlist = make_methods(ctx, names)
+    for m in mlist:
+        m.max_run_s = max(3 * max_seconds, 30.0)
     results: list[dict[str, Any]] = []
     too_slow: dict[str, float] = {}
     for rtol in rtols:
@@ -808,6 +848,8 @@ def run_work_precision(scene, *, label: str | None = None, rtols: Sequence[float
         for (row, m), first, ts in zip(ready, firsts, times):
             if isinstance(first, Exception):
                 row["failed"] = f"{type(first).__name__}: {first}"[:500]
+                if isinstance(first, RunTimeout):
+                    too_slow[m.name] = rtol
                 continue
             y = np.asarray(first.y, dtype=float)
             if y.shape != y_ref.shape or not np.all(np.isfinite(y)):
