@@ -126,10 +126,109 @@ def event_effect(case: dict) -> list[dict]:
         for plain, located in (("scipy DOP853", "scipy DOP853 + events"), ("CasADi cvodes", "gearsym (bdf)")):
             a, b = by.get((plain, rtol)), by.get((located, rtol))
             if a and b:
-                row[f"{plain} / {located}"] = {"error_ratio": a["error"] / max(b["error"], 1e-300),
-                                               "time_ratio": a["best_s"] / b["best_s"]}
+                row[f"{plain} / {located}"] = {
+                    "error_ratio": a["error"] / max(b["error"], 1e-300), "time_ratio": a["best_s"] / b["best_s"],
+                    "rhs_ratio": (a["n_rhs"] / b["n_rhs"]) if a.get("n_rhs") and b.get("n_rhs") else None}
         rows.append(row)
     return rows
+
+
+def event_table(all_cases: list[dict], rtols=(1e-4, 1e-6, 1e-8, 1e-10)) -> str:
+    """Located events against stepping over the kinks, each pair with the same integrator.
+
+    Cells: error ratio (stepped / located) and time ratio of scipy DOP853 (Python RHS in
+    both), and error ratio and ratio of right-hand-side evaluations of CVODES BDF (CasADi's
+    cvodes stepping over, gearsym's BDF locating: two implementations, so their time
+    ratio would not measure the cost of locating).
+    """
+    pairs = (("scipy DOP853", "scipy DOP853 + events"), ("CasADi cvodes", "gearsym (bdf)"))
+    head = ["| case | rtol | DOP853: error ratio stepped / located | DOP853: time ratio "
+            "| CVODES BDF: error ratio stepped / located | CVODES BDF: RHS evaluations ratio |", "|---" * 6 + "|"]
+    lines = list(head)
+    for res in all_cases:
+        c = res["case"]
+        by = {r["rtol"]: r for r in event_effect(c)}
+        for rtol in rtols:
+            row = by.get(rtol)
+            if not row:
+                continue
+            cells = []
+            for plain, located in pairs:
+                v = row.get(f"{plain} / {located}")
+                if v is None:
+                    cells += ["-", "-"]
+                    continue
+                cost = v["time_ratio"] if plain == "scipy DOP853" else v["rhs_ratio"]
+                cells += [f"{v['error_ratio']:.2g}", "-" if cost is None else f"{cost:.2g}"]
+            lines.append(f"| {c['case']} | {rtol:.0e} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def not_on_front(all_cases: list[dict]) -> list[str]:
+    """``"case at rtol X (dominated by ...)"`` for every tolerance where gearsym is off the front."""
+    out = []
+    for res in all_cases:
+        for rtol, v in res["case"]["pareto"]["by_rtol"].items():
+            if not v["on_front"]:
+                out.append(f"{res['case']['case']} at rtol {rtol} (dominated by {'; '.join(v['dominated_by'][:2])})")
+    return out
+
+
+def render_tables(good: list[dict]) -> str:
+    """The markdown of every table, in the order of docs/performance.md."""
+    return ("## Summary\n\n" + summary_table(good) + "\n\n## gearsym error (wall ms) by rtol\n\n"
+            + "Use it to choose a tolerance: the error is the largest normalised state error over the "
+              "whole horizon (up to the error horizon in chaotic regimes); `≤` marks errors at the "
+              "reference's floor.\n\n"
+            + tolerance_table(good) + "\n\n## Event location against stepping over the kinks\n\n"
+            + "Ratios > 1 in the error columns: stepping over is less accurate than locating the "
+              "switches with the same integrator at the same rtol; the cost ratios say what locating "
+              "costs (< 1: stepping over is cheaper).\n\n"
+            + event_table(good) + "\n\n## Periodic-orbit analyses\n\n" + analysis_table(good)
+            + "\n\n## Every method\n\n" + markdown_table(good))
+
+
+def machine_text(all_cases: list[dict]) -> str:
+    """Which machine, which versions, how loaded, when (from the JSON's environment records)."""
+    envs = [r.get("environment") or {} for r in all_cases]
+    e = envs[0] if envs else {}
+    loads = [x["loadavg"][0] for x in envs if x.get("loadavg")]
+    load = f"{min(loads):.1f}-{max(loads):.1f}" if loads else "unknown"
+    return (f"Machine: {e.get('cpu', '?')}, {e.get('cpu_count', '?')} cores, {e.get('platform', '?')}; "
+            f"Python {e.get('python', '?')}, numpy {e.get('numpy', '?')}, scipy {e.get('scipy', '?')}, "
+            f"casadi {e.get('casadi', '?')}, scikit-sundae {e.get('sksundae', '?')}, gearsym {e.get('gearsym', '?')}. "
+            f"1-minute load average when each case started: {load} (2 cores, shared: read ratios within a row, "
+            f"not absolute times).")
+
+
+def write_docs(all_cases: list[dict], out: Path, total_wall_s: float | None) -> Path:
+    """Copy the plots to docs/performance/ and rewrite docs/performance.md below its GENERATED marker."""
+    good = [r for r in all_cases if "failed" not in r]
+    dest = ROOT / "docs" / "performance"
+    dest.mkdir(parents=True, exist_ok=True)
+    for r in good:
+        if "plot" in r:
+            shutil.copy(out / r["plot"], dest / r["plot"])
+    page = ROOT / "docs" / "performance.md"
+    text = page.read_text()
+    marker = "<!-- GENERATED -->"
+    if marker not in text:
+        raise SystemExit(f"{page}: no '{marker}' line to write below")
+    off = not_on_front(good)
+    front = ("gearsym is on the Pareto front (no other method both faster and more accurate) at every "
+             "tolerance of every case." if not off else
+             "gearsym is on the Pareto front at every tolerance except: " + "; ".join(off) + ".")
+    failed = [r["case"]["case"] for r in all_cases if "failed" in r]
+    when = time.strftime("%Y-%m-%d")
+    body = [marker, "", f"## Results (one run, {when})", "",
+            f"{len(good)} cases" + (f" in {total_wall_s / 60:.0f} min" if total_wall_s else "") + ". "
+            + machine_text(good), "", front]
+    if failed:
+        body += ["", "Cases that failed to run: " + ", ".join(failed) + "."]
+    body += ["", render_tables(good), "", "## Work-precision diagrams", ""]
+    body += [f"![{r['plot'][:-4]}](performance/{r['plot']})" for r in good if "plot" in r]
+    page.write_text(text.split(marker)[0] + "\n".join(body) + "\n")
+    return page
 
 
 def markdown_table(all_cases: list[dict]) -> str:
@@ -212,7 +311,8 @@ def summary_table(all_cases: list[dict]) -> str:
 
 def analysis_table(all_cases: list[dict]) -> str:
     """Shooting solve and continuation step: wall ms and multiplier error at each rtol."""
-    lines = ["| case | rtol | shooting ms (Newton its) | multiplier error | continuation ms/step |", "|---" * 5 + "|"]
+    lines = ["| case | rtol | shooting ms (Newton its) | multiplier error (abs / rel. to max abs mu) "
+             "| continuation ms/step |", "|---" * 5 + "|"]
     for res in all_cases:
         an = res.get("analysis") or {}
         sh = (an.get("shooting") or {})
@@ -227,6 +327,8 @@ def analysis_table(all_cases: list[dict]) -> str:
             c = co.get(r["rtol"], {})
             shc = "failed" if "failed" in r else f"{r['wall_s'] * 1e3:.3g} ({r['iterations']})"
             me = "-" if r.get("multiplier_error") is None else f"{r['multiplier_error']:.0e}"
+            if r.get("multiplier_error_rel") is not None:
+                me += f" / {r['multiplier_error_rel']:.0e}"
             cc = "failed" if "failed" in c else (f"{c['wall_per_step_s'] * 1e3:.3g}" if c else "-")
             lines.append(f"| {res['case']['case']} | {r['rtol']:.0e} | {shc} | {me} | {cc} |")
     return "\n".join(lines)
@@ -245,7 +347,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="a method slower than this at one rtol is skipped at tighter ones")
     ap.add_argument("--single-run-s", type=float, default=0.5,
                     help="a method slower than this is timed by its first run alone")
-    ap.add_argument("--docs", action="store_true", help="copy the plots to docs/performance/")
+    ap.add_argument("--docs", action="store_true",
+                    help="copy the plots to docs/performance/ and rewrite the generated part of docs/performance.md")
+    ap.add_argument("--render", action="store_true",
+                    help="run nothing: rewrite the tables (and with --docs the page) from DIR/work_precision.json")
     ap.add_argument("--append", action="store_true",
                     help="keep the other cases of an existing DIR/work_precision.json (re-running some cases)")
     args = ap.parse_args(argv)
@@ -253,10 +358,25 @@ def main(argv: list[str] | None = None) -> int:
         args.rounds = 1
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    jfile = out / "work_precision.json"
+    if args.render:
+        if not jfile.exists():
+            print(f"--render: {jfile} does not exist (run the benchmark first)", file=sys.stderr)
+            return 2
+        data = json.loads(jfile.read_text())
+        good = [r for r in data["cases"] if "failed" not in r]
+        (out / "work_precision_table.md").write_text(render_tables(good))
+        if args.docs:
+            print(f"wrote {write_docs(data['cases'], out, data.get('total_wall_s'))}")
+        return 0
+    known = [c["label"] for c in cases()]
+    for label in args.cases or []:
+        if label not in known:
+            print(f"--cases: unknown case '{label}' (have: {', '.join(known)})", file=sys.stderr)
+            return 2
     selected = [c for c in cases() if not args.cases or c["label"] in args.cases]
     results = []
     kept: list[dict] = []
-    jfile = out / "work_precision.json"
     if args.append and jfile.exists():
         labels = {c["label"] for c in selected}
         kept = [r for r in json.loads(jfile.read_text())["cases"] if r["case"]["case"] not in labels]
@@ -283,16 +403,9 @@ def main(argv: list[str] | None = None) -> int:
             {"benchmark": "work_precision", "environment": bench.environment(),
              "total_wall_s": time.perf_counter() - t_all, "cases": kept + results}, indent=1,
             default=bench._json_default))
-        (out / "work_precision_table.md").write_text(
-            "## Summary\n\n" + summary_table(good) + "\n\n## gearsym error (wall ms) by rtol\n\n"
-            + tolerance_table(good) + "\n\n## Periodic-orbit analyses\n\n" + analysis_table(good)
-            + "\n\n## Every method\n\n" + markdown_table(good))
+        (out / "work_precision_table.md").write_text(render_tables(good))
     if args.docs:
-        dest = ROOT / "docs" / "performance"
-        dest.mkdir(parents=True, exist_ok=True)
-        for r in kept + results:
-            if "plot" in r:
-                shutil.copy(out / r["plot"], dest / r["plot"])
+        print(f"wrote {write_docs(kept + results, out, time.perf_counter() - t_all)}")
     n_fail = sum(1 for r in results if "failed" in r)
     print(f"done in {time.perf_counter() - t_all:.0f} s, {n_fail} failed case(s); wrote {out}")
     return 1 if n_fail and n_fail == len(results) else 0

@@ -1175,6 +1175,8 @@ def analysis_costs(system, rtols: Sequence[float], params: Mapping[str, float] |
             row.update(iterations=int(orb.iterations), residual=float(orb.residual),
                        max_multiplier=float(np.max(np.abs(mu))),
                        multiplier_error=float(np.max(np.abs(mu - mu_ref))) if mu.shape == mu_ref.shape else None,
+                       multiplier_error_rel=(float(np.max(np.abs(mu - mu_ref)) / max(np.max(np.abs(mu_ref)), 1e-300))
+                                             if mu.shape == mu_ref.shape else None),
                        state_error=float(np.max(np.abs(orb.x0 - base.x0) / scale)), stable=bool(orb.stable))
         except Exception as exc:
             row["failed"] = f"{type(exc).__name__}: {exc}"[:300]

@@ -63,6 +63,14 @@ def test_bench_cli_reports_errors_against_the_exact_solution(tmp_path):
     for row in rows.values():
         assert row["best_s"] > 0 and np.isfinite(row["error"])
     assert "gearsym" in r.stdout and data["analysis"] is None
+    # the tables of docs/performance.md are rendered from such records
+    (out / "work_precision.json").write_text(json.dumps({"benchmark": "work_precision", "cases": [data]}))
+    r = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "work_precision.py"), "--render", "--out", str(out)],
+                       capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert r.returncode == 0, r.stderr
+    table = (out / "work_precision_table.md").read_text()
+    assert f"| 1e-08 | {rows[('gearsym', 1e-8)]['error']:.0e} (" in table      # the tolerance table
+    assert "| meissner | exact (1e-14) | 5 periods |" in table                   # the summary
 
 
 def case_atol_ratio(case) -> float:
