@@ -746,7 +746,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
         if atol is None:
             atol = float(rtol * 1e-2 * np.min(state_scale))
         res: _Residual = ShootingResidual(system, param, periods, base, segments, t0, rtol, atol,
-                                          fd_step=_fd_step(start, stop))
+                                          fd_step=_fd_step(start, stop, rtol))
         u0 = res.u_from_orbit(x_start, start)  # type: ignore[attr-defined]
     else:
         if orbit is None:
@@ -758,7 +758,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
         if atol is None:
             atol = float(rtol * 1e-2 * np.min(state_scale))
         H = int(harmonics or orbit.harmonics or 16)
-        res = HBResidual(system, param, H, periods, base, t0, rtol=rtol, atol=atol, fd_step=_fd_step(start, stop))
+        res = HBResidual(system, param, H, periods, base, t0, rtol=rtol, atol=atol, fd_step=_fd_step(start, stop, rtol))
         u0 = res.u_from_orbit(orbit, start)  # type: ignore[attr-defined]
     branch = _run(res, u0, start, stop, state_scale=state_scale, ds=ds, ds_min=ds_min, ds_max=ds_max,
                   max_angle=max_angle, max_points=max_points, tol=tol, max_newton=max_newton, types=types,
@@ -829,8 +829,12 @@ def _first_orbit_shooting(system: System, param: str, start: float, p_start: dic
     return x_start, _state_scale(system, x_start, t0, P, p_start, rtol, a_tol)
 
 
-def _fd_step(start: float, stop: float) -> float:
-    return 1e-6 * max(abs(stop - start), 1e-3 * max(abs(start), abs(stop)))
+def _fd_step(start: float, stop: float, rtol: float = 1e-10) -> float:
+    """Step of the forward difference ``F_lambda``: 1e-6 of the parameter range, larger at
+    loose integrator tolerances so that the integration noise (~ rtol) divided by the
+    step stays small (~ 10 sqrt(rtol) relative; a 1e-6 step at rtol 1e-6 would make
+    ``F_lambda`` all noise, and the corrector rejects step after step)."""
+    return max(1e-6, 0.1 * math.sqrt(rtol)) * max(abs(stop - start), 1e-3 * max(abs(start), abs(stop)))
 
 
 def _detect_types(detect: Sequence[str] | bool) -> tuple[str, ...]:
