@@ -403,3 +403,21 @@ def test_cli_continue_json(tmp_path):
     r = subprocess.run(cmd[:5] + ["--param", "nope", "--from", "0.6", "--to", "0.7"], capture_output=True,
                        text=True, cwd=ROOT, timeout=300)
     assert r.returncode == 2 and "nope" in r.stderr and "Traceback" not in r.stderr
+
+
+@pytest.mark.parametrize("rtol", [1e-5, 1e-7, 1e-10])
+def test_parameter_derivative_of_the_residual_at_loose_tolerances(ks_system, rtol):
+    """F_lambda (a forward difference, the continuation's costly column) at a loose
+    integrator tolerance agrees with a central difference of the residual at rtol 1e-13
+    to 2 % (with the old fixed 1e-6 step it was off by 34x at rtol 1e-5: the integration
+    noise (~ rtol) over the step, and the corrector rejected step after step)."""
+    from gearsym.analysis.continuation import ShootingResidual, _fd_step
+
+    orb = ks_system.periodic_orbit(params={"Omega": 1.2}, rtol=1e-12, atol=1e-14, tol=1e-11)
+    x = orb.x0
+    tight = ShootingResidual(ks_system, "Omega", rtol=1e-13, atol=1e-15)
+    h = 1e-4
+    ref = (tight.evaluate(x, 1.2 + h, jac=False).R - tight.evaluate(x, 1.2 - h, jac=False).R) / (2 * h)
+    loose = ShootingResidual(ks_system, "Omega", rtol=rtol, atol=rtol * 1e-2, fd_step=_fd_step(0.6, 1.4, rtol))
+    got = loose.evaluate(x, 1.2, jac=True, dlam=True).Flam
+    assert np.max(np.abs(got - ref)) < 2e-2 * np.max(np.abs(ref))
