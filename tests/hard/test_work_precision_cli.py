@@ -75,3 +75,28 @@ def test_bench_cli_reports_errors_against_the_exact_solution(tmp_path):
 
 def case_atol_ratio(case) -> float:
     return float(case["atol_rule"].split("*")[1].split("(")[0])
+
+
+def test_analysis_costs_against_the_exact_monodromy():
+    """The shooting / continuation costs of ``gearsym bench``: the reference multipliers are
+    those of the exact monodromy of the damped Meissner equation (a product of two matrix
+    exponentials), the per-tolerance multiplier errors shrink with rtol, and the multiplier
+    matching does not depend on the order of the multipliers."""
+    from gearsym.bench import _multiplier_error, analysis_costs
+
+    mu = np.array([0.3 + 0.4j, 0.3 - 0.4j, -0.2])
+    assert _multiplier_error(mu, mu[::-1]) == 0.0
+    assert abs(_multiplier_error(mu, mu + 1e-3) - 1e-3) < 1e-12
+
+    system = gearsym.load_scene(SCENE).compile()
+    p = dict(system.params)
+    A = {s: np.array([[0.0, 1.0], [-p["w0"] ** 2 * (1 + s * p["a"]), -2 * p["zeta"] * p["w0"]]]) for s in (1, -1)}
+    M = expm(A[-1] * (1 - p["d"]) * p["T"]) @ expm(A[1] * p["d"] * p["T"])
+    out = analysis_costs(system, [1e-5, 1e-9], None, 1e-2)
+    ref = np.array([complex(m) for m in out["shooting"]["orbit_multipliers"]])
+    assert _multiplier_error(ref, np.linalg.eigvals(M)) < 1e-9
+    rows = {r["rtol"]: r for r in out["shooting"]["rows"]}
+    assert rows[1e-9]["multiplier_error"] < 1e-7 and rows[1e-9]["multiplier_error"] < rows[1e-5]["multiplier_error"] < 1e-3
+    co = out["continuation"]
+    assert co["available"] and {r["param"] for r in co["rows"]} == {"T"}
+    assert all(r["steps"] >= 1 and r["wall_per_step_s"] > 0 for r in co["rows"])
