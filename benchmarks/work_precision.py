@@ -360,8 +360,7 @@ def remeasure_analyses(jfile: Path, labels: list[str] | None) -> int:
         print(f"{label}: periodic-orbit analyses ...", flush=True)
         scene = gearsym.load_scene(c["scene"], **c.get("overrides", {}))
         system = scene.compile()
-        ratio = float(scene.spec.simulate.get("atol", 1e-10)) / float(scene.spec.simulate.get("rtol", 1e-8))
-        res["analysis"] = bench.analysis_costs(system, res["case"]["rtols"], None, ratio)
+        res["analysis"] = bench.analysis_costs(system, res["case"]["rtols"], None, bench.scene_atol_ratio(scene))
         res["analysis_measured"] = {"date": time.strftime("%Y-%m-%d %H:%M"), "environment": bench.environment()}
     jfile.write_text(json.dumps(data, indent=1, default=bench._json_default))
     good = [r for r in data["cases"] if "failed" not in r]

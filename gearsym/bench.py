@@ -781,7 +781,7 @@ def run_work_precision(scene, *, label: str | None = None, rtols: Sequence[float
     grid = np.linspace(0.0, t_end, n_out)
     grid[-1] = t_end
     x0v = np.asarray(system.x0 if x0 is None else x0, dtype=float)
-    atol_ratio = float(sim.get("atol", 1e-10)) / float(sim.get("rtol", 1e-8))
+    atol_ratio = scene_atol_ratio(scene)
     names = list(methods or METHOD_NAMES)
     need_py = any(not n.startswith("gearsym") and n != "CasADi cvodes" for n in names) or reference is None
     t = time.perf_counter()
@@ -1129,10 +1129,15 @@ def bench_scene(scene, *, rtols: Sequence[float] | None = None, methods: Sequenc
     analysis = None
     if analyses:
         say("periodic-orbit analyses ...")
-        ratio = float(scene.spec.simulate.get("atol", 1e-10)) / float(scene.spec.simulate.get("rtol", 1e-8))
-        analysis = analysis_costs(system, data["rtols"], kw.get("params"), ratio, say)
+        analysis = analysis_costs(system, data["rtols"], kw.get("params"), scene_atol_ratio(scene), say)
     return {"benchmark": "work_precision", "environment": environment(), "compile": comp, "case": data,
             "analysis": analysis}
+
+
+def scene_atol_ratio(scene) -> float:
+    """The scene's ``atol / rtol`` (``[simulate]``): every tolerance of a sweep keeps it."""
+    sim = scene.spec.simulate
+    return float(sim.get("atol", 1e-10)) / float(sim.get("rtol", 1e-8))
 
 
 def analysis_costs(system, rtols: Sequence[float], params: Mapping[str, float] | None = None,

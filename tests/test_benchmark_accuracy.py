@@ -18,12 +18,11 @@ Regimes (x0 = [1.1, 0]):
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _ks_loader import ks
 
 import gearsym
 
@@ -33,20 +32,7 @@ X0 = [1.1, 0.0]
 RTOL, ATOL = 1e-10, 1e-12
 
 
-def _load_reference():
-    # tests/engine/reference.py is imported as ``reference`` by the engine tests:
-    # load ours under its own name so the two never shadow each other.
-    name = "gearsym_tests_ks_reference"
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name("reference.py"))
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod
-
-
-ref = _load_reference()
+ref = ks()
 
 # name -> (parameter overrides, periods compared, state tolerance, event-time tolerance, n_events)
 REGIMES = {

@@ -11,12 +11,11 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from _ks_loader import ks
 
 import gearsym
 from gearsym.analysis.rattle import (
@@ -31,17 +30,6 @@ from gearsym.analysis.rattle import (
 
 ROOT = Path(__file__).resolve().parents[1]
 KS = ROOT / "scenes" / "kahraman_singh.toml"
-
-
-def _load_reference():
-    name = "gearsym_tests_rattle_reference"
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name("reference.py"))
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod
 
 
 # ------------------------------------------------------------- synthetic signals
@@ -153,7 +141,7 @@ def test_kahraman_singh_regimes(ks_system, params, expected):
     # sample-based on the same trajectory (x against the flanks -b, +b; b = 1)
     assert rattle_state(traj, -1.0, 1.0, state="x", drive_side="positive") == expected
     # independent reference: event-located DOP853 on the hand-written oscillator
-    ref = _load_reference()
+    ref = ks()
     y, ev_t, ev_s, _ev_d = ref.reference_solution(params, [1.1, 0.0], traj.t, rtol=1e-10, atol=1e-12)
     assert rattle_state((traj.t, y[:, 0]), -1.0, 1.0, drive_side="positive") == expected
     ts = s.t_start

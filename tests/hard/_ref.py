@@ -5,32 +5,17 @@
   of switching function ``g_j``) and the switching functions ``g(t, y)``; the mode is
   held fixed between events (terminal, direction-aware events on every ``g_j``) and
   the integration restarts at every event and at given breakpoints.
-* :func:`ks` -- ``tests/reference.py`` (the benchmark oscillator's references), loaded
-  under its own module name.
+* :func:`ks` -- ``tests/reference.py`` (the benchmark oscillator's references), from
+  ``tests/_ks_loader.py``.
 """
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from collections.abc import Callable, Sequence
-from pathlib import Path
 
 import numpy as np
+from _ks_loader import ks  # noqa: F401  (tests/ is on sys.path: pytest's rootdir-based import)
 from scipy.integrate import solve_ivp
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def ks():
-    """``tests/reference.py`` as a module (unique name: tests/engine has its own ``reference``)."""
-    name = "gearsym_tests_hard_ks_reference"
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, ROOT / "tests" / "reference.py")
-        mod = importlib.util.module_from_spec(spec)
-        sys.modules[name] = mod
-        spec.loader.exec_module(mod)
-    return sys.modules[name]
 
 
 def hybrid_solve(rhs: Callable[[float, np.ndarray, np.ndarray], np.ndarray],
