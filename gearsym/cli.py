@@ -537,6 +537,25 @@ def _surface_levels(system, traj) -> list[float]:
 
 
 # -------------------------------------------------------------------- main
+def cmd_export(args: argparse.Namespace) -> int:
+    """Export a scene as a standalone C project (--c DIR) and/or an FMI 2.0 ME FMU (--fmu FILE)."""
+    from .export import ExportError, export_scene
+
+    if not args.c and not args.fmu:
+        raise ExportError("export: give --c DIR and/or --fmu FILE.fmu")
+    info = export_scene(_load(args), c_dir=args.c, fmu=args.fmu, force=args.force)
+    if args.json:
+        _emit(info)
+    else:
+        if "c" in info:
+            print(f"wrote the C project {info['c']['directory']} (build: make -C {info['c']['directory']}; "
+                  f"run: ./{info['c']['program']} --help)")
+        if "fmu" in info:
+            print(f"wrote {info['fmu']['fmu']} (FMI 2.0 Model Exchange, linux64 binary built in "
+                  f"{info['fmu']['build_seconds']:.2f} s)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``gearsym`` command."""
     parser = argparse.ArgumentParser(
@@ -620,6 +639,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--atol", type=float, help="integrator absolute tolerance (default 1e-13)")
     p.add_argument("--out", help="folder for orbit.json, orbit_phase.png, orbit_multipliers.png")
     p.set_defaults(func=cmd_orbit)
+
+    p = sub.add_parser("export", help="standalone C project (--c DIR) and/or FMI 2.0 Model Exchange FMU "
+                       "(--fmu FILE.fmu) of a scene")
+    _scene_args(p)
+    p.add_argument("--c", metavar="DIR", help="folder for the C project (main.c, driver, Makefile, README)")
+    p.add_argument("--fmu", metavar="FILE", help="FMU file to write (.fmu)")
+    p.add_argument("--force", action="store_true", help="write into an existing non-empty folder / over a file")
+    p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("map", help="two-parameter stability / response map (netCDF + heat map)")
     _scene_args(p)
