@@ -9,7 +9,6 @@ build and run it without Python.
 
 from __future__ import annotations
 
-import shutil
 import time
 from importlib import resources
 from pathlib import Path
