@@ -20,7 +20,12 @@ from .targets import check_target_dir
 
 __all__ = ["write_c_project"]
 
-_DRIVER_FILES = ("gs_driver.c", "gs_driver.h", "gs_model_abi.h", "sundials7.h")
+
+
+def driver_files() -> list[str]:
+    """The driver's C sources and headers (every ``*.c`` / ``*.h`` of :mod:`gearsym.engine`:
+    ``gs_driver.c``, ``gs_driver.h``, ``gs_model_abi.h``, ``sundials7.h``)."""
+    return sorted(p.name for p in ENGINE_DIR.iterdir() if p.suffix in (".c", ".h"))
 
 
 def template(name: str) -> str:
@@ -67,12 +72,11 @@ def write_c_project(em: ExportModel, directory: str | Path, force: bool = False)
             "gs_export_data.h": data_header(em),
             "main.c": template("main.c"),
             "find_sundials.sh": template("find_sundials.sh"),
-            "Makefile": template("Makefile.in").replace("@PROG@", em.program)
-                                               .replace("@WHEEL_LIBDIR@", _make_escape(_wheel_libdir())),
+            "Makefile": makefile(em.program, _wheel_libdir()),
             "README.md": readme(em),
             "params.txt": params_file(em),
         }
-        for name in _DRIVER_FILES:
+        for name in driver_files():
             files[name] = (ENGINE_DIR / name).read_text()
         for name, text in files.items():
             (d / name).write_text(text, encoding="utf-8")
@@ -81,6 +85,14 @@ def write_c_project(em: ExportModel, directory: str | Path, force: bool = False)
         raise ExportError(f"--c: cannot write into '{d}': {exc.strerror or exc}") from None
     return {"directory": str(d), "files": sorted(files), "program": em.program,
             "seconds": time.perf_counter() - t0}
+
+
+def makefile(program: str, wheel_libdir: str) -> str:
+    """The project's Makefile: main.c, the model and every C file of the driver."""
+    sources = " ".join(["main.c", "gs_model.c"] + [f for f in driver_files() if f.endswith(".c")])
+    headers = " ".join(["gs_model.h", "gs_export_data.h"] + [f for f in driver_files() if f.endswith(".h")])
+    return (template("Makefile.in").replace("@PROG@", program).replace("@SRCS@", sources)
+            .replace("@HDRS@", headers).replace("@WHEEL_LIBDIR@", _make_escape(wheel_libdir)))
 
 
 def _make_escape(path: str) -> str:

@@ -340,6 +340,14 @@ static int gsx_update(gsx_inst* c, int initial) {
   return rc ? -1 : 0;
 }
 
+/* Before fmi2ExitInitializationMode the mode follows the (start) state by the
+ * initial rule, so that derivatives and outputs asked for during initialisation
+ * (InitialUnknowns) are those of the mode the simulation will start in. */
+static int gsx_pre_init_mode(gsx_inst* c) {
+  if (c->mode != M_INSTANTIATED && c->mode != M_INIT) return 0;
+  return gsx_update(c, 1);
+}
+
 /* ------------------------------------------------------------ FMI functions */
 const char* fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char* fmi2GetVersion(void) { return fmi2Version; }
@@ -525,7 +533,7 @@ fmi2Status fmi2GetReal(fmi2Component comp, const fmi2ValueReference vr[], size_t
       value[i] = c->x[r];
     } else if (r < GSX_VR_PAR) {
       if (!have_f) {
-        if (gsx_rhs(c, c->m, c->f)) {
+        if (gsx_pre_init_mode(c) || gsx_rhs(c, c->m, c->f)) {
           gsx_log(c, fmi2Error, "logStatusError", "the right-hand side is not finite at t=%.17g", c->t);
           return fmi2Error;
         }
@@ -540,7 +548,7 @@ fmi2Status fmi2GetReal(fmi2Component comp, const fmi2ValueReference vr[], size_t
       if (gsx_period(c, &value[i])) return gsx_fail(c, "the forcing period is not finite%s", "");
     } else if (r < GSX_VR_END) {
       if (!have_out) {
-        if (gsx_outputs(c)) {
+        if (gsx_pre_init_mode(c) || gsx_outputs(c)) {
           gsx_log(c, fmi2Error, "logStatusError", "an output is not finite at t=%.17g", c->t);
           return fmi2Error;
         }
@@ -607,6 +615,7 @@ fmi2Status fmi2GetInteger(fmi2Component comp, const fmi2ValueReference vr[], siz
   size_t i;
   if (!c) return fmi2Error;
   if (nvr > 0 && (!vr || !value)) return fmi2Error;
+  if (gsx_pre_init_mode(c)) return fmi2Error;
   for (i = 0; i < nvr; ++i) {
     if (vr[i] < GSX_NSW)
       value[i] = (fmi2Integer)c->m[vr[i]];
@@ -801,7 +810,7 @@ fmi2Status fmi2SetContinuousStates(fmi2Component comp, const fmi2Real x[], size_
 fmi2Status fmi2GetDerivatives(fmi2Component comp, fmi2Real derivatives[], size_t nx) {
   gsx_inst* c = (gsx_inst*)comp;
   if (!c || nx != GSX_NX || !derivatives) return fmi2Error;
-  if (gsx_rhs(c, c->m, derivatives)) {
+  if (gsx_pre_init_mode(c) || gsx_rhs(c, c->m, derivatives)) {
     gsx_log(c, fmi2Error, "logStatusError", "the right-hand side is not finite at t=%.17g", c->t);
     return fmi2Error;
   }
