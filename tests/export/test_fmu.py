@@ -53,7 +53,7 @@ def test_model_description(yu, vs):
     assert [d.variable.name for d in md.derivatives] == [f"der({s})" for s in yu.system.state_names]
     assert (v["k_m"].causality, v["k_m"].variability, v["k_m"].unit) == ("parameter", "tunable", "kg*s^-2")
     assert "mesh stiffness" in v["k_m"].description
-    assert v["b_0"].start == "2e-05" or float(v["b_0"].start) == pytest.approx(20e-6, rel=1e-15)
+    assert float(v["b_0"].start) == pytest.approx(20e-6, rel=1e-15)  # declared in um, SI here
     # the bound function and its arguments are constants recorded at export
     assert v["D"].variability == "constant" and float(v["D"].start) == 1.4
     assert v["wm_mean_height_D_G_lam_L_c_l_a"].variability == "constant"
@@ -80,7 +80,7 @@ def test_ks_double_sided_chaotic_regime(ks):
     res, traj, err, ev_fmu, ev_py = _compare(ks, params, periods=100, rtol=1e-10, ppp=64, atol_ratio=0.01)
     tight = ks.system.simulate(periods=100, n_out=6401, rtol=1e-11, atol=1e-13, params=params)
     own = np.abs(tight.y[::64] - traj.y[::64]).max(axis=1)
-    horizon = int(np.argmax(own > 1e-7))  # periods over which the reference is good to 1e-7
+    horizon = int(np.argmax(own > 1e-7)) if np.any(own > 1e-7) else len(own) - 1  # reference good to 1e-7
     assert horizon >= 5
     assert err[:, :horizon + 1].max() < 1e-6
     np.testing.assert_array_equal(ev_fmu[:horizon + 1], ev_py[:horizon + 1])
