@@ -84,13 +84,20 @@ def test_ks_double_sided_chaotic_regime(ks):
     assert horizon >= 5
     assert err[:, :horizon + 1].max() < 1e-6
     np.testing.assert_array_equal(ev_fmu[:horizon + 1], ev_py[:horizon + 1])
-    # afterwards: the same attractor (double-sided impacts, event rate, amplitude)
+    # afterwards: the same attractor.  Finite-time statistics of a chaotic motion differ
+    # between any two integrations, so the FMU's must lie within the spread of gearsym's
+    # own runs at other tolerances / methods (widened by that spread)
     b = ks.system.params["b"]
     half = slice(len(traj.t) // 2, None)
-    assert traj.y[half, 0].min() < -b and res["x"][half].min() < -b
-    assert abs(int(ev_fmu[-1]) - int(ev_py[-1])) <= 0.05 * ev_py[-1]
-    for stat in (np.min, np.max):
-        assert stat(res["x"][half]) == pytest.approx(stat(traj.y[half, 0]), rel=0.05)
+    assert res["x"][half].min() < -b  # back-side impacts
+    runs = [traj, tight] + [ks.system.simulate(periods=100, n_out=6401, rtol=rt, atol=rt / 100, params=params,
+                                               method=m) for rt, m in ((1e-12, "adams"), (1e-10, "bdf"))]
+    stats_fmu = (int(ev_fmu[-1]), res["x"][half].min(), res["x"][half].max())
+    stats_own = np.array([(len(r.events), r.y[half, 0].min(), r.y[half, 0].max()) for r in runs])
+    lo, hi = stats_own.min(axis=0), stats_own.max(axis=0)
+    assert np.all(hi - lo <= 0.1 * np.abs(hi))  # the own spread is a few percent
+    for k in range(3):
+        assert lo[k] - (hi[k] - lo[k]) <= stats_fmu[k] <= hi[k] + (hi[k] - lo[k]), (k, stats_fmu, lo, hi)
 
 
 def test_schedules_are_time_events(vs):
