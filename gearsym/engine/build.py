@@ -111,6 +111,15 @@ def find_sundials_libs() -> SundialsLibs:
     """
     pkg = _sksundae_dir()
     libdir = pkg.parent / "scikit_sundae.libs"
+    try:
+        mtime = libdir.stat().st_mtime_ns
+    except OSError:
+        mtime = -1
+    return _scan_libdir(pkg, libdir, mtime)
+
+
+@functools.lru_cache(maxsize=8)
+def _scan_libdir(pkg: Path, libdir: Path, mtime_ns: int) -> SundialsLibs:
     if not libdir.is_dir():
         raise SundialsNotFoundError(
             f"the scikit-sundae wheel has no 'scikit_sundae.libs' directory next to {pkg}; "
@@ -250,16 +259,23 @@ def toolchain_identity(cc: str | None = None, extra_cflags: list[str] | tuple[st
     path = resolve_compiler(cc)
     st = os.stat(path)
     sl = find_sundials_libs()
-    h = hashlib.sha256()
-    for name in _DRIVER_FILES:
-        h.update(name.encode() + b"\0" + (ENGINE_DIR / name).read_bytes() + b"\0")
+    stamps = tuple((name, *(lambda st: (st.st_size, st.st_mtime_ns))(os.stat(ENGINE_DIR / name)))
+                   for name in _DRIVER_FILES)
     return {
         "compiler": path,
         "compiler_version": _compiler_version(path, st.st_size, st.st_mtime_ns),
         "cflags": [*CFLAGS, *extra_cflags, *_LDLIBS],
         "sundials": {p.name: file_sha256(p, cache=True) for p in sl.libs},
-        "driver": h.hexdigest(),
+        "driver": _driver_digest(stamps),
     }
+
+
+@functools.lru_cache(maxsize=8)
+def _driver_digest(stamps: tuple) -> str:
+    h = hashlib.sha256()
+    for name, *_ in stamps:
+        h.update(name.encode() + b"\0" + (ENGINE_DIR / name).read_bytes() + b"\0")
+    return h.hexdigest()
 
 
 def driver_sources() -> tuple[list[Path], list[Path]]:

@@ -19,6 +19,8 @@
  * (one read(2) that returns EAGAIN: ~0.5 us per GS_POLL_EVERY evaluations) and,
  * when it holds a SIGINT byte (Python's signal wakeup fd), fails the evaluation so
  * that the solver returns at once; gs_simulate then reports GS_ERR_INTERRUPTED.
+ * Bytes already in the pipe when gs_simulate starts are stale (signals of earlier
+ * calls, handled by Python since) and are discarded.
  */
 #if !defined(_POSIX_C_SOURCE) || _POSIX_C_SOURCE < 200809L
 #undef _POSIX_C_SOURCE
@@ -960,6 +962,11 @@ int gs_simulate(gs_sim_args* a) {
   nA = ud->nA;
   ud->p = a->p;
   ud->intr_fd = (a->check_interrupt && a->interrupt_fd >= 0) ? a->interrupt_fd : -1;
+  if (ud->intr_fd >= 0) { /* discard bytes left from signals of earlier calls */
+    unsigned char buf[64];
+    while (read(ud->intr_fd, buf, sizeof(buf)) > 0) {
+    }
+  }
   tiny = 32.0 * DBL_EPSILON * fmax(fabs(a->t0), fabs(a->t_end));
   if (tiny == 0.0) tiny = DBL_MIN;
   /* minimal step: a few ulps of the largest |t|, so that t + h != t always;

@@ -20,22 +20,30 @@ import os
 import signal
 import threading
 
-__all__ = ["arm", "disarm"]
+__all__ = ["ENABLED", "arm", "disarm"]
+
+#: Poll for Ctrl-C during driver calls (benchmarks/interrupt_overhead.py turns it off to
+#: measure what it costs).
+ENABLED = True
 
 _pipe: tuple[int, int] | None = None  # (read end, write end)
-_pipe_pid = -1  # process that created the pipe (a forked child makes its own)
+_MAIN_THREAD = threading.main_thread().ident
 
 
-def _get_pipe() -> tuple[int, int]:
-    global _pipe, _pipe_pid
-    if _pipe is None or _pipe_pid != os.getpid():
-        _pipe = os.pipe2(os.O_NONBLOCK | os.O_CLOEXEC)
-        _pipe_pid = os.getpid()
-    return _pipe
+def _reset_after_fork() -> None:  # a forked child makes its own pipe
+    global _pipe
+    _pipe = None
+
+
+os.register_at_fork(after_in_child=_reset_after_fork)
 
 
 def arm() -> tuple[int, int | None]:
     """Install the interrupt pipe as the signal wakeup fd, if this is the main thread.
+
+    Bytes left in the pipe from an earlier call are discarded by the driver when it
+    starts (cheaper there than here; a signal in the microseconds between this call
+    and the driver's start is still handled by Python when the call returns).
 
     Returns
     -------
@@ -43,19 +51,17 @@ def arm() -> tuple[int, int | None]:
         The read end the driver polls (``-1``: no polling) and the wakeup fd to
         give back to :func:`disarm` (``None``: nothing to restore).
     """
-    if threading.current_thread() is not threading.main_thread():
+    global _pipe
+    if not ENABLED or threading.get_ident() != _MAIN_THREAD:
         return -1, None
-    r, w = _get_pipe()
-    try:  # bytes left from an earlier signal are stale
-        while os.read(r, 512):
-            pass
-    except BlockingIOError:
-        pass
+    if _pipe is None:
+        _pipe = os.pipe2(os.O_NONBLOCK | os.O_CLOEXEC)
+    r, w = _pipe
     try:
         old = signal.set_wakeup_fd(w, warn_on_full_buffer=False)
     except (ValueError, OSError):
         return -1, None
-    if old not in (-1, w):  # somebody else's (e.g. asyncio's): leave it to them
+    if old != -1 and old != w:  # somebody else's (e.g. asyncio's): leave it to them
         signal.set_wakeup_fd(old)
         return -1, None
     return r, old
