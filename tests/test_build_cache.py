@@ -266,3 +266,15 @@ def test_cache_command_path_list_clear(tmp_path, capsys, monkeypatch):
     assert (tmp_path / "c" / "notes.txt").read_text() == "mine"
     assert main(["cache", "clear", "--older-than", "-1"]) == 2
     assert "--older-than" in capsys.readouterr().err
+
+
+def test_compiler_writing_garbage_leaves_no_build(tmp_path, monkeypatch):
+    # before: the garbage object was cached and every later run failed to load it
+    cc = tmp_path / "bad-cc"
+    cc.write_text(f'#!/bin/sh\n{engine_build.resolve_compiler()} "$@" || exit $?\n'
+                  'while [ $# -gt 0 ]; do [ "$1" = -o ] && head -c 5000 /dev/urandom > "$2"; shift; done\n')
+    cc.chmod(0o755)
+    monkeypatch.setenv("CC", str(cc))
+    with pytest.raises(CompileError, match="cannot load|invalid ELF|damaged"):
+        gearsym.load_scene(KS_SCENE).generate(generated_dir=tmp_path / "cache")
+    assert not (tmp_path / "cache").exists() or list((tmp_path / "cache").iterdir()) == []
