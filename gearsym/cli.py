@@ -664,6 +664,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
     p.add_argument("--out", required=True, help="folder for map.nc and map.png")
     p.set_defaults(func=cmd_map)
+
+    from .cli_cache import add_cache_parser
+
+    add_cache_parser(sub)
     return parser
 
 

@@ -35,7 +35,8 @@ class System:
     def __init__(self, generated: GeneratedModel, params: Mapping[str, float], x0: Sequence[float],
                  defaults: Mapping[str, object] | None = None, scene_name: str = ""):
         self.generated = generated
-        self.engine: Engine = load_engine(generated.so_path)
+        self.engine: Engine = load_engine(generated.so_path, sha256=generated.so_sha256 or None,
+                                          build_key=generated.build_key or None)
         # run-time inputs: the generated parameters, except the bound ones (numeric
         # functions of other parameters), which param_vector() evaluates from theirs
         self.params = {name: float(params[name]) for name in generated.input_names}

@@ -16,9 +16,13 @@ from typing import Any
 
 import numpy as np
 
+from gearsym.engine import interrupt as _interrupt
 from gearsym.engine.errors import EngineABIError, EngineInputError, error_for_status
 
 __all__ = ["Engine", "GsSimArgs", "RunResult", "load_engine", "METHODS"]
+
+#: Status of a run stopped by SIGINT (gs_driver.h).
+GS_ERR_INTERRUPTED = -8
 
 #: Integration methods: name -> GS_METHOD_* code.
 METHODS: dict[str, int] = {"bdf": 0, "adams": 1, "ida": 2}
@@ -52,6 +56,8 @@ class GsSimArgs(C.Structure):
         ("init_step", C.c_double),
         ("want_monodromy", C.c_int),
         ("max_events_out", C.c_int),
+        ("check_interrupt", C.c_int),
+        ("interrupt_fd", C.c_int),
         # outputs
         ("y_out", _PD),
         ("x_final", _PD),
@@ -244,6 +250,10 @@ class Engine:
             A subclass per failure (:class:`~gearsym.engine.errors.TooMuchWorkError`,
             :class:`~gearsym.engine.errors.NonFiniteError`, ...), with the
             driver's message.
+        KeyboardInterrupt
+            On Ctrl-C (SIGINT) during the integration, within a few thousand
+            right-hand side evaluations (calls from the main thread; see
+            :mod:`gearsym.engine.interrupt`).
         """
         if method not in METHODS:
             raise EngineInputError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
@@ -338,7 +348,16 @@ class Engine:
             _ptr(ev_d),
             _ptr(ev_v),
         )
-        status = self._lib.gs_simulate(C.byref(a))
+        a.interrupt_fd, previous = _interrupt.arm()
+        a.check_interrupt = 1 if a.interrupt_fd >= 0 else 0
+        try:
+            status = self._lib.gs_simulate(C.byref(a))
+        finally:
+            _interrupt.disarm(previous)
+        if status == GS_ERR_INTERRUPTED:
+            # Python's SIGINT handler has normally raised KeyboardInterrupt already
+            # (when the call returned); this covers a handler that did not raise.
+            raise KeyboardInterrupt(f"simulation interrupted at t={float(a.t_reached):.6g}")
         if status != 0:
             msg = a.errmsg.decode("utf-8", errors="replace")
             raise error_for_status(int(status), msg, float(a.t_reached))
@@ -372,17 +391,26 @@ class Engine:
         )
 
 
-def load_engine(so_path: str | os.PathLike[str]) -> Engine:
-    """Load a model + driver shared object and check the SUNDIALS runtime.
+def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
+                build_key: str | None = None) -> Engine:
+    """Load a model + driver shared object and check it and the SUNDIALS runtime.
 
     ``dlopen`` caches libraries by path: a rebuilt object at the same path
     silently keeps running the old code, so callers must name builds by
-    content hash (see :func:`gearsym.engine.build.content_hash`).
+    content hash (see :func:`gearsym.engine.build.content_hash`).  The object is
+    linked without an rpath; the installed wheel's SUNDIALS libraries are loaded
+    first (:func:`gearsym.engine.build.preload_sundials`).
 
     Parameters
     ----------
     so_path
         The shared object built by :func:`gearsym.engine.build.build_shared_object`.
+    sha256
+        Expected SHA-256 of the file, checked *before* ``dlopen`` (a truncated
+        object would otherwise kill the process with SIGBUS).
+    build_key
+        Expected value of the object's ``gs_build_key()`` (generated models
+        record the key of their build there).
 
     Returns
     -------
@@ -391,11 +419,22 @@ def load_engine(so_path: str | os.PathLike[str]) -> Engine:
     Raises
     ------
     EngineABIError
-        If the object cannot be loaded, its ``gs_sim_args`` layout differs from
-        the ctypes mirror, or the SUNDIALS runtime is not version >= 7 with
-        32-bit indices.
+        If the object is missing, does not match ``sha256`` or ``build_key``,
+        cannot be loaded, its ``gs_sim_args`` layout differs from the ctypes
+        mirror, or the SUNDIALS runtime is not version >= 7 with 32-bit indices.
     """
+    from gearsym.engine.build import file_sha256, preload_sundials
+
     path = Path(so_path).resolve()
+    if sha256 is not None:
+        try:
+            actual = file_sha256(path)
+        except OSError as exc:
+            raise EngineABIError(f"cannot read the compiled model {path}: {exc.strerror}") from exc
+        if actual != sha256:
+            raise EngineABIError(f"the compiled model {path} is damaged (its SHA-256 differs from the one "
+                                 "recorded when it was built); rebuild it (gearsym compile --force)")
+    preload_sundials()
     try:
         lib = C.CDLL(str(path))
     except OSError as exc:
@@ -403,6 +442,15 @@ def load_engine(so_path: str | os.PathLike[str]) -> Engine:
     for name in ("gs_simulate", "gs_check_abi", "gs_sizeof_args", "gs_model_info"):
         if not hasattr(lib, name):
             raise EngineABIError(f"{path} does not export {name}; was it built with gs_driver.c?")
+    if build_key is not None:
+        if not hasattr(lib, "gs_build_key"):
+            raise EngineABIError(f"{path} does not export gs_build_key; rebuild it (gearsym compile --force)")
+        lib.gs_build_key.restype = C.c_char_p
+        lib.gs_build_key.argtypes = []
+        found = (lib.gs_build_key() or b"").decode(errors="replace")
+        if found != build_key:
+            raise EngineABIError(f"{path} was built for key {found[:16]}, expected {build_key[:16]}; "
+                                 "rebuild it (gearsym compile --force)")
     lib.gs_sizeof_args.restype = C.c_int
     lib.gs_sizeof_args.argtypes = []
     lib.gs_check_abi.restype = C.c_int

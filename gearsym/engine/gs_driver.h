@@ -22,6 +22,7 @@
 #define GS_ERR_ABI          (-5)   /* SUNDIALS version / index size mismatch     */
 #define GS_ERR_INPUT        (-6)   /* bad arguments (sizes, t_end <= t0, ...)    */
 #define GS_ERR_MAX_EVENTS   (-7)   /* more events than max_events                */
+#define GS_ERR_INTERRUPTED  (-8)   /* SIGINT seen on interrupt_fd (Ctrl-C)       */
 
 #define GS_METHOD_BDF   0          /* CVODE, BDF, Newton with dense analytic Jacobian */
 #define GS_METHOD_ADAMS 1          /* CVODE, Adams-Moulton, Newton, dense Jacobian    */
@@ -47,6 +48,10 @@ typedef struct gs_sim_args {
   double  init_step;       /* initial step, 0 = solver chooses                      */
   int     want_monodromy;  /* 1: integrate variational eqs (explicit models only)   */
   int     max_events_out;  /* capacity of the ev_* arrays                           */
+  int     check_interrupt; /* 1: every GS_POLL_EVERY right-hand side evaluations,   */
+  int     interrupt_fd;    /* read the non-blocking pipe interrupt_fd (Python's     */
+                           /* signal wakeup fd: one byte per signal number) and     */
+                           /* stop with GS_ERR_INTERRUPTED if it holds SIGINT       */
   /* ---- outputs ---- */
   double* y_out;           /* [n_out*nx] row-major states at t_out                  */
   double* x_final;         /* [nx] state at the time reached                        */
