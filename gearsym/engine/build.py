@@ -5,7 +5,7 @@ The wheel ships SUNDIALS 7.9 shared libraries (``scikit_sundae.libs/`` next to
 the ``sksundae`` package) but no headers; the driver declares the API it uses in
 ``sundials7.h`` and links the libraries by full path **without** an rpath: the
 object records only the libraries' SONAMEs, and :func:`preload_sundials` loads the
-installed wheel's libraries (``RTLD_GLOBAL``, in dependency order) before a model
+installed wheel's libraries (``RTLD_LOCAL``, in dependency order) before a model
 is loaded, so a build survives the deletion or move of the venv that built it.
 :func:`toolchain_identity` (compiler path and ``--version``, flags, content hashes
 of the libraries and driver sources) enters the build cache key, so a build made
@@ -146,11 +146,14 @@ _PRELOADED: dict[Path, list[ctypes.CDLL]] = {}
 
 
 def preload_sundials() -> SundialsLibs:
-    """Load the installed wheel's SUNDIALS libraries with ``RTLD_GLOBAL``.
+    """Load the installed wheel's SUNDIALS libraries (``RTLD_LOCAL``).
 
     Model objects are linked without an rpath: their ``DT_NEEDED`` entries name the
     libraries by SONAME only, and the dynamic loader satisfies them from objects
-    already loaded.  Called by :func:`gearsym.engine.driver.load_engine` before
+    already loaded (glibc matches a ``DT_NEEDED`` SONAME against every loaded object,
+    local or global).  ``RTLD_LOCAL`` keeps the SUNDIALS 7 symbols out of the
+    process's global scope: with ``RTLD_GLOBAL`` they interposed on other libraries
+    that bundle their own SUNDIALS (fmpy's CVODE crashed with a segmentation fault).  Called by :func:`gearsym.engine.driver.load_engine` before
     every model is loaded (once per process and library folder).
 
     Returns
@@ -170,7 +173,7 @@ def preload_sundials() -> SundialsLibs:
         handles = []
         for p in sl.libs:
             try:
-                handles.append(ctypes.CDLL(str(p), mode=ctypes.RTLD_GLOBAL))
+                handles.append(ctypes.CDLL(str(p), mode=ctypes.RTLD_LOCAL))
             except OSError as exc:
                 raise EngineABIError(f"cannot load the SUNDIALS library {p}: {exc}") from exc
         _PRELOADED[sl.libdir] = handles
