@@ -434,10 +434,13 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     import matplotlib.pyplot as plt
     from matplotlib.colors import TwoSlopeNorm
 
+    from ..files import atomic_path, save_figure
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     nc = out / f"{stem}.nc"
-    ds.to_netcdf(nc, engine=_netcdf_engine())
+    with atomic_path(nc) as tmp:
+        ds.to_netcdf(tmp, engine=_netcdf_engine())
     q = quantity or str(ds.attrs.get("quantity", "max_multiplier"))
     if q not in ds:
         raise ParameterError(f"the map has no variable '{q}' (have: {', '.join(ds.data_vars)})")
@@ -466,6 +469,6 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     ax.set_title(f"{ds.attrs.get('scene', '')}: {q.replace('_', ' ')}")
     fig.tight_layout()
     png = out / f"{stem}.png"
-    fig.savefig(png, dpi=120)
+    save_figure(fig, png, dpi=120)
     plt.close(fig)
     return [nc, png]
