@@ -55,6 +55,9 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["HarmonicBalance", "harmonic_balance"]
 
+#: Largest harmonic-balance Jacobian (entries): 2**28 doubles = 2 GiB.
+MAX_JACOBIAN_VALUES = 2 ** 28
+
 
 class HarmonicBalance:
     """The AFT harmonic-balance residual of a compiled system for a fixed ``H``.
@@ -92,6 +95,11 @@ class HarmonicBalance:
         self.t0 = float(t0)
         self.nx = system.generated.nx
         self.nc = 2 * H + 1
+        n = self.nx * self.nc
+        if float(n) * n > MAX_JACOBIAN_VALUES:
+            raise ParameterError(f"harmonics={H}: the harmonic-balance Jacobian would have {n} x {n} entries "
+                                 f"({8.0 * n * n / 2**30:.3g} GiB), above the limit of {MAX_JACOBIAN_VALUES:.3g} "
+                                 f"({8 * MAX_JACOBIAN_VALUES / 2**30:g} GiB): use fewer harmonics")
         M = samples or max(64, 1 << int(math.ceil(math.log2(4 * self.nc))))
         if M < self.nc:
             raise ParameterError(f"samples={M} must be at least 2*harmonics+1 = {self.nc}")
