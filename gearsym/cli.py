@@ -307,11 +307,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     rtols = bench.parse_rtols(args.rtols) if args.rtols else None
     methods = bench.parse_methods(args.methods) if args.methods else None
-    out = bench.check_out_dir(args.out) if args.out else None
-    if args.periods is not None and not (math.isfinite(args.periods) and args.periods > 0):
-        raise ParameterError(f"--periods must be positive and finite, got {args.periods}")
-    if args.points_per_period < 2 or args.rounds < 0:
-        raise ParameterError("--points-per-period must be >= 2 and --rounds >= 0")
+    checks.check_bench(args)
+    out = Path(args.out) if args.out else None
     scene = _load(args)
     data = bench.bench_scene(scene, rtols=rtols, methods=methods, periods=args.periods,
                              points_per_period=args.points_per_period, rounds=args.rounds,
@@ -439,6 +436,7 @@ def cmd_orbit(args: argparse.Namespace) -> int:
             opts[key] = getattr(args, key)
     orbit = system.periodic_orbit(periods=args.periods, x0=x0, method=args.method, **opts)
     info: dict[str, Any] = {"scene": scene.name, **orbit.to_dict()}
+    info.setdefault("isolation", orbit.info.get("isolation"))  # smallest singular value of M - I, threshold
     if args.out:
         out = Path(args.out)
         files = orbit.save_plots(out, title=f"{scene.name}: periodic orbit ({orbit.method})")

@@ -26,8 +26,8 @@ from typing import Any
 
 from .errors import ParameterError
 
-__all__ = ["LIMITS", "UsageError", "GearsymArgumentParser", "check_continue", "check_map", "check_orbit",
-           "check_simulate", "float_list"]
+__all__ = ["LIMITS", "UsageError", "GearsymArgumentParser", "check_bench", "check_continue", "check_map",
+           "check_orbit", "check_simulate", "float_list"]
 
 #: Upper limits of counts on the command line.
 LIMITS: dict[str, int] = {
@@ -36,6 +36,8 @@ LIMITS: dict[str, int] = {
     "max_points": 1_000_000,
     "switch": 8,
     "map_points": 1_000_000,
+    "points_per_period": 100_000,
+    "rounds": 100,
     "workers": 1024,
     "max_steps": 2 ** 62,
 }
@@ -120,6 +122,15 @@ def check_simulate(args: argparse.Namespace) -> None:
     _count("--max-steps", args.max_steps, 1)
     if args.x0:
         float_list(args.x0, "--x0")
+    _out(args)
+
+
+def check_bench(args: argparse.Namespace) -> None:
+    """``gearsym bench``: --periods, --points-per-period, --rounds, --out (``--rtols`` and ``--methods``
+    are parsed by :mod:`gearsym.bench`)."""
+    _positive("--periods", args.periods, "periods")
+    _count("--points-per-period", args.points_per_period, 2)
+    _count("--rounds", args.rounds, 0)
     _out(args)
 
 

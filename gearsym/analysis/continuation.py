@@ -79,8 +79,8 @@ from .bifurcation import (
 )
 from .branch import Bifurcation, Branch, BranchPoint
 from .floquet import floquet_multipliers, monodromy_product
-from .isolation import monodromy_error
 from .orbit import PeriodicOrbit, rattle_state
+from .stall import QUICK_STALL, stalled_branch
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..facade import Scene
@@ -1037,7 +1037,9 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
                     complete = True
                     break
                 merge_ref = max(merge_ref, d)
-            stalled = _stalled(nodes, stall_points, stall_tol * lam_scale, lam_scale, getattr(res, "rtol", 1e-10))
+            stalled = stalled_branch([(float(nd.z[-1]), nd.scale, nd.point.multipliers) for nd in
+                                      nodes[-max(stall_points, QUICK_STALL[0]) - 1:]], stall_points,
+                                     stall_tol * lam_scale, lam_scale, getattr(res, "rtol", 1e-10))
             if stalled:
                 k_st, lo_st, hi_st, s0_st, s1_st = stalled
                 stop_reason = (f"the branch does not advance: {res.param} stayed within {fmt(lo_st)} .. "
@@ -1078,46 +1080,6 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
     br._continuer = C  # type: ignore[attr-defined]
     br._nodes = nodes  # type: ignore[attr-defined]
     return br
-
-
-#: The quick stall test: points, parameter spread (fraction of the range), growth of the orbit.
-_QUICK_STALL = (30, 1e-3, 1.5)
-
-
-def _stalled(nodes: list[_Node], n: int, tol: float, lam_scale: float, rtol: float
-             ) -> tuple[int, float, float, float, float] | None:
-    """``(points, lo, hi, size_before, size_now)`` when the branch does not advance.
-
-    Either the parameter stayed within ``tol`` over the last ``n`` points, or (the quick
-    test, :data:`_QUICK_STALL`) over the last 30 points it stayed within 1e-3 of the range
-    while the orbit grew monotonically by 1.5x or more and the multiplier nearest +1 was
-    neutral (on the unit circle to the monodromy's accuracy) at every point: a
-    conservative system running into a resonance, whose amplitude no damping can bound.
-    """
-    def window(k: int) -> tuple[list[float], list[float]]:
-        nds = nodes[-k - 1:]
-        return ([float(nd.z[-1]) for nd in nds],
-                [float(np.max(nd.scale)) if nd.scale is not None else math.nan for nd in nds])
-
-    if len(nodes) > n:
-        lam, size = window(n)
-        if max(lam) - min(lam) <= tol:
-            return n, min(lam), max(lam), size[0], size[-1]
-    k, spread, growth = _QUICK_STALL
-    if len(nodes) > k:
-        lam, size = window(k)
-        if max(lam) - min(lam) > spread * lam_scale or not size[-1] >= growth * size[0] or \
-                not all(b >= a for a, b in zip(size[:-1], size[1:])):
-            return None
-        for nd in nodes[-k - 1:]:
-            mu = nd.point.multipliers
-            if not len(mu):
-                return None
-            m = mu[int(np.argmin(np.abs(mu - 1.0)))]
-            if abs(abs(m) - 1.0) > monodromy_error(float(np.max(np.abs(mu))), rtol):
-                return None
-        return k, min(lam), max(lam), size[0], size[-1]
-    return None
 
 
 def _graph_like(mu_b: np.ndarray, mu_a: np.ndarray, margin: float = 0.05) -> bool:

@@ -57,6 +57,9 @@ QUANTITIES: dict[str, str] = {
     "rattle_state": "0 no contact loss, 1 contact loss only, 2 back-side contact",
 }
 
+#: Largest map (grid points): every point keeps its orbit summary, about 1 kB.
+MAX_POINTS = 1_000_000
+
 _SYSTEMS: dict[str, System] = {}
 
 
@@ -293,6 +296,10 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     wall = time.perf_counter()
     xname, xs = _axis(x, "x")
     yname, ys = _axis(y, "y")
+    if len(xs) * len(ys) > MAX_POINTS:
+        raise ParameterError(f"a map of {len(xs)} x {len(ys)} = {len(xs) * len(ys):.3g} points is above the limit "
+                             f"of {MAX_POINTS:,} points (about 1 kB of memory each); use coarser axes or "
+                             f"several maps")
     if xname == yname:
         raise ParameterError("the two axes must be different parameters")
     scene = target if isinstance(target, Scene) else None
