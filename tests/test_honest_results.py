@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from bad_input._helpers import run_cli
+from scipy.linalg import expm
 from scipy.special import mathieu_a, mathieu_b
 
 import gearsym
@@ -387,3 +388,26 @@ def test_continue_prints_values_in_the_declared_unit(work):
     assert r.returncode == 0, r.stderr
     line = r.stdout.splitlines()[0]
     assert "0.6 .. 0.7," in line and "reached Omega = 0.7" in line and " 1," not in line, line
+
+
+# ------------------------------------------------------------------ the error model of the isolation check
+@pytest.mark.parametrize("rtol", [1e-6, 1e-8, 1e-10, 1e-12])
+def test_monodromy_error_is_below_the_isolation_threshold(osc, rtol):
+    # references: the undamped oscillator over one period at Omega = 1 has M = I exactly; the damped
+    # Meissner equation has the exact product of matrix exponentials (Vaishya & Singh eqs. 25-31)
+    from gearsym.analysis.isolation import ERROR_FACTOR, RTOL_FLOOR
+
+    root = Path(__file__).resolve().parents[1]
+    meissner = gearsym.load_scene(root / "scenes" / "meissner.toml").compile()
+    p = meissner.params
+    T, d, zeta, w0, a = p["T"], p["d"], p["zeta"], p["w0"], p["a"]
+    Ap = np.array([[0, 1], [-w0**2 * (1 + a), -2 * zeta * w0]])
+    Am = np.array([[0, 1], [-w0**2 * (1 - a), -2 * zeta * w0]])
+    cases = [(osc, {}, np.eye(2), [1.0, 0.0]), (osc, {}, np.eye(2), [1e3, 0.0]),
+             (meissner, {}, expm(Am * (1 - d) * T) @ expm(Ap * d * T), [1.0, 0.0])]
+    worst = 0.0
+    for system, params, M_ref, x0 in cases:
+        M = system.simulate(periods=1, x0=x0, rtol=rtol, atol=rtol * 1e-2, monodromy=True, params=params).monodromy
+        err = np.linalg.norm(M - M_ref, 2) / (max(rtol, RTOL_FLOOR) * max(1.0, np.linalg.norm(M_ref, 2)))
+        worst = max(worst, err)
+    assert worst < ERROR_FACTOR / 2, worst  # a margin of 2 at least under the threshold
