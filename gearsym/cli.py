@@ -660,6 +660,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("gearsym: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`): no traceback, no message
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     except Exception as exc:  # internal error: short message, traceback on request
         if args.debug:
             traceback.print_exc()

@@ -53,9 +53,9 @@ class GearsymArgumentParser(argparse.ArgumentParser):
 
     def __init__(self, *a: Any, **kw: Any):
         super().__init__(*a, **kw)
-        # argparse only takes '-5' and '-.5' for numbers; '-1e-8', '-inf' would be options
-        self._negative_number_matcher = re.compile(
-            r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.IGNORECASE)
+        # argparse (3.11) only takes '-5' and '-.5' for numbers; '-1e-8', '-1,0' (a list) and '-inf'
+        # would be options.  No option of gearsym starts with '-' and a digit.
+        self._negative_number_matcher = re.compile(r"^-\.?\d|^-(inf|infinity|nan)$", re.IGNORECASE)
 
     def error(self, message: str):  # type: ignore[override]
         sub = self.prog.split(" ", 1)[1] if " " in self.prog else ""

@@ -162,3 +162,10 @@ def test_max_steps_option(tmp_path: Path, gen: Path):
     assert r.returncode == 0, r.stderr
     info = json.loads(r.stdout)
     assert math.isclose(info["t_end"], 3000 * 3.0) and info["n_steps"] > 25000
+
+
+def test_negative_numbers_are_values(tmp_path: Path, gen: Path):
+    # failed before: "--x0 -1.1,0" and "--rtol -1e-8" were read as options (argparse usage text)
+    r = run_cli(["simulate", KS, "--x0", "-1.1,0", "--periods", "2", "--json"], tmp_path, gen)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["t_end"] > 0
