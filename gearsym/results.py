@@ -84,9 +84,11 @@ class Trajectory:
         return pts[skip:]
 
     def save_npz(self, path: str | Path) -> None:
-        """Write the trajectory to a ``.npz`` file."""
+        """Write the trajectory to a ``.npz`` file (atomically: a complete file or none)."""
+        from .files import save_npz
+
         ev = np.array([(e.t, e.direction) for e in self.events]).reshape(-1, 2)
-        np.savez_compressed(
+        save_npz(
             path, t=self.t, y=self.y, state_names=np.array(self.state_names),
             event_t=ev[:, 0], event_direction=ev[:, 1],
             event_surface=np.array([e.surface for e in self.events]),

@@ -16,6 +16,12 @@ from .results import Event, Trajectory
 
 _METHODS = ("bdf", "adams", "ida")
 
+#: Largest output grid :meth:`System.simulate` accepts, in stored numbers (points x (states + 1)):
+#: 2**28 doubles = 2 GiB for the trajectory alone (plots and outputs copy it again).
+MAX_OUTPUT_VALUES = 2 ** 28
+#: The engine's internal step budget when none is given (``max_steps=0``).
+DEFAULT_MAX_STEPS = 10_000_000
+
 
 class System:
     """A compiled scene: simulate it, find its periodic orbits.
@@ -79,9 +85,45 @@ class System:
         return np.array([values[k] for k in self.generated.param_names], dtype=float)
 
     def period(self, params: Mapping[str, float] | None = None) -> float | None:
-        """The forcing period at these parameters (``None`` if the scene has none)."""
+        """The forcing period at these parameters (``None`` if the scene has none, or if it is not
+        finite and positive at these values; :meth:`require_period` says which)."""
         T = float(self.generated.casadi_function("gs_period")(self.param_vector(params)))
-        return T if math.isfinite(T) else None
+        return T if math.isfinite(T) and T > 0 else None
+
+    @property
+    def has_forcing_period(self) -> bool:
+        """Whether the model declares a forcing period (``[forcing] period``)."""
+        fn = self.generated.casadi_function("gs_period")
+        return any(fn.which_depends("p", ["T"], 1, False)) or not math.isnan(float(fn(self.param_vector())))
+
+    def require_period(self, params: Mapping[str, float] | None = None, what: str = "this") -> float:
+        """The forcing period, or a :class:`ParameterError` saying why there is none.
+
+        Parameters
+        ----------
+        params
+            Parameter overrides (SI).
+        what
+            What needs the period (for the message), e.g. ``"periods="``.
+
+        Raises
+        ------
+        ParameterError
+            The model declares no forcing period, or it is not finite and positive at these
+            parameter values (e.g. ``Omega = 0`` in ``period = "2*pi/Omega"``).
+        """
+        p = self.param_vector(params)
+        fn = self.generated.casadi_function("gs_period")
+        T = float(fn(p))
+        if math.isfinite(T) and T > 0:
+            return T
+        deps = [f"{n} = {v:g}" for n, v, d in zip(self.param_names, p, fn.which_depends("p", ["T"], 1, False),
+                                                   strict=True) if d]
+        if not deps and math.isnan(T):
+            raise ParameterError(f"{what} needs a scene with a forcing period ([forcing] period); give t_end")
+        at = f" at {', '.join(deps)}" if deps else ""
+        raise ParameterError(f"the forcing period is not finite and positive{at} (T = {T:g}); {what} needs a "
+                             f"forcing period")
 
     def rhs(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
             params: Mapping[str, float] | None = None) -> np.ndarray:
@@ -194,9 +236,11 @@ class System:
         sigma0
             Side (+1/-1) of each switching surface at ``t0``; from the state if ``None``.
         max_steps
-            Limit on internal steps (0: ten million).
+            Limit on internal steps (0: the scene's ``max_steps``, else ten million).  A run
+            that needs more than this many steps of ``max_step`` is refused before it starts.
         t_out
-            Explicit output times (overrides ``n_out``).
+            Explicit output times (ascending, in ``[t0, t_end]``; overrides ``n_out``).  Without
+            ``t_end`` and ``periods`` the integration ends at ``t_out[-1]``.
 
         Returns
         -------
@@ -207,19 +251,28 @@ class System:
         SimulationError
             Too much work, event storm, non-finite state, solver failure.
         ParameterError
-            Unknown or non-finite parameter override.
+            Unknown or non-finite parameter override; an output grid above
+            :data:`MAX_OUTPUT_VALUES` numbers; a horizon that needs more than ``max_steps`` steps.
         """
         wall = time.perf_counter()
         p = self.param_vector(params)
         T = self.period(params)
+        grid = None
+        if t_out is not None:
+            grid = np.asarray(t_out, dtype=float).reshape(-1)
+            if grid.size == 0 or not np.all(np.isfinite(grid)) or np.any(np.diff(grid) < 0):
+                raise ParameterError("t_out must be a non-empty ascending sequence of finite times")
+            if t_end is None and periods is None:
+                t_end = float(grid[-1])  # integrate to the last output time, not the scene's horizon
         if t_end is None:
             if periods is None:
-                periods = float(self.defaults.get("periods", 100)) if T else None
-                if periods is None:
+                if T:
+                    periods = float(self.defaults.get("periods", 100))
+                elif "t_end" in self.defaults or not self.has_forcing_period:
                     t_end = float(self.defaults.get("t_end", 100.0))
             if t_end is None:
                 if not T:
-                    raise ParameterError("periods= needs a scene with a forcing period; give t_end")
+                    T = self.require_period(params, "periods=")  # says why there is none
                 if not (math.isfinite(float(periods)) and float(periods) > 0):
                     raise ParameterError(f"periods must be positive and finite, got {periods}")
                 t_end = t0 + float(periods) * T
@@ -235,8 +288,11 @@ class System:
         if x0v.shape != (self.generated.nx,):
             raise ParameterError(f"x0 must have {self.generated.nx} entries "
                                  f"({', '.join(self.state_names)}), got shape {x0v.shape}")
-        if t_out is not None:
-            grid = np.asarray(t_out, dtype=float)
+        if grid is not None:
+            if grid[0] < t0 or grid[-1] > t_end:
+                raise ParameterError(f"t_out must lie in [t0, t_end] = [{t0:g}, {t_end:g}], got "
+                                     f"[{grid[0]:g}, {grid[-1]:g}]")
+            n_points = grid.size
         else:
             if n_out is None:
                 if T:
@@ -244,7 +300,16 @@ class System:
                     n_out = int(round((t_end - t0) / T * ppp)) + 1
                 else:
                     n_out = 1001
-            grid = np.linspace(t0, t_end, max(int(n_out), 2))
+            n_points = max(int(n_out), 2)
+        n_values = float(n_points) * (self.generated.nx + 1)
+        if n_values > MAX_OUTPUT_VALUES:
+            raise ParameterError(
+                f"the output grid has {float(n_points):.3g} points x {self.generated.nx + 1} values "
+                f"({n_values * 8 / 2**30:.3g} GiB); the limit is {MAX_OUTPUT_VALUES:.3g} values "
+                f"({MAX_OUTPUT_VALUES * 8 / 2**30:g} GiB): use fewer periods, a smaller points_per_period "
+                f"or n_out / t_out")
+        if grid is None:
+            grid = np.linspace(t0, t_end, n_points)
             grid[-1] = t_end
         if method is None:
             method = "ida" if self.generated.implicit else str(self.defaults.get("method", "adams"))
@@ -258,6 +323,14 @@ class System:
             max_step = T / 8 if T else 0.0
         if not max_steps:
             max_steps = int(self.defaults.get("max_steps", 0))
+        if max_steps < 0:
+            raise ParameterError(f"max_steps must be positive (0: the default), got {max_steps}")
+        budget = max_steps or DEFAULT_MAX_STEPS
+        if max_step and math.isfinite(max_step) and max_step > 0 and (t_end - t0) / max_step > budget:
+            raise ParameterError(
+                f"integrating to t_end = {t_end:g} needs at least {(t_end - t0) / max_step:.3g} steps "
+                f"(largest step {max_step:.3g}{' = T/8' if T and max_step == T / 8 else ''}), more than "
+                f"max_steps = {budget:d}: raise max_steps (--max-steps) or integrate fewer periods")
         res = self.engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
                               sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
                               max_step=max_step)
