@@ -160,7 +160,8 @@ class System:
                  n_out: int | None = None, params: Mapping[str, float] | None = None, *,
                  t0: float = 0.0, method: str | None = None, max_step: float | None = None,
                  monodromy: bool = False, sigma0: Sequence[float] | None = None,
-                 max_steps: int = 0, t_out: Sequence[float] | None = None) -> Trajectory:
+                 max_steps: int = 0, t_out: Sequence[float] | None = None, nonlinear: str = "auto",
+                 linear_solver: str = "auto") -> Trajectory:
         """Integrate the system with the C engine (one call into C).
 
         Parameters
@@ -196,6 +197,10 @@ class System:
             Limit on internal steps (0: ten million).
         t_out
             Explicit output times (overrides ``n_out``).
+        nonlinear, linear_solver
+            CVODE's nonlinear solver (``"newton"``, ``"fixedpoint"``) and Newton's
+            linear solver (``"dense"``, ``"blockdiag"``), ``"auto"`` by default; see
+            :meth:`gearsym.engine.driver.Engine.run`.
 
         Returns
         -------
@@ -259,7 +264,7 @@ class System:
             max_steps = int(self.defaults.get("max_steps", 0))
         res = self.engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
                               sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
-                              max_step=max_step)
+                              max_step=max_step, nonlinear=nonlinear, linear_solver=linear_solver)
         names = self.surface_names
         events = [Event(float(tt), names[int(j)], int(d))
                   for tt, j, d in zip(res.events.t, res.events.surface, res.events.direction)]
