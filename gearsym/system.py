@@ -203,7 +203,8 @@ class System:
                  n_out: int | None = None, params: Mapping[str, float] | None = None, *,
                  t0: float = 0.0, method: str | None = None, max_step: float | None = None,
                  monodromy: bool = False, sigma0: Sequence[float] | None = None,
-                 max_steps: int = 0, t_out: Sequence[float] | None = None) -> Trajectory:
+                 max_steps: int = 0, t_out: Sequence[float] | None = None, nonlinear: str = "auto",
+                 linear_solver: str = "auto") -> Trajectory:
         """Integrate the system with the C engine (one call into C).
 
         Parameters
@@ -241,6 +242,10 @@ class System:
         t_out
             Explicit output times (ascending, in ``[t0, t_end]``; overrides ``n_out``).  Without
             ``t_end`` and ``periods`` the integration ends at ``t_out[-1]``.
+        nonlinear, linear_solver
+            CVODE's nonlinear solver (``"newton"``, ``"fixedpoint"``) and Newton's
+            linear solver (``"dense"``, ``"blockdiag"``), ``"auto"`` by default; see
+            :meth:`gearsym.engine.driver.Engine.run`.
 
         Returns
         -------
@@ -333,7 +338,7 @@ class System:
                 f"max_steps = {budget:d}: raise max_steps (--max-steps) or integrate fewer periods")
         res = self.engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
                               sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
-                              max_step=max_step)
+                              max_step=max_step, nonlinear=nonlinear, linear_solver=linear_solver)
         names = self.surface_names
         events = [Event(float(tt), names[int(j)], int(d))
                   for tt, j, d in zip(res.events.t, res.events.surface, res.events.direction)]

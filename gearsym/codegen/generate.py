@@ -187,7 +187,7 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     if model.form == "explicit":
         f = tr.matrix(model.modal.rhs)
         fns["gs_rhs"] = ca.Function("gs_rhs", [t, x, p, m], [f], ["t", "x", "p", "m"], ["xdot"])
-        fns["gs_jac"] = ca.Function("gs_jac", [t, x, p, m], [ca.densify(ca.jacobian(f, x))],
+        fns["gs_jac"] = ca.Function("gs_jac", [t, x, p, m], [ca.jacobian(f, x)],
                                     ["t", "x", "p", "m"], ["J"])
     else:
         xd = ca.SX.sym("xd", nx)
@@ -232,7 +232,7 @@ _HEADER = """/*
 """
 _DOCS = {
     "gs_rhs": "first-order right-hand side xdot = f(t, x, p, m) in the mode m",
-    "gs_jac": "Jacobian d f / d x (dense, column-major)",
+    "gs_jac": "Jacobian d f / d x (sparse, CasADi compressed-column)",
     "gs_res": "implicit residual r = [q' - v; M(q) v' - F(t, q, v, p, m)]",
     "gs_resjac": "dr/dx + cj * dr/dxd (dense, column-major), for IDA's Newton iteration",
     "gs_sw": "switching functions g(t, x, p) (events at their zeros)",

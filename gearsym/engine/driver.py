@@ -19,13 +19,17 @@ import numpy as np
 from gearsym.engine import interrupt as _interrupt
 from gearsym.engine.errors import EngineABIError, EngineInputError, error_for_status
 
-__all__ = ["Engine", "GsSimArgs", "RunResult", "load_engine", "METHODS"]
+__all__ = ["Engine", "GsSimArgs", "LINEAR_SOLVERS", "METHODS", "NONLINEAR", "RunResult", "load_engine"]
 
 #: Status of a run stopped by SIGINT (gs_driver.h).
 GS_ERR_INTERRUPTED = -8
 
 #: Integration methods: name -> GS_METHOD_* code.
 METHODS: dict[str, int] = {"bdf": 0, "adams": 1, "ida": 2}
+#: CVODE nonlinear solvers: name -> GS_NONLIN_* code.
+NONLINEAR: dict[str, int] = {"auto": 0, "newton": 1, "fixedpoint": 2}
+#: Newton's linear solvers: name -> GS_LINSOL_* code.
+LINEAR_SOLVERS: dict[str, int] = {"auto": 0, "dense": 1, "blockdiag": 2}
 
 # Pointer members are declared c_void_p (same layout as double*/int*) so that
 # numpy buffers can be passed as plain addresses (fast: no ctypes casts).
@@ -58,6 +62,8 @@ class GsSimArgs(C.Structure):
         ("max_events_out", C.c_int),
         ("check_interrupt", C.c_int),
         ("interrupt_fd", C.c_int),
+        ("nonlinear", C.c_int),
+        ("linear_solver", C.c_int),
         # outputs
         ("y_out", _PD),
         ("x_final", _PD),
@@ -203,6 +209,8 @@ class Engine:
         storm_events: int = 0,
         storm_window: float = 0.0,
         max_events_out: int = 4096,
+        nonlinear: str = "auto",
+        linear_solver: str = "auto",
     ) -> RunResult:
         """Integrate the model from ``t0`` to ``t_end`` in one C call.
 
@@ -239,6 +247,17 @@ class Engine:
         max_events_out
             Initial capacity of the event log; the run is repeated with a
             larger log if more events occur (the result is deterministic).
+        nonlinear
+            CVODE's nonlinear solver: ``"newton"`` (modified Newton with the
+            analytic Jacobian), ``"fixedpoint"`` (functional iteration: no
+            Jacobian and no linear algebra, for non-stiff models; cheapest for
+            large models) or ``"auto"`` (Newton).
+        linear_solver
+            Newton's linear solver: ``"dense"`` (SUNDIALS' dense LU of the whole
+            system; with the monodromy that is an (n + n^2)^2 matrix),
+            ``"blockdiag"`` (monodromy only: one n x n LU applied to the state and
+            every column of the variational matrix) or ``"auto"`` (blockdiag with
+            the monodromy, dense without).
 
         Returns
         -------
@@ -257,6 +276,11 @@ class Engine:
         """
         if method not in METHODS:
             raise EngineInputError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
+        if nonlinear not in NONLINEAR:
+            raise EngineInputError(f"unknown nonlinear solver {nonlinear!r}; use one of {sorted(NONLINEAR)}")
+        if linear_solver not in LINEAR_SOLVERS:
+            raise EngineInputError(f"unknown linear solver {linear_solver!r}; use one of "
+                                   f"{sorted(LINEAR_SOLVERS)}")
         x0a = np.ascontiguousarray(np.asarray(x0, dtype=float).reshape(-1))
         pa = np.ascontiguousarray(np.asarray(p if p is not None else [], dtype=float).reshape(-1))
         if x0a.shape[0] != self.nx:
@@ -289,6 +313,8 @@ class Engine:
                 int(storm_events),
                 float(storm_window),
                 cap,
+                NONLINEAR[nonlinear],
+                LINEAR_SOLVERS[linear_solver],
             )
             if isinstance(res, int):  # event log too small: rerun with the exact size
                 cap = res
@@ -314,6 +340,8 @@ class Engine:
         storm_events,
         storm_window,
         cap,
+        nonlin=0,
+        linsol=0,
     ) -> RunResult | int:
         nx, nsw = self.nx, self.nsw
         n_out = int(tout.shape[0])
@@ -338,6 +366,7 @@ class Engine:
         a.max_step, a.init_step = max_step, init_step
         a.want_monodromy = 1 if mono else 0
         a.max_events_out = cap
+        a.nonlinear, a.linear_solver = nonlin, linsol
         a.y_out = _ptr(y) if n_out else None
         a.x_final = _ptr(x_final)
         a.sigma_final = _ptr(sigma_final)

@@ -98,6 +98,7 @@ typedef struct {
   int nx, np, nm, nsw, nsched, implicit;
   int nA;          /* solver state size: nx, or nx*(nx+1) with monodromy      */
   int mono;        /* variational equations on                               */
+  int blockdiag;   /* block-diagonal linear solver of the variational system */
   int use_ida;
   const double* p;
   double* m;       /* current mode vector [nm]                               */
@@ -241,6 +242,172 @@ static int lu_solve(int n, double* A, double* b) {
     b[k] = s / A[k * n + k];
   }
   return 0;
+}
+
+/* LU factorisation with partial pivoting of A (column-major n x n, in place);
+ * piv[k] is the row swapped with row k.  Returns 0, or -1 if A is singular. */
+static int lu_factor(int n, double* A, int* piv) {
+  int i, j, k, p;
+  for (k = 0; k < n; ++k) {
+    double amax = fabs(A[(size_t)k * n + k]);
+    p = k;
+    for (i = k + 1; i < n; ++i) {
+      double v = fabs(A[(size_t)k * n + i]);
+      if (v > amax) {
+        amax = v;
+        p = i;
+      }
+    }
+    piv[k] = p;
+    if (!(amax > 0.0)) return -1;
+    if (p != k)
+      for (j = 0; j < n; ++j) {
+        double tmp = A[(size_t)j * n + k];
+        A[(size_t)j * n + k] = A[(size_t)j * n + p];
+        A[(size_t)j * n + p] = tmp;
+      }
+    {
+      double inv = 1.0 / A[(size_t)k * n + k];
+      for (i = k + 1; i < n; ++i) A[(size_t)k * n + i] *= inv;
+    }
+    for (j = k + 1; j < n; ++j) {
+      double akj = A[(size_t)j * n + k];
+      if (akj != 0.0) {
+        double* colj = A + (size_t)j * n;
+        const double* colk = A + (size_t)k * n;
+        for (i = k + 1; i < n; ++i) colj[i] -= colk[i] * akj;
+      }
+    }
+  }
+  return 0;
+}
+
+/* Solve with the factors of lu_factor, b overwritten by the solution. */
+static void lu_apply(int n, const double* LU, const int* piv, double* b) {
+  int i, k;
+  /* whole-row interchanges were applied to L as well (as in LAPACK's getrf):
+   * permute b first, then forward and back substitution */
+  for (k = 0; k < n; ++k)
+    if (piv[k] != k) {
+      double tmp = b[k];
+      b[k] = b[piv[k]];
+      b[piv[k]] = tmp;
+    }
+  for (k = 0; k < n; ++k) {
+    double bk = b[k];
+    if (bk != 0.0) {
+      const double* col = LU + (size_t)k * n;
+      for (i = k + 1; i < n; ++i) b[i] -= col[i] * bk;
+    }
+  }
+  for (k = n - 1; k >= 0; --k) {
+    const double* col = LU + (size_t)k * n;
+    double bk = b[k] / col[k];
+    b[k] = bk;
+    if (bk != 0.0)
+      for (i = 0; i < k; ++i) b[i] -= col[i] * bk;
+  }
+}
+
+/* --------------------------------------------------------------------------
+ * Block-diagonal linear solver of the variational equations.
+ *
+ * With the monodromy on, the solver state is [x; Phi(:,0); ...; Phi(:,nx-1)]
+ * (nx + 1 blocks of nx).  The Newton matrix of the augmented system is
+ * approximated by blockdiag(I - gamma J, ..., I - gamma J) (the terms
+ * d(J Phi)/dx are left out, as a modified Newton iteration may), so one
+ * n x n factorisation serves all nx + 1 blocks: O(n^3) per setup and O(n^3)
+ * per solve instead of O(n^6) and O(n^4) for the dense (n + n^2)^2 matrix,
+ * and O(n^3) memory instead of O(n^4).  CVODE builds I - gamma J in an
+ * (n + n^2) x n dense SUNMatrix whose top n x n block cv_jac fills (the
+ * rest stays zero); setup factors that block, solve applies it per block.
+ * -------------------------------------------------------------------------- */
+typedef struct {
+  int n, nblk;
+  double* lu;
+  int* piv;
+  long last_flag;
+} gs_bdls;
+
+static int bdls_gettype(SUNLinearSolver S) {
+  (void)S;
+  return GS_SUNLINEARSOLVER_DIRECT;
+}
+static int bdls_getid(SUNLinearSolver S) {
+  (void)S;
+  return GS_SUNLINEARSOLVER_CUSTOM;
+}
+static SUNErrCode bdls_initialize(SUNLinearSolver S) {
+  ((gs_bdls*)S->content)->last_flag = 0;
+  return SUN_SUCCESS;
+}
+static int bdls_setup(SUNLinearSolver S, SUNMatrix A) {
+  gs_bdls* c = (gs_bdls*)S->content;
+  const double* a = SUNDenseMatrix_Data(A);
+  size_t ld = (size_t)SUNDenseMatrix_Rows(A);
+  int j, n = c->n;
+  for (j = 0; j < n; ++j) memcpy(c->lu + (size_t)j * n, a + (size_t)j * ld, sizeof(double) * (size_t)n);
+  c->last_flag = lu_factor(n, c->lu, c->piv) ? GS_SUNLS_LUFACT_FAIL : 0;
+  return (int)c->last_flag;
+}
+static int bdls_solve(SUNLinearSolver S, SUNMatrix A, N_Vector x, N_Vector b, sunrealtype tol) {
+  gs_bdls* c = (gs_bdls*)S->content;
+  double* xv = N_VGetArrayPointer(x);
+  const double* bv = N_VGetArrayPointer(b);
+  int k, n = c->n;
+  (void)A;
+  (void)tol;
+  if (xv != bv) memcpy(xv, bv, sizeof(double) * (size_t)n * (size_t)c->nblk);
+  for (k = 0; k < c->nblk; ++k) lu_apply(n, c->lu, c->piv, xv + (size_t)k * n);
+  c->last_flag = 0;
+  return 0;
+}
+static sunindextype bdls_lastflag(SUNLinearSolver S) { return (sunindextype)((gs_bdls*)S->content)->last_flag; }
+static SUNErrCode bdls_space(SUNLinearSolver S, long int* lrw, long int* liw) {
+  gs_bdls* c = (gs_bdls*)S->content;
+  *lrw = (long)c->n * c->n;
+  *liw = c->n;
+  return SUN_SUCCESS;
+}
+static SUNErrCode bdls_free(SUNLinearSolver S) {
+  if (!S) return SUN_SUCCESS;
+  if (S->content) {
+    gs_bdls* c = (gs_bdls*)S->content;
+    free(c->lu);
+    free(c->piv);
+    free(c);
+    S->content = NULL;
+  }
+  SUNLinSolFreeEmpty(S);
+  return SUN_SUCCESS;
+}
+
+/* A block-diagonal solver for nblk blocks of size n (NULL when out of memory). */
+static SUNLinearSolver bdls_new(int n, int nblk, SUNContext ctx) {
+  SUNLinearSolver S = SUNLinSolNewEmpty(ctx);
+  gs_bdls* c;
+  if (!S) return NULL;
+  c = (gs_bdls*)calloc(1, sizeof(gs_bdls));
+  if (c) {
+    c->n = n;
+    c->nblk = nblk;
+    c->lu = (double*)calloc((size_t)n * n, sizeof(double));
+    c->piv = (int*)calloc((size_t)n, sizeof(int));
+  }
+  S->content = c;
+  S->ops->gettype = bdls_gettype;
+  S->ops->getid = bdls_getid;
+  S->ops->initialize = bdls_initialize;
+  S->ops->setup = bdls_setup;
+  S->ops->solve = bdls_solve;
+  S->ops->lastflag = bdls_lastflag;
+  S->ops->space = bdls_space;
+  S->ops->free = bdls_free;
+  if (!c || !c->lu || !c->piv) {
+    bdls_free(S);
+    return NULL;
+  }
+  return S;
 }
 
 /* Last line written to the SUNDIALS warning stream, as "; last SUNDIALS
@@ -431,6 +598,51 @@ static int eval_xdot(gs_ud* ud, double t, const double* x, const double* m, cons
 /* --------------------------------------------------------------------------
  * SUNDIALS callbacks
  * -------------------------------------------------------------------------- */
+/* Phi' = J Phi (Phi column-major after the state).  With a sparse generated
+ * Jacobian the product runs over its nonzeros only: O(nnz n) instead of
+ * O(n^3) per evaluation. */
+static int variational_rhs(gs_ud* ud, double t, const double* yv, double* yd) {
+  const gs_fn* fn = &ud->jac;
+  const double* Phi = yv + ud->nx;
+  double* dPhi = yd + ud->nx;
+  const double* in[4];
+  int nx = ud->nx, c, k, i;
+  if (fn->dense) {
+    if (eval_jac(ud, t, yv, ud->m, ud->J)) return -1;
+    for (c = 0; c < nx; ++c) {
+      double* dcol = dPhi + (size_t)c * nx;
+      const double* pcol = Phi + (size_t)c * nx;
+      for (i = 0; i < nx; ++i) dcol[i] = 0.0;
+      for (k = 0; k < nx; ++k) {
+        double pk = pcol[k];
+        const double* Jk = ud->J + (size_t)k * nx;
+        if (pk == 0.0) continue;
+        for (i = 0; i < nx; ++i) dcol[i] += Jk[i] * pk;
+      }
+    }
+    return 0;
+  }
+  in[0] = &t;
+  in[1] = yv;
+  in[2] = ud->np ? ud->p : ud->dummy;
+  in[3] = ud->nm ? ud->m : ud->dummy;
+  for (i = 0; i < 4; ++i) ud->arg[i] = in[i];
+  ud->resp[0] = ud->nzbuf;
+  if (fn->f(ud->arg, ud->resp, ud->iw, ud->w, 0) != 0) return -1;
+  memset(dPhi, 0, sizeof(double) * (size_t)nx * (size_t)nx);
+  for (c = 0; c < nx; ++c) {
+    double* dcol = dPhi + (size_t)c * nx;
+    const double* pcol = Phi + (size_t)c * nx;
+    for (k = 0; k < nx; ++k) {
+      double pk = pcol[k];
+      casadi_int q;
+      if (pk == 0.0) continue;
+      for (q = fn->colind[k]; q < fn->colind[k + 1]; ++q) dcol[fn->row[q]] += ud->nzbuf[q] * pk;
+    }
+  }
+  return 0;
+}
+
 static int cv_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user_data) {
   gs_ud* ud = (gs_ud*)user_data;
   const double* yv = N_VGetArrayPointer(y);
@@ -441,25 +653,9 @@ static int cv_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user_data) {
     record_nonfinite(ud, t, "gs_rhs (evaluation failed)", 0, yv);
     return 1;
   }
-  if (ud->mono) {
-    /* Phi' = J Phi, Phi column-major after the state */
-    const double* Phi = yv + nx;
-    double* dPhi = yd + nx;
-    int c, i, k;
-    if (eval_jac(ud, t, yv, ud->m, ud->J)) {
-      record_nonfinite(ud, t, "gs_jac (evaluation failed)", 0, yv);
-      return 1;
-    }
-    for (c = 0; c < nx; ++c) {
-      double* dcol = dPhi + (size_t)c * nx;
-      const double* pcol = Phi + (size_t)c * nx;
-      for (i = 0; i < nx; ++i) dcol[i] = 0.0;
-      for (k = 0; k < nx; ++k) {
-        double pk = pcol[k];
-        const double* Jk = ud->J + (size_t)k * nx;
-        for (i = 0; i < nx; ++i) dcol[i] += Jk[i] * pk;
-      }
-    }
+  if (ud->mono && variational_rhs(ud, t, yv, yd)) {
+    record_nonfinite(ud, t, "gs_jac (evaluation failed)", 0, yv);
+    return 1;
   }
   if (!all_finite(yd, ud->nA, &bad)) {
     record_nonfinite(ud, t, bad < nx ? "the right-hand side (gs_rhs)" : "the variational equations", bad, yv);
@@ -484,9 +680,9 @@ static int cv_jac(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix Jm, void* us
   }
   if (!ud->mono) {
     memcpy(A, ud->J, sizeof(double) * (size_t)(nx * nx));
-  } else {
-    /* block-diagonal approximation blockdiag(J, ..., J) of the augmented
-     * Jacobian, good enough for the Newton iteration */
+  } else if (!ud->blockdiag) {
+    /* dense (n + n^2)^2 matrix: blockdiag(J, ..., J), the terms d(J Phi)/dx
+     * left out (modified Newton) */
     int nA = ud->nA, b, c;
     memset(A, 0, sizeof(double) * (size_t)nA * (size_t)nA);
     for (b = 0; b <= nx; ++b) {
@@ -494,6 +690,11 @@ static int cv_jac(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix Jm, void* us
       for (c = 0; c < nx; ++c)
         memcpy(A + (size_t)(off + c) * nA + off, ud->J + (size_t)c * nx, sizeof(double) * (size_t)nx);
     }
+  } else {
+    /* the (n + n^2) x n matrix of the block-diagonal solver (bdls_*): J in
+     * its top n x n block, the rest zero (CVODE zeroes it before the call) */
+    int nA = ud->nA, c;
+    for (c = 0; c < nx; ++c) memcpy(A + (size_t)c * nA, ud->J + (size_t)c * nx, sizeof(double) * (size_t)nx);
   }
   return 0;
 }
@@ -587,6 +788,7 @@ typedef struct {
   N_Vector y, yp, id;
   SUNMatrix A;
   SUNLinearSolver LS;
+  SUNNonlinearSolver NLS; /* fixed-point iteration (else CVODE's default Newton) */
   long acc_steps, acc_rhs, acc_jac, acc_g;
   char flagname[64];
 } gs_solver;
@@ -819,6 +1021,65 @@ static int resolve_zero_surfaces(gs_ud* ud, gs_evlog* L, double t, double* yv, c
  * -------------------------------------------------------------------------- */
 int gs_sizeof_args(void) { return (int)sizeof(gs_sim_args); }
 
+/* Layout check of the linear-solver operations table (used by the
+ * block-diagonal solver): every slot gets a probe that records its own number
+ * in the solver's content; each public SUNLinSol* wrapper must reach its slot. */
+#define GS_PROBE(K, RET, NAME, ARGS, VAL) \
+  static RET NAME ARGS {                 \
+    *(int*)S->content = K;               \
+    return VAL;                          \
+  }
+GS_PROBE(1, int, probe_gettype, (SUNLinearSolver S), 0)
+GS_PROBE(2, int, probe_getid, (SUNLinearSolver S), 0)
+GS_PROBE(5, SUNErrCode, probe_setscaling, (SUNLinearSolver S, N_Vector a, N_Vector b), ((void)a, (void)b, 0))
+GS_PROBE(7, SUNErrCode, probe_setzeroguess, (SUNLinearSolver S, sunbooleantype f), ((void)f, 0))
+GS_PROBE(8, SUNErrCode, probe_initialize, (SUNLinearSolver S), 0)
+GS_PROBE(9, int, probe_setup, (SUNLinearSolver S, SUNMatrix A), ((void)A, 0))
+GS_PROBE(10, int, probe_solve, (SUNLinearSolver S, SUNMatrix A, N_Vector x, N_Vector b, sunrealtype tol),
+         ((void)A, (void)x, (void)b, (void)tol, 0))
+GS_PROBE(11, int, probe_numiters, (SUNLinearSolver S), 0)
+GS_PROBE(12, sunrealtype, probe_resnorm, (SUNLinearSolver S), 0.0)
+GS_PROBE(13, sunindextype, probe_lastflag, (SUNLinearSolver S), 0)
+GS_PROBE(15, N_Vector, probe_resid, (SUNLinearSolver S), NULL)
+#undef GS_PROBE
+
+static int lsops_layout_ok(SUNContext ctx) {
+  int hit = 0, ok = 1;
+  SUNLinearSolver S = SUNLinSolNewEmpty(ctx);
+  if (!S || !S->ops) return 0;
+  S->content = &hit;
+  S->ops->gettype = probe_gettype;
+  S->ops->getid = probe_getid;
+  S->ops->setscalingvectors = probe_setscaling;
+  S->ops->setzeroguess = probe_setzeroguess;
+  S->ops->initialize = probe_initialize;
+  S->ops->setup = probe_setup;
+  S->ops->solve = probe_solve;
+  S->ops->numiters = probe_numiters;
+  S->ops->resnorm = probe_resnorm;
+  S->ops->lastflag = probe_lastflag;
+  S->ops->resid = probe_resid;
+#define GS_EXPECT(CALL, K) \
+  hit = 0;                 \
+  (void)(CALL);            \
+  ok = ok && (hit == (K));
+  GS_EXPECT(SUNLinSolGetType(S), 1)
+  GS_EXPECT(SUNLinSolGetID(S), 2)
+  GS_EXPECT(SUNLinSolSetScalingVectors(S, NULL, NULL), 5)
+  GS_EXPECT(SUNLinSolSetZeroGuess(S, SUNTRUE), 7)
+  GS_EXPECT(SUNLinSolInitialize(S), 8)
+  GS_EXPECT(SUNLinSolSetup(S, NULL), 9)
+  GS_EXPECT(SUNLinSolSolve(S, NULL, NULL, NULL, 0.0), 10)
+  GS_EXPECT(SUNLinSolNumIters(S), 11)
+  GS_EXPECT(SUNLinSolResNorm(S), 12)
+  GS_EXPECT(SUNLinSolLastFlag(S), 13)
+  GS_EXPECT(SUNLinSolResid(S), 15)
+#undef GS_EXPECT
+  S->content = NULL;
+  SUNLinSolFreeEmpty(S);
+  return ok;
+}
+
 int gs_check_abi(char* msg, int len) {
   char ver[64];
   int major = 0, ok = 0;
@@ -858,6 +1119,14 @@ int gs_check_abi(char* msg, int len) {
                "precision as gearsym's driver assumes; use the SUNDIALS libraries of the scikit-sundae wheel",
                ver);
     SUNMatDestroy(A);
+  }
+  if (ok && !lsops_layout_ok(ctx)) {
+    ok = 0;
+    snprintf(msg, (size_t)len,
+             "SUNDIALS %s: the linear-solver operations table (struct _generic_SUNLinearSolver_Ops) is not laid "
+             "out as gearsym's driver declares it (sundials7.h); use the SUNDIALS libraries of the scikit-sundae "
+             "wheel",
+             ver);
   }
   SUNContext_Free(&ctx);
   if (!ok) return -1;
@@ -948,6 +1217,15 @@ int gs_simulate(gs_sim_args* a) {
       return set_err(a, GS_ERR_INPUT, "output times must be ascending (t_out[%d] < t_out[%d])", i, i - 1);
   }
   if (a->want_monodromy && !a->monodromy) return set_err(a, GS_ERR_INPUT, "want_monodromy but monodromy is NULL");
+  if (a->nonlinear < GS_NONLIN_AUTO || a->nonlinear > GS_NONLIN_FIXEDPOINT)
+    return set_err(a, GS_ERR_INPUT, "unknown nonlinear solver %d", a->nonlinear);
+  if (a->linear_solver < GS_LINSOL_AUTO || a->linear_solver > GS_LINSOL_BLOCKDIAG)
+    return set_err(a, GS_ERR_INPUT, "unknown linear solver %d", a->linear_solver);
+  if (a->linear_solver == GS_LINSOL_BLOCKDIAG && !a->want_monodromy)
+    return set_err(a, GS_ERR_INPUT, "the block-diagonal linear solver is for the variational equations "
+                                    "(want_monodromy) only");
+  if (a->nonlinear == GS_NONLIN_FIXEDPOINT && a->method == GS_METHOD_IDA)
+    return set_err(a, GS_ERR_INPUT, "IDA has no fixed-point nonlinear solver");
   if (a->max_events_out < 0) return set_err(a, GS_ERR_INPUT, "max_events_out < 0");
   if (!(a->max_step >= 0.0) || !(a->init_step >= 0.0) || !(a->storm_window >= 0.0))
     return set_err(a, GS_ERR_INPUT, "max_step, init_step and storm_window must be >= 0");
@@ -1100,15 +1378,33 @@ int gs_simulate(gs_sim_args* a) {
     S.yp = N_VNew_Serial((sunindextype)nA, ctx);
     S.id = N_VNew_Serial((sunindextype)nA, ctx);
   }
-  S.A = SUNDenseMatrix((sunindextype)nA, (sunindextype)nA, ctx);
-  if (!S.y || !S.A || (S.ida && (!S.yp || !S.id))) {
-    set_err(a, GS_ERR_SOLVER, "could not allocate SUNDIALS vectors/matrix (n=%d): %s", nA, ud->sunmsg);
+  /* with the monodromy: the block-diagonal solver (one n x n factorisation for
+   * all nx + 1 blocks) on an (n + n^2) x n matrix; else SUNDIALS' dense solver */
+  if (!S.y || (S.ida && (!S.yp || !S.id))) {
+    set_err(a, GS_ERR_SOLVER, "could not allocate SUNDIALS vectors (n=%d): %s", nA, ud->sunmsg);
     goto done;
   }
-  S.LS = SUNLinSol_Dense(S.y, S.A, ctx);
-  if (!S.LS) {
-    set_err(a, GS_ERR_SOLVER, "SUNLinSol_Dense failed: %s", ud->sunmsg);
-    goto done;
+  if (a->nonlinear == GS_NONLIN_FIXEDPOINT) {
+    S.NLS = SUNNonlinSol_FixedPoint(S.y, 0, ctx);
+    if (!S.NLS) {
+      set_err(a, GS_ERR_SOLVER, "creating the fixed-point solver failed: %s", ud->sunmsg);
+      goto done;
+    }
+  } else {
+    int blockdiag = ud->mono && a->linear_solver != GS_LINSOL_DENSE;
+    S.A = SUNDenseMatrix((sunindextype)nA, (sunindextype)(blockdiag ? nx : nA), ctx);
+    if (!S.A) {
+      set_err(a, GS_ERR_SOLVER, "could not allocate the %dx%d system matrix: %s", nA, blockdiag ? nx : nA,
+              ud->sunmsg[0] ? ud->sunmsg : "out of memory");
+      goto done;
+    }
+    ud->blockdiag = blockdiag;
+    S.LS = blockdiag ? bdls_new(nx, nx + 1, ctx) : SUNLinSol_Dense(S.y, S.A, ctx);
+    if (!S.LS) {
+      set_err(a, GS_ERR_SOLVER, "creating the linear solver failed: %s",
+              ud->sunmsg[0] ? ud->sunmsg : "out of memory");
+      goto done;
+    }
   }
   yv = N_VGetArrayPointer(S.y);
   ypv = S.ida ? N_VGetArrayPointer(S.yp) : NULL;
@@ -1164,8 +1460,9 @@ int gs_simulate(gs_sim_args* a) {
     flag = CVodeInit(S.mem, cv_rhs, t, S.y);
     if (!flag) flag = CVodeSStolerances(S.mem, a->rtol, a->atol);
     if (!flag) flag = CVodeSetUserData(S.mem, ud);
-    if (!flag) flag = CVodeSetLinearSolver(S.mem, S.LS, S.A);
-    if (!flag) flag = CVodeSetJacFn(S.mem, cv_jac);
+    if (!flag && S.NLS) flag = CVodeSetNonlinearSolver(S.mem, S.NLS);
+    if (!flag && S.LS) flag = CVodeSetLinearSolver(S.mem, S.LS, S.A);
+    if (!flag && S.LS) flag = CVodeSetJacFn(S.mem, cv_jac);
     if (!flag && a->max_step > 0.0) flag = CVodeSetMaxStep(S.mem, a->max_step);
     if (!flag && hmin > 0.0) flag = CVodeSetMinStep(S.mem, hmin);
     if (!flag && a->init_step > 0.0) flag = CVodeSetInitStep(S.mem, a->init_step);
@@ -1377,6 +1674,7 @@ done:
       CVodeFree(&S.mem);
   }
   if (S.LS) SUNLinSolFree(S.LS);
+  if (S.NLS) SUNNonlinSolFree(S.NLS);
   if (S.A) SUNMatDestroy(S.A);
   if (S.y) N_VDestroy(S.y);
   if (S.yp) N_VDestroy(S.yp);

@@ -28,6 +28,17 @@
 #define GS_METHOD_ADAMS 1          /* CVODE, Adams-Moulton, Newton, dense Jacobian    */
 #define GS_METHOD_IDA   2          /* IDA (implicit models), dense analytic Jacobian  */
 
+/* CVODE's nonlinear solver.  AUTO: Newton. */
+#define GS_NONLIN_AUTO       0
+#define GS_NONLIN_NEWTON     1     /* modified Newton with the analytic Jacobian       */
+#define GS_NONLIN_FIXEDPOINT 2     /* functional iteration: no Jacobian, no linear     */
+                                   /* solve (non-stiff problems; cheap for large n)    */
+/* Newton's linear solver.  AUTO: DENSE without the monodromy, BLOCKDIAG with it. */
+#define GS_LINSOL_AUTO      0
+#define GS_LINSOL_DENSE     1      /* SUNDIALS dense LU of the whole system matrix     */
+                                   /* ((n + n^2)^2 with the monodromy: small n only)   */
+#define GS_LINSOL_BLOCKDIAG 2      /* monodromy: one n x n LU for all n + 1 blocks     */
+
 typedef struct gs_sim_args {
   /* ---- inputs ---- */
   int     method;          /* GS_METHOD_*                                           */
@@ -52,6 +63,8 @@ typedef struct gs_sim_args {
   int     interrupt_fd;    /* read the non-blocking pipe interrupt_fd (Python's     */
                            /* signal wakeup fd: one byte per signal number) and     */
                            /* stop with GS_ERR_INTERRUPTED if it holds SIGINT       */
+  int     nonlinear;       /* GS_NONLIN_*: CVODE's nonlinear solver (0 = auto)      */
+  int     linear_solver;   /* GS_LINSOL_*: Newton's linear solver (0 = auto)        */
   /* ---- outputs ---- */
   double* y_out;           /* [n_out*nx] row-major states at t_out                  */
   double* x_final;         /* [nx] state at the time reached                        */

@@ -212,7 +212,8 @@ class SymbolicModel:
         Q = sp.zeros(n, 1)
 
         def ddt(expr: sp.Expr) -> sp.Expr:
-            return sp.diff(expr, ns.t) + sum(sp.diff(expr, qi) * vi for qi, vi in zip(q, v))
+            free = expr.free_symbols
+            return sp.diff(expr, ns.t) + sum(sp.diff(expr, qi) * vi for qi, vi in zip(q, v) if qi in free)
 
         for el in spec.elements.values():
             if not self.resolved.effect_active(el.effect, el.variant):
@@ -263,7 +264,10 @@ class SymbolicModel:
                     else:
                         f = delta
                     W = k * f + c * ddt(delta)
+                gfree = geom.free_symbols
                 for i, qi in enumerate(q):
+                    if qi not in gfree:
+                        continue  # d(geom)/d(qi) = 0: skip the (costly) symbolic derivative
                     dd = sp.diff(geom, qi)
                     if dd != 0:
                         Q[i, 0] -= W * dd

@@ -62,27 +62,31 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
     seg_syms = {ns.sched_seg[s]: s for s in ns.sched_seg}
     n_syms = {ns.sched_n[s]: s for s in ns.sched_n}
     surfaces: list[SwitchingFunction] = []
-    canon: list[sp.Expr] = []
     sigma: list[sp.Symbol] = []
+    # registry of surfaces by canonical form (expanded, sign fixed so that exactly one
+    # of g and -g is the key): a dict lookup per condition instead of expanding the
+    # difference with every registered surface (quadratic in the number of surfaces)
+    known: dict[sp.Expr, tuple[int, int]] = {}
+    hint_keys: dict[sp.Expr, tuple[SwitchingFunction, int]] = {}
+    for h in hints:
+        key, sgn = _canonical(sp.expand(h.expr))
+        hint_keys.setdefault(key, (h, sgn))
 
     def register(g: sp.Expr) -> tuple[int, int]:
         ge = sp.expand(g)
-        for j, c in enumerate(canon):
-            if sp.expand(ge - c) == 0:
-                return j, 1
-            if sp.expand(ge + c) == 0:
-                return j, -1
-        for h in hints:
-            he = sp.expand(h.expr)
-            for sgn in (1, -1):
-                if sp.expand(ge - sgn * he) == 0:
-                    surfaces.append(h)
-                    canon.append(he)
-                    sigma.append(sp.Symbol(f"sigma_{len(sigma)}", real=True))
-                    return len(canon) - 1, sgn
-        j = len(canon)
+        key, sgn = _canonical(ge)
+        if key in known:  # ge = sgn*key, surface j = sj*key
+            j, sj = known[key]
+            return j, sgn * sj
+        j = len(surfaces)
+        if key in hint_keys:
+            h, sh = hint_keys[key]
+            surfaces.append(h)
+            known[key] = (j, sh)
+            sigma.append(sp.Symbol(f"sigma_{j}", real=True))
+            return j, sgn * sh
         surfaces.append(SwitchingFunction(f"surface{j}", ge, f"switch {j} (g > 0 side)", 0, "switch"))
-        canon.append(ge)
+        known[key] = (j, sgn)
         sigma.append(sp.Symbol(f"sigma_{j}", real=True))
         return j, 1
 
@@ -145,6 +149,13 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
             if s in n_syms:
                 used.add(n_syms[s])
     return ModalForm(rhs, forces, surfaces, sigma, used)
+
+
+def _canonical(e: sp.Expr) -> tuple[sp.Expr, int]:
+    """``(key, s)`` with ``e = s*key``; ``key`` is the same for ``e`` and ``-e``."""
+    if e.could_extract_minus_sign():
+        return -e, -1
+    return e, 1
 
 
 def _bottom_up(expr: sp.Basic, fn, skip: type | tuple[type, ...] = ()) -> sp.Basic:
