@@ -3,7 +3,7 @@
 Every state-dependent condition in the equations (a ``Piecewise`` branch, or an
 ``Abs``/``sign``/``Max``/``Min``/``Heaviside`` of a state expression) is a switching
 surface ``g(t, x, p) = 0``.  The *modal form* replaces each such condition by the
-side ``sigma_j`` (+1 or -1) of its surface, which the engine holds fixed between
+side ``sigma_j(t)`` (+1 or -1) of its surface, which the engine holds fixed between
 events: for fixed ``sigma`` the right-hand side is smooth, so the integrator never
 steps across a kink, and root finding on ``g`` locates every transition exactly.
 Conditions on schedule segments (piecewise-in-time coefficients) stay as they are:
@@ -19,6 +19,7 @@ import sympy as sp
 from sympy.core.relational import Relational
 
 from ..errors import SpecError
+from .parsing import internal_symbol
 
 if TYPE_CHECKING:
     from .model import SwitchingFunction, SymbolicModel
@@ -78,12 +79,12 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
                 if sp.expand(ge - sgn * he) == 0:
                     surfaces.append(h)
                     canon.append(he)
-                    sigma.append(sp.Symbol(f"sigma_{len(sigma)}", real=True))
+                    sigma.append(internal_symbol(f"sigma_{len(sigma)}"))
                     return len(canon) - 1, sgn
         j = len(canon)
         surfaces.append(SwitchingFunction(f"surface{j}", ge, f"switch {j} (g > 0 side)", 0, "switch"))
         canon.append(ge)
-        sigma.append(sp.Symbol(f"sigma_{j}", real=True))
+        sigma.append(internal_symbol(f"sigma_{j}"))
         return j, 1
 
     def to_sigma(rel: Relational) -> sp.Basic:
