@@ -21,6 +21,8 @@ MAX_LITERAL_DIGITS = 30
 MAX_EXPONENT = 64
 #: Largest magnitude of a number or of a constant sub-expression.
 MAX_MAGNITUDE = 1e300
+#: Most arguments of one call (``Max``/``Min`` arguments, ``Piecewise`` pairs).
+MAX_ARGS = 256
 
 #: Functions allowed in expressions, and the names sympy knows them by.
 FUNCTIONS: dict[str, str] = {

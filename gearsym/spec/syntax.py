@@ -46,6 +46,7 @@ from .exprtree import (  # noqa: F401  (re-exported: the language in one place)
     CONSTANT_VALUES,
     CONSTANTS,
     FUNCTIONS,
+    MAX_ARGS,
     MAX_DEPTH,
     MAX_EXPONENT,
     MAX_LENGTH,
@@ -363,6 +364,8 @@ class _Parser:
             if self.at_op("*", "**"):
                 raise ExpressionError(f"'*' unpacking is not allowed (column {self.tok.pos + 1})")
             args.append(self.or_expr())
+            if len(args) > MAX_ARGS:
+                raise ExpressionError(f"{func}() with more than {MAX_ARGS} arguments")
             if self.at_op(","):
                 self.advance()
                 continue
@@ -496,10 +499,14 @@ class _Checker:
             fn = _MATH.get(node.func)
             if fn is None:
                 return None
+            if node.func == "atan2" and vals[0] == vals[1] == 0:
+                raise self.err(node, "atan2(0, 0) is undefined")
             try:
                 return float(fn(*vals))
             except OverflowError:
                 raise self.err(node, "constant value too large") from None
+            except ValueError:  # sqrt(-1), log(0), asin(2): complex or infinite in sympy
+                raise self.err(node, f"constant argument outside the domain of {node.func}()") from None
         if isinstance(node, Piecewise):
             for val, cond in node.pairs:
                 self.value(val, node)

@@ -24,9 +24,14 @@ from ..spec import syntax as sx
 from ..spec.expressions import BOUND_FUNCTIONS, FUNCTIONS, ExpressionError, names_in, parse
 from ..spec.model import Term
 from ..spec.scene import ResolvedScene
+from ..spec.syntax import quote
 
 _SYMPY_FUNCTIONS: dict[str, Callable[..., sp.Basic]] = {
     name: getattr(sp, fn) for name, fn in FUNCTIONS.items() if name != "Piecewise"}
+#: Values no expression of a model may contain.
+_NOT_REAL = (sp.zoo, sp.nan, sp.oo, -sp.oo, sp.I)
+#: Products with at least this many factors are built as one ``Mul`` (see :meth:`Builder.chain`).
+LONG_PRODUCT = 64
 _COMPARE = {"<": lambda a, b: a < b, "<=": lambda a, b: a <= b,
             ">": lambda a, b: a > b, ">=": lambda a, b: a >= b}
 
@@ -80,18 +85,7 @@ class Builder:
             v = self.visit(node.operand)
             return -v if node.op == "-" else +v
         if isinstance(node, sx.Chain):
-            acc = self.visit(node.first)
-            for op, x in node.rest:  # left to right, as Python evaluates a chain
-                v = self.visit(x)
-                if op == "+":
-                    acc = acc + v
-                elif op == "-":
-                    acc = acc - v
-                elif op == "*":
-                    acc = acc * v
-                else:
-                    acc = acc / v
-            return acc
+            return self.chain(node)
         if isinstance(node, sx.Power):
             return self.visit(node.base) ** self.visit(node.exponent)
         if isinstance(node, sx.Compare):
@@ -109,6 +103,27 @@ class Builder:
                 return self.bound(node.func, args)  # type: ignore[arg-type]
             return _SYMPY_FUNCTIONS[node.func](*[self.visit(a) for a in node.args])
         raise ExpressionError(f"unsupported expression node {type(node).__name__}")  # pragma: no cover
+
+    def chain(self, node: sx.Chain) -> sp.Basic:
+        """A flat chain of ``+ -`` or ``* /``, without recursion and without quadratic cost.
+
+        A sum is one ``Add(a, -b, c, ...)``: the same object as Python's left-to-right
+        ``a - b + c ...`` (``x - y`` is ``Add(x, -y)``; ``Add`` flattens nested sums and
+        accumulates the coefficients of like terms in the order of its arguments either
+        way), built in one pass instead of one pass per term.  A product is folded left
+        to right with Python's operators (a division of numbers is exact then); only a
+        long product (more than :data:`LONG_PRODUCT` factors) is built as one ``Mul``.
+        """
+        first = self.visit(node.first)
+        if node.rest[0][0] in "+-":
+            return sp.Add(first, *[self.visit(x) if op == "+" else -self.visit(x) for op, x in node.rest])
+        if len(node.rest) >= LONG_PRODUCT:
+            return sp.Mul(first, *[self.visit(x) if op == "*" else sp.Pow(self.visit(x), -1)
+                                   for op, x in node.rest])
+        acc = first
+        for op, x in node.rest:  # left to right, as Python evaluates a chain
+            acc = acc * self.visit(x) if op == "*" else acc / self.visit(x)
+        return acc
 
 
 class Namespace:
@@ -200,7 +215,11 @@ class Namespace:
     def parse(self, text: str, where: str = "") -> sp.Expr:
         """Build the sympy expression of an expression string (checked by the spec layer)."""
         try:
-            return Builder(self._local, self._bound_call).build(parse(text))
+            out = Builder(self._local, self._bound_call).build(parse(text))
+            if out.has(*_NOT_REAL):
+                raise ExpressionError(f"'{quote(text)}' evaluates to an infinite, undefined or complex "
+                                      f"value ({sp.sstr(out)[:60]})")
+            return out
         except ExpressionError as exc:
             raise SpecError(str(exc), file=self.rs.model.path, field=where or None) from None
         except RecursionError:
