@@ -70,11 +70,11 @@ def check_symbol_name(name: object) -> str | None:
         return f"expected a name (string), got {type(name).__name__}"
     if not name:
         return "empty name"
-    if len(name) > MAX_NAME_LENGTH:
-        return f"name {_describe(name)} is longer than {MAX_NAME_LENGTH} characters"
     if not _SYMBOL.fullmatch(name):
         return (f"{_describe(name)} is not a valid symbol name (an ASCII letter, then ASCII letters, "
                 f"digits and underscores)")
+    if len(name) > MAX_NAME_LENGTH:
+        return f"name {_describe(name)} is longer than {MAX_NAME_LENGTH} characters"
     if keyword.iskeyword(name):
         return f"'{name}' is a Python keyword and cannot be a symbol name"
     if name in C_KEYWORDS:
@@ -95,11 +95,11 @@ def check_label(name: object, what: str = "name") -> str | None:
         return f"expected a {what} (string), got {type(name).__name__}"
     if not name:
         return f"empty {what}"
-    if len(name) > MAX_NAME_LENGTH:
-        return f"{what} {_describe(name)} is longer than {MAX_NAME_LENGTH} characters"
     if not _LABEL.fullmatch(name):
         return (f"{_describe(name)} is not a valid {what} (an ASCII letter, then ASCII letters, digits, "
                 f"'_' and '-'; no path separators, dots or spaces)")
+    if len(name) > MAX_NAME_LENGTH:
+        return f"{what} {_describe(name)} is longer than {MAX_NAME_LENGTH} characters"
     return None
 
 
