@@ -21,8 +21,6 @@ import sympy as sp
 from sympy.parsing.sympy_parser import parse_expr
 
 import gearsym
-from gearsym.spec.scene import load_scene_spec
-from gearsym.symbolic.parsing import Builder
 
 ROOT = Path(__file__).resolve().parents[1]
 KS_MODEL = (ROOT / "models" / "kahraman_singh.toml").read_text()
@@ -42,6 +40,7 @@ NAMES = {"x": x, "y": y, "z": z, "b": b, "t": t}
 def test_builder_matches_sympys_own_parser(text):
     """Same sympy object as ``parse_expr`` (trusted strings only, here, as the reference)."""
     from gearsym.spec.expressions import parse
+    from gearsym.symbolic.parsing import Builder
 
     reference = parse_expr(text.replace("^", "**"), local_dict=dict(NAMES), evaluate=True)
     assert sp.srepr(Builder(NAMES).build(parse(text))) == sp.srepr(reference)
@@ -49,6 +48,7 @@ def test_builder_matches_sympys_own_parser(text):
 
 def test_and_or_conditions():
     from gearsym.spec.expressions import parse
+    from gearsym.symbolic.parsing import Builder
 
     got = Builder(NAMES).build(parse("Piecewise((1, (x > 0) and (x < b) or x > 2*b), (0, True))"))
     assert got == sp.Piecewise((1, sp.Or(sp.And(x > 0, x < b), x > 2 * b)), (0, True))
@@ -144,6 +144,8 @@ def test_5000_term_sums_derive(tmp_path):
     ("x" * 80, "x" * 64),
 ])
 def test_default_scene_name_is_sanitised(tmp_path, stem, expected):
+    from gearsym.spec.scene import load_scene_spec
+
     p = tmp_path / f"{stem}.toml"
     p.write_text('[scene]\nmodel = "m.toml"\n')
     assert load_scene_spec(p).name == expected
