@@ -227,6 +227,9 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
         For an unknown parameter, a non-finite value, or a parameter that only
         switched-off effects use.
     """
+    problem = check_label(scene.name, "scene name")
+    if problem:  # a SceneSpec made in Python rather than read from a file
+        raise SpecError(problem, file=scene.path, field="scene.name")
     if model is None:
         model = load_model(scene.model_path)
     state: dict[str, bool | str] = {name: e.default for name, e in model.effects.items()}

@@ -228,12 +228,10 @@ class Namespace:
 
     def sum_terms(self, terms: tuple[Term, ...], el_effect: str | None = None,
                   el_variant: str | None = None) -> sp.Expr:
-        """Sum of the active terms of an expression field."""
-        total: sp.Expr = sp.Integer(0)
-        for term in terms:
-            if self.rs.is_active(term, el_effect, el_variant):
-                total = total + self.parse(term.expr, term.field)
-        return total
+        """Sum of the active terms of an expression field (one ``Add``: the same object as
+        adding them one by one, in one pass however many terms there are)."""
+        return sp.Add(*[self.parse(term.expr, term.field) for term in terms
+                        if self.rs.is_active(term, el_effect, el_variant)])
 
     def param_value(self, name: str) -> float:
         """SI value of a parameter in the resolved scene."""
