@@ -15,7 +15,6 @@ import argparse
 import json
 import math
 import sys
-import tomllib
 import traceback
 from pathlib import Path
 from typing import Any
@@ -89,19 +88,11 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     import sympy as sp
 
     from .facade import Scene
+    from .spec.files import read_toml
     from .spec.model import load_model
 
     path = Path(args.path)
-    try:
-        head = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SpecError("file not found", file=str(path)) from None
-    except OSError as exc:
-        raise SpecError(f"cannot read file: {exc.strerror}", file=str(path)) from None
-    except UnicodeDecodeError:
-        raise SpecError("not a text (UTF-8) file", file=str(path)) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"TOML syntax error: {exc}", file=str(path)) from None
+    head = read_toml(path, "file")  # regular file, size limit, before reading
     if "scene" in head:
         scene = Scene(path, _parse_effects(args.effect, args.no_effect) or None, _parse_set(args.set))
     elif "model" in head:

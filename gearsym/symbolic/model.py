@@ -20,7 +20,7 @@ import sympy as sp
 
 from ..errors import SpecError
 from ..spec.scene import ResolvedScene
-from .parsing import Namespace
+from .parsing import Namespace, internal_symbol
 from .switching import ModalForm, make_modal
 
 
@@ -428,7 +428,7 @@ class SymbolicModel:
     def variational(self) -> sp.Matrix:
         """The variational system ``Phi' = J(t, x) Phi`` as a matrix expression."""
         n = len(self.states)
-        phi = sp.Matrix(n, n, lambda i, j: sp.Symbol(f"Phi_{i}{j}"))
+        phi = sp.Matrix(n, n, lambda i, j: internal_symbol(f"Phi_{i}_{j}"))
         return self.jacobian() * phi
 
     def residual(self, xdot: list[sp.Symbol]) -> sp.Matrix:

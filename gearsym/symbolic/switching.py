@@ -3,7 +3,7 @@
 Every state-dependent condition in the equations (a ``Piecewise`` branch, or an
 ``Abs``/``sign``/``Max``/``Min``/``Heaviside`` of a state expression) is a switching
 surface ``g(t, x, p) = 0``.  The *modal form* replaces each such condition by the
-side ``sigma_j`` (+1 or -1) of its surface, which the engine holds fixed between
+side ``sigma_j(t)`` (+1 or -1) of its surface, which the engine holds fixed between
 events: for fixed ``sigma`` the right-hand side is smooth, so the integrator never
 steps across a kink, and root finding on ``g`` locates every transition exactly.
 Conditions on schedule segments (piecewise-in-time coefficients) stay as they are:
@@ -19,6 +19,7 @@ import sympy as sp
 from sympy.core.relational import Relational
 
 from ..errors import SpecError
+from .parsing import internal_symbol
 
 if TYPE_CHECKING:
     from .model import SwitchingFunction, SymbolicModel
@@ -83,11 +84,11 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
             h, sh = hint_keys[key]
             surfaces.append(h)
             known[key] = (j, sh)
-            sigma.append(sp.Symbol(f"sigma_{j}", real=True))
+            sigma.append(internal_symbol(f"sigma_{j}"))
             return j, sgn * sh
         surfaces.append(SwitchingFunction(f"surface{j}", ge, f"switch {j} (g > 0 side)", 0, "switch"))
         known[key] = (j, sgn)
-        sigma.append(sp.Symbol(f"sigma_{j}", real=True))
+        sigma.append(internal_symbol(f"sigma_{j}"))
         return j, 1
 
     def to_sigma(rel: Relational) -> sp.Basic:
