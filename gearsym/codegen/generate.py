@@ -85,6 +85,8 @@ class GeneratedModel:
     key_parts: dict = field(default_factory=dict)
     model: str = ""
     built: float = 0.0
+    #: the generated functions are in dimensionless variables (``gs_scales`` converts)
+    dimensionless: bool = False
 
     @property
     def input_names(self) -> list[str]:
@@ -212,6 +214,9 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     fns["gs_sched"] = ca.Function("gs_sched", [p], [sv], ["p"], ["s"])
     period = tr(model.forcing_period) if model.forcing_period is not None else ca.SX(float("nan"))
     fns["gs_period"] = ca.Function("gs_period", [p], [period], ["p"], ["T"])
+    scales = getattr(model, "scales", None)
+    if scales is not None:  # a model in dimensionless variables: [T, s_1, ..., s_n]
+        fns["gs_scales"] = ca.Function("gs_scales", [p], [ca.vertcat(*[tr(e) for e in scales])], ["p"], ["s"])
     outputs = getattr(model, "outputs", {})
     if outputs:
         o = ca.vertcat(*[tr(e) for e in outputs.values()])
@@ -241,6 +246,7 @@ _DOCS = {
     "gs_sched": "schedules: [period, break fractions...] for each schedule",
     "gs_period": "the scene's forcing period T(p)",
     "gs_out": "the model's [outputs] along a trajectory (post-processing, not used by the driver)",
+    "gs_scales": "reference scales [T, s_1, ..., s_n] of the dimensionless variables (t = T*tau, q = s*Q)",
 }
 
 
@@ -349,7 +355,7 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], staging
         outputs=list(getattr(model, "outputs", {})),
         output_units={k: (o.unit or "") for k, o in model.spec.outputs.items()},
         build_key=build_key, so_sha256=digest, key_parts=dict(key_parts or {}), model=model.name,
-        built=time.time(),
+        built=time.time(), dimensionless=getattr(model, "scales", None) is not None,
     )
     (staging / "meta.json").write_text(gen.to_json())
     return gen

@@ -173,11 +173,16 @@ class Group:
 
 @dataclass(frozen=True)
 class Dimensionless:
-    """Reference scales for the dimensionless form, and the named groups."""
+    """Reference scales for the dimensionless form, and the named groups.
 
-    time: str
+    Every scale is optional (``None``: the default of :mod:`gearsym.symbolic.scales`).
+    """
+
+    time: str | None
     coordinates: dict[str, str]
     groups: tuple[Group, ...]
+    length: str | None = None
+    mass: str | None = None
 
 
 @dataclass(frozen=True)
@@ -448,7 +453,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     dimless = None
     if "dimensionless" in data:
         dl = table(ctx, data, "dimensionless")
-        only_keys(ctx, "dimensionless", dl, {"time", "coordinates", "groups"})
+        only_keys(ctx, "dimensionless", dl, {"time", "length", "mass", "coordinates", "groups"})
         groups = []
         for gname, g in as_table(ctx, "dimensionless.groups", dl.get("groups", {})).items():
             gw = f"dimensionless.groups.{gname}"
@@ -459,10 +464,12 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
                                 string(ctx, g, f"{gw}.eliminates", required=True),
                                 string(ctx, g, f"{gw}.meaning") or ""))
         dimless = Dimensionless(
-            expr_str(ctx, "dimensionless.time", dl.get("time", "1")),
+            expr_str(ctx, "dimensionless.time", dl["time"]) if "time" in dl else None,
             {k: expr_str(ctx, f"dimensionless.coordinates.{k}", v)
              for k, v in as_table(ctx, "dimensionless.coordinates", dl.get("coordinates", {})).items()},
             tuple(groups),
+            expr_str(ctx, "dimensionless.length", dl["length"]) if "length" in dl else None,
+            expr_str(ctx, "dimensionless.mass", dl["mass"]) if "mass" in dl else None,
         )
 
     # outputs: quantities evaluated along trajectories (e.g. the dynamic backlash B(t))

@@ -42,7 +42,7 @@ from .names import check_label, sanitize_label
 
 _SIM_KEYS = {"periods": (int, float), "t_end": (int, float), "rtol": (float, int), "atol": (float, int),
              "points_per_period": (int,), "method": (str,), "transient_periods": (int, float),
-             "max_steps": (int,)}
+             "max_steps": (int,), "dimensionless": (bool,)}
 
 
 @dataclass(frozen=True)
@@ -193,7 +193,7 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
     for k, v in sim.items():
         if k not in _SIM_KEYS:
             raise err(f"simulate.{k}", f"unknown field '{k}' (allowed: {', '.join(sorted(_SIM_KEYS))})")
-        if isinstance(v, bool) or not isinstance(v, _SIM_KEYS[k]):
+        if (isinstance(v, bool) and bool not in _SIM_KEYS[k]) or not isinstance(v, _SIM_KEYS[k]):
             raise err(f"simulate.{k}", f"wrong type {type(v).__name__}")
     for k in ("rtol", "atol", "periods", "t_end"):
         if k in sim and not (math.isfinite(sim[k]) and sim[k] > 0):

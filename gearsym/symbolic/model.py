@@ -163,11 +163,12 @@ class SymbolicModel:
     forcing_period : sympy.Expr or None
     """
 
-    def __init__(self, rs: ResolvedScene):
+    def __init__(self, rs: ResolvedScene, structured: bool = False):
         self.resolved = rs
         self.spec = rs.model
         self.name = rs.model.name
-        ns = Namespace(rs)
+        self.structured = structured
+        ns = Namespace(rs, structured=structured)
         self.ns = ns
         self.t = ns.t
         self._surface_hints: list[SwitchingFunction] = []
@@ -317,8 +318,11 @@ class SymbolicModel:
         sub = {q[k]: qk, v[k]: vk}
         self._reduction_sub = sub
         acc = sum(a[i] * Q[i, 0] / M[i, i] for i in range(len(q)) if a[i] != 0) + sp.diff(s, ns.t, 2)
-        sched = acc.has(ns.t, *ns.sched_seg.values())  # time-varying: keep parameter blocks
-        acc = _expand_in_states(acc.subs(sub), (x, xd), ns.t, blocks=sched)
+        # expanded in the states only, state-free blocks kept whole: a full expansion multiplies
+        # every inlined derived quantity out (a switched-off effect then made the code bigger:
+        # vaishya_singh with every effect off had 787 operations against 122 with the stiffness
+        # variation on, whose schedule already kept the blocks)
+        acc = _expand_in_states(acc.subs(sub), (x, xd), ns.t, blocks=True)
         acc = _fold_segments(acc, {ns.sched_seg[sn]: len(b) + 1 for sn, b in ns.schedule_breaks.items()})
         others = [q[i] for i in range(len(q)) if i != k] + [v[i] for i in range(len(q)) if i != k]
         if acc.has(*others):
@@ -327,7 +331,8 @@ class SymbolicModel:
                             f"{', '.join(leftover)} (the system is not semi-definite in this "
                             f"coordinate)", file=self.spec.path, field=where)
         m_eq = 1 / sum(a[i] ** 2 / M[i, i] for i in range(len(q)) if a[i] != 0)
-        m_eq = sp.simplify(m_eq)
+        if not self.structured:  # structured: keep the form of a derived m_e = 1/(sum ...)
+            m_eq = sp.simplify(m_eq)
         self.reduced_mass = m_eq
         self._surface_hints = [
             SwitchingFunction(h.name, _expand_in_states(h.expr.subs(sub), (x, xd), ns.t), h.meaning,
@@ -336,7 +341,7 @@ class SymbolicModel:
         ]
         acc = self._collect(acc)
         return [x], [xd], sp.Matrix([[m_eq]]), sp.Matrix([_expand_in_states(m_eq * acc, (x, xd), ns.t,
-                                                                            blocks=sched)])
+                                                                            blocks=True)])
 
     @staticmethod
     def _collect(expr: sp.Expr) -> sp.Expr:
@@ -453,8 +458,31 @@ class SymbolicModel:
             lines.append(f"g_{{\\mathrm{{{g.name}}}}} = {sp.latex(g.expr)}")
         return "\\begin{aligned}\n" + " \\\\\n".join(lines) + "\n\\end{aligned}"
 
+    @property
+    def structured_model(self) -> SymbolicModel:
+        """The same model with parameter-only derived quantities kept as symbols
+        (``m_e``, ``omega_n``; see :class:`~gearsym.symbolic.parsing.Namespace`)."""
+        if self.structured:
+            return self
+        cached = self.__dict__.get("_structured")
+        if cached is None:
+            cached = SymbolicModel(self.resolved, structured=True)
+            self.__dict__["_structured"] = cached
+        return cached
+
+    def dimensionless_system(self):
+        """The model in dimensionless variables, for code generation
+        (:class:`~gearsym.symbolic.dimensionless.DimensionlessSystem`)."""
+        from .dimensionless import DimensionlessSystem
+
+        return DimensionlessSystem(self)
+
     def dimensionless(self):
-        """The dimensionless form (see :mod:`gearsym.symbolic.dimensionless`)."""
+        """The dimensionless form (see :mod:`gearsym.symbolic.dimensionless`), computed once."""
         from .dimensionless import dimensionless_form
 
-        return dimensionless_form(self)
+        cached = self.__dict__.get("_dimensionless")
+        if cached is None:
+            cached = dimensionless_form(self)
+            self.__dict__["_dimensionless"] = cached
+        return cached
