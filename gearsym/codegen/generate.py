@@ -187,9 +187,9 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     tr = SXTranslator(symbols)
     fns: dict[str, ca.Function] = {}
     if model.form == "explicit":
-        f = tr.matrix(model.modal.rhs)
+        f = ca.cse(tr.matrix(model.modal.rhs))  # common subexpressions once (10-30 % fewer operations)
         fns["gs_rhs"] = ca.Function("gs_rhs", [t, x, p, m], [f], ["t", "x", "p", "m"], ["xdot"])
-        fns["gs_jac"] = ca.Function("gs_jac", [t, x, p, m], [ca.jacobian(f, x)],
+        fns["gs_jac"] = ca.Function("gs_jac", [t, x, p, m], [ca.cse(ca.jacobian(f, x))],
                                     ["t", "x", "p", "m"], ["J"])
     else:
         xd = ca.SX.sym("xd", nx)

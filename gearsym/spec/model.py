@@ -52,6 +52,7 @@ from .fields import (
 )
 from .files import read_toml
 from .names import check_label, check_symbol_name
+from .elements import ELEMENT_SCHEMAS
 from .units import Unit
 from .validate import validate_model
 
@@ -138,6 +139,8 @@ class Element:
     effect: str | None = None
     variant: str | None = None
     meaning: str = ""
+    #: coordinate fields of the schema types (:mod:`gearsym.spec.elements`): field -> names
+    coordinates: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -159,6 +162,9 @@ class Reduction:
     unit: str
     meaning: str
     dims: Unit
+    #: coordinates kept as states beside the reduced one (the definition may depend on them
+    #: in any smooth way, e.g. through a pressure angle that varies with the centre distance)
+    keep: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -214,7 +220,9 @@ class ModelSpec:
     def state_names(self) -> list[str]:
         """Names of the first-order states: coordinates then velocities."""
         if self.reduction is not None:
-            return [self.reduction.coordinate, self.reduction.velocity]
+            kept = [self.coordinates[k] for k in self.reduction.keep]
+            return [self.reduction.coordinate, *(c.name for c in kept),
+                    self.reduction.velocity, *(c.velocity for c in kept)]
         coords = list(self.coordinates.values())
         return [c.name for c in coords] + [c.velocity for c in coords]
 
@@ -229,6 +237,7 @@ _ELEMENT_FIELDS = {
     "damper": ({"deflection", "coefficient"}, set()),
     "mesh": ({"deflection", "stiffness"}, {"error", "damping", "backlash"}),
     "force": ({"value"}, set()),
+    **{k: (set(v.required), set(v.optional)) for k, v in ELEMENT_SCHEMAS.items()},
 }
 _ELEMENT_META = {"type", "coordinate", "effect", "variant", "meaning", "drive_side"}
 
@@ -394,7 +403,13 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
             raise ctx.error(f"{where}.type", f"unknown element type '{etype}' "
                                              f"(known: {', '.join(_ELEMENT_FIELDS)})")
         required, optional = _ELEMENT_FIELDS[etype]
-        only_keys(ctx, where, el, required | optional | _ELEMENT_META)
+        schema = ELEMENT_SCHEMAS.get(etype)
+        coord_fields = set(schema.coordinates) if schema else set()
+        only_keys(ctx, where, el, required | optional | _ELEMENT_META | coord_fields)
+        if schema is not None and "coordinate" in el:
+            raise ctx.error(f"{where}.coordinate", f"a {etype} element names its coordinates in "
+                                                   f"{', '.join(sorted(coord_fields))}")
+        coord_refs = _coordinate_fields(ctx, where, el, schema, coordinates) if schema else {}
         for r in sorted(required):
             if r not in el:
                 raise ctx.error(f"{where}.{r}", f"missing field '{r}' of {etype} element")
@@ -410,7 +425,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
                   if k in el}
         elements[lname] = Element(lname, etype, fields, coord, drive,
                                   string(ctx, el, f"{where}.effect"), string(ctx, el, f"{where}.variant"),
-                                  string(ctx, el, f"{where}.meaning") or "")
+                                  string(ctx, el, f"{where}.meaning") or "", coord_refs)
 
     # explicit equations
     equations: dict[str, Equation] = {}
@@ -430,7 +445,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     reduction = None
     if "reduction" in data:
         r = table(ctx, data, "reduction")
-        only_keys(ctx, "reduction", r, {"coordinate", "velocity", "definition", "unit", "meaning"})
+        only_keys(ctx, "reduction", r, {"coordinate", "velocity", "definition", "unit", "meaning", "keep"})
         rc = string(ctx, r, "reduction.coordinate", required=True)
         rv = string(ctx, r, "reduction.velocity") or f"{rc}_dot"
         declare(rc, "reduction.coordinate")
@@ -439,8 +454,14 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
             raise ctx.error("reduction.definition", "missing definition of the reduced coordinate")
         runit = string(ctx, r, "reduction.unit") or "1"
         rdims = unit_of(ctx, "reduction.unit", runit)
+        keep = tuple(string_list(ctx, r, "reduction.keep"))
+        for i, k in enumerate(keep):
+            if k not in coordinates:
+                raise ctx.error(f"reduction.keep[{i}]", f"unknown coordinate '{k}'")
+        if len(set(keep)) != len(keep):
+            raise ctx.error("reduction.keep", "a coordinate is listed twice")
         reduction = Reduction(rc, rv, read_terms(ctx, "reduction.definition", r["definition"], schedules),
-                              runit, string(ctx, r, "reduction.meaning") or "", rdims)
+                              runit, string(ctx, r, "reduction.meaning") or "", rdims, keep)
 
     forcing = table(ctx, data, "forcing")
     only_keys(ctx, "forcing", forcing, {"period"})
@@ -487,6 +508,28 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     )
     validate_model(ctx, spec)
     return spec
+
+
+def _coordinate_fields(ctx: Ctx, where: str, el: dict[str, Any], schema, coordinates: dict[str, Coordinate]
+                       ) -> dict[str, tuple[str, ...]]:
+    """The coordinate fields of a schema element (names checked against the coordinates)."""
+    out: dict[str, tuple[str, ...]] = {}
+    for key, count in schema.coordinates.items():
+        fw = f"{where}.{key}"
+        if key not in el:
+            if key in schema.required_coordinates:
+                raise ctx.error(fw, f"missing field '{key}' of {el.get('type')} element")
+            continue
+        value = el[key]
+        names = [value] if count == 1 and isinstance(value, str) else value
+        if not isinstance(names, list) or len(names) != count or not all(isinstance(n, str) for n in names):
+            what = "a coordinate name" if count == 1 else f"an array of {count} coordinate names"
+            raise ctx.error(fw, f"wrong type: expected {what}")
+        for i, n in enumerate(names):
+            if n not in coordinates:
+                raise ctx.error(fw if count == 1 else f"{fw}[{i}]", f"unknown coordinate '{n}'")
+        out[key] = tuple(names)
+    return out
 
 
 def _quantities(ctx: Ctx, data: dict[str, Any], section: str, declare: Any,

@@ -111,8 +111,10 @@ class ResolvedScene:
     def state_names(self) -> list[str]:
         """Names of the first-order states of this scene (coordinates of switched-off
         effects removed)."""
-        if self.model.reduction is not None:
-            return self.model.state_names()
+        red = self.model.reduction
+        if red is not None:
+            kept = [self.model.coordinates[k] for k in red.keep if self.coordinate_active(k)]
+            return [red.coordinate, *(c.name for c in kept), red.velocity, *(c.velocity for c in kept)]
         coords = [c for c in self.model.coordinates.values() if self.coordinate_active(c.name)]
         return [c.name for c in coords] + [c.velocity for c in coords]
 
@@ -413,6 +415,10 @@ def _terms_with_owner(model: ModelSpec):
         owner, variant = el.effect, el.variant
         if owner is None and el.coordinate is not None:
             owner = model.coordinates[el.coordinate].effect  # element on a gated coordinate
+        elif owner is None and el.coordinates:  # schema element: all its coordinates gated alike
+            effs = {model.coordinates[n].effect for names in el.coordinates.values() for n in names}
+            if len(effs) == 1 and None not in effs:
+                owner = effs.pop()
         elif owner is None:  # spring/damper/mesh whose deflection uses only gated coordinates
             names = set().union(*(ex.names_in(t.expr) for t in el.fields.get("deflection", ())))
             effs = {model.coordinates[n].effect for n in names if n in model.coordinates}

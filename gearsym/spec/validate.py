@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from . import expressions as ex
+from .elements import ELEMENT_SCHEMAS, validate_element
 from .fields import Ctx, Term, unit_of
 from .units import ONE, Unit
 
@@ -107,6 +108,8 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
             u = _terms_unit(ctx, f["value"], units)
             if u is not None:
                 energy_of(f"{w}.value", u * c.dims)
+        elif el.type in ELEMENT_SCHEMAS:
+            validate_element(ctx, spec, el, lambda terms: _terms_unit(ctx, terms, units), energy_of)
         else:
             d = _terms_unit(ctx, f["deflection"], units)
             if d is None:

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import sympy as sp
 
-from ..errors import SpecError
+from ..errors import GearsymError, SpecError
 from ..spec.exprtree import BOUND_FUNCTIONS
 from .dims import ZERO, Dim, Dimensions, monomial
 from .groups import GroupFinder, Normalizer, vector_of
@@ -259,6 +259,9 @@ class DimensionlessSystem:
             raise SpecError("simulating in dimensionless variables needs an explicit model",
                             file=model.spec.path, field="model.form")
         d = model.dimensionless()
+        if [s.name for s in model.structured_model.switching] != [s.name for s in model.switching]:
+            raise GearsymError("the structured form of the model found other switching surfaces than the model "
+                               "itself; cannot simulate it in dimensionless variables")
         self.base = model
         self.form = "explicit"
         self.name = model.name

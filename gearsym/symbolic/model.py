@@ -20,6 +20,7 @@ import sympy as sp
 
 from ..errors import SpecError
 from ..spec.scene import ResolvedScene
+from .elements import ASSEMBLERS, Assembly
 from .parsing import Namespace, internal_symbol
 from .switching import ModalForm, make_modal
 
@@ -177,7 +178,9 @@ class SymbolicModel:
         M, Q = self._assemble(ns, q, v)
         self.unreduced_mass_matrix = M
         self.unreduced_forces = Q
-        if self.spec.reduction is not None:
+        if self.spec.reduction is not None and self.spec.reduction.keep:
+            q, v, M, Q = self._reduce_keeping(ns, q, v, M, Q)
+        elif self.spec.reduction is not None:
             q, v, M, Q = self._reduce(ns, q, v, M, Q)
         self.coordinates = q
         self.velocities = v
@@ -231,6 +234,10 @@ class SymbolicModel:
                 M[i, i] += field("value")
             elif el.type == "force":
                 Q[index[el.coordinate], 0] += field("value")  # type: ignore[index]
+            elif el.type in ASSEMBLERS:  # element types with a module of their own
+                asm = Assembly(ns, q, v, M, Q)
+                ASSEMBLERS[el.type](asm, el)
+                self._surface_hints += asm.hints
             else:
                 geom = field("deflection")
                 delta = geom - field("error") if el.type == "mesh" else geom
@@ -346,6 +353,18 @@ class SymbolicModel:
     @staticmethod
     def _collect(expr: sp.Expr) -> sp.Expr:
         return expr
+
+    def _reduce_keeping(self, ns: Namespace, q, v, M, Q):
+        """Reduce to one relative coordinate, keeping ``reduction.keep`` as states
+        (:mod:`gearsym.symbolic.reduction_keep`)."""
+        from .reduction_keep import reduce_keeping
+
+        q2, v2, M2, Q2, sub, m_eq, g = reduce_keeping(self, ns, q, v, M, Q, [h.expr for h in self._surface_hints])
+        self._reduction_sub = sub
+        self.reduced_mass = m_eq if self.structured else sp.simplify(m_eq)
+        self._surface_hints = [SwitchingFunction(h.name, gh, h.meaning, h.contact_sign, h.kind)
+                               for h, gh in zip(self._surface_hints, g)]
+        return q2, v2, M2, Q2
 
     def _outputs(self, ns: Namespace) -> dict[str, sp.Expr]:
         """The model's [outputs], in terms of the final states (after reduction)."""

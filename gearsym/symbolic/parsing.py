@@ -157,10 +157,12 @@ class Namespace:
     rs
         The resolved scene.
     structured
-        Keep parameter-only derived quantities as symbols (see ``derived``).
+        Keep parameter-only derived quantities as symbols (see ``derived``); ``"all"``:
+        every derived quantity, also those of time and states (for differentiating by
+        the chain rule through named intermediate quantities).
     """
 
-    def __init__(self, rs: ResolvedScene, structured: bool = False):
+    def __init__(self, rs: ResolvedScene, structured: bool | str = False):
         self.rs = rs
         self.derived: dict[sp.Symbol, sp.Expr] = {}
         m = rs.model
@@ -176,6 +178,9 @@ class Namespace:
         self._local.update(self.params)
         self._local.update(self.coords)
         self._local.update(self.vels)
+        if m.reduction is not None:  # the reduced states, for [outputs] (never before the reduction)
+            self._local[m.reduction.coordinate] = sp.Symbol(m.reduction.coordinate, real=True)
+            self._local[m.reduction.velocity] = sp.Symbol(m.reduction.velocity, real=True)
         for c in m.coordinates.values():
             if c.name not in self.coords:  # gated coordinate of a switched-off effect
                 self._local[c.name] = sp.Integer(0)
@@ -199,7 +204,7 @@ class Namespace:
                 if deps & set(pending):
                     continue
                 value = self.sum_terms(d.terms)
-                if structured and not value.is_Atom and self._parameter_only(value):
+                if structured and not value.is_Atom and (structured == "all" or self._parameter_only(value)):
                     sym = sp.Symbol(name, real=True)
                     self.derived[sym] = value
                     value = sym
