@@ -70,6 +70,8 @@ GS_DECLARE_MODEL_FN(gs_sw)
 GS_DECLARE_MODEL_FN(gs_swx)
 GS_DECLARE_MODEL_FN(gs_swt)
 GS_DECLARE_MODEL_FN(gs_sched)
+GS_DECLARE_MODEL_FN(gs_period)
+GS_DECLARE_MODEL_FN(gs_out)
 extern int gs_model_info(int* out, int len) GS_WEAK;
 
 typedef int (*gs_cfun_ptr)(const casadi_real**, casadi_real**, casadi_int*, casadi_real*, int);
@@ -105,7 +107,7 @@ typedef struct {
   double* m_alt;   /* scratch mode vector [nm]                               */
   double dummy[1]; /* non-NULL pointer for empty inputs                      */
 
-  gs_fn rhs, jac, res, resjac, sw, swx, swt, sched;
+  gs_fn rhs, jac, res, resjac, sw, swx, swt, sched, period, out;
   const casadi_real** arg;
   casadi_real** resp;
   casadi_int* iw;
@@ -1134,41 +1136,96 @@ int gs_check_abi(char* msg, int len) {
   return 0;
 }
 
-int gs_simulate(gs_sim_args* a) {
-  gs_ud U;
-  gs_ud* ud = &U;
-  gs_solver S;
-  gs_evlog L;
-  gs_sched_data SD;
-  SUNContext ctx = NULL;
+/* --------------------------------------------------------------------------
+ * Workspaces: what one model needs across calls (model metadata and function
+ * checks, CasADi work buffers, the SUNDIALS context, vectors, matrix, linear
+ * and nonlinear solvers and the CVODE/IDA memory).  A call with the same
+ * configuration (method, monodromy, solvers) reuses them with CVodeReInit /
+ * IDAReInit instead of allocating everything again: the fixed cost of a short
+ * integration (a shooting residual) drops to the integration itself.  A
+ * workspace is used by one thread at a time; gs_simulate makes a temporary one.
+ * -------------------------------------------------------------------------- */
+struct gs_workspace {
+  int ready;                /* model part set up                                 */
   int info[64];
-  int* nb = NULL;
-  int* sched_off = NULL;
-  double* sched_s = NULL;
-  int nsched_total = 0;
-  int nx, np, nm, nsw, nsched, nA, i, j, k, rc, flag, is_break = 0, io = 0;
-  int pending_reinit = 0, need_ic = 0, stop_set = 0, first_solve = 1;
-  casadi_int mx[5] = {0, 0, 0, 0, 0};
-  double t, tb, tiny, *yv = NULL, *ypv = NULL;
-  long max_steps;
+  int nsched_total;
+  casadi_int mx[5];
+  gs_ud U;
+  gs_solver S;
+  int cfg_valid, cfg_nA, cfg_ida, cfg_method, cfg_blockdiag, cfg_nonlin;
+  int* nb;
+  int* sched_off;
+  double* sched_s;
+  SUNContext ctx;
+  FILE* warn_fp;
+  char* warn_buf;
+  size_t warn_len;
+  int n_out_fn;             /* outputs of gs_out (0: none)                       */
+};
+
+gs_workspace* gs_ws_new(void) { return (gs_workspace*)calloc(1, sizeof(gs_workspace)); }
+
+/* Free the SUNDIALS solver objects (vectors, matrix, solvers, integrator). */
+static void ws_free_solver(gs_workspace* ws) {
+  gs_solver* S = &ws->S;
+  if (S->mem) {
+    if (S->ida)
+      IDAFree(&S->mem);
+    else
+      CVodeFree(&S->mem);
+  }
+  if (S->LS) SUNLinSolFree(S->LS);
+  if (S->NLS) SUNNonlinSolFree(S->NLS);
+  if (S->A) SUNMatDestroy(S->A);
+  if (S->y) N_VDestroy(S->y);
+  if (S->yp) N_VDestroy(S->yp);
+  if (S->id) N_VDestroy(S->id);
+  memset(S, 0, sizeof(*S));
+  ws->cfg_valid = 0;
+}
+
+void gs_ws_free(gs_workspace* ws) {
+  gs_ud* ud;
+  if (!ws) return;
+  ud = &ws->U;
+  ws_free_solver(ws);
+  if (ws->ctx) SUNContext_Free(&ws->ctx);
+  if (ws->warn_fp) fclose(ws->warn_fp);
+  free(ws->warn_buf);
+  free((void*)ud->arg);
+  free(ud->resp);
+  free(ud->iw);
+  free(ud->w);
+  free(ud->nzbuf);
+  free(ud->m);
+  free(ud->m_alt);
+  free(ud->J);
+  free(ud->J2);
+  free(ud->f);
+  free(ud->f2);
+  free(ud->f3);
+  free(ud->g);
+  free(ud->G);
+  free(ud->gt);
+  free(ud->rootsfound);
+  free(ud->rootdir);
+  free(ws->nb);
+  free(ws->sched_off);
+  free(ws->sched_s);
+  free(ws);
+}
+
+/* Set up the model part of a workspace (once): metadata, the generated
+ * functions' shapes, work buffers, the SUNDIALS context.  Returns 0, or a
+ * status with the message in a. */
+static int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
+  gs_ud* ud = &ws->U;
+  int* info = ws->info;
+  casadi_int* mx = ws->mx;
+  int nx, np, nm, nsw, nsched, rc, k;
   char cmsg[512];
-  char lastwarn[300];
-  FILE* warn_fp = NULL;
-  char* warn_buf = NULL;
-  size_t warn_len = 0;
-  double hmin;
-
-  if (!a) return GS_ERR_INPUT;
-  memset(&U, 0, sizeof(U));
-  memset(&S, 0, sizeof(S));
-  memset(&L, 0, sizeof(L));
-  a->status = GS_OK;
-  a->errmsg[0] = '\0';
-  a->n_events = 0;
-  a->t_reached = a->t0;
-  a->n_steps = a->n_rhs = a->n_jac = a->n_root_evals = a->n_breaks = a->n_reinit = 0;
-
   /* ---- model metadata ---- */
+  memset(ud, 0, sizeof(*ud));
   if (!gs_model_info) return set_err(a, GS_ERR_INPUT, "the compiled model lacks gs_model_info");
   rc = gs_model_info(info, 64);
   if (rc < 6) return set_err(a, GS_ERR_INPUT, "gs_model_info failed (returned %d)", rc);
@@ -1186,6 +1243,156 @@ int gs_simulate(gs_sim_args* a) {
   ud->nm = nm;
   ud->nsw = nsw;
   ud->nsched = nsched;
+
+  /* ---- model functions ---- */
+  GS_FN_SETUP(ud->rhs, gs_rhs);
+  GS_FN_SETUP(ud->jac, gs_jac);
+  GS_FN_SETUP(ud->res, gs_res);
+  GS_FN_SETUP(ud->resjac, gs_resjac);
+  GS_FN_SETUP(ud->sw, gs_sw);
+  GS_FN_SETUP(ud->swx, gs_swx);
+  GS_FN_SETUP(ud->swt, gs_swt);
+  GS_FN_SETUP(ud->sched, gs_sched);
+  GS_FN_SETUP(ud->period, gs_period);
+  GS_FN_SETUP(ud->out, gs_out);
+  {
+    int s4[4] = {1, nx, np, nm};
+    int s5[5] = {1, nx, nx, np, nm};
+    int s6[6] = {1, nx, nx, np, nm, 1};
+    int s3[3] = {1, nx, np};
+    int s1[1] = {np};
+    int nbsum = 0;
+    for (k = 0; k < nsched; ++k) {
+      if (info[6 + k] < 1) return set_err(a, GS_ERR_INPUT, "schedule %d has %d breaks (need >= 1)", k, info[6 + k]);
+      nbsum += 1 + info[6 + k];
+    }
+    ws->nsched_total = nbsum;
+    cmsg[0] = '\0';
+#define GS_CHECK(FN, NAME, SIZES, NIN, NR, NC)                                                                  \
+  if (gs_fn_check(&ud->FN, NAME##_work, NAME##_n_in, NAME##_n_out, NAME##_sparsity_in, NAME##_sparsity_out, \
+                  SIZES, NIN, NR, NC, mx, cmsg, (int)sizeof(cmsg)))                                          \
+    return set_err(a, GS_ERR_INPUT, "%s", cmsg);
+    if (!ud->implicit) {
+      GS_CHECK(rhs, gs_rhs, s4, 4, nx, 1)
+      GS_CHECK(jac, gs_jac, s4, 4, nx, nx)
+    } else {
+      GS_CHECK(res, gs_res, s5, 5, nx, 1)
+      GS_CHECK(resjac, gs_resjac, s6, 6, nx, nx)
+    }
+    GS_CHECK(sw, gs_sw, s3, 3, nsw, 1)
+    GS_CHECK(swx, gs_swx, s3, 3, nsw, nx)
+    GS_CHECK(swt, gs_swt, s3, 3, nsw, 1)
+    GS_CHECK(sched, gs_sched, s1, 1, ws->nsched_total, 1)
+    if (ud->period.present) GS_CHECK(period, gs_period, s1, 1, 1, 1)
+    if (ud->out.present) {
+      const casadi_int* sp = gs_out_sparsity_out(0);
+      ws->n_out_fn = sp ? (int)sp[0] : 0;
+      GS_CHECK(out, gs_out, s4, 4, ws->n_out_fn, 1)
+    }
+#undef GS_CHECK
+  }
+
+  /* ---- work buffers (freed by gs_ws_free) ---- */
+  ud->arg = (const casadi_real**)calloc((size_t)mx[0] + 8, sizeof(casadi_real*));
+  ud->resp = (casadi_real**)calloc((size_t)mx[1] + 2, sizeof(casadi_real*));
+  ud->iw = (casadi_int*)calloc((size_t)mx[2] + 1, sizeof(casadi_int));
+  ud->w = (casadi_real*)calloc((size_t)mx[3] + 1, sizeof(casadi_real));
+  ud->nzbuf = (double*)calloc((size_t)mx[4] + 1, sizeof(double));
+  ud->m = (double*)calloc((size_t)nm + 1, sizeof(double));
+  ud->m_alt = (double*)calloc((size_t)nm + 1, sizeof(double));
+  ud->J = (double*)calloc((size_t)nx * nx, sizeof(double));
+  ud->J2 = (double*)calloc((size_t)nx * nx, sizeof(double));
+  ud->f = (double*)calloc((size_t)nx, sizeof(double));
+  ud->f2 = (double*)calloc((size_t)nx, sizeof(double));
+  ud->f3 = (double*)calloc((size_t)nx, sizeof(double));
+  ud->g = (double*)calloc((size_t)nsw + 1, sizeof(double));
+  ud->G = (double*)calloc((size_t)nsw * nx + 1, sizeof(double));
+  ud->gt = (double*)calloc((size_t)nsw + 1, sizeof(double));
+  ud->rootsfound = (int*)calloc((size_t)nsw + 1, sizeof(int));
+  ud->rootdir = (int*)calloc((size_t)nsw + 1, sizeof(int));
+  ws->nb = (int*)calloc((size_t)nsched + 1, sizeof(int));
+  ws->sched_off = (int*)calloc((size_t)nsched + 1, sizeof(int));
+  ws->sched_s = (double*)calloc((size_t)ws->nsched_total + 1, sizeof(double));
+  if (!ud->arg || !ud->resp || !ud->iw || !ud->w || !ud->nzbuf || !ud->m || !ud->m_alt || !ud->J || !ud->J2 ||
+      !ud->f || !ud->f2 || !ud->f3 || !ud->g || !ud->G || !ud->gt || !ud->rootsfound || !ud->rootdir || !ws->nb ||
+      !ws->sched_off || !ws->sched_s)
+    return set_err(a, GS_ERR_INPUT, "out of memory");
+
+  for (k = 0; k < nsched; ++k) ws->nb[k] = info[6 + k];
+
+  /* ---- SUNDIALS context ---- */
+  if (SUNContext_Create(SUN_COMM_NULL, &ws->ctx) != 0 || !ws->ctx) return set_err(a, GS_ERR_SOLVER, "SUNContext_Create failed");
+  SUNContext_ClearErrHandlers(ws->ctx);
+  SUNContext_PushErrHandler(ws->ctx, sun_err_handler, ud);
+  {
+    /* keep SUNDIALS' log output off stdout/stderr: errors arrive through
+     * sun_err_handler, warnings go to a memory stream quoted in messages */
+    SUNLogger logger = NULL;
+    if (SUNContext_GetLogger(ws->ctx, &logger) == 0 && logger) {
+      ws->warn_fp = open_memstream(&ws->warn_buf, &ws->warn_len);
+      SUNLogger_SetWarningFile(logger, ws->warn_fp);
+      SUNLogger_SetErrorFile(logger, NULL);
+      SUNLogger_SetInfoFile(logger, NULL);
+      SUNLogger_SetDebugFile(logger, NULL);
+    }
+  }
+  ws->ready = 1;
+  return 0;
+}
+
+int gs_simulate(gs_sim_args* a) {
+  gs_workspace* ws;
+  int rc;
+  if (!a) return GS_ERR_INPUT;
+  ws = gs_ws_new();
+  if (!ws) {
+    a->status = GS_ERR_INPUT;
+    snprintf(a->errmsg, sizeof(a->errmsg), "out of memory");
+    return a->status;
+  }
+  rc = gs_simulate_ws(ws, a);
+  gs_ws_free(ws);
+  return rc;
+}
+
+int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
+  gs_ud* ud;
+  gs_solver* S;
+  gs_evlog L;
+  gs_sched_data SD;
+  int* nb;
+  int* sched_off;
+  double* sched_s;
+  int nsched_total;
+  int nx, np, nsw, nsched, nA, i, j, k, rc, flag = 0, is_break = 0, io = 0;
+  int pending_reinit = 0, need_ic = 0, stop_set = 0, first_solve = 1, reuse;
+  double t, tb, tiny, *yv = NULL, *ypv = NULL;
+  long max_steps;
+  char lastwarn[300];
+  double hmin;
+
+  if (!a) return GS_ERR_INPUT;
+  memset(&L, 0, sizeof(L));
+  a->status = GS_OK;
+  a->errmsg[0] = '\0';
+  a->n_events = 0;
+  a->t_reached = a->t0;
+  a->n_steps = a->n_rhs = a->n_jac = a->n_root_evals = a->n_breaks = a->n_reinit = 0;
+  if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
+  if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
+  ud = &ws->U;
+  S = &ws->S;
+  nb = ws->nb;
+  sched_off = ws->sched_off;
+  sched_s = ws->sched_s;
+  nsched_total = ws->nsched_total;
+  nx = ud->nx;
+  np = ud->np;
+  nsw = ud->nsw;
+  nsched = ud->nsched;
+  ud->nf_seen = 0;
+  ud->sunmsg[0] = '\0';
+  if (ws->warn_fp) rewind(ws->warn_fp);
 
   /* ---- arguments ---- */
   if (a->method != GS_METHOD_BDF && a->method != GS_METHOD_ADAMS && a->method != GS_METHOD_IDA)
@@ -1240,6 +1447,8 @@ int gs_simulate(gs_sim_args* a) {
   nA = ud->nA;
   ud->p = a->p;
   ud->intr_fd = (a->check_interrupt && a->interrupt_fd >= 0) ? a->interrupt_fd : -1;
+  ud->interrupted = 0; /* per call (the workspace outlives an interrupted run) */
+  ud->intr_count = 0;
   if (ud->intr_fd >= 0) { /* discard bytes left from signals of earlier calls */
     unsigned char buf[64];
     while (read(ud->intr_fd, buf, sizeof(buf)) > 0) {
@@ -1252,98 +1461,21 @@ int gs_simulate(gs_sim_args* a) {
    * model becomes non-finite (steps of 1e-17 that never advance t) */
   hmin = 8.0 * DBL_EPSILON * fmax(fabs(a->t0), fabs(a->t_end));
 
-  /* ---- model functions ---- */
-  GS_FN_SETUP(ud->rhs, gs_rhs);
-  GS_FN_SETUP(ud->jac, gs_jac);
-  GS_FN_SETUP(ud->res, gs_res);
-  GS_FN_SETUP(ud->resjac, gs_resjac);
-  GS_FN_SETUP(ud->sw, gs_sw);
-  GS_FN_SETUP(ud->swx, gs_swx);
-  GS_FN_SETUP(ud->swt, gs_swt);
-  GS_FN_SETUP(ud->sched, gs_sched);
-  {
-    int s4[4] = {1, nx, np, nm};
-    int s5[5] = {1, nx, nx, np, nm};
-    int s6[6] = {1, nx, nx, np, nm, 1};
-    int s3[3] = {1, nx, np};
-    int s1[1] = {np};
-    int nbsum = 0;
-    for (k = 0; k < nsched; ++k) {
-      if (info[6 + k] < 1) return set_err(a, GS_ERR_INPUT, "schedule %d has %d breaks (need >= 1)", k, info[6 + k]);
-      nbsum += 1 + info[6 + k];
-    }
-    nsched_total = nbsum;
-    cmsg[0] = '\0';
-#define GS_CHECK(FN, NAME, SIZES, NIN, NR, NC)                                                                  \
-  if (gs_fn_check(&ud->FN, NAME##_work, NAME##_n_in, NAME##_n_out, NAME##_sparsity_in, NAME##_sparsity_out, \
-                  SIZES, NIN, NR, NC, mx, cmsg, (int)sizeof(cmsg)))                                          \
-    return set_err(a, GS_ERR_INPUT, "%s", cmsg);
-    if (!ud->implicit) {
-      GS_CHECK(rhs, gs_rhs, s4, 4, nx, 1)
-      GS_CHECK(jac, gs_jac, s4, 4, nx, nx)
-    } else {
-      GS_CHECK(res, gs_res, s5, 5, nx, 1)
-      GS_CHECK(resjac, gs_resjac, s6, 6, nx, nx)
-    }
-    GS_CHECK(sw, gs_sw, s3, 3, nsw, 1)
-    GS_CHECK(swx, gs_swx, s3, 3, nsw, nx)
-    GS_CHECK(swt, gs_swt, s3, 3, nsw, 1)
-    GS_CHECK(sched, gs_sched, s1, 1, nsched_total, 1)
-#undef GS_CHECK
-  }
-
-  /* ---- allocations (freed at `done`) ---- */
-  ud->arg = (const casadi_real**)calloc((size_t)mx[0] + 8, sizeof(casadi_real*));
-  ud->resp = (casadi_real**)calloc((size_t)mx[1] + 2, sizeof(casadi_real*));
-  ud->iw = (casadi_int*)calloc((size_t)mx[2] + 1, sizeof(casadi_int));
-  ud->w = (casadi_real*)calloc((size_t)mx[3] + 1, sizeof(casadi_real));
-  ud->nzbuf = (double*)calloc((size_t)mx[4] + 1, sizeof(double));
-  ud->m = (double*)calloc((size_t)nm + 1, sizeof(double));
-  ud->m_alt = (double*)calloc((size_t)nm + 1, sizeof(double));
-  ud->J = (double*)calloc((size_t)nx * nx, sizeof(double));
-  ud->J2 = (double*)calloc((size_t)nx * nx, sizeof(double));
-  ud->f = (double*)calloc((size_t)nx, sizeof(double));
-  ud->f2 = (double*)calloc((size_t)nx, sizeof(double));
-  ud->f3 = (double*)calloc((size_t)nx, sizeof(double));
-  ud->g = (double*)calloc((size_t)nsw + 1, sizeof(double));
-  ud->G = (double*)calloc((size_t)nsw * nx + 1, sizeof(double));
-  ud->gt = (double*)calloc((size_t)nsw + 1, sizeof(double));
-  ud->rootsfound = (int*)calloc((size_t)nsw + 1, sizeof(int));
-  ud->rootdir = (int*)calloc((size_t)nsw + 1, sizeof(int));
-  nb = (int*)calloc((size_t)nsched + 1, sizeof(int));
-  sched_off = (int*)calloc((size_t)nsched + 1, sizeof(int));
-  sched_s = (double*)calloc((size_t)nsched_total + 1, sizeof(double));
-  if (!ud->arg || !ud->resp || !ud->iw || !ud->w || !ud->nzbuf || !ud->m || !ud->m_alt || !ud->J || !ud->J2 ||
-      !ud->f || !ud->f2 || !ud->f3 || !ud->g || !ud->G || !ud->gt || !ud->rootsfound || !ud->rootdir || !nb ||
-      !sched_off || !sched_s) {
-    set_err(a, GS_ERR_INPUT, "out of memory");
-    goto done;
-  }
-
   /* ---- schedules ---- */
   {
     const double* in[1];
     int off = 0;
     in[0] = np ? a->p : ud->dummy;
-    if (nsched_total > 0 && gs_call(ud, &ud->sched, in, 1, sched_s)) {
-      set_err(a, GS_ERR_INPUT, "gs_sched failed");
-      goto done;
-    }
+    if (nsched_total > 0 && gs_call(ud, &ud->sched, in, 1, sched_s)) return set_err(a, GS_ERR_INPUT, "gs_sched failed");
     for (k = 0; k < nsched; ++k) {
       double P = sched_s[off];
-      nb[k] = info[6 + k];
       sched_off[k] = off;
-      if (!isfinite(P) || !(P > 0.0)) {
-        set_err(a, GS_ERR_INPUT, "schedule %d: period %g is not finite and > 0", k, P);
-        goto done;
-      }
+      if (!isfinite(P) || !(P > 0.0)) return set_err(a, GS_ERR_INPUT, "schedule %d: period %g is not finite and > 0", k, P);
       for (i = 0; i < nb[k]; ++i) {
         double c = sched_s[off + 1 + i];
-        if (!isfinite(c) || c < 0.0 || c >= 1.0 || (i == 0 && c != 0.0) || (i > 0 && !(c > sched_s[off + i]))) {
-          set_err(a, GS_ERR_INPUT,
-                  "schedule %d: break fractions must satisfy 0 = c_0 < c_1 < ... < 1 (c_%d = %g)", k, i, c);
-          goto done;
-        }
+        if (!isfinite(c) || c < 0.0 || c >= 1.0 || (i == 0 && c != 0.0) || (i > 0 && !(c > sched_s[off + i])))
+          return set_err(a, GS_ERR_INPUT,
+                         "schedule %d: break fractions must satisfy 0 = c_0 < c_1 < ... < 1 (c_%d = %g)", k, i, c);
       }
       off += 1 + nb[k];
     }
@@ -1353,61 +1485,59 @@ int gs_simulate(gs_sim_args* a) {
     SD.s = sched_s;
   }
 
-  /* ---- SUNDIALS objects ---- */
-  if (SUNContext_Create(SUN_COMM_NULL, &ctx) != 0 || !ctx) {
-    set_err(a, GS_ERR_SOLVER, "SUNContext_Create failed");
-    goto done;
-  }
-  SUNContext_ClearErrHandlers(ctx);
-  SUNContext_PushErrHandler(ctx, sun_err_handler, ud);
+  /* ---- SUNDIALS objects: reused when the configuration is the same ---- */
   {
-    /* keep SUNDIALS' log output off stdout/stderr: errors arrive through
-     * sun_err_handler, warnings go to a memory stream quoted in messages */
-    SUNLogger logger = NULL;
-    if (SUNContext_GetLogger(ctx, &logger) == 0 && logger) {
-      warn_fp = open_memstream(&warn_buf, &warn_len);
-      SUNLogger_SetWarningFile(logger, warn_fp);
-      SUNLogger_SetErrorFile(logger, NULL);
-      SUNLogger_SetInfoFile(logger, NULL);
-      SUNLogger_SetDebugFile(logger, NULL);
+    int blockdiag = ud->mono && a->nonlinear != GS_NONLIN_FIXEDPOINT && a->linear_solver != GS_LINSOL_DENSE;
+    reuse = ws->cfg_valid && ws->cfg_nA == nA && ws->cfg_ida == ud->use_ida && ws->cfg_method == a->method &&
+            ws->cfg_blockdiag == blockdiag && ws->cfg_nonlin == (a->nonlinear == GS_NONLIN_FIXEDPOINT);
+    if (!reuse) {
+      ws_free_solver(ws);
+      ws->cfg_nA = nA;
+      ws->cfg_ida = ud->use_ida;
+      ws->cfg_method = a->method;
+      ws->cfg_blockdiag = blockdiag;
+      ws->cfg_nonlin = (a->nonlinear == GS_NONLIN_FIXEDPOINT);
     }
+    ud->blockdiag = blockdiag;
   }
-  S.ida = ud->use_ida;
-  S.y = N_VNew_Serial((sunindextype)nA, ctx);
-  if (S.ida) {
-    S.yp = N_VNew_Serial((sunindextype)nA, ctx);
-    S.id = N_VNew_Serial((sunindextype)nA, ctx);
+  S->acc_steps = S->acc_rhs = S->acc_jac = S->acc_g = 0;
+  if (!reuse) {
+  S->ida = ud->use_ida;
+  S->y = N_VNew_Serial((sunindextype)nA, ws->ctx);
+  if (S->ida) {
+    S->yp = N_VNew_Serial((sunindextype)nA, ws->ctx);
+    S->id = N_VNew_Serial((sunindextype)nA, ws->ctx);
   }
   /* with the monodromy: the block-diagonal solver (one n x n factorisation for
    * all nx + 1 blocks) on an (n + n^2) x n matrix; else SUNDIALS' dense solver */
-  if (!S.y || (S.ida && (!S.yp || !S.id))) {
+  if (!S->y || (S->ida && (!S->yp || !S->id))) {
     set_err(a, GS_ERR_SOLVER, "could not allocate SUNDIALS vectors (n=%d): %s", nA, ud->sunmsg);
     goto done;
   }
   if (a->nonlinear == GS_NONLIN_FIXEDPOINT) {
-    S.NLS = SUNNonlinSol_FixedPoint(S.y, 0, ctx);
-    if (!S.NLS) {
+    S->NLS = SUNNonlinSol_FixedPoint(S->y, 0, ws->ctx);
+    if (!S->NLS) {
       set_err(a, GS_ERR_SOLVER, "creating the fixed-point solver failed: %s", ud->sunmsg);
       goto done;
     }
   } else {
-    int blockdiag = ud->mono && a->linear_solver != GS_LINSOL_DENSE;
-    S.A = SUNDenseMatrix((sunindextype)nA, (sunindextype)(blockdiag ? nx : nA), ctx);
-    if (!S.A) {
+    int blockdiag = ud->blockdiag;
+    S->A = SUNDenseMatrix((sunindextype)nA, (sunindextype)(blockdiag ? nx : nA), ws->ctx);
+    if (!S->A) {
       set_err(a, GS_ERR_SOLVER, "could not allocate the %dx%d system matrix: %s", nA, blockdiag ? nx : nA,
               ud->sunmsg[0] ? ud->sunmsg : "out of memory");
       goto done;
     }
-    ud->blockdiag = blockdiag;
-    S.LS = blockdiag ? bdls_new(nx, nx + 1, ctx) : SUNLinSol_Dense(S.y, S.A, ctx);
-    if (!S.LS) {
+    S->LS = blockdiag ? bdls_new(nx, nx + 1, ws->ctx) : SUNLinSol_Dense(S->y, S->A, ws->ctx);
+    if (!S->LS) {
       set_err(a, GS_ERR_SOLVER, "creating the linear solver failed: %s",
               ud->sunmsg[0] ? ud->sunmsg : "out of memory");
       goto done;
     }
   }
-  yv = N_VGetArrayPointer(S.y);
-  ypv = S.ida ? N_VGetArrayPointer(S.yp) : NULL;
+  }
+  yv = N_VGetArrayPointer(S->y);
+  ypv = S->ida ? N_VGetArrayPointer(S->yp) : NULL;
 
   /* ---- initial state, first interval, initial sides ---- */
   t = a->t0;
@@ -1424,53 +1554,61 @@ int gs_simulate(gs_sim_args* a) {
     }
     for (j = 0; j < nsw; ++j) ud->m[j] = a->sigma0 ? a->sigma0[j] : (ud->g[j] >= 0.0 ? 1.0 : -1.0);
   }
-  if (S.ida) memset(ypv, 0, sizeof(double) * (size_t)nA);
+  if (S->ida) memset(ypv, 0, sizeof(double) * (size_t)nA);
   rc = resolve_zero_surfaces(ud, &L, t, yv, ypv ? ypv : ud->f, a->sigma0 ? 0 : nsw);
   if (rc) goto done;
-  if (S.ida) {
+  if (S->ida) {
     /* consistent initial derivative as a starting guess; IDACalcIC refines it */
     if (eval_xdot(ud, t, yv, ud->m, ypv, ud->f3) == 0) memcpy(ypv, ud->f3, sizeof(double) * (size_t)nx);
-    N_VConst(1.0, S.id);
+    N_VConst(1.0, S->id);
   }
 
-  if (S.ida) {
-    S.mem = IDACreate(ctx);
-    if (!S.mem) {
+  if (reuse) {
+    flag = S->ida ? IDAReInit(S->mem, t, S->y, S->yp) : CVodeReInit(S->mem, t, S->y);
+    need_ic = S->ida;
+  } else if (S->ida) {
+    S->mem = IDACreate(ws->ctx);
+    if (!S->mem) {
       set_err(a, GS_ERR_SOLVER, "IDACreate failed: %s", ud->sunmsg);
       goto done;
     }
-    flag = IDAInit(S.mem, ida_res, t, S.y, S.yp);
-    if (!flag) flag = IDASStolerances(S.mem, a->rtol, a->atol);
-    if (!flag) flag = IDASetUserData(S.mem, ud);
-    if (!flag) flag = IDASetLinearSolver(S.mem, S.LS, S.A);
-    if (!flag) flag = IDASetJacFn(S.mem, ida_jac);
-    if (!flag) flag = IDASetId(S.mem, S.id);
-    if (!flag && a->max_step > 0.0) flag = IDASetMaxStep(S.mem, a->max_step);
-    if (!flag && hmin > 0.0) flag = IDASetMinStep(S.mem, hmin);
-    if (!flag && a->init_step > 0.0) flag = IDASetInitStep(S.mem, a->init_step);
-    if (!flag && nsw > 0) flag = IDARootInit(S.mem, nsw, ida_root);
-    if (!flag && nsw > 0) flag = IDASetNoInactiveRootWarn(S.mem);
+    flag = IDAInit(S->mem, ida_res, t, S->y, S->yp);
+    if (!flag) flag = IDASetUserData(S->mem, ud);
+    if (!flag) flag = IDASetLinearSolver(S->mem, S->LS, S->A);
+    if (!flag) flag = IDASetJacFn(S->mem, ida_jac);
+    if (!flag) flag = IDASetId(S->mem, S->id);
+    if (!flag && nsw > 0) flag = IDARootInit(S->mem, nsw, ida_root);
+    if (!flag && nsw > 0) flag = IDASetNoInactiveRootWarn(S->mem);
     need_ic = 1;
   } else {
-    S.mem = CVodeCreate(a->method == GS_METHOD_ADAMS ? CV_ADAMS : CV_BDF, ctx);
-    if (!S.mem) {
+    S->mem = CVodeCreate(a->method == GS_METHOD_ADAMS ? CV_ADAMS : CV_BDF, ws->ctx);
+    if (!S->mem) {
       set_err(a, GS_ERR_SOLVER, "CVodeCreate failed: %s", ud->sunmsg);
       goto done;
     }
-    flag = CVodeInit(S.mem, cv_rhs, t, S.y);
-    if (!flag) flag = CVodeSStolerances(S.mem, a->rtol, a->atol);
-    if (!flag) flag = CVodeSetUserData(S.mem, ud);
-    if (!flag && S.NLS) flag = CVodeSetNonlinearSolver(S.mem, S.NLS);
-    if (!flag && S.LS) flag = CVodeSetLinearSolver(S.mem, S.LS, S.A);
-    if (!flag && S.LS) flag = CVodeSetJacFn(S.mem, cv_jac);
-    if (!flag && a->max_step > 0.0) flag = CVodeSetMaxStep(S.mem, a->max_step);
-    if (!flag && hmin > 0.0) flag = CVodeSetMinStep(S.mem, hmin);
-    if (!flag && a->init_step > 0.0) flag = CVodeSetInitStep(S.mem, a->init_step);
-    if (!flag && nsw > 0) flag = CVodeRootInit(S.mem, nsw, cv_root);
-    if (!flag && nsw > 0) flag = CVodeSetNoInactiveRootWarn(S.mem);
+    flag = CVodeInit(S->mem, cv_rhs, t, S->y);
+    if (!flag) flag = CVodeSetUserData(S->mem, ud);
+    if (!flag && S->NLS) flag = CVodeSetNonlinearSolver(S->mem, S->NLS);
+    if (!flag && S->LS) flag = CVodeSetLinearSolver(S->mem, S->LS, S->A);
+    if (!flag && S->LS) flag = CVodeSetJacFn(S->mem, cv_jac);
+    if (!flag && nsw > 0) flag = CVodeRootInit(S->mem, nsw, cv_root);
+    if (!flag && nsw > 0) flag = CVodeSetNoInactiveRootWarn(S->mem);
+  }
+  if (!flag) ws->cfg_valid = 1;
+  /* per-call settings (a reused integrator keeps the last call's otherwise) */
+  if (S->ida) {
+    if (!flag) flag = IDASStolerances(S->mem, a->rtol, a->atol);
+    if (!flag) flag = IDASetMaxStep(S->mem, a->max_step > 0.0 ? a->max_step : 0.0);
+    if (!flag) flag = IDASetMinStep(S->mem, hmin > 0.0 ? hmin : 0.0);
+    if (!flag) flag = IDASetInitStep(S->mem, a->init_step > 0.0 ? a->init_step : 0.0);
+  } else {
+    if (!flag) flag = CVodeSStolerances(S->mem, a->rtol, a->atol);
+    if (!flag) flag = CVodeSetMaxStep(S->mem, a->max_step > 0.0 ? a->max_step : 0.0);
+    if (!flag) flag = CVodeSetMinStep(S->mem, hmin > 0.0 ? hmin : 0.0);
+    if (!flag) flag = CVodeSetInitStep(S->mem, a->init_step > 0.0 ? a->init_step : 0.0);
   }
   if (flag) {
-    set_err(a, GS_ERR_SOLVER, "solver setup failed: %s (%s)", slv_flagname(&S, flag), ud->sunmsg);
+    set_err(a, GS_ERR_SOLVER, "solver setup failed: %s (%s)", slv_flagname(S, flag), ud->sunmsg);
     goto done;
   }
 
@@ -1499,29 +1637,29 @@ int gs_simulate(gs_sim_args* a) {
     if (io < a->n_out && a->t_out[io] < tb - tiny) target = a->t_out[io];
 
     if (pending_reinit) {
-      slv_accumulate(&S);
+      slv_accumulate(S);
       if (nsw > 0) {
         for (j = 0; j < nsw; ++j) ud->rootdir[j] = ud->m[j] > 0.0 ? -1 : 1;
-        flag = S.ida ? IDASetRootDirection(S.mem, ud->rootdir) : CVodeSetRootDirection(S.mem, ud->rootdir);
+        flag = S->ida ? IDASetRootDirection(S->mem, ud->rootdir) : CVodeSetRootDirection(S->mem, ud->rootdir);
         if (flag) {
-          set_err(a, GS_ERR_SOLVER, "SetRootDirection failed: %s (%s)", slv_flagname(&S, flag), ud->sunmsg);
+          set_err(a, GS_ERR_SOLVER, "SetRootDirection failed: %s (%s)", slv_flagname(S, flag), ud->sunmsg);
           goto done;
         }
       }
-      if (S.ida) {
+      if (S->ida) {
         if (eval_xdot(ud, t, yv, ud->m, ypv, ud->f3) == 0) memcpy(ypv, ud->f3, sizeof(double) * (size_t)nx);
-        flag = IDAReInit(S.mem, t, S.y, S.yp);
+        flag = IDAReInit(S->mem, t, S->y, S->yp);
         need_ic = 1;
       } else {
-        flag = CVodeReInit(S.mem, t, S.y);
+        flag = CVodeReInit(S->mem, t, S->y);
       }
       if (flag) {
-        set_err(a, GS_ERR_SOLVER, "ReInit at t=%.17g failed: %s (%s)", t, slv_flagname(&S, flag), ud->sunmsg);
+        set_err(a, GS_ERR_SOLVER, "ReInit at t=%.17g failed: %s (%s)", t, slv_flagname(S, flag), ud->sunmsg);
         goto done;
       }
       if (!first_solve && a->init_step > 0.0) {
         /* the user's initial step applies to the very first start only */
-        flag = S.ida ? IDASetInitStep(S.mem, 0.0) : CVodeSetInitStep(S.mem, 0.0);
+        flag = S->ida ? IDASetInitStep(S->mem, 0.0) : CVodeSetInitStep(S->mem, 0.0);
         (void)flag;
       }
       a->n_reinit++;
@@ -1529,50 +1667,50 @@ int gs_simulate(gs_sim_args* a) {
       stop_set = 0;
     } else if (first_solve && nsw > 0) {
       for (j = 0; j < nsw; ++j) ud->rootdir[j] = ud->m[j] > 0.0 ? -1 : 1;
-      flag = S.ida ? IDASetRootDirection(S.mem, ud->rootdir) : CVodeSetRootDirection(S.mem, ud->rootdir);
+      flag = S->ida ? IDASetRootDirection(S->mem, ud->rootdir) : CVodeSetRootDirection(S->mem, ud->rootdir);
       if (flag) {
-        set_err(a, GS_ERR_SOLVER, "SetRootDirection failed: %s (%s)", slv_flagname(&S, flag), ud->sunmsg);
+        set_err(a, GS_ERR_SOLVER, "SetRootDirection failed: %s (%s)", slv_flagname(S, flag), ud->sunmsg);
         goto done;
       }
     }
     if (need_ic) {
       ud->nf_seen = 0;
-      flag = IDACalcIC(S.mem, IDA_YA_YDP_INIT, target);
-      if (!flag) flag = IDAGetConsistentIC(S.mem, NULL, S.yp);
+      flag = IDACalcIC(S->mem, IDA_YA_YDP_INIT, target);
+      if (!flag) flag = IDAGetConsistentIC(S->mem, NULL, S->yp);
       if (flag) {
         if (ud->nf_seen)
           set_err(a, GS_ERR_NONFINITE, "non-finite value in %s (component %d) at t=%.17g during IDACalcIC",
                   ud->nf_what, ud->nf_index, ud->nf_t);
         else
-          set_err(a, GS_ERR_SOLVER, "IDACalcIC at t=%.17g failed: %s (%s)", t, slv_flagname(&S, flag),
+          set_err(a, GS_ERR_SOLVER, "IDACalcIC at t=%.17g failed: %s (%s)", t, slv_flagname(S, flag),
                   ud->sunmsg);
         goto done;
       }
       need_ic = 0;
     }
     if (!stop_set) {
-      flag = S.ida ? IDASetStopTime(S.mem, tb) : CVodeSetStopTime(S.mem, tb);
+      flag = S->ida ? IDASetStopTime(S->mem, tb) : CVodeSetStopTime(S->mem, tb);
       if (flag) {
-        set_err(a, GS_ERR_SOLVER, "SetStopTime(%.17g) failed: %s (%s)", tb, slv_flagname(&S, flag), ud->sunmsg);
+        set_err(a, GS_ERR_SOLVER, "SetStopTime(%.17g) failed: %s (%s)", tb, slv_flagname(S, flag), ud->sunmsg);
         goto done;
       }
       stop_set = 1;
     }
-    remaining = max_steps - slv_total_steps(&S);
+    remaining = max_steps - slv_total_steps(S);
     if (remaining <= 0) {
       set_err(a, GS_ERR_TOO_MUCH_WORK, "max_steps=%ld internal steps exhausted at t=%.17g (t_end=%g)", max_steps, t,
               a->t_end);
       goto done;
     }
-    flag = S.ida ? IDASetMaxNumSteps(S.mem, remaining) : CVodeSetMaxNumSteps(S.mem, remaining);
+    flag = S->ida ? IDASetMaxNumSteps(S->mem, remaining) : CVodeSetMaxNumSteps(S->mem, remaining);
     first_solve = 0;
 
     ud->nf_seen = 0;
     ud->sunmsg[0] = '\0';
-    if (S.ida)
-      flag = IDASolve(S.mem, target, &tret, S.y, S.yp, IDA_NORMAL);
+    if (S->ida)
+      flag = IDASolve(S->mem, target, &tret, S->y, S->yp, IDA_NORMAL);
     else
-      flag = CVode(S.mem, target, S.y, &tret, CV_NORMAL);
+      flag = CVode(S->mem, target, S->y, &tret, CV_NORMAL);
 
     if (flag == CV_SUCCESS || flag == CV_WARNING) { /* == IDA_*: reached an output time */
       t = tret;
@@ -1582,16 +1720,16 @@ int gs_simulate(gs_sim_args* a) {
     } else if (flag == CV_ROOT_RETURN) { /* == IDA_ROOT_RETURN */
       const double* xdot_old;
       t = tret;
-      flag = S.ida ? IDAGetRootInfo(S.mem, ud->rootsfound) : CVodeGetRootInfo(S.mem, ud->rootsfound);
+      flag = S->ida ? IDAGetRootInfo(S->mem, ud->rootsfound) : CVodeGetRootInfo(S->mem, ud->rootsfound);
       if (flag) {
-        set_err(a, GS_ERR_SOLVER, "GetRootInfo failed: %s", slv_flagname(&S, flag));
+        set_err(a, GS_ERR_SOLVER, "GetRootInfo failed: %s", slv_flagname(S, flag));
         goto done;
       }
       if (eval_swfn(ud, &ud->swx, t, yv, ud->G) || eval_swfn(ud, &ud->swt, t, yv, ud->gt)) {
         set_err(a, GS_ERR_NONFINITE, "gs_swx/gs_swt failed at the event t=%.17g", t);
         goto done;
       }
-      if (S.ida) {
+      if (S->ida) {
         xdot_old = ypv; /* consistent xdot of the old mode at the root */
       } else {
         if (eval_rhs(ud, t, yv, ud->m, ud->f3)) {
@@ -1621,13 +1759,13 @@ int gs_simulate(gs_sim_args* a) {
         if (sp != speeds) free(sp);
         if (rc) goto done;
       }
-      rc = resolve_zero_surfaces(ud, &L, t, yv, S.ida ? ypv : ud->f3, 0);
+      rc = resolve_zero_surfaces(ud, &L, t, yv, S->ida ? ypv : ud->f3, 0);
       if (rc) goto done;
       pending_reinit = 1;
     } else {
       /* failure */
       t = tret;
-      last_warning(warn_fp, &warn_buf, &warn_len, lastwarn, (int)sizeof(lastwarn));
+      last_warning(ws->warn_fp, &ws->warn_buf, &ws->warn_len, lastwarn, (int)sizeof(lastwarn));
       if (flag == CV_TOO_MUCH_WORK) { /* == IDA_TOO_MUCH_WORK */
         set_err(a, GS_ERR_TOO_MUCH_WORK,
                 "too much work: max_steps=%ld internal steps exhausted at t=%.17g (t_end=%g)%s", max_steps, tret,
@@ -1637,10 +1775,10 @@ int gs_simulate(gs_sim_args* a) {
         if (ud->nf_state_index >= 0) snprintf(where, sizeof(where), "; state x[%d] is non-finite", ud->nf_state_index);
         set_err(a, GS_ERR_NONFINITE,
                 "non-finite value in %s, component %d, at t=%.17g%s (solver stopped at t=%.17g with %s)%s",
-                ud->nf_what, ud->nf_index, ud->nf_t, where, tret, slv_flagname(&S, flag), lastwarn);
+                ud->nf_what, ud->nf_index, ud->nf_t, where, tret, slv_flagname(S, flag), lastwarn);
       } else {
-        set_err(a, GS_ERR_SOLVER, "%s failed at t=%.17g: %s: %s%s", S.ida ? "IDASolve" : "CVode", tret,
-                slv_flagname(&S, flag), ud->sunmsg[0] ? ud->sunmsg : "(no message)", lastwarn);
+        set_err(a, GS_ERR_SOLVER, "%s failed at t=%.17g: %s: %s%s", S->ida ? "IDASolve" : "CVode", tret,
+                slv_flagname(S, flag), ud->sunmsg[0] ? ud->sunmsg : "(no message)", lastwarn);
       }
       goto done;
     }
@@ -1654,53 +1792,163 @@ int gs_simulate(gs_sim_args* a) {
   t = a->t_end;
 
 done:
-  if (ud->interrupted && a->status != GS_OK)
-    set_err(a, GS_ERR_INTERRUPTED, "interrupted (SIGINT) at t=%.17g", yv ? t : a->t0);
   if (yv) {
     memcpy(a->x_final, yv, sizeof(double) * (size_t)nx);
     a->t_reached = t;
   }
   if (a->sigma_final && ud->m)
     for (j = 0; j < nsw; ++j) a->sigma_final[j] = ud->m[j];
-  if (S.mem) {
-    slv_accumulate(&S);
-    a->n_steps = S.acc_steps;
-    a->n_rhs = S.acc_rhs;
-    a->n_jac = S.acc_jac;
-    a->n_root_evals = S.acc_g;
-    if (S.ida)
-      IDAFree(&S.mem);
-    else
-      CVodeFree(&S.mem);
+  if (S->mem) {
+    slv_accumulate(S);
+    a->n_steps = S->acc_steps;
+    a->n_rhs = S->acc_rhs;
+    a->n_jac = S->acc_jac;
+    a->n_root_evals = S->acc_g;
   }
-  if (S.LS) SUNLinSolFree(S.LS);
-  if (S.NLS) SUNNonlinSolFree(S.NLS);
-  if (S.A) SUNMatDestroy(S.A);
-  if (S.y) N_VDestroy(S.y);
-  if (S.yp) N_VDestroy(S.yp);
-  if (S.id) N_VDestroy(S.id);
-  if (ctx) SUNContext_Free(&ctx);
-  if (warn_fp) fclose(warn_fp);
-  free(warn_buf);
-  free((void*)ud->arg);
-  free(ud->resp);
-  free(ud->iw);
-  free(ud->w);
-  free(ud->nzbuf);
-  free(ud->m);
-  free(ud->m_alt);
-  free(ud->J);
-  free(ud->J2);
-  free(ud->f);
-  free(ud->f2);
-  free(ud->f3);
-  free(ud->g);
-  free(ud->G);
-  free(ud->gt);
-  free(ud->rootsfound);
-  free(ud->rootdir);
-  free(nb);
-  free(sched_off);
-  free(sched_s);
+  /* a failed integrator is rebuilt by the next call rather than trusted */
+  if (a->status != GS_OK) ws_free_solver(ws);
   return a->status;
+}
+
+/* --------------------------------------------------------------------------
+ * Evaluating the generated functions from the caller (no integration): the
+ * forcing period, and switching functions, outputs, right-hand side or
+ * Jacobian at many points with the mode the driver would use there (sides
+ * from the signs of g unless given, schedule segment from t).  Lets Python
+ * avoid CasADi's own Python calls on hot paths.
+ * -------------------------------------------------------------------------- */
+static int ws_ready(gs_workspace* ws, char* msg, int len) {
+  gs_sim_args a;
+  if (!ws) {
+    snprintf(msg, (size_t)len, "no workspace");
+    return -1;
+  }
+  if (ws->ready) return 0;
+  memset(&a, 0, sizeof(a));
+  if (ws_model_setup(ws, &a)) {
+    snprintf(msg, (size_t)len, "%s", a.errmsg);
+    return -1;
+  }
+  return 0;
+}
+
+int gs_eval_period(gs_workspace* ws, const double* p, double* T, char* msg, int len) {
+  gs_ud* ud;
+  const double* in[1];
+  if (ws_ready(ws, msg, len)) return -1;
+  ud = &ws->U;
+  if (!ud->period.present) {
+    *T = NAN;
+    return 0; /* no forcing period (an autonomous or test model) */
+  }
+  in[0] = ud->np ? p : ud->dummy;
+  if (gs_call(ud, &ud->period, in, 1, T)) {
+    snprintf(msg, (size_t)len, "gs_period failed");
+    return -1;
+  }
+  return 0;
+}
+
+int gs_n_outputs(gs_workspace* ws) {
+  char msg[256];
+  if (ws_ready(ws, msg, (int)sizeof(msg))) return -1;
+  return ws->n_out_fn;
+}
+
+/* Schedule part of the mode at time t (n_k, seg_k) from the schedule vector s. */
+static void sched_modes_at(gs_workspace* ws, const double* s, double t, double* m) {
+  gs_ud* ud = &ws->U;
+  int k, off = 0;
+  for (k = 0; k < ud->nsched; ++k) {
+    gs_sched_data sd;
+    int nbk = ws->nb[k], zero = 0;
+    sd.nsched = 1;
+    sd.nb = &nbk;
+    sd.off = &zero;
+    sd.s = s + off;
+    sched_mode_at(&sd, 0, t, &m[2 * k], &m[2 * k + 1]);
+    off += 1 + nbk;
+  }
+}
+
+int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p, const double* sigma,
+            double* out, char* msg, int len) {
+  gs_ud* ud;
+  int i, j, nx, nsw, nout;
+  double* m;
+  double* s;
+  const double* in[4];
+  const gs_fn* f;
+  if (ws_ready(ws, msg, len)) return -1;
+  ud = &ws->U;
+  nx = ud->nx;
+  nsw = ud->nsw;
+  if (fn == GS_EVAL_SW) {
+    f = &ud->sw;
+    nout = nsw;
+  } else if (fn == GS_EVAL_OUT) {
+    f = &ud->out;
+    nout = ws->n_out_fn;
+  } else if (fn == GS_EVAL_RHS) {
+    f = &ud->rhs;
+    nout = nx;
+  } else if (fn == GS_EVAL_JAC) {
+    f = &ud->jac;
+    nout = nx * nx;
+  } else if (fn == GS_EVAL_MODE) {
+    f = NULL;
+    nout = ud->nm;
+  } else {
+    snprintf(msg, (size_t)len, "unknown function code %d", fn);
+    return -1;
+  }
+  if (f && !f->present) {
+    snprintf(msg, (size_t)len, "the compiled model has no %s", f->name ? f->name : "such function");
+    return -1;
+  }
+  if (n < 0 || !t || !x || (ud->np > 0 && !p) || (nout > 0 && !out)) {
+    snprintf(msg, (size_t)len, "bad arguments");
+    return -1;
+  }
+  ud->p = p; /* eval_swfn reads the parameters from ud */
+  s = ws->sched_s;
+  if (ws->nsched_total > 0) {
+    in[0] = ud->np ? p : ud->dummy;
+    if (gs_call(ud, &ud->sched, in, 1, s)) {
+      snprintf(msg, (size_t)len, "gs_sched failed");
+      return -1;
+    }
+  }
+  m = ud->m_alt;
+  for (i = 0; i < n; ++i) {
+    const double* xi = x + (size_t)i * nx;
+    double ti = t[i];
+    if (fn == GS_EVAL_SW) {
+      if (eval_swfn(ud, &ud->sw, ti, xi, out + (size_t)i * nsw)) goto fail;
+      continue;
+    }
+    /* mode at (t_i, x_i): sides given or from the signs of g, schedule segment from t */
+    if (nsw > 0) {
+      if (sigma) {
+        for (j = 0; j < nsw; ++j) m[j] = sigma[(size_t)i * nsw + j];
+      } else {
+        if (eval_swfn(ud, &ud->sw, ti, xi, ud->g)) goto fail;
+        for (j = 0; j < nsw; ++j) m[j] = ud->g[j] >= 0.0 ? 1.0 : -1.0;
+      }
+    }
+    sched_modes_at(ws, s, ti, m + nsw);
+    if (fn == GS_EVAL_MODE) {
+      memcpy(out + (size_t)i * nout, m, sizeof(double) * (size_t)nout);
+      continue;
+    }
+    in[0] = &ti;
+    in[1] = xi;
+    in[2] = ud->np ? p : ud->dummy;
+    in[3] = ud->nm ? m : ud->dummy;
+    if (gs_call(ud, f, in, 4, out + (size_t)i * nout)) goto fail;
+  }
+  return 0;
+fail:
+  snprintf(msg, (size_t)len, "evaluation of %s failed at point %d", f ? f->name : "the mode", i);
+  return -1;
 }
