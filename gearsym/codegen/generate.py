@@ -196,13 +196,13 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
         tr.symbols.update({s: xd[i] for i, s in enumerate(xd_syms)})
         r = tr.matrix(model.residual(xd_syms))
         fns["gs_res"] = ca.Function("gs_res", [t, x, xd, p, m], [r], ["t", "x", "xd", "p", "m"], ["r"])
-        jr = ca.densify(ca.jacobian(r, x) + cj * ca.jacobian(r, xd))
+        jr = ca.jacobian(r, x) + cj * ca.jacobian(r, xd)  # sparse: the driver densifies
         fns["gs_resjac"] = ca.Function("gs_resjac", [t, x, xd, p, m, cj], [jr],
                                        ["t", "x", "xd", "p", "m", "cj"], ["Jr"])
         # the explicit right-hand side is still useful from Python (plots, checks)
     g = ca.vertcat(*[tr(s.expr) for s in model.switching]) if nsw else ca.SX(0, 1)
     fns["gs_sw"] = ca.Function("gs_sw", [t, x, p], [g], ["t", "x", "p"], ["g"])
-    fns["gs_swx"] = ca.Function("gs_swx", [t, x, p], [ca.densify(ca.jacobian(g, x))], ["t", "x", "p"], ["G"])
+    fns["gs_swx"] = ca.Function("gs_swx", [t, x, p], [ca.jacobian(g, x)], ["t", "x", "p"], ["G"])  # sparse
     fns["gs_swt"] = ca.Function("gs_swt", [t, x, p], [ca.densify(ca.jacobian(g, t))], ["t", "x", "p"], ["gt"])
     sched = []
     for s in model.schedules:
@@ -234,7 +234,7 @@ _DOCS = {
     "gs_rhs": "first-order right-hand side xdot = f(t, x, p, m) in the mode m",
     "gs_jac": "Jacobian d f / d x (sparse, CasADi compressed-column)",
     "gs_res": "implicit residual r = [q' - v; M(q) v' - F(t, q, v, p, m)]",
-    "gs_resjac": "dr/dx + cj * dr/dxd (dense, column-major), for IDA's Newton iteration",
+    "gs_resjac": "dr/dx + cj * dr/dxd (sparse), for IDA's Newton iteration",
     "gs_sw": "switching functions g(t, x, p) (events at their zeros)",
     "gs_swx": "d g / d x, for saltation matrices",
     "gs_swt": "d g / d t, for saltation matrices",
@@ -325,8 +325,9 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], staging
     (staging / "gs_model.h").write_text(h_text)
     built = staging / "gs_model.so"
     try:
-        engine_build.build_shared_object([Path("gs_model.c"), ENGINE_DIR / "gs_driver.c"],
-                                         [Path("."), ENGINE_DIR], built, cwd=staging)
+        driver = engine_build.driver_object(engine_build.driver_cache_dir(staging.parent / ".driver"))
+        engine_build.build_shared_object([Path("gs_model.c"), driver], [Path("."), ENGINE_DIR], built, cwd=staging,
+                                         extra_cflags=engine_build.model_cflags(len(c_text)))
         digest = engine_build.file_sha256(built)
         so = staging / f"gs_{digest[:16]}.so"
         built.rename(so)
