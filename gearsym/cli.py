@@ -413,6 +413,51 @@ def cmd_continue(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_modes(args: argparse.Namespace) -> int:
+    """Natural frequencies and mode shapes about the static equilibrium (mean mesh stiffness)."""
+    from .analysis.modes import modal_analysis
+    from .analysis.planetary import classify_planetary
+
+    if args.samples < 1:
+        raise ParameterError(f"--samples must be >= 1, got {args.samples}")
+    scene = _load(args)
+    system = scene.compile()
+    res = classify_planetary(modal_analysis(system, samples=args.samples))
+    info: dict[str, Any] = {"scene": scene.name, **res.to_dict()}
+    if args.json:
+        _emit(info)
+        return 0
+    names = res.coordinate_names
+    print(f"{scene.name}: {res.n_modes} modes of the linearisation about the static equilibrium "
+          f"(mean stiffness over {res.info['samples']} samples per forcing period)")
+    if res.contact:
+        lost = {k: v for k, v in res.contact.items() if v != "drive"}
+        print("  contact at equilibrium: " + ("all meshes in drive-side contact" if not lost else
+                                              ", ".join(f"{k} {v}" for k, v in res.contact.items())))
+    if not res.symmetric:
+        print("  (no diagonal mass symmetrises the stiffness: eigenvalues of M^-1 K, no damping ratios)")
+    head = f"  {'mode':>4s} {'f [Hz]':>12s} {'mult':>4s} {'damping':>8s}"
+    if res.classification:
+        head += f"  {'type':13s}"
+    print(head + "  largest components")
+    for k in range(res.n_modes):
+        shape = res.shapes[k]
+        big = np.argsort(-np.abs(shape))[:3]
+        row = f"  {k + 1:4d} {res.frequencies_hz[k]:12.2f} {res.multiplicities[k]:4d} "
+        z = res.damping_ratios[k]
+        row += f"{z:8.4f}" if math.isfinite(z) else f"{'-':>8s}"
+        if res.classification:
+            row += f"  {res.classification[k]:13s}"
+        print(row + "  " + ", ".join(f"{names[i]} {shape[i]:+.3f}" for i in big))
+    st = res.info.get("structure")
+    if st:
+        g = st["groups"]
+        print(f"  Lin & Parker structure ({st['n_planets']} planets): {g['rotational']} rotational, "
+              f"{g['translational']} translational, {g['planet']} planet, {g['mixed']} mixed groups: "
+              + ("holds" if st["lin_parker"] else "does NOT hold"))
+    return 0
+
+
 def _float_list(text: str, what: str) -> list[float]:
     try:
         return [float(v) for v in text.split(",")]
@@ -620,6 +665,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--atol", type=float, help="integrator absolute tolerance (default 1e-13)")
     p.add_argument("--out", help="folder for orbit.json, orbit_phase.png, orbit_multipliers.png")
     p.set_defaults(func=cmd_orbit)
+
+    p = sub.add_parser("modes", help="natural frequencies and mode shapes about the static equilibrium "
+                       "(mean mesh stiffness)")
+    _scene_args(p)
+    p.add_argument("--samples", type=int, default=32,
+                   help="samples per forcing period for the mean stiffness and loads (default 32)")
+    p.set_defaults(func=cmd_modes)
 
     p = sub.add_parser("map", help="two-parameter stability / response map (netCDF + heat map)")
     _scene_args(p)
