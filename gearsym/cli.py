@@ -350,6 +350,8 @@ def cmd_continue(args: argparse.Namespace) -> int:
             raise ParameterError(f"--x0: expected comma-separated numbers, got '{args.x0}'") from None
     if args.rtol is not None:
         kw["rtol"] = args.rtol
+    if args.atol is not None:
+        kw["atol"] = args.atol
     if args.harmonics is not None:
         kw["harmonics"] = args.harmonics
     if args.ds_max is not None:
@@ -647,6 +649,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ds-max", type=float, help="largest step in scaled arclength (default 0.02)")
     p.add_argument("--max-points", type=int, default=5000, help="limit on branch points (default 5000)")
     p.add_argument("--rtol", type=float, help="integrator relative tolerance (default 1e-10)")
+    p.add_argument("--atol", type=float, help="integrator absolute tolerance (default: rtol/100 of the smallest "
+                   "state magnitude on the orbit; give it for SI models)")
     p.add_argument("--x0", help="initial guess of the orbit's state at t = 0, comma-separated")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.add_argument("--out", help="folder for branch.json, response.png, multipliers.png")

@@ -25,6 +25,7 @@ import numpy as np
 import pytest
 
 import gearsym
+from gearsym.analysis.continuation import continuation
 from gearsym.analysis.modes import diagonal_mass, modal_analysis
 from gearsym.analysis.planetary import classify_planetary, planetary_layout
 from gearsym.cli import main
@@ -168,6 +169,27 @@ def test_contact_loss_scene(system4):
     assert not any(e.surface.endswith(".back") for e in tr.events)
     calm = system4.simulate(periods=40, rtol=1e-8, atol=1e-14)
     assert calm.events == []
+
+
+def test_continuation_with_vanishing_states(system4):
+    """Regression: the centre translations vanish on this orbit (only planet modes are
+    excited); their state scale (1e-12 of the largest) made the continuation corrector
+    chase integration noise ("corrector: Newton diverges") whatever atol was given.
+    The branch points are checked against independent shooting solves."""
+    lost = gearsym.load_scene(ROOT / "scenes" / "planetary_n4_contact_loss.toml")
+    params = {"T_s": lost.resolved.values["T_s"]}
+    f0 = lost.resolved.values["f_m"]
+    orb = system4.periodic_orbit(x0=lost.initial_state(), params={**params, "f_m": f0}, transient=20,
+                                 atol=1e-13)
+    assert orb.rattle_state == 1 and len(orb.events) == 16  # 8 meshes leave and regain contact
+    br = continuation(system4, "f_m", f0, f0 + 60.0, orbit=orb, params=params, max_points=3, rtol=1e-10,
+                      atol=1e-13, progress=False)
+    assert len(br.points) == 3 and br.values[-1] > f0
+    last = br.points[-1]
+    ref = system4.periodic_orbit(x0=last.x0, params={**params, "f_m": float(br.values[-1])}, atol=1e-13)
+    scale = np.max(np.abs(ref.trajectory().y), axis=0)
+    assert np.all(np.abs(last.x0 - ref.x0) <= 1e-6 * scale + 1e-12)  # + noise of the vanishing states
+    assert [p.rattle_state for p in br.points] == [1, 1, 1]
 
 
 def test_diagonal_mass_recovery():
