@@ -234,8 +234,8 @@ def child_run(case: str, work: Path, solver: str, dense_max: int, orbit_max: int
                           "us_per_step": 1e6 * r["best_s"] / max(tr.stats["n_steps"], 1)}
     x1, t1 = tr.x_final, 100 * T
 
-    def one(mono: bool, linsol: str = "auto"):
-        return system.simulate(t0=t1, t_end=t1 + T, x0=x1, rtol=rtol, atol=atol, n_out=2, monodromy=mono,
+    def one(mono: bool, linsol: str = "auto", tols: tuple[float, float] = (rtol, atol)):
+        return system.simulate(t0=t1, t_end=t1 + T, x0=x1, rtol=tols[0], atol=tols[1], n_out=2, monodromy=mono,
                                linear_solver=linsol)
 
     r = _timed(lambda: one(False))
@@ -246,6 +246,13 @@ def child_run(case: str, work: Path, solver: str, dense_max: int, orbit_max: int
                          "n_events": r["result"].stats["n_events"]}
     out["monodromy_ratio"] = out["monodromy1"]["best_s"] / out["plain1"]["best_s"]
     out["monodromy_ratio_cpu"] = out["monodromy1"]["cpu_best_s"] / max(out["plain1"]["cpu_best_s"], 1e-9)
+    # the same at the orbit solve's (tighter) tolerances: the variational states share atol
+    otol = (fam["orbit"]["rtol"], fam["orbit"]["atol"])
+    rp = _timed(lambda: one(False, tols=otol))
+    rm = _timed(lambda: one(True, tols=otol))
+    out["plain1_orbit_tol"] = {**_strip(rp), "n_steps": rp["result"].stats["n_steps"]}
+    out["monodromy1_orbit_tol"] = {**_strip(rm), "n_steps": rm["result"].stats["n_steps"]}
+    out["monodromy_ratio_orbit_tol"] = rm["best_s"] / rp["best_s"]
     if solver == "newton" and n <= dense_max:
         r = _timed(lambda: one(True, "dense"), budget=0.3, max_repeats=3)
         Md = r["result"].monodromy
@@ -411,17 +418,17 @@ def plot(data: dict[str, Any], path: Path) -> Path:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=6.5, loc="upper left")
     ax = axes[1]
-    for solver, ls, mk in (("newton", "-", "o"), ("fixedpoint", "--", "s")):
-        xs, ys = [], []
-        for e in data["cases"]:
-            r = e.get(solver, {})
-            if r and "monodromy_ratio" in r:
-                xs.append(r["states"])
-                ys.append(r["monodromy_ratio"])
-        if xs:
-            order = sorted(range(len(xs)), key=lambda i: xs[i])
-            ax.loglog([xs[i] for i in order], [ys[i] for i in order], ls=ls, marker=mk, ms=4,
-                      label=f"one-period monodromy / plain ({solver})")
+    for k, (solver, ls, mk) in enumerate((("newton", "-", "o"), ("fixedpoint", "--", "s"))):
+        for key, lw, what in (("monodromy_ratio", 1.5, "sim. tol."), ("monodromy_ratio_orbit_tol", 0.8,
+                                                                       "orbit tol.")):
+            for family, style in (("chain", ls), ("planetary", "none")):
+                pts = sorted((e[solver]["states"], e[solver][key]) for e in data["cases"]
+                             if e["case"].startswith(family) and key in e.get(solver, {}))
+                if pts:
+                    ax.loglog([p[0] for p in pts], [p[1] for p in pts], ls=style, lw=lw, marker=mk if
+                              family == "chain" else "*", ms=4 if family == "chain" else 9, color=colors[k],
+                              alpha=1.0 if key == "monodromy_ratio" else 0.5,
+                              label=f"{family}, {solver}, {what}")
     xs, ys = [], []
     for e in data["cases"]:
         d = e.get("newton", {}).get("monodromy1_dense")
@@ -429,14 +436,14 @@ def plot(data: dict[str, Any], path: Path) -> Path:
             xs.append(e["newton"]["states"])
             ys.append(d["best_s"] / e["newton"]["plain1"]["best_s"])
     if xs:
-        ax.loglog(xs, ys, "k:", marker="^", ms=4, label="dense (n + n^2) Newton / plain")
+        ax.loglog(xs, ys, "k:", marker="^", ms=4, label="dense (n + n^2) Newton, sim. tol.")
     nn = [2, 150]
     ax.loglog(nn, [n + 1 for n in nn], color="0.5", lw=1, label="n + 1")
     ax.set_xlabel("states n")
     ax.set_ylabel("ratio")
-    ax.set_title("monodromy cost in plain one-period integrations")
+    ax.set_title("one-period monodromy / plain one-period integration")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=6)
     ax = axes[2]
     for solver, ls in (("newton", "-"), ("fixedpoint", "--")):
         xs, ys = _series(data, "chain", "monodromy peak RSS", solver)
@@ -478,12 +485,12 @@ def markdown(data: dict[str, Any]) -> str:
          f"{env['loadavg'][0]:.1f} at the start), Python {env['python']}, numpy {env['numpy']}, casadi "
          f"{env['casadi']}, gearsym {env['gearsym']}.  Wall times are best of repeats; compare within a row.",
          "", "| model | states | surfaces | derive | cold compile | solver | simulate 100 T | us/step "
-         "| plain 1 T | monodromy 1 T | ratio (n + 1) | dense monodromy | orbit | continuation step "
-         "| peak RSS monodromy / orbit |", "|---" * 15 + "|"]
+         "| plain 1 T | monodromy 1 T | ratio (n + 1) | ratio at orbit tol. | dense monodromy | orbit "
+         "| continuation step | peak RSS monodromy / orbit |", "|---" * 16 + "|"]
     for e in data["cases"]:
         b = e["build"]
         if "failed" in b:
-            L.append(f"| {e['case']} | build failed: {b['failed']} |" + " |" * 13)
+            L.append(f"| {e['case']} | build failed: {b['failed']} |" + " |" * 14)
             continue
         first = True
         for s in data["settings"]["solvers"]:
@@ -494,7 +501,7 @@ def markdown(data: dict[str, Any]) -> str:
                     f"({_f(b.get('compile_cpu_s'))} cpu) " if first else "| | | | | ")
             first = False
             if "failed" in r:
-                L.append(head + f"| {s} | failed: {r['failed']} |" + " |" * 8)
+                L.append(head + f"| {s} | failed: {r['failed']} |" + " |" * 9)
                 continue
             d = r.get("monodromy1_dense")
             o, c = r.get("orbit"), r.get("continuation_step")
@@ -503,6 +510,7 @@ def markdown(data: dict[str, Any]) -> str:
             L.append(head + f"| {s} | {_f(r['simulate100']['best_s'])} | {r['simulate100']['us_per_step']:.2g} "
                      f"| {_f(r['plain1']['best_s'])} | {_f(r['monodromy1']['best_s'])} "
                      f"| {r['monodromy_ratio']:.1f} ({b['states'] + 1}) "
+                     f"| {_f(r.get('monodromy_ratio_orbit_tol'), '')} "
                      f"| {_f(d['best_s']) if d else '-'} "
                      f"| {_f(o['best_s']) + ' (' + _f(o['cpu_best_s']) + ' cpu)' if o else '-'} "
                      f"| {_f(c['best_s']) if c else '-'} | {mem} |")
