@@ -344,20 +344,36 @@ def summary_line(e: dict[str, Any]) -> str:
 
 
 # -------------------------------------------------------------------- exponents
+def _cpu(r: dict, key: str) -> float | None:
+    return r.get(key, {}).get("cpu_best_s")
+
+
+#: the quantities of the plot, the exponents and the table: CPU seconds (on a shared machine
+#: wall times carry the other users' load; the JSON has both)
 METRICS: dict[str, tuple[str, Callable[[dict], float | None]]] = {
-    "derive": ("build", lambda b: b.get("derive_s")),
-    "cold compile": ("build", lambda b: b.get("compile_s")),
-    "simulate 100 periods": ("run", lambda r: r.get("simulate100", {}).get("best_s")),
-    "one-period monodromy": ("run", lambda r: r.get("monodromy1", {}).get("best_s")),
-    "orbit solve": ("run", lambda r: r.get("orbit", {}).get("best_s")),
-    "continuation step": ("run", lambda r: r.get("continuation_step", {}).get("best_s")),
+    "derive": ("build", lambda b: b.get("derive_cpu_s")),
+    "cold compile": ("build", lambda b: b.get("compile_cpu_s")),
+    "simulate 100 periods": ("run", lambda r: _cpu(r, "simulate100")),
+    "one-period monodromy": ("run", lambda r: _cpu(r, "monodromy1")),
+    "orbit solve": ("run", lambda r: _cpu(r, "orbit")),
+    "continuation step": ("run", lambda r: _cpu(r, "continuation_step")),
     "monodromy peak RSS": ("run", lambda r: r.get("monodromy1", {}).get("peak_rss_mb")),
 }
 
 
+def ratios(r: dict[str, Any], suffix: str = "") -> dict[str, float] | None:
+    """Monodromy against plain one-period integration (CPU): total, steps, per step."""
+    p, m = r.get("plain1" + suffix), r.get("monodromy1" + suffix)
+    if not p or not m or not p.get("cpu_best_s"):
+        return None
+    total = m["cpu_best_s"] / p["cpu_best_s"]
+    steps = m["n_steps"] / max(p["n_steps"], 1)
+    return {"total": total, "steps": steps, "per_step": total / steps}
+
+
 def _series(data: dict[str, Any], family: str, metric: str, solver: str) -> tuple[list[int], list[float]]:
     where, get = METRICS[metric]
-    xs, ys = [], []
+    pts = []
     for e in data["cases"]:
         b = e.get("build", {})
         if "failed" in b or not e["case"].startswith(family):
@@ -365,13 +381,13 @@ def _series(data: dict[str, Any], family: str, metric: str, solver: str) -> tupl
         src = b if where == "build" else e.get(solver, {})
         v = get(src) if src and "failed" not in src else None
         if v is not None and v > 0:
-            xs.append(b["states"])
-            ys.append(float(v))
-    return xs, ys
+            pts.append((b["states"], float(v)))
+    pts.sort()
+    return [p[0] for p in pts], [p[1] for p in pts]
 
 
 def exponents(data: dict[str, Any], n_min: int = 10) -> dict[str, Any]:
-    """Slopes of log(cost) vs log(states) over the chains with >= n_min states."""
+    """Slopes of log(CPU cost) vs log(states) over the chains with >= n_min states."""
     import numpy as np
 
     out: dict[str, Any] = {}
@@ -392,14 +408,15 @@ def exponents(data: dict[str, Any], n_min: int = 10) -> dict[str, Any]:
 
 # ------------------------------------------------------------------------ output
 def plot(data: dict[str, Any], path: Path) -> Path:
+    """Three panels: CPU cost against states, monodromy/plain ratios, peak memory."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 3, figsize=(17, 5.2))
-    ax = axes[0]
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    ax = axes[0]
     for k, metric in enumerate(["derive", "cold compile", "simulate 100 periods", "one-period monodromy",
                                 "orbit solve", "continuation step"]):
         for solver, ls in (("newton", "-"), ("fixedpoint", "--")):
@@ -413,35 +430,35 @@ def plot(data: dict[str, Any], path: Path) -> Path:
             if xs:
                 ax.loglog(xs, ys, marker="*" if solver == "newton" else "x", ls="none", ms=9, color=colors[k])
     ax.set_xlabel("states n")
-    ax.set_ylabel("wall seconds (best of repeats)")
-    ax.set_title("cost against model size (lines: chains, stars/crosses: planetary)")
+    ax.set_ylabel("CPU seconds (best of repeats)")
+    ax.set_title("cost against model size (lines: chains; stars, crosses: planetary)", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=6.5, loc="upper left")
     ax = axes[1]
     for k, (solver, ls, mk) in enumerate((("newton", "-", "o"), ("fixedpoint", "--", "s"))):
-        for key, lw, what in (("monodromy_ratio", 1.5, "sim. tol."), ("monodromy_ratio_orbit_tol", 0.8,
-                                                                       "orbit tol.")):
-            for family, style in (("chain", ls), ("planetary", "none")):
-                pts = sorted((e[solver]["states"], e[solver][key]) for e in data["cases"]
-                             if e["case"].startswith(family) and key in e.get(solver, {}))
+        for what, lw, alpha in (("total", 1.5, 1.0), ("per_step", 0.8, 0.6)):
+            for family in ("chain", "planetary"):
+                pts = sorted((e[solver]["states"], ratios(e[solver])[what]) for e in data["cases"]
+                             if e["case"].startswith(family) and e.get(solver) and ratios(e[solver]))
                 if pts:
-                    ax.loglog([p[0] for p in pts], [p[1] for p in pts], ls=style, lw=lw, marker=mk if
-                              family == "chain" else "*", ms=4 if family == "chain" else 9, color=colors[k],
-                              alpha=1.0 if key == "monodromy_ratio" else 0.5,
-                              label=f"{family}, {solver}, {what}")
+                    chain = family == "chain"
+                    ax.loglog([p[0] for p in pts], [p[1] for p in pts], ls=ls if chain else "none", lw=lw,
+                              marker=mk if chain else ("*" if what == "total" else "+"), ms=4 if chain else 9,
+                              color=colors[k], alpha=alpha,
+                              label=f"{family}, {solver}, {'per step' if what == 'per_step' else 'whole period'}")
     xs, ys = [], []
     for e in data["cases"]:
         d = e.get("newton", {}).get("monodromy1_dense")
         if d:
             xs.append(e["newton"]["states"])
-            ys.append(d["best_s"] / e["newton"]["plain1"]["best_s"])
+            ys.append(d["cpu_best_s"] / e["newton"]["plain1"]["cpu_best_s"])
     if xs:
-        ax.loglog(xs, ys, "k:", marker="^", ms=4, label="dense (n + n^2) Newton, sim. tol.")
+        ax.loglog(xs, ys, "k:", marker="^", ms=4, label="dense (n + n^2) Newton, whole period")
     nn = [2, 150]
     ax.loglog(nn, [n + 1 for n in nn], color="0.5", lw=1, label="n + 1")
     ax.set_xlabel("states n")
-    ax.set_ylabel("ratio")
-    ax.set_title("one-period monodromy / plain one-period integration")
+    ax.set_ylabel("CPU ratio")
+    ax.set_title("one-period monodromy / plain one-period integration", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=6)
     ax = axes[2]
@@ -449,18 +466,28 @@ def plot(data: dict[str, Any], path: Path) -> Path:
         xs, ys = _series(data, "chain", "monodromy peak RSS", solver)
         if xs:
             ax.semilogx(xs, ys, ls=ls, marker="o", ms=4, label=f"monodromy, chain ({solver})")
-    xs, ys = _series(data, "chain", "derive", "newton")
-    xb, yb = [], []
+    xd, yd = [], []
+    for e in data["cases"]:
+        d = e.get("newton", {}).get("monodromy1_dense")
+        if d and d.get("peak_rss_mb"):
+            xd.append(e["newton"]["states"])
+            yd.append(d["peak_rss_mb"])
+    if xd:
+        ax.semilogx(xd, yd, "k:", marker="^", ms=4, label="monodromy, dense (n + n^2) Newton")
+    xb, yb, yg = [], [], []
     for e in data["cases"]:
         b = e.get("build", {})
         if "failed" not in b and e["case"].startswith("chain"):
             xb.append(b["states"])
             yb.append(b["peak_rss_mb"])
+            yg.append(b["gcc_peak_rss_mb"])
     if xb:
-        ax.semilogx(xb, yb, ":", marker="^", ms=4, label="derive + compile (python)")
+        ax.semilogx(xb, yb, ":", marker="v", ms=4, label="derive + code generation (python)")
+        ax.semilogx(xb, yg, ":", marker="D", ms=4, label="gcc")
     ax.set_xlabel("states n")
-    ax.set_ylabel("peak RSS of the process, MB")
-    ax.set_title("memory")
+    ax.set_ylabel("peak RSS, MB")
+    ax.set_yscale("log")
+    ax.set_title("memory (process high-water mark per phase)", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
@@ -469,53 +496,59 @@ def plot(data: dict[str, Any], path: Path) -> Path:
     return path
 
 
-def _f(v: float | None, unit: str = "s") -> str:
+def _f(v: float | None) -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "-"
-    if unit == "s":
-        return f"{v * 1e3:.3g} ms" if v < 1 else f"{v:.3g} s"
-    return f"{v:.3g}"
+    return f"{v * 1e3:.3g} ms" if v < 1 else f"{v:.3g} s"
+
+
+def _g(v: float) -> str:
+    return f"{v:.2g}" if v < 10 else f"{v:.0f}"
 
 
 def markdown(data: dict[str, Any]) -> str:
     """The generated section of docs/performance.md."""
     env = data["environment"]
+    load = [e["loadavg_start"] for e in data["cases"] if "loadavg_start" in e]
     L = [BEGIN, "", f"### Results (`benchmarks/scaling.py`, one run, {env['date']})", "",
-         f"Machine: {env['platform']}, {env['cpu_count']} cores (shared; 1-minute load average "
-         f"{env['loadavg'][0]:.1f} at the start), Python {env['python']}, numpy {env['numpy']}, casadi "
-         f"{env['casadi']}, gearsym {env['gearsym']}.  Wall times are best of repeats; compare within a row.",
-         "", "| model | states | surfaces | derive | cold compile | solver | simulate 100 T | us/step "
-         "| plain 1 T | monodromy 1 T | ratio (n + 1) | ratio at orbit tol. | dense monodromy | orbit "
-         "| continuation step | peak RSS monodromy / orbit |", "|---" * 16 + "|"]
+         f"Machine: {env['platform']}, {env['cpu_count']} cores, shared: 1-minute load average "
+         f"{min(load):.1f}-{max(load):.1f} when the models started, so every time below is the **CPU time** "
+         f"of the process (best of repeats; wall times, 1.5-4x larger in this run, are in the JSON).  Python "
+         f"{env['python']}, numpy {env['numpy']}, casadi {env['casadi']}, gearsym {env['gearsym']}.", "",
+         "Monodromy ratio: CPU of one period with the monodromy over one plain period, at the simulation "
+         "tolerances, as *whole period* (= *steps* ratio x *per step* ratio) and at the orbit tolerances; "
+         "the target is n + 1.", "",
+         "| model | n | surfaces | derive | cold compile (gcc) | solver | simulate 100 T | monodromy 1 T "
+         "| ratio: whole / steps / per step (n + 1) | at orbit tol. | dense monodromy | orbit | continuation step "
+         "| peak RSS monodromy / orbit |", "|---" * 14 + "|"]
     for e in data["cases"]:
         b = e["build"]
         if "failed" in b:
-            L.append(f"| {e['case']} | build failed: {b['failed']} |" + " |" * 14)
+            L.append(f"| {e['case']} | build failed: {b['failed']} |" + " |" * 12)
             continue
         first = True
         for s in data["settings"]["solvers"]:
             r = e.get(s)
             if not r:
                 continue
-            head = (f"| {e['case']} | {b['states']} | {b['surfaces']} | {_f(b['derive_s'])} | {_f(b['compile_s'])} "
-                    f"({_f(b.get('compile_cpu_s'))} cpu) " if first else "| | | | | ")
+            head = (f"| {e['case']} | {b['states']} | {b['surfaces']} | {_f(b.get('derive_cpu_s'))} "
+                    f"| {_f(b.get('compile_cpu_s'))} ({_f(b.get('gcc_cpu_s'))}) " if first else "| | | | | ")
             first = False
             if "failed" in r:
-                L.append(head + f"| {s} | failed: {r['failed']} |" + " |" * 9)
+                L.append(head + f"| {s} | failed: {r['failed']} |" + " |" * 7)
                 continue
+            q, qo = ratios(r), ratios(r, "_orbit_tol")
             d = r.get("monodromy1_dense")
-            o, c = r.get("orbit"), r.get("continuation_step")
+            o = r.get("orbit")
             mem = (f"{r['monodromy1']['peak_rss_mb']:.0f} / {o['peak_rss_mb']:.0f} MB"
                    if o and r["monodromy1"].get("peak_rss_mb") and o.get("peak_rss_mb") else "-")
-            L.append(head + f"| {s} | {_f(r['simulate100']['best_s'])} | {r['simulate100']['us_per_step']:.2g} "
-                     f"| {_f(r['plain1']['best_s'])} | {_f(r['monodromy1']['best_s'])} "
-                     f"| {r['monodromy_ratio']:.1f} ({b['states'] + 1}) "
-                     f"| {_f(r.get('monodromy_ratio_orbit_tol'), '')} "
-                     f"| {_f(d['best_s']) if d else '-'} "
-                     f"| {_f(o['best_s']) + ' (' + _f(o['cpu_best_s']) + ' cpu)' if o else '-'} "
-                     f"| {_f(c['best_s']) if c else '-'} | {mem} |")
-    L += ["", "Growth exponents (slope of log cost against log states, chains with >= 10 states):", "",
-          "| quantity | exponent | states |", "|---|---|---|"]
+            L.append(head + f"| {s} | {_f(_cpu(r, 'simulate100'))} | {_f(_cpu(r, 'monodromy1'))} "
+                     f"| {_g(q['total'])} / {_g(q['steps'])} / {_g(q['per_step'])} ({b['states'] + 1}) "
+                     f"| {_g(qo['total'])} / {_g(qo['steps'])} / {_g(qo['per_step'])} "
+                     f"| {_f(d['cpu_best_s']) if d else '-'} | {_f(_cpu(r, 'orbit'))} "
+                     f"| {_f(_cpu(r, 'continuation_step'))} | {mem} |")
+    L += ["", "Growth exponents (slope of log CPU time, or log peak RSS, against log states; chains with "
+          ">= 10 states):", "", "| quantity | exponent | states |", "|---|---|---|"]
     for k, v in data.get("exponents", {}).items():
         L.append(f"| {k} | {v['exponent']:.2f} | {v['n_range'][0]}-{v['n_range'][1]} |")
     L += ["", "![scaling](performance/scaling.png)", "", END]
@@ -567,8 +600,7 @@ def main() -> None:
         data = json.loads(Path(args.render).read_text())
         data["exponents"] = exponents(data)
         out.mkdir(parents=True, exist_ok=True)
-        if Path(args.render).resolve() != (out / "scaling.json").resolve():
-            (out / "scaling.json").write_text(json.dumps(data, indent=1))
+        (out / "scaling.json").write_text(json.dumps(data, indent=1))
     else:
         cases = [f"chain{int(n)}" for n in args.chain.split(",") if n.strip()]
         cases += [f"planetary{p.strip()}" for p in args.planetary.split(",") if p.strip()]

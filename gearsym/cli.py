@@ -423,40 +423,11 @@ def cmd_modes(args: argparse.Namespace) -> int:
     if args.samples < 1:
         raise ParameterError(f"--samples must be >= 1, got {args.samples}")
     scene = _load(args)
-    system = scene.compile()
-    res = classify_planetary(modal_analysis(system, samples=args.samples))
-    info: dict[str, Any] = {"scene": scene.name, **res.to_dict()}
+    res = classify_planetary(modal_analysis(scene.compile(), samples=args.samples))
     if args.json:
-        _emit(info)
-        return 0
-    names = res.coordinate_names
-    print(f"{scene.name}: {res.n_modes} modes of the linearisation about the static equilibrium "
-          f"(mean stiffness over {res.info['samples']} samples per forcing period)")
-    if res.contact:
-        lost = {k: v for k, v in res.contact.items() if v != "drive"}
-        print("  contact at equilibrium: " + ("all meshes in drive-side contact" if not lost else
-                                              ", ".join(f"{k} {v}" for k, v in res.contact.items())))
-    if not res.symmetric:
-        print("  (no diagonal mass symmetrises the stiffness: eigenvalues of M^-1 K, no damping ratios)")
-    head = f"  {'mode':>4s} {'f [Hz]':>12s} {'mult':>4s} {'damping':>8s}"
-    if res.classification:
-        head += f"  {'type':13s}"
-    print(head + "  largest components")
-    for k in range(res.n_modes):
-        shape = res.shapes[k]
-        big = np.argsort(-np.abs(shape))[:3]
-        row = f"  {k + 1:4d} {res.frequencies_hz[k]:12.2f} {res.multiplicities[k]:4d} "
-        z = res.damping_ratios[k]
-        row += f"{z:8.4f}" if math.isfinite(z) else f"{'-':>8s}"
-        if res.classification:
-            row += f"  {res.classification[k]:13s}"
-        print(row + "  " + ", ".join(f"{names[i]} {shape[i]:+.3f}" for i in big))
-    st = res.info.get("structure")
-    if st:
-        g = st["groups"]
-        print(f"  Lin & Parker structure ({st['n_planets']} planets): {g['rotational']} rotational, "
-              f"{g['translational']} translational, {g['planet']} planet, {g['mixed']} mixed groups: "
-              + ("holds" if st["lin_parker"] else "does NOT hold"))
+        _emit({"scene": scene.name, **res.to_dict()})
+    else:
+        print(res.table(title=scene.name))
     return 0
 
 

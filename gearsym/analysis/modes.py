@@ -139,6 +139,39 @@ class ModalAnalysis:
         tot = e.sum(axis=1)
         return tot / tot.sum()
 
+    def table(self, title: str = "") -> str:
+        """The text report of ``gearsym modes``: one row per mode (frequency, multiplicity,
+        damping ratio, type, largest components), the contact state and the structure verdict."""
+        names = self.coordinate_names
+        lines = [f"{title + ': ' if title else ''}{self.n_modes} modes of the linearisation about the static "
+                 f"equilibrium (mean stiffness over {self.info.get('samples')} samples per forcing period)"]
+        if self.contact:
+            lost = {k: v for k, v in self.contact.items() if v != "drive"}
+            lines.append("  contact at equilibrium: " + ("all meshes in drive-side contact" if not lost else
+                                                         ", ".join(f"{k} {v}" for k, v in self.contact.items())))
+        if not self.symmetric:
+            lines.append("  (no diagonal mass symmetrises the stiffness: eigenvalues of M^-1 K, no damping ratios)")
+        head = f"  {'mode':>4s} {'f [Hz]':>12s} {'mult':>4s} {'damping':>8s}"
+        if self.classification:
+            head += f"  {'type':13s}"
+        lines.append(head + "  largest components")
+        for k in range(self.n_modes):
+            shape = self.shapes[k]
+            big = np.argsort(-np.abs(shape))[:3]
+            z = self.damping_ratios[k]
+            row = f"  {k + 1:4d} {self.frequencies_hz[k]:12.2f} {self.multiplicities[k]:4d} "
+            row += f"{z:8.4f}" if math.isfinite(z) else f"{'-':>8s}"
+            if self.classification:
+                row += f"  {self.classification[k]:13s}"
+            lines.append(row + "  " + ", ".join(f"{names[i]} {shape[i]:+.3f}" for i in big))
+        st = self.info.get("structure")
+        if st:
+            g = st["groups"]
+            lines.append(f"  Lin & Parker structure ({st['n_planets']} planets): {g['rotational']} rotational, "
+                         f"{g['translational']} translational, {g['planet']} planet, {g['mixed']} mixed groups: "
+                         + ("holds" if st["lin_parker"] else "does NOT hold"))
+        return "\n".join(lines)
+
     def to_dict(self, shapes: bool = True) -> dict[str, Any]:
         """JSON-ready summary (``mode_shapes``: one mapping coordinate -> amplitude per mode)."""
         d: dict[str, Any] = {
