@@ -427,7 +427,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
     if args.json:
         _emit({"scene": scene.name, **res.to_dict()})
     else:
-        print(res.table(title=scene.name))
+        print(res.table(scene.name, "Hz" if scene.model_spec.time_unit == "s" else "1/time"))
     return 0
 
 

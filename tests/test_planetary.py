@@ -192,6 +192,19 @@ def test_continuation_with_vanishing_states(system4):
     assert [p.rattle_state for p in br.points] == [1, 1, 1]
 
 
+def test_modes_of_the_benchmark_oscillator(gen_dir):
+    """A model that is not planetary: x'' + 2 zeta x' + (1 + eps cos(Omega t)) f(x) = Fm +
+    Fa Omega^2 cos(Omega t) has the mean stiffness 1 (f the dead zone, in contact): w = 1,
+    damping ratio zeta, equilibrium x = b + Fm; no classification."""
+    system = gearsym.load_scene(ROOT / "scenes" / "kahraman_singh.toml").compile(generated_dir=gen_dir)
+    res = classify_planetary(modal_analysis(system))
+    p = res.params
+    assert res.frequencies_hz[0] == pytest.approx(1 / (2 * math.pi), rel=1e-12)
+    assert res.damping_ratios[0] == pytest.approx(p["zeta"], rel=1e-12)
+    assert res.equilibrium[0] == pytest.approx(p["b"] + p["Fm"], rel=1e-12)
+    assert res.classification is None and res.contact == {"mesh": "drive"}
+
+
 def test_diagonal_mass_recovery():
     rng = np.random.default_rng(3)
     n = 7

@@ -62,8 +62,9 @@ class ModalAnalysis:
     equilibrium : ndarray
         ``q`` at the static equilibrium (SI units).
     frequencies_hz : ndarray
-        Undamped natural frequencies ``w / (2 pi)``, ascending; a negative value
-        ``-sqrt(-w^2)/(2 pi)`` marks a statically unstable direction.
+        Undamped natural frequencies ``w / (2 pi)``, ascending (Hz; cycles per unit time
+        for models in dimensionless time); a negative value ``-sqrt(-w^2)/(2 pi)`` marks a
+        statically unstable direction.
     shapes : ndarray, shape (n_modes, n_coordinates)
         Mode shapes, each scaled so that its largest component is ``+1``.
     multiplicities : ndarray of int
@@ -139,9 +140,12 @@ class ModalAnalysis:
         tot = e.sum(axis=1)
         return tot / tot.sum()
 
-    def table(self, title: str = "") -> str:
+    def table(self, title: str = "", frequency_unit: str = "Hz") -> str:
         """The text report of ``gearsym modes``: one row per mode (frequency, multiplicity,
-        damping ratio, type, largest components), the contact state and the structure verdict."""
+        damping ratio, type, largest components), the contact state and the structure verdict.
+
+        ``frequency_unit``: the label of the frequency column (``"1/time"`` for models in
+        dimensionless time, whose ``frequencies_hz`` are cycles per unit time)."""
         names = self.coordinate_names
         lines = [f"{title + ': ' if title else ''}{self.n_modes} modes of the linearisation about the static "
                  f"equilibrium (mean stiffness over {self.info.get('samples')} samples per forcing period)"]
@@ -151,7 +155,7 @@ class ModalAnalysis:
                                                          ", ".join(f"{k} {v}" for k, v in self.contact.items())))
         if not self.symmetric:
             lines.append("  (no diagonal mass symmetrises the stiffness: eigenvalues of M^-1 K, no damping ratios)")
-        head = f"  {'mode':>4s} {'f [Hz]':>12s} {'mult':>4s} {'damping':>8s}"
+        head = f"  {'mode':>4s} {'f [' + frequency_unit + ']':>12s} {'mult':>4s} {'damping':>8s}"
         if self.classification:
             head += f"  {'type':13s}"
         lines.append(head + "  largest components")
