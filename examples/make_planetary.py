@@ -150,10 +150,10 @@ HEADER = """\
 #   stiffness isotropic (Lin & Parker's assumption behind the mode structure).
 # * Damping (Lin & Parker: undamped): zeta_m = 0.05 on the meshes, zeta_b = 0.02 on
 #   the bearings (chosen, typical values).  Half backlash 20 um (chosen).
-# * Geometry is not checked: with Table 1's members, N = 5 and 6 planets would overlap
-#   (planet tip diameter about 117 mm against a centre spacing of 115 mm / 98 mm); the
-#   N = 5, 6 models keep the same members so that the mode structure is compared on
-#   one system, as Lin & Parker do.
+# * Geometry is not checked: Table 1's planets (100.3 mm base diameter, about 117 mm over
+#   the tips) on centres 2 r_c sin(pi/N) = 104 mm (N = 5) or 88 mm (N = 6) apart would
+#   overlap; the N = 5, 6 models keep the same members so that the mode structure is
+#   compared on one system, as Lin & Parker do for N = 3, 4, 5.
 """
 
 
@@ -219,8 +219,7 @@ def static_equilibrium(N: int, T_s: float | None = None) -> dict[str, float]:
     """Static equilibrium (m) under the mean mesh stiffness, every mesh in drive-side contact.
 
     Solves ``K q = F + sum_meshes k b v`` (a mesh in drive contact pulls with
-    ``k (v.q - b)``); a check that it is in contact is returned implicitly by the
-    caller's simulation.
+    ``k (v.q - b)``) and checks that every mesh is indeed in drive contact there.
     """
     names = coordinate_names(N)
     T = _si("T_s") if T_s is None else T_s
@@ -381,12 +380,17 @@ def write(N: int, models: Path, scenes: Path) -> list[Path]:
         p = scenes / "planetary_n4_contact_loss.toml"
         p.write_text(scene_text(
             4, "planetary_n4_contact_loss", "4-planet set at a light load near the planet-mode resonance "
-            "(1808 Hz): the meshes separate",
+            "(5964 Hz): the meshes separate",
             "The 4-planet set at a light load (T_s = 100 N*m: 0.65 kN per mesh, 1.3 um of mean\n"
-            "compression) with the mesh frequency near the planet mode at 1808 Hz, which the\n"
-            "sequentially phased meshes (Z_s = 26, N = 4: planets 2 and 4 in antiphase) excite at\n"
-            "the first mesh harmonic: the sun-planet and ring-planet meshes lose contact once per\n"
-            "mesh period (located events sp<n>.drive, rp<n>.drive).",
+            "compression) with the mesh frequency 6 kHz, just above the planet mode at 5964 Hz, which\n"
+            "the sequentially phased meshes (Z_s = 26, N = 4: planets 2 and 4 in antiphase) excite at\n"
+            "the first mesh harmonic (the 1808 Hz planet mode is hardly excited with gamma_rs = 0:\n"
+            "its sun-mesh and ring-mesh forcing cancel).  Every sun-planet and ring-planet mesh loses\n"
+            "contact once per mesh period (16 located events sp<n>.drive, rp<n>.drive per period);\n"
+            "the central members stay at rest (planet mode).  Orbit and continuation:\n"
+            "  gearsym orbit scenes/planetary_n4_contact_loss.toml\n"
+            "  gearsym continue scenes/planetary_n4_contact_loss.toml --param f_m --from 6000 --to 6300 --atol 1e-13\n"
+            "(the ring-planet meshes stop separating at a grazing, f_m = 6139 Hz).",
             {"T_s": 100.0, "f_m": 6000.0}, SIMULATE))
         out.append(p)
     return out
