@@ -409,6 +409,22 @@ def cmd_continue(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_modes(args: argparse.Namespace) -> int:
+    """Natural frequencies and mode shapes about the static equilibrium (mean mesh stiffness)."""
+    from .analysis.modes import modal_analysis
+    from .analysis.planetary import classify_planetary
+
+    if args.samples < 1:
+        raise ParameterError(f"--samples must be >= 1, got {args.samples}")
+    scene = _load(args)
+    res = classify_planetary(modal_analysis(scene.compile(), samples=args.samples))
+    if args.json:
+        _emit({"scene": scene.name, **res.to_dict()})
+    else:
+        print(res.table(scene.name, "Hz" if scene.model_spec.time_unit == "s" else "1/time"))
+    return 0
+
+
 def cmd_orbit(args: argparse.Namespace) -> int:
     """Find a periodic orbit (shooting or harmonic balance) and its Floquet multipliers."""
     checks.check_orbit(args)
@@ -633,6 +649,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fmu", metavar="FILE", help="FMU file to write (.fmu)")
     p.add_argument("--force", action="store_true", help="write into an existing non-empty folder / over a file")
     p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser("modes", help="natural frequencies and mode shapes about the static equilibrium "
+                       "(mean mesh stiffness)")
+    _scene_args(p)
+    p.add_argument("--samples", type=int, default=32,
+                   help="samples per forcing period for the mean stiffness and loads (default 32)")
+    p.set_defaults(func=cmd_modes)
 
     p = sub.add_parser("map", help="two-parameter stability / response map (netCDF + heat map)")
     _scene_args(p)

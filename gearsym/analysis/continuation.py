@@ -415,8 +415,16 @@ class _Continuer:
 
     # ------------------------------------------------------------ scaling
     def set_state_scale(self, state_scale: np.ndarray) -> None:
-        """Scales: residual rows by the state magnitudes, unknowns by them over ``state_weight``."""
-        self.state_scale = np.asarray(state_scale, float).copy()
+        """Scales: residual rows by the state magnitudes, unknowns by them over ``state_weight``.
+
+        A magnitude is at least ``atol / tol`` (as in shooting's convergence test): the
+        integration resolves no state better than ``atol``, so a state that vanishes on
+        the orbit (e.g. by symmetry) must not demand a scaled residual below ``tol``
+        from integration noise.  (With the default ``atol`` the floor is 1e-3 of the
+        smallest magnitude and never binds.)
+        """
+        floor = float(getattr(self.res, "atol", 0.0)) / self.tol
+        self.state_scale = np.maximum(np.asarray(state_scale, float), floor)
         self.Rs = self.res.unknown_scale(self.state_scale)
         self.S = np.concatenate([self.Rs / self.state_weight, [self.lam_scale]])
 
