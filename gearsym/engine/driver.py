@@ -68,6 +68,7 @@ class GsSimArgs(C.Structure):
         ("interrupt_fd", C.c_int),
         ("nonlinear", C.c_int),
         ("linear_solver", C.c_int),
+        ("atol_vec", _PD),
         # outputs
         ("y_out", _PD),
         ("x_final", _PD),
@@ -312,6 +313,7 @@ class Engine:
         max_events_out: int = 4096,
         nonlinear: str = "auto",
         linear_solver: str = "auto",
+        atol_vec: Any = None,
     ) -> RunResult:
         """Integrate the model from ``t0`` to ``t_end`` in one C call.
 
@@ -353,6 +355,11 @@ class Engine:
             analytic Jacobian), ``"fixedpoint"`` (functional iteration: no
             Jacobian and no linear algebra, for non-stiff models; cheapest for
             large models) or ``"auto"`` (Newton).
+        atol_vec
+            One absolute tolerance per solver component instead of ``atol``: ``nx``
+            entries, or ``nx*(nx+1)`` with ``want_monodromy`` (the state, then the
+            variational matrix column by column), so that its entries, whose scale
+            is that of ``x_i / x0_j``, get a tolerance of their own.
         linear_solver
             Newton's linear solver: ``"dense"`` (SUNDIALS' dense LU of the whole
             system; with the monodromy that is an (n + n^2)^2 matrix),
@@ -394,6 +401,12 @@ class Engine:
             sig = np.ascontiguousarray(np.asarray(sigma0, dtype=float).reshape(-1))
             if sig.shape[0] != self.nsw:
                 raise EngineInputError(f"sigma0 has {sig.shape[0]} entries, the model has nsw={self.nsw}")
+        av = None
+        if atol_vec is not None:
+            av = np.ascontiguousarray(np.asarray(atol_vec, dtype=float).reshape(-1))
+            want = self.nx * (self.nx + 1) if want_monodromy else self.nx
+            if av.shape[0] != want:
+                raise EngineInputError(f"atol_vec has {av.shape[0]} entries, need {want}")
         cap = max(int(max_events_out), 1)
         while True:
             res = self._run_once(
@@ -416,6 +429,7 @@ class Engine:
                 cap,
                 NONLINEAR[nonlinear],
                 LINEAR_SOLVERS[linear_solver],
+                av,
             )
             if isinstance(res, int):  # event log too small: rerun with the exact size
                 cap = res
@@ -443,6 +457,7 @@ class Engine:
         cap,
         nonlin=0,
         linsol=0,
+        av=None,
     ) -> RunResult | int:
         nx, nsw = self.nx, self.nsw
         n_out = int(tout.shape[0])
@@ -469,6 +484,7 @@ class Engine:
         a.want_monodromy = 1 if mono else 0
         a.max_events_out = cap
         a.nonlinear, a.linear_solver = nonlin, linsol
+        a.atol_vec = _ptr(av)
         a.y_out = _ptr(y) if n_out else None
         a.x_final = _ptr(x_final)
         a.sigma_final = _ptr(sigma_final)

@@ -1160,7 +1160,7 @@ struct gs_workspace {
   casadi_int mx[5];
   gs_ud U;
   gs_solver S;
-  int cfg_valid, cfg_nA, cfg_ida, cfg_method, cfg_blockdiag, cfg_nonlin;
+  int cfg_valid, cfg_nA, cfg_ida, cfg_method, cfg_blockdiag, cfg_nonlin, cfg_atol_n;
   int* nb;
   int* sched_off;
   double* sched_s;
@@ -1169,7 +1169,23 @@ struct gs_workspace {
   char* warn_buf;
   size_t warn_len;
   int n_out_fn;             /* outputs of gs_out (0: none)                       */
+  N_Vector atol;            /* absolute tolerances of the current call (atol_vec) */
 };
+
+/* The workspace's tolerance vector, filled from v (length n); NULL if out of memory
+ * (SUNDIALS then reports the NULL vector as an illegal input). */
+static N_Vector ws_atol(gs_workspace* ws, const double* v, int n) {
+  if (ws->atol && ws->cfg_atol_n != n) {
+    N_VDestroy(ws->atol);
+    ws->atol = NULL;
+  }
+  if (!ws->atol) {
+    ws->atol = N_VNew_Serial((sunindextype)n, ws->ctx);
+    ws->cfg_atol_n = n;
+  }
+  if (ws->atol) memcpy(N_VGetArrayPointer(ws->atol), v, sizeof(double) * (size_t)n);
+  return ws->atol;
+}
 
 gs_workspace* gs_ws_new(void) { return (gs_workspace*)calloc(1, sizeof(gs_workspace)); }
 
@@ -1197,6 +1213,7 @@ void gs_ws_free(gs_workspace* ws) {
   if (!ws) return;
   ud = &ws->U;
   ws_free_solver(ws);
+  if (ws->atol) N_VDestroy(ws->atol);
   if (ws->ctx) SUNContext_Free(&ws->ctx);
   if (ws->warn_fp) fclose(ws->warn_fp);
   free(ws->warn_buf);
@@ -1442,6 +1459,13 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
   if (a->nonlinear == GS_NONLIN_FIXEDPOINT && a->method == GS_METHOD_IDA)
     return set_err(a, GS_ERR_INPUT, "IDA has no fixed-point nonlinear solver");
   if (a->max_events_out < 0) return set_err(a, GS_ERR_INPUT, "max_events_out < 0");
+  if (a->atol_vec) {
+    int nAv = a->want_monodromy ? nx * (nx + 1) : nx;
+    for (i = 0; i < nAv; ++i)
+      if (!(a->atol_vec[i] > 0.0) || !isfinite(a->atol_vec[i]))
+        return set_err(a, GS_ERR_INPUT, "atol_vec[%d] = %g: absolute tolerances must be finite and > 0", i,
+                       a->atol_vec[i]);
+  }
   if (!(a->max_step >= 0.0) || !(a->init_step >= 0.0) || !(a->storm_window >= 0.0))
     return set_err(a, GS_ERR_INPUT, "max_step, init_step and storm_window must be >= 0");
   max_steps = a->max_steps > 0 ? a->max_steps : 10000000L;
@@ -1605,12 +1629,14 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
   if (!flag) ws->cfg_valid = 1;
   /* per-call settings (a reused integrator keeps the last call's otherwise) */
   if (S->ida) {
-    if (!flag) flag = IDASStolerances(S->mem, a->rtol, a->atol);
+    if (!flag) flag = a->atol_vec ? IDASVtolerances(S->mem, a->rtol, ws_atol(ws, a->atol_vec, nA))
+                                  : IDASStolerances(S->mem, a->rtol, a->atol);
     if (!flag) flag = IDASetMaxStep(S->mem, a->max_step > 0.0 ? a->max_step : 0.0);
     if (!flag) flag = IDASetMinStep(S->mem, hmin > 0.0 ? hmin : 0.0);
     if (!flag) flag = IDASetInitStep(S->mem, a->init_step > 0.0 ? a->init_step : 0.0);
   } else {
-    if (!flag) flag = CVodeSStolerances(S->mem, a->rtol, a->atol);
+    if (!flag) flag = a->atol_vec ? CVodeSVtolerances(S->mem, a->rtol, ws_atol(ws, a->atol_vec, nA))
+                                  : CVodeSStolerances(S->mem, a->rtol, a->atol);
     if (!flag) flag = CVodeSetMaxStep(S->mem, a->max_step > 0.0 ? a->max_step : 0.0);
     if (!flag) flag = CVodeSetMinStep(S->mem, hmin > 0.0 ? hmin : 0.0);
     if (!flag) flag = CVodeSetInitStep(S->mem, a->init_step > 0.0 ? a->init_step : 0.0);

@@ -65,6 +65,10 @@ typedef struct gs_sim_args {
                            /* stop with GS_ERR_INTERRUPTED if it holds SIGINT       */
   int     nonlinear;       /* GS_NONLIN_*: CVODE's nonlinear solver (0 = auto)      */
   int     linear_solver;   /* GS_LINSOL_*: Newton's linear solver (0 = auto)        */
+  const double* atol_vec;  /* NULL: the scalar atol for every component; else one   */
+                           /* absolute tolerance per solver component: nx, or       */
+                           /* nx*(nx+1) with the monodromy (state, then Phi column- */
+                           /* major): the variational entries have their own scale  */
   /* ---- outputs ---- */
   double* y_out;           /* [n_out*nx] row-major states at t_out                  */
   double* x_final;         /* [nx] state at the time reached                        */
