@@ -51,11 +51,13 @@ class BranchPoint:
     periods : float
         Forcing periods per orbit period.
     multipliers : ndarray (complex)
-        Floquet multipliers by decreasing modulus.
+        Non-trivial Floquet multipliers by decreasing modulus (the multipliers of
+        rigid-body modes are in ``trivial_multipliers``).
     stable : bool
-        ``max |mu| < 1``.
+        No multiplier outside the unit circle beyond its tolerance (the rule of
+        :mod:`gearsym.analysis.stability`).
     n_unstable : int
-        Number of multipliers with ``|mu| > 1``.
+        Number of multipliers outside the circle beyond their tolerances.
     max, min, rms : float
         Of the observed state (the first state unless chosen) over one period.
     rattle_state : int or None
@@ -75,6 +77,15 @@ class BranchPoint:
         Corrector (Newton) iterations.
     u : ndarray
         The unknowns of the continuation (shooting states or harmonic coefficients).
+    stability : str
+        ``"asymptotically_stable"``, ``"neutral"`` or ``"unstable"``.
+    trivial_multipliers : ndarray (complex)
+        Multipliers of the rigid-body modes (reported apart, not judged).
+    multiplier_tolerances : ndarray
+        The neutral band of each multiplier.
+    meshes : dict
+        Per mesh: ``rattle_state`` and ``min``, ``max``, ``peak_to_peak`` of its
+        dynamic deflection over the orbit.
     """
 
     value: float
@@ -96,6 +107,10 @@ class BranchPoint:
     iterations: int = 0
     u: np.ndarray | None = field(default=None, repr=False)
     monodromy: np.ndarray | None = field(default=None, repr=False)
+    stability: str = ""
+    trivial_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex), repr=False)
+    multiplier_tolerances: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    meshes: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     @property
     def peak_to_peak(self) -> float:
@@ -117,6 +132,9 @@ class BranchPoint:
             "n_unstable": int(self.n_unstable),
             "n_events": int(self.n_events),
             "bifurcation": self.bifurcation,
+            "stability": self.stability,
+            "trivial_multipliers": [[float(m.real), float(m.imag)] for m in self.trivial_multipliers],
+            "meshes": {k: {kk: _jsonable(vv) for kk, vv in v.items()} for k, v in self.meshes.items()},
         }
 
 

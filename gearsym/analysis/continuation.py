@@ -63,7 +63,6 @@ import numpy as np
 from ..errors import ConvergenceError, GearsymError, ParameterError
 from .bifurcation import (
     bracket_root,
-    count_unstable,
     crossing_multiplier,
     tau_branch_point,
     tau_neimark_sacker,
@@ -71,8 +70,10 @@ from .bifurcation import (
     unit_circle_pair,
 )
 from .branch import Bifurcation, Branch, BranchPoint
-from .floquet import floquet_multipliers, monodromy_product
-from .orbit import PeriodicOrbit, rattle_state
+from .floquet import monodromy_product
+from .meshes import mesh_deflections, mesh_extrema
+from .orbit import PeriodicOrbit, rattle_states
+from .stability import floquet, rigid_state_basis
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..facade import Scene
@@ -135,6 +136,27 @@ class _Residual:
 
     def dense(self, u: np.ndarray, lam: float, n_per_period: int) -> tuple[np.ndarray, np.ndarray]:
         """``(t, Y)``: the orbit on ``n`` evenly spaced times of one period (end excluded)."""
+        raise NotImplementedError  # pragma: no cover
+
+    def rigid_basis(self, lam: float) -> np.ndarray | None:
+        """The rigid-body subspace of the state at ``lambda`` (``None`` without rigid-body modes)."""
+        return rigid_state_basis(self.system, self.params(lam))
+
+    def anchor_rows(self, lam: float) -> np.ndarray | None:
+        """Rows ``(k, n)`` that pin the rigid-body coordinates of the orbit (one per mode):
+        without them ``F_u`` is singular along the rigid-body shift."""
+        V = self.rigid_basis(lam)
+        if V is None:
+            return None
+        k = V.shape[1] // 2
+        Pq = V[:, :k] / np.linalg.norm(V[:, :k], axis=0)
+        out = np.zeros((k, self.n))
+        for j, i in enumerate(self._anchor_index()):
+            out[:, i] = Pq[j]
+        return out
+
+    def _anchor_index(self) -> list[int]:
+        """Index in the unknowns of the quantity of each state the anchor acts on."""
         raise NotImplementedError  # pragma: no cover
 
     def _fd_lambda(self, u: np.ndarray, lam: float, R: np.ndarray | None = None) -> np.ndarray:
@@ -200,6 +222,9 @@ class ShootingResidual(_Residual):
 
     def x0_of(self, u: np.ndarray) -> np.ndarray:
         return np.asarray(u[: self.nx], float)
+
+    def _anchor_index(self) -> list[int]:
+        return list(range(self.nx))  # the states of the first segment
 
     def unknown_scale(self, state_scale: np.ndarray) -> np.ndarray:
         return np.tile(state_scale, self.segments)
@@ -300,6 +325,9 @@ class HBResidual(_Residual):
     def coefficients(self, u: np.ndarray) -> np.ndarray:
         return np.asarray(u, float).reshape(self.nx, self.nc).T
 
+    def _anchor_index(self) -> list[int]:
+        return [i * self.nc for i in range(self.nx)]  # the mean (a0) of every state
+
     def x0_of(self, u: np.ndarray) -> np.ndarray:
         C = self.coefficients(u)
         return C[0] + sum(C[2 * k - 1] for k in range(1, self.H + 1)) if self.H else C[0].copy()
@@ -369,6 +397,28 @@ def _periodic_extremum(y: np.ndarray, i: int, sign: float) -> float:
     return float(b)
 
 
+def _mesh_point(system: System, t: np.ndarray, Y: np.ndarray, params: Mapping[str, float],
+                rattle: Mapping[str, int]) -> dict[str, dict[str, Any]]:
+    """Per mesh: rattle state and extrema of the dynamic deflection over the dense orbit."""
+    try:
+        ext = mesh_extrema({k: np.append(d, d[:1]) for k, d in mesh_deflections(system, t, Y, params).items()})
+    except Exception:  # noqa: BLE001 - informative only
+        ext = {}
+    return {name: {"rattle_state": rattle.get(name), **{k: float(v) for k, v in e.items()}}
+            for name, e in ext.items()}
+
+
+def _complex_sides(point: BranchPoint) -> tuple[int, int]:
+    """Complex (non-real) multipliers inside / outside the circle beyond their tolerances."""
+    mu = np.asarray(point.multipliers, complex)
+    tol = np.asarray(point.multiplier_tolerances, float)
+    if len(tol) != len(mu):
+        tol = np.zeros(len(mu))
+    cplx = np.abs(mu.imag) > 1e-9 * np.maximum(1.0, np.abs(mu))
+    a = np.abs(mu)
+    return int(np.sum(cplx & (a < 1 - tol))), int(np.sum(cplx & (a > 1 + tol)))
+
+
 @dataclass
 class _Node:
     """A point of the branch with what the continuation needs."""
@@ -411,6 +461,7 @@ class _Continuer:
         self.state_scale = np.asarray(state_scale, float).copy()
         self.Rs = self.res.unknown_scale(self.state_scale)
         self.S = np.concatenate([self.Rs / self.state_weight, [self.lam_scale]])
+        self.__dict__.pop("_anchor_cache", None)
 
     def scaled_jacobian(self, ev: _Eval) -> np.ndarray:
         """``[F_u, F_lambda]`` in scaled variables, rows scaled by the state magnitudes."""
@@ -419,6 +470,20 @@ class _Continuer:
 
     def scaled_residual(self, ev: _Eval) -> np.ndarray:
         return ev.R / self.Rs
+
+    def scaled_anchor(self, lam: float) -> np.ndarray | None:
+        """Anchor rows of the residual in scaled variables (unit rows; ``None`` without)."""
+        key = float(lam)
+        cache = self.__dict__.setdefault("_anchor_cache", {})
+        if key not in cache:
+            if len(cache) > 32:
+                cache.clear()
+            rows = self.res.anchor_rows(key)
+            if rows is not None:
+                rows = np.hstack([rows * self.S[None, :-1], np.zeros((len(rows), 1))])
+                rows = rows / np.linalg.norm(rows, axis=1)[:, None]
+            cache[key] = rows
+        return cache[key]
 
     # ------------------------------------------------------------ corrector
     def correct(self, z_guess: np.ndarray, row: np.ndarray, target: float, Flam: np.ndarray | None = None
@@ -457,11 +522,17 @@ class _Continuer:
                 raise ConvergenceError(f"corrector: Newton diverges (residual {r_prev:.3g} -> {r:.3g})")
             if ev.Flam is None:
                 ev.Flam = Flam
-            A = np.vstack([self.scaled_jacobian(ev), row[None, :]])
-            rhs = -np.concatenate([self.scaled_residual(ev), [c]])
-            try:
-                dw = np.linalg.solve(A, rhs)
-            except np.linalg.LinAlgError:
+            anchor = self.scaled_anchor(z[-1])
+            if anchor is None:
+                A = np.vstack([self.scaled_jacobian(ev), row[None, :]])
+                rhs = -np.concatenate([self.scaled_residual(ev), [c]])
+                try:
+                    dw = np.linalg.solve(A, rhs)
+                except np.linalg.LinAlgError:
+                    dw = np.linalg.lstsq(A, rhs, rcond=None)[0]
+            else:  # rigid-body modes: keep their coordinates where they are (least squares)
+                A = np.vstack([self.scaled_jacobian(ev), anchor, row[None, :]])
+                rhs = -np.concatenate([self.scaled_residual(ev), np.zeros(len(anchor)), [c]])
                 dw = np.linalg.lstsq(A, rhs, rcond=None)[0]
             if not np.all(np.isfinite(dw)):
                 raise ConvergenceError("corrector: singular Newton matrix")
@@ -483,15 +554,20 @@ class _Continuer:
             z, ev, r = zn, evn, rn
             c = float(row @ (z / self.S) - target)
 
-    def tangent(self, ev: _Eval, t_ref: np.ndarray) -> np.ndarray:
-        """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0``."""
-        A = np.vstack([self.scaled_jacobian(ev), t_ref[None, :]])
+    def tangent(self, ev: _Eval, t_ref: np.ndarray, lam: float | None = None) -> np.ndarray:
+        """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0`` (and, with
+        rigid-body modes, no component along their shift: anchor rows at ``lam``)."""
+        anchor = self.scaled_anchor(lam) if lam is not None else None
+        A = np.vstack([self.scaled_jacobian(ev)] + ([anchor] if anchor is not None else []) + [t_ref[None, :]])
         b = np.zeros(A.shape[0])
         b[-1] = 1.0
-        try:
-            t = np.linalg.solve(A, b)
-        except np.linalg.LinAlgError:
+        if anchor is not None:
             t = np.linalg.lstsq(A, b, rcond=None)[0]
+        else:
+            try:
+                t = np.linalg.solve(A, b)
+            except np.linalg.LinAlgError:
+                t = np.linalg.lstsq(A, b, rcond=None)[0]
         if not np.all(np.isfinite(t)) or not np.any(t):
             # fall back on the smallest right singular vector
             _, _, Vt = np.linalg.svd(self.scaled_jacobian(ev))
@@ -523,7 +599,8 @@ class _Continuer:
         """
         res = self.res
         u, lam = z[:-1], float(z[-1])
-        mu = floquet_multipliers(ev.monodromy) if ev.monodromy is not None else np.zeros(0, complex)
+        fq = floquet(ev.monodromy, res.rtol, res.rigid_basis(lam))
+        mu = fq.multipliers
         t_dense, Y = res.dense(u, lam, self.n_dense)
         y = Y[:, self.state]
         i_max, i_min = int(np.argmax(y)), int(np.argmin(y))
@@ -539,20 +616,23 @@ class _Continuer:
                              _periodic_extremum(g, int(np.argmax(g)), -1.0))
         x0 = res.x0_of(u)
         try:
-            rs = rattle_state(res.system, x0, res.t0, ev.events, params)
+            rss = rattle_states(res.system, x0, res.t0, ev.events, params)
         except Exception:  # noqa: BLE001 - the classification is informative only
-            rs = None
-        t = self.tangent(ev, t_ref)
+            rss = {}
+        meshes = _mesh_point(res.system, t_dense, Y, params, rss)
+        t = self.tangent(ev, t_ref, lam)
         if ref is not None and _graph_like(mu, ref.point.multipliers) and ref.t[-1] * t[-1] < 0:
             t = -t
-        n_unst = count_unstable(mu)
         pt = BranchPoint(
             value=lam, x0=np.asarray(x0, float), period=res.period(lam), periods=res.periods, multipliers=mu,
-            stable=bool(len(mu) and np.max(np.abs(mu)) < 1.0), n_unstable=n_unst,
+            stable=fq.stable, n_unstable=fq.n_unstable,
             max=_periodic_extremum(y, i_max, -1.0), min=_periodic_extremum(y, i_min, +1.0),
-            rms=float(np.sqrt(np.mean(y ** 2))), rattle_state=rs, n_events=len(ev.events),
+            rms=float(np.sqrt(np.mean(y ** 2))), rattle_state=max(rss.values()) if rss else None,
+            n_events=len(ev.events),
             surface_extrema=ext, tangent=t, residual=float(np.max(np.abs(self.scaled_residual(ev)))),
-            iterations=iterations, u=np.asarray(u, float).copy(), monodromy=ev.monodromy)
+            iterations=iterations, u=np.asarray(u, float).copy(), monodromy=ev.monodromy,
+            stability=fq.stability, trivial_multipliers=fq.trivial, multiplier_tolerances=fq.tolerances,
+            meshes=meshes)
         tau: dict[str, float] = {"fold": float(t[-1])}
         if len(mu):
             tau["period_doubling"] = tau_period_doubling(mu)
@@ -1085,6 +1165,10 @@ def _detect_between(C: _Continuer, A: _Node, B: _Node, types: tuple[str, ...], l
             continue
         if kind == "branch_point" and fold_flip:
             continue  # a fold also changes the sign of det(M - I)
+        if kind == "neimark_sacker" and _complex_sides(A.point) == _complex_sides(B.point):
+            # no complex pair left or entered the circle beyond the tolerances: pairs sitting on
+            # the unit circle (a conservative branch) flip the sign of the test function by noise
+            continue
         if _sign_change(A.tau[key], B.tau[key]):
             keys.append(key)
     for key in keys:

@@ -219,6 +219,7 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
                              t_out=s, params=params, method=method)
         return np.array(tr.y[:-1], float)
 
+    anchor = _anchor_rows(system, params, segments)
     relaxed = 0
     relax_block = max(1, int(math.ceil(10 * max(1.0, float(periods)))))
     history: list[dict[str, Any]] = []
@@ -237,12 +238,18 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
             k = (i + 1) % segments
             J[i * nx:(i + 1) * nx, k * nx:(k + 1) * nx] -= np.eye(nx)
         rhs = -R.ravel()
-        try:
-            dz = np.linalg.solve(J, rhs)
-            if not np.all(np.isfinite(dz)):
-                raise np.linalg.LinAlgError
-        except np.linalg.LinAlgError:
-            dz = np.linalg.lstsq(J, rhs, rcond=None)[0]
+        if anchor is not None:
+            # a rigid-body mode makes J singular (a Jordan block of M at +1): keep the rigid
+            # coordinates of the first segment where they are (anchor rows), least squares
+            dz = np.linalg.lstsq(np.vstack([J, anchor]), np.concatenate([rhs, np.zeros(len(anchor))]),
+                                 rcond=None)[0]
+        else:
+            try:
+                dz = np.linalg.solve(J, rhs)
+                if not np.all(np.isfinite(dz)):
+                    raise np.linalg.LinAlgError
+            except np.linalg.LinAlgError:
+                dz = np.linalg.lstsq(J, rhs, rcond=None)[0]
         dX = dz.reshape(segments, nx)
         lam = 1.0
         accepted = False
@@ -314,8 +321,26 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         events=evs, segments=segments, segment_states=X.copy(),
         segment_monodromies=[np.asarray(M) for M in Ms if M is not None], history=history,
         info={"rtol": rtol, "atol": atol, "tol": tol, "wall_s": wall, "failure": failure or None,
+              "monodromy_rtol": max(rtol / 1e-6, 1e-12) if system.generated.implicit else rtol,
+              "rigid_anchor": anchor is not None,
               "relative_residual": rel(R), "state_scales": scales().tolist()})
     return orbit
+
+
+def _anchor_rows(system: System, params: Mapping[str, float] | None, segments: int) -> np.ndarray | None:
+    """Rows ``[R^T 0 ... 0]`` that pin the rigid-body coordinates of the first segment's
+    state in a Newton step (``None`` without rigid-body modes)."""
+    from .stability import rigid_state_basis
+
+    V = rigid_state_basis(system, params)
+    if V is None:
+        return None
+    k = V.shape[1] // 2
+    Pq = V[:, :k]
+    Pq = Pq / np.linalg.norm(Pq, axis=0)
+    out = np.zeros((k, segments * Pq.shape[0]))
+    out[:, : Pq.shape[0]] = Pq.T
+    return out
 
 
 def _params_used(system: System, params: Mapping[str, float] | None) -> dict[str, float]:

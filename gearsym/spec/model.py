@@ -39,6 +39,7 @@ from typing import Any
 
 from ..errors import SpecError
 from . import expressions as ex
+from .reduction import Reduction, parse_reduction, reduction_units
 from .units import ONE, Unit, UnitSyntaxError, parse_unit
 
 # --------------------------------------------------------------------------- data
@@ -143,18 +144,6 @@ class Equation:
 
 
 @dataclass(frozen=True)
-class Reduction:
-    """Reduce the coordinates to one relative coordinate (e.g. the DTE)."""
-
-    coordinate: str
-    velocity: str
-    definition: tuple[Term, ...]
-    unit: str
-    meaning: str
-    dims: Unit
-
-
-@dataclass(frozen=True)
 class Group:
     """A dimensionless group: its definition and the parameter it eliminates."""
 
@@ -202,7 +191,7 @@ class ModelSpec:
     def state_names(self) -> list[str]:
         """Names of the first-order states: coordinates then velocities."""
         if self.reduction is not None:
-            return [self.reduction.coordinate, self.reduction.velocity]
+            return self.reduction.state_names()
         coords = list(self.coordinates.values())
         return [c.name for c in coords] + [c.velocity for c in coords]
 
@@ -419,21 +408,13 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
             _terms(ctx, f"{where}.force", eq["force"], schedules) if "force" in eq else (),
         )
 
-    # reduction
+    # reduction (gearsym/spec/reduction.py)
     reduction = None
     if "reduction" in data:
-        r = _table(ctx, data, "reduction")
-        _only(ctx, "reduction", r, {"coordinate", "velocity", "definition", "unit", "meaning"})
-        rc = _str(ctx, r, "reduction.coordinate", required=True)
-        rv = _str(ctx, r, "reduction.velocity") or f"{rc}_dot"
-        declare(rc, "reduction.coordinate")
-        declare(rv, "reduction.velocity")
-        if "definition" not in r:
-            raise ctx.error("reduction.definition", "missing definition of the reduced coordinate")
-        runit = _str(ctx, r, "reduction.unit") or "1"
-        rdims = _unit(ctx, "reduction.unit", runit)
-        reduction = Reduction(rc, rv, _terms(ctx, "reduction.definition", r["definition"], schedules),
-                              runit, _str(ctx, r, "reduction.meaning") or "", rdims)
+        reduction = parse_reduction(
+            ctx, _table(ctx, data, "reduction"), declare, elements,
+            lambda where, value: _terms(ctx, where, value, schedules),
+            lambda table, where: _str(ctx, table, where), lambda where, text: _unit(ctx, where, text))
 
     forcing = _table(ctx, data, "forcing")
     _only(ctx, "forcing", forcing, {"period"})
@@ -492,8 +473,10 @@ def _validate(ctx: _Ctx, spec: ModelSpec) -> None:
         units[f"{s.name}_phase"] = ONE
         units[f"{s.name}_segment"] = ONE
     if spec.reduction is not None:
-        units[spec.reduction.coordinate] = spec.reduction.dims
-        units[spec.reduction.velocity] = spec.reduction.dims / spec.time_dims
+        for rc in spec.reduction.coordinates:
+            if rc.dims is not None:
+                units[rc.name] = rc.dims
+                units[rc.velocity] = rc.dims / spec.time_dims
 
     # every term: effects exist, variants valid
     for where, term in _all_terms(spec):
@@ -541,7 +524,7 @@ def _validate(ctx: _Ctx, spec: ModelSpec) -> None:
         _expect(ctx, "forcing.period", spec.forcing_period, units, spec.time_dims, "a time")
     dynamic = {"t"} | set(spec.coordinates) | {c.velocity for c in spec.coordinates.values()}
     if spec.reduction is not None:
-        dynamic |= {spec.reduction.coordinate, spec.reduction.velocity}
+        dynamic |= set(spec.reduction.state_names())
     checks = [("forcing.period", spec.forcing_period)] if spec.forcing_period else []
     for s in spec.schedules.values():
         checks.append((f"schedules.{s.name}.period", s.period))
@@ -605,10 +588,10 @@ def _validate(ctx: _Ctx, spec: ModelSpec) -> None:
             if u is not None:
                 energy_of(f"equations.{eq.coordinate}.mass", u * (c.dims / tt) ** 2)
     if spec.reduction is not None:
-        u = _terms_unit(ctx, spec.reduction.definition, units)
-        if u is not None and not u.same_dimension(spec.reduction.dims):
-            raise ctx.error("reduction.definition", f"unit mismatch: [{u.si_string()}] but "
-                                                    f"reduction.unit is [{spec.reduction.dims.si_string()}]")
+        red_units = reduction_units(ctx, spec.reduction, spec.elements, lambda terms: _terms_unit(ctx, terms, units))
+        for rc in spec.reduction.coordinates:
+            units[rc.name] = Unit(1.0, red_units[rc.name].dims)
+            units[rc.velocity] = units[rc.name] / spec.time_dims
     has_mass = {el.coordinate for el in spec.elements.values() if el.type == "inertia"}
     has_mass |= {q for q, eq in spec.equations.items() if eq.mass}
     for q in spec.coordinates:
@@ -655,8 +638,10 @@ def _all_terms(spec: ModelSpec):
         for t in (*eq.mass, *eq.force):
             yield t.field, t
     if spec.reduction is not None:
-        for t in spec.reduction.definition:
-            yield t.field, t
+        for rc in spec.reduction.coordinates:
+            if rc.element is None:
+                for t in rc.definition:
+                    yield t.field, t
 
 
 def _derived_order(ctx: _Ctx, spec: ModelSpec) -> list[str]:
