@@ -1203,6 +1203,11 @@ def _detect_between(C: _Continuer, A: _Node, B: _Node, types: tuple[str, ...], l
         if left is not None and right is not None:
             info["n_unstable_before"] = int(left.point.n_unstable)
             info["n_unstable_after"] = int(right.point.n_unstable)
+            if left.point.n_unstable == right.point.n_unstable and A.point.n_unstable != B.point.n_unstable:
+                # the crossing multiplier is within its tolerance of the circle at the bracket
+                # (as close to the root as that): count on the neighbouring branch points
+                info["n_unstable_before"] = int(A.point.n_unstable)
+                info["n_unstable_after"] = int(B.point.n_unstable)
         if kind == "neimark_sacker":
             m = unit_circle_pair(nd.point.multipliers, tol=1e-2 if not nonsmooth else 0.5)
             if m is None:

@@ -441,7 +441,7 @@ class PiecewiseLTV:
 
 
 def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]], periods: float = 1,
-                      check: bool = True) -> np.ndarray:
+                      check: bool = True, monodromies: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Floquet multipliers of a piecewise-constant LTV system at many parameter points.
 
     The vectorised form of ``PiecewiseLTV.from_system(...).multipliers()`` for
@@ -458,11 +458,15 @@ def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]]
         Period in forcing periods.
     check
         Verify that the Jacobian is constant on each segment (and independent of x).
+    monodromies
+        Also return the monodromy of each point (for the stability rule of
+        :mod:`gearsym.analysis.stability`).
 
     Returns
     -------
     ndarray, shape (len(params_list), nx), complex
-        Multipliers of each point, by decreasing modulus.
+        Multipliers of each point, by decreasing modulus (and, with ``monodromies``,
+        the monodromies, shape ``(len(params_list), nx, nx)``).
 
     Raises
     ------
@@ -480,6 +484,7 @@ def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]]
     S = _call_columns(gen, "gs_sched", P).reshape(-1, N) if gen.schedules else np.zeros((0, N))
     seg_times = [_breaks_from(S[:, k], gen.schedules, float(T[k]), 0.0) for k in range(N)]
     out = np.full((N, nx), complex(math.nan, math.nan))
+    monos = np.full((N, nx, nx), math.nan)
     groups: dict[int, list[int]] = {}
     for k, tt in enumerate(seg_times):
         groups.setdefault(len(tt) - 1, []).append(k)
@@ -522,7 +527,8 @@ def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]]
         Mono = E[:, 0]
         for si in range(1, nseg):
             Mono = E[:, si] @ Mono
+        monos[idx_a] = Mono
         mu = np.linalg.eigvals(Mono)
         order = np.argsort(-np.abs(mu), axis=1, kind="stable")
         out[idx_a] = np.take_along_axis(mu, order, axis=1)
-    return out
+    return (out, monos) if monodromies else out

@@ -133,3 +133,30 @@ def trajectory_meshes(system: System, traj: Trajectory, steady_fraction: float =
                      "deflection_max": float(np.max(d)) if d is not None and d.size else float("nan"),
                      "deflection_peak_to_peak": float(np.ptp(d)) if d is not None and d.size else float("nan")}
     return out
+
+
+def mesh_flanks(system: System, t: Sequence[float], Y: np.ndarray, deflections: Mapping[str, np.ndarray],
+                params: Mapping[str, float] | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Contact flank positions ``(lower, upper)`` of every backlash mesh at the samples.
+
+    The contact surfaces are ``g = delta -/+ b`` (:class:`gearsym.symbolic.model.SwitchingFunction`),
+    so the flank of surface ``g`` is ``delta - g``: ``+b`` and ``-b`` for a constant backlash,
+    the moving flanks of a dynamic backlash.
+    """
+    gen = system.generated
+    if not gen.nsw or not deflections:
+        return {}
+    t = np.asarray(t, float)
+    Y = np.asarray(Y, float).reshape(len(t), -1)
+    p = system.param_vector(params)
+    n = len(t)
+    G = np.asarray(gen.casadi_function("gs_sw").map(n)(t[None, :], Y.T, np.tile(p[:, None], (1, n)))).reshape(
+        gen.nsw, n)
+    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for name, d in deflections.items():
+        levels = [d - G[j] for j, s in enumerate(gen.surfaces)
+                  if s.get("kind") in ("drive", "back") and s["name"].rsplit(".", 1)[0] == name]
+        if len(levels) == 2:
+            lo, hi = sorted(levels, key=lambda a: float(np.mean(a)))
+            out[name] = (lo, hi)
+    return out

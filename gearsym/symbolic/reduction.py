@@ -37,7 +37,7 @@ class ReductionResult:
 
     def __init__(self, coordinates: list[sp.Symbol], velocities: list[sp.Symbol], mass: sp.Matrix,
                  forces: sp.Matrix, sub: dict[sp.Symbol, sp.Expr], A: sp.Matrix, kept: list[sp.Symbol],
-                 masses: list[sp.Expr]):
+                 masses: list[sp.Expr], shifts: list[sp.Expr]):
         self.coordinates = coordinates
         self.velocities = velocities
         self.mass = mass
@@ -50,6 +50,8 @@ class ReductionResult:
         self.kept = kept
         #: displayed (equivalent) mass of each reduced coordinate
         self.masses = masses
+        #: time function s_i(t) of each reduced coordinate (x = A q + s)
+        self.shifts = shifts
 
 
 def _numeric_rank(A: sp.Matrix) -> int:
@@ -154,7 +156,7 @@ def reduce_model(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: lis
     vE = AEinv * rest_v
     sub: dict[sp.Symbol, sp.Expr] = {}
     for i, j in enumerate(piv):
-        sub[q[j]] = qE[i] if m > 1 else qE[i]
+        sub[q[j]] = qE[i]
         sub[v[j]] = vE[i]
     states = tuple(xs + xds)
     seg_count = {ns.sched_seg[sn]: len(b) + 1 for sn, b in ns.schedule_breaks.items()}
@@ -179,4 +181,4 @@ def reduce_model(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: lis
         masses.append(m_eq)
     forces = sp.Matrix([_expand_in_states(me * acc, states, ns.t, blocks=sched)
                         for me, (acc, sched) in zip(masses, accs)])
-    return ReductionResult(xs, xds, sp.diag(*masses), forces, sub, A, [q[j] for j in kept], masses)
+    return ReductionResult(xs, xds, sp.diag(*masses), forces, sub, A, [q[j] for j in kept], masses, shifts)
