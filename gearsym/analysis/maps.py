@@ -58,8 +58,9 @@ QUANTITIES: dict[str, str] = {
 }
 
 _SYSTEMS: dict[str, System] = {}
-#: Relative error assigned to the exact (matrix-exponential) monodromy in the stability rule.
-EXACT_RTOL = 1e-13
+#: Smallest relative error assigned to an exact (matrix-exponential) monodromy in the stability
+#: rule; the estimate is :meth:`~gearsym.analysis.floquet.PiecewiseLTV.rounding_error`.
+EXACT_RTOL = 1e-14
 _STABILITY_CODE = {"asymptotically_stable": 0, "neutral": 1, "unstable": 2}
 
 
@@ -114,7 +115,7 @@ def _point(system: System, params: dict[str, float], method: str, periods: float
     if method in ("auto", "exact"):
         try:
             ltv = PiecewiseLTV.from_system(system, params, periods=periods)
-            fq = floquet(ltv.monodromy(), EXACT_RTOL, rigid_state_basis(system, params))
+            fq = floquet(ltv.monodromy(), max(ltv.rounding_error(), EXACT_RTOL), rigid_state_basis(system, params))
             out.update(max_multiplier=fq.max_multiplier, converged=True, method="exact",
                        stability=fq.stability)
             if want_ptp:
@@ -348,10 +349,11 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         pts = [dict(base, **{xname: float(xv * scale[xname]), yname: float(yv * scale[yname])})
                for yv in ys for xv in xs]
         try:
-            _, monos = exact_multipliers(system, pts, periods=periods, monodromies=True)
+            _, monos, errs = exact_multipliers(system, pts, periods=periods, monodromies=True)
             from .stability import floquet, rigid_state_basis
 
-            fqs = [floquet(M, EXACT_RTOL, rigid_state_basis(system, pt)) for M, pt in zip(monos, pts)]
+            fqs = [floquet(M, max(float(e), EXACT_RTOL), rigid_state_basis(system, pt))
+                   for M, e, pt in zip(monos, errs, pts)]
             flat = [{"max_multiplier": fq.max_multiplier, "peak_to_peak": math.nan, "rattle_state": -1,
                      "stability": fq.stability, "converged": bool(np.isfinite(fq.max_multiplier)),
                      "iterations": 0, "method": "exact", "error": ""}
