@@ -169,13 +169,14 @@ def reduce_model(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: lis
         acc = _fold_segments(acc, seg_count)
         if acc.has(*others):
             leftover = sorted(str(o) for o in others if acc.has(o))
-            what = (f"cannot reduce to '{c.name}'" if m == 1 else
+            legacy = where(c) == "reduction.definition"
+            what = (f"cannot reduce to '{c.name}'" if legacy else
                     f"the reduced equations are not closed: the equation of '{c.name}'")
             raise SpecError(f"{what}: the forces still depend on {', '.join(leftover)} (the system is not "
                             f"semi-definite in these coordinates: some deflection, spring or force sees a "
                             f"combination of the coordinates that no reduced coordinate describes; add a "
                             f"reduced coordinate for it or keep the coordinates)", file=spec.path,
-                            field=where(c) if m == 1 else "reduction")
+                            field=where(c) if legacy else "reduction")
         m_eq = sp.simplify(1 / sum(A[i, j] ** 2 / M[j, j] for j in range(n) if A[i, j] != 0))
         accs.append((acc, sched))
         masses.append(m_eq)
