@@ -18,6 +18,15 @@ from typing import Any
 import numpy as np
 
 from .errors import GearsymError, ParameterError, SpecError
+from .inspection import (
+    branch_mesh_figure,
+    inspect_structure,
+    mesh_figure,
+    print_branch_meshes,
+    print_meshes,
+    print_structure,
+    print_trivial,
+)
 
 
 # ----------------------------------------------------------------- arguments
@@ -137,7 +146,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         "forcing_period": sp.sstr(m.forcing_period) if m.forcing_period is not None else None,
         "equations": [sp.sstr(e.lhs) + " = " + sp.sstr(e.rhs) for e in m.equations()],
         "dimensionless_groups": {},
-        **_inspect_structure(m),
+        **inspect_structure(m),
     }
     if ms.dimensionless is not None and m.form == "explicit":
         d = m.dimensionless()
@@ -162,7 +171,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     for name, e in info["effects"].items():
         state = ("on" + (f" ({e['variant']})" if e["variant"] else "")) if e["on"] else "off"
         print(f"  {name:28s} {state:10s} {e['meaning']}")
-    _print_structure(info)
+    print_structure(info)
     print("equations of motion:")
     for eq in info["equations"]:
         print(f"  {eq}")
@@ -189,43 +198,6 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     if args.latex:
         print(info["latex"])
     return 0
-
-
-def _inspect_structure(m) -> dict[str, Any]:
-    """Rigid-body modes, reduction and meshes of a symbolic model (``inspect``)."""
-    import sympy as sp
-
-    def modes(ms: list[dict]) -> list[dict[str, str]]:
-        return [{k: sp.sstr(v) for k, v in mode.items()} for mode in ms]
-
-    out: dict[str, Any] = {"rigid_body_modes": modes(m.rigid_body_modes), "meshes": list(m.mesh_deflections)}
-    rr = m.reduction_result
-    if rr is not None:
-        rcs = {c.name: c for c in m.spec.reduction.coordinates}
-        out["reduction"] = {
-            "mode": m.spec.reduction.mode,
-            "coordinates": [{"name": str(x), "velocity": str(xd), "definition": sp.sstr(
-                sum(rr.A[i, j] * q for j, q in enumerate(m.unreduced_coordinates)) + rr.shifts[i]),
-                "meaning": rcs[str(x)].meaning, "equivalent_mass": sp.sstr(rr.masses[i])}
-                for i, (x, xd) in enumerate(zip(rr.coordinates, rr.velocities))],
-            "eliminated_rigid_body_modes": modes(m.unreduced_rigid_body_modes),
-            "rigid_coordinates_left_out": [str(q) for q in rr.kept],
-        }
-    return out
-
-
-def _print_structure(info: dict[str, Any]) -> None:
-    red = info.get("reduction")
-    if red:
-        print(f"reduction ({red['mode']}):")
-        for c in red["coordinates"]:
-            print(f"  {c['name']} = {c['definition']}   (velocity {c['velocity']}; {c['meaning']})")
-        for mode in red["eliminated_rigid_body_modes"]:
-            print("  eliminates the rigid-body mode " + ", ".join(f"{k}: {v}" for k, v in mode.items()))
-    if info["rigid_body_modes"]:
-        print("rigid-body modes (coordinate combinations no element sees; trivial Floquet multipliers):")
-        for mode in info["rigid_body_modes"]:
-            print("  " + ", ".join(f"{k}: {v}" for k, v in mode.items()))
 
 
 def _model_scene(path: Path, model_spec, args):
@@ -319,7 +291,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         traj.save_npz(out / "trajectory.npz")
         surfaces = _surface_levels(system, traj)
         files = plot_all(traj, out, title=scene.name, surfaces=surfaces)
-        mesh_fig = _mesh_figure(system, traj, out, scene.name, info)
+        mesh_fig = mesh_figure(system, traj, out, scene.name, info)
         if mesh_fig is not None:
             files.append(mesh_fig)
         outputs = system.outputs(traj)
@@ -341,20 +313,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         for f in info.get("files", []):
             print(f"wrote {f}")
     return 0
-
-
-def _mesh_figure(system, traj, out: Path, title: str, info: dict[str, Any]) -> Path | None:
-    """``mesh_deflections.png`` of a simulation (every mesh, with its contact flanks)."""
-    from .analysis.meshes import mesh_deflections, mesh_flanks
-    from .plots import plot_mesh_deflections
-
-    params = {k: v for k, v in traj.params.items() if k in system.params}
-    defl = mesh_deflections(system, traj.t, traj.y, params)
-    if not defl:
-        return None
-    flanks = mesh_flanks(system, traj.t, traj.y, defl, params)
-    rattle = {k: v["rattle_state"] for k, v in info.get("meshes", {}).items()}
-    return plot_mesh_deflections(traj.t, defl, out, flanks, title, rattle)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -455,14 +413,7 @@ def cmd_continue(args: argparse.Namespace) -> int:
             fig.savefig(out / fname, dpi=110)
             plt.close(fig)
             files.append(out / fname)
-        if branch.mesh_names:
-            axes = branch.plot_meshes(xscale=1 / si, xlabel=label)
-            fig = axes[0].figure
-            axes[0].set_title(f"{scene.name}: mesh deflections (dynamic transmission errors) against {name}")
-            fig.tight_layout()
-            fig.savefig(out / "meshes.png", dpi=110)
-            plt.close(fig)
-            files.append(out / "meshes.png")
+        files += branch_mesh_figure(branch, out, si, label, f"{scene.name}: mesh deflections against {name}")
         data["files"] = [str(f) for f in files]
     if args.json:
         _emit(data)
@@ -477,11 +428,7 @@ def cmd_continue(args: argparse.Namespace) -> int:
                 extra = f" ({b.info['surface']}, {b.info['side']} g)" if b.type == "grazing" else ""
                 print(f"  {b.type:16s} {name} = {b.value / si:.8g}{extra}  multipliers "
                       + ", ".join(f"{m.real:.4f}{m.imag:+.4f}j" for m in big))
-            for mesh in br.mesh_names:
-                ptp = br.mesh_quantity(mesh, "peak_to_peak")
-                rs = sorted({int(v) for v in br.mesh_quantity(mesh, "rattle_state") if v >= 0})
-                print(f"  mesh {mesh}: deflection peak-to-peak {np.nanmin(ptp):.4g} .. {np.nanmax(ptp):.4g}"
-                      + (f", rattle states {rs}" if rs else ""))
+            print_branch_meshes(br)
         for f in data.get("files", []):
             print(f"wrote {f}")
     return 0
@@ -530,16 +477,11 @@ def cmd_orbit(args: argparse.Namespace) -> int:
         print("x0: " + ", ".join(f"{n} = {v:.12g}" for n, v in zip(orbit.state_names, orbit.x0)))
         print("multipliers: " + ", ".join(f"{m.real:.8g}{m.imag:+.8g}j (|mu| = {abs(m):.8g})"
                                           for m in orbit.multipliers))
-        if len(orbit.trivial_multipliers):
-            print("trivial multipliers (rigid-body modes, not judged): "
-                  + ", ".join(f"{m.real:.8g}{m.imag:+.3g}j" for m in orbit.trivial_multipliers))
+        print_trivial(orbit.trivial_multipliers)
         print(f"{verdict}, max|mu| = {orbit.max_multiplier:.10g}; {orbit.state_names[0]} in "
               f"[{info['min']:.10g}, {info['max']:.10g}]"
               + (f"; rattle state {orbit.rattle_state}" if orbit.rattle_state is not None else ""))
-        for name, mi in info.get("meshes", {}).items():
-            rs = "" if mi["rattle_state"] is None else f", rattle state {mi['rattle_state']}"
-            print(f"  mesh {name}: deflection in [{mi['deflection_min']:.6g}, {mi['deflection_max']:.6g}], "
-                  f"peak-to-peak {mi['deflection_peak_to_peak']:.6g}{rs}")
+        print_meshes(info.get("meshes", {}))
         for f in info.get("files", []):
             print(f"wrote {f}")
     return 0

@@ -160,7 +160,6 @@ def reference_solution(model: TwoStageTrain, x0, t0: float, t1: float, t_eval=No
             end = min(stop, fine_until) if t < fine_until else stop
             armed = []
             for i in range(2):
-                b = model.b[i]
                 if modes[i] > 0:
                     armed.append((i, +1, -1))   # drive contact lost: delta - b goes + -> -
                 elif modes[i] < 0:
@@ -174,7 +173,8 @@ def reference_solution(model: TwoStageTrain, x0, t0: float, t1: float, t_eval=No
                 ev.terminal = True
                 ev.direction = direction
                 fns.append(ev)
-            sol = solve_ivp(lambda tt, yy: model.rhs(tt, yy, modes, segs), (t, end), y, method="DOP853",
+            sol = solve_ivp(lambda tt, yy, modes=modes, segs=segs: model.rhs(tt, yy, modes, segs), (t, end), y,
+                            method="DOP853",
                             rtol=rtol, atol=atol, events=fns, dense_output=True,
                             max_step=max_step if end == stop else max_step / 500)
             if sol.status == -1:

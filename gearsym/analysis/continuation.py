@@ -71,9 +71,9 @@ from .bifurcation import (
 )
 from .branch import Bifurcation, Branch, BranchPoint
 from .floquet import monodromy_product
-from .meshes import mesh_deflections, mesh_extrema
+from .meshes import mesh_point
 from .orbit import PeriodicOrbit, rattle_states
-from .stability import floquet, rigid_state_basis
+from .stability import complex_sides, floquet, neutral_step_limit, rigid_state_basis
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..facade import Scene
@@ -397,28 +397,6 @@ def _periodic_extremum(y: np.ndarray, i: int, sign: float) -> float:
     return float(b)
 
 
-def _mesh_point(system: System, t: np.ndarray, Y: np.ndarray, params: Mapping[str, float],
-                rattle: Mapping[str, int]) -> dict[str, dict[str, Any]]:
-    """Per mesh: rattle state and extrema of the dynamic deflection over the dense orbit."""
-    try:
-        ext = mesh_extrema({k: np.append(d, d[:1]) for k, d in mesh_deflections(system, t, Y, params).items()})
-    except Exception:  # noqa: BLE001 - informative only
-        ext = {}
-    return {name: {"rattle_state": rattle.get(name), **{k: float(v) for k, v in e.items()}}
-            for name, e in ext.items()}
-
-
-def _complex_sides(point: BranchPoint) -> tuple[int, int]:
-    """Complex (non-real) multipliers inside / outside the circle beyond their tolerances."""
-    mu = np.asarray(point.multipliers, complex)
-    tol = np.asarray(point.multiplier_tolerances, float)
-    if len(tol) != len(mu):
-        tol = np.zeros(len(mu))
-    cplx = np.abs(mu.imag) > 1e-9 * np.maximum(1.0, np.abs(mu))
-    a = np.abs(mu)
-    return int(np.sum(cplx & (a < 1 - tol))), int(np.sum(cplx & (a > 1 + tol)))
-
-
 @dataclass
 class _Node:
     """A point of the branch with what the continuation needs."""
@@ -619,7 +597,7 @@ class _Continuer:
             rss = rattle_states(res.system, x0, res.t0, ev.events, params)
         except Exception:  # noqa: BLE001 - the classification is informative only
             rss = {}
-        meshes = _mesh_point(res.system, t_dense, Y, params, rss)
+        meshes = mesh_point(res.system, t_dense, Y, params, rss)
         t = self.tangent(ev, t_ref, lam)
         if ref is not None and _graph_like(mu, ref.point.multipliers) and ref.t[-1] * t[-1] < 0:
             t = -t
@@ -1052,7 +1030,7 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
             cosang = abs(float(B.t @ A.t)) if B.graph else float(B.t @ A.t)
             if not natural and cosang < math.cos(0.5 * max_angle):
                 h = max(0.7 * h, ds_min)
-            h = _neutral_step_limit(A.point, B.point, h, h_used, ds_min)
+            h = neutral_step_limit(A.point, B.point, h, h_used, ds_min)
             if natural:
                 h_nat = h
             else:
@@ -1075,35 +1053,6 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
     br._continuer = C  # type: ignore[attr-defined]
     br._nodes = nodes  # type: ignore[attr-defined]
     return br
-
-
-def _neutral_step_limit(A: BranchPoint, B: BranchPoint, h: float, h_used: float, ds_min: float) -> float:
-    """Limit the next step where multipliers sit on the unit circle (a conservative branch).
-
-    There a whole instability tongue (a pair meeting at +1 or -1, leaving the circle as
-    a real pair and coming back) can hide inside one step, with the same multipliers at
-    both ends.  For every neutral multiplier of ``B`` that moved in the last step (more
-    than a thousand times its tolerance), the next step is at most half of what its last
-    rate predicts for reaching +1 or -1: far from a tongue that halves the distance to
-    it per step, and near its edge, where the pair moves like the square root of the
-    distance, the step overshoots the edge by a fraction of the distance left and lands
-    inside the tongue (measured on the Mathieu equation: tongues 0.03 wide are found).
-    """
-    if B.stability != "neutral":
-        return h
-    ma, mb = np.asarray(A.multipliers, complex), np.asarray(B.multipliers, complex)
-    tol = np.asarray(B.multiplier_tolerances, float)
-    if not len(ma) or len(tol) != len(mb) or h_used <= 0:
-        return h
-    for i, m in enumerate(mb):
-        if abs(abs(m) - 1.0) > tol[i]:
-            continue
-        moved = float(np.min(np.abs(ma - m)))
-        if not math.isfinite(moved) or moved <= 1e3 * tol[i]:
-            continue
-        dist = min(abs(m - 1.0), abs(m + 1.0))
-        h = min(h, 0.5 * dist * h_used / moved)
-    return max(h, ds_min)
 
 
 def _graph_like(mu_b: np.ndarray, mu_a: np.ndarray, margin: float = 0.05) -> bool:
@@ -1196,7 +1145,7 @@ def _detect_between(C: _Continuer, A: _Node, B: _Node, types: tuple[str, ...], l
             continue
         if kind == "branch_point" and fold_flip:
             continue  # a fold also changes the sign of det(M - I)
-        if kind == "neimark_sacker" and _complex_sides(A.point) == _complex_sides(B.point):
+        if kind == "neimark_sacker" and complex_sides(A.point) == complex_sides(B.point):
             # no complex pair left or entered the circle beyond the tolerances: pairs sitting on
             # the unit circle (a conservative branch) flip the sign of the test function by noise
             continue

@@ -19,7 +19,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..results import Trajectory
     from ..system import System
 
-__all__ = ["mesh_deflections", "mesh_extrema", "mesh_names", "mesh_report", "trajectory_meshes"]
+__all__ = ["mesh_deflections", "mesh_extrema", "mesh_flanks", "mesh_names", "mesh_point", "mesh_report",
+           "trajectory_meshes"]
 
 
 def mesh_names(system: System) -> list[str]:
@@ -160,3 +161,15 @@ def mesh_flanks(system: System, t: Sequence[float], Y: np.ndarray, deflections: 
             lo, hi = sorted(levels, key=lambda a: float(np.mean(a)))
             out[name] = (lo, hi)
     return out
+
+
+def mesh_point(system: System, t: np.ndarray, Y: np.ndarray, params: Mapping[str, float],
+               rattle: Mapping[str, int]) -> dict[str, dict[str, Any]]:
+    """Per mesh: rattle state and extrema of the dynamic deflection over one period sampled at ``t``
+    (end excluded; a branch point of :func:`gearsym.continuation`)."""
+    try:
+        ext = mesh_extrema({k: np.append(d, d[:1]) for k, d in mesh_deflections(system, t, Y, params).items()})
+    except Exception:  # noqa: BLE001 - informative only
+        ext = {}
+    return {name: {"rattle_state": rattle.get(name), **{k: float(v) for k, v in e.items()}}
+            for name, e in ext.items()}

@@ -52,7 +52,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .model import Element, ModelSpec, Term
+    from .model import Element, Term
     from .units import Unit
 
 __all__ = ["DEFLECTION_ELEMENTS", "ReducedCoordinate", "Reduction", "deflection_coordinate_names",

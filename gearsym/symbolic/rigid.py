@@ -130,7 +130,7 @@ def rigid_body_modes(q: Sequence[sp.Symbol], v: Sequence[sp.Symbol], deflections
     cols = []
     for vec in null:
         first = next(x for x in vec if x != 0)
-        cols.append(vec.applyfunc(lambda x: sp.simplify(x / first)))
+        cols.append(vec.applyfunc(lambda x, first=first: sp.simplify(x / first)))
     return sp.Matrix.hstack(*cols)
 
 
@@ -151,7 +151,7 @@ def transform_modes(R: sp.Matrix, A: sp.Matrix) -> sp.Matrix:
     for j in keep:
         vec = AR[:, j]
         first = next(x for x in vec if x != 0)
-        cols.append(vec.applyfunc(lambda x: sp.simplify(x / first)))
+        cols.append(vec.applyfunc(lambda x, first=first: sp.simplify(x / first)))
     return sp.Matrix.hstack(*cols) if cols else sp.zeros(A.rows, 0)
 
 
