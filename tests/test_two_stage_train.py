@@ -199,13 +199,14 @@ def test_continuation_of_the_free_train_covers_the_speed_range(free):
 
 
 def test_cli_reports_rigid_modes_trivial_multipliers_and_meshes(capsys, tmp_path, reduced_model):
-    from gearsym.cli import _inspect_structure, main
+    from gearsym.cli import main
+    from gearsym.inspection import inspect_structure
 
     assert main(["inspect", str(ROOT / "models" / "two_stage_train.toml"), "--json"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["rigid_body_modes"] == [{"th1": "1", "th2": "z1/z2", "th3": "z1/z2", "th4": "z1*z3/(z2*z4)"}]
     assert info["meshes"] == ["mesh1", "mesh2"]
-    info = json.loads(json.dumps(_inspect_structure(reduced_model)))  # what inspect --json adds
+    info = json.loads(json.dumps(inspect_structure(reduced_model)))  # what inspect --json adds
     assert info["rigid_body_modes"] == []
     assert [c["name"] for c in info["reduction"]["coordinates"]] == ["x_mesh1", "x_shaft", "x_mesh2"]
     assert info["reduction"]["rigid_coordinates_left_out"] == ["th4"]
