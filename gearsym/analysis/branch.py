@@ -507,6 +507,7 @@ class Branch:
             _, ax_arr = plt.subplots(len(names), 1, figsize=(7, 2.6 * max(1, len(names))), sharex=True,
                                      squeeze=False)
             axes = list(ax_arr[:, 0])
+        axes = list(axes)
         colours = {0: "C2", 1: "C1", 2: "C3", -1: "0.5"}
         branches = self.all_branches() if children else [self]
         for ax, name in zip(axes, names):
