@@ -7,16 +7,71 @@ event-exact simulation through SUNDIALS.
 >>> import gearsym                                             # doctest: +SKIP
 >>> scene = gearsym.load_scene("scenes/kahraman_singh.toml")   # doctest: +SKIP
 >>> traj = scene.compile().simulate(periods=200)               # doctest: +SKIP
+
+The public names are imported on first use (PEP 562), so ``import gearsym`` and
+``gearsym --version`` do not pay for sympy, CasADi or the analysis layer.
 """
 
-from .analysis.branch import Bifurcation, Branch, BranchPoint
-from .analysis.continuation import continuation
-from .errors import CompileError, ConvergenceError, GearsymError, ParameterError, SimulationError, SpecError
-from .facade import Scene, load_scene
-from .results import Event, Trajectory
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
-__all__ = ["Bifurcation", "Branch", "BranchPoint", "CompileError", "ConvergenceError", "Event", "GearsymError",
-           "ParameterError", "Scene", "SimulationError", "SpecError", "Trajectory", "__version__", "continuation",
-           "load_scene"]
+#: public name -> module that defines it
+_EXPORTS: dict[str, str] = {
+    "Bifurcation": ".analysis.branch",
+    "Branch": ".analysis.branch",
+    "BranchPoint": ".analysis.branch",
+    "continuation": ".analysis.continuation",
+    "PeriodicOrbit": ".analysis.orbit",
+    "CompileError": ".errors",
+    "ConvergenceError": ".errors",
+    "GearsymError": ".errors",
+    "ParameterError": ".errors",
+    "SimulationError": ".errors",
+    "SpecError": ".errors",
+    "Scene": ".facade",
+    "load_scene": ".facade",
+    "Event": ".results",
+    "Trajectory": ".results",
+    "System": ".system",
+}
+
+__all__ = [
+    "Bifurcation", "Branch", "BranchPoint", "CompileError", "ConvergenceError", "Event", "GearsymError",
+    "ParameterError", "PeriodicOrbit", "Scene", "SimulationError", "SpecError", "System", "Trajectory",
+    "__version__", "continuation", "load_scene",
+]
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .analysis.branch import Bifurcation, Branch, BranchPoint
+    from .analysis.continuation import continuation
+    from .analysis.orbit import PeriodicOrbit
+    from .errors import (
+        CompileError,
+        ConvergenceError,
+        GearsymError,
+        ParameterError,
+        SimulationError,
+        SpecError,
+    )
+    from .facade import Scene, load_scene
+    from .results import Event, Trajectory
+    from .system import System
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name on first access."""
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'gearsym' has no attribute '{name}'") from None
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

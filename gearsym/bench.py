@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from .errors import ParameterError
+from .files import check_out_dir  # noqa: F401  (re-exported: bench.check_out_dir)
 
 __all__ = ["DEFAULT_RTOLS", "DIVERGENCE_LEVEL", "Method", "PythonModel", "Reference", "bench_scene", "compile_times",
            "environment", "format_table", "make_methods", "make_reference", "pareto_report",
@@ -1091,19 +1092,6 @@ def parse_methods(text: str) -> list[str]:
     return names
 
 
-def check_out_dir(path: str | Path) -> Path:
-    """Check (without creating anything) that ``path`` can become an output folder."""
-    p = Path(path)
-    if p.exists() and not p.is_dir():
-        raise ParameterError(f"--out: '{p}' exists and is not a folder")
-    anc = p
-    while not anc.exists():
-        anc = anc.parent
-    if not anc.is_dir() or not os.access(anc, os.W_OK):
-        raise ParameterError(f"--out: cannot create '{p}' ('{anc}' is not a writable folder)")
-    return p
-
-
 def bench_scene(scene, *, rtols: Sequence[float] | None = None, methods: Sequence[str] | None = None,
                 periods: float | None = None, points_per_period: int = 32, rounds: int = 3,
                 compile_timing: bool = True, reference: Reference | None = None, label: str | None = None,
@@ -1240,20 +1228,14 @@ def _multiplier_error(mu: np.ndarray, mu_ref: np.ndarray) -> float | None:
 
 def write_outputs(result: Mapping[str, Any], out_dir: str | Path, stem: str) -> list[str]:
     """Write ``stem.json`` and ``stem.png`` into ``out_dir`` (created now), each atomically."""
-    import json
+    from .files import atomic_path, write_json
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     jpath, ppath = out / f"{stem}.json", out / f"{stem}.png"
-    tmp_png = out / f".{stem}.png.tmp.png"
-    try:
-        plot_work_precision(result["case"], tmp_png)
-        os.replace(tmp_png, ppath)
-    finally:
-        tmp_png.unlink(missing_ok=True)
-    tmp = out / f".{stem}.json.tmp"
-    tmp.write_text(json.dumps(result, indent=1, default=_json_default))
-    os.replace(tmp, jpath)
+    with atomic_path(ppath) as tmp:
+        plot_work_precision(result["case"], tmp)
+    write_json(jpath, result)
     return [str(jpath), str(ppath)]
 
 

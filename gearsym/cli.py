@@ -1,7 +1,12 @@
 """Command-line interface: ``gearsym inspect|compile|simulate ...``.
 
 Exit codes: 0 success, 2 bad input (message on stderr, no traceback), 1 internal
-or numerical failure.  ``--json`` prints one JSON object on stdout.
+or numerical failure, or a command that did not do what was asked (an orbit that
+does not converge, a continuation that stops before the end of its range, a map
+whose every point failed).  ``--json`` prints one JSON object on stdout (strict
+JSON: non-finite numbers are ``null``).  Every numeric option is checked before any
+work (:mod:`gearsym.cli_checks`); every output file is written atomically
+(:mod:`gearsym.files`).
 """
 
 from __future__ import annotations
@@ -10,14 +15,15 @@ import argparse
 import json
 import math
 import sys
-import tomllib
 import traceback
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .errors import GearsymError, ParameterError, SpecError
+from . import cli_checks as checks
+from .errors import ConvergenceError, GearsymError, ParameterError, SpecError
+from .files import save_npz, to_json, write_json
 from .inspection import (
     branch_mesh_figure,
     inspect_structure,
@@ -77,15 +83,12 @@ def _load(args: argparse.Namespace):
 
 
 def _emit(obj: dict[str, Any]) -> None:
-    print(json.dumps(obj, indent=1, default=_json_default))
+    print(to_json(obj))
 
 
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    return str(o)
+def _unit_suffix(unit: str) -> str:
+    """`` [unit]``-less suffix for printing a value: omitted for dimensionless ``1``."""
+    return "" if unit in ("", "1") else f" {unit}"
 
 
 # ---------------------------------------------------------------- commands
@@ -94,19 +97,11 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     import sympy as sp
 
     from .facade import Scene
+    from .spec.files import read_toml
     from .spec.model import load_model
 
     path = Path(args.path)
-    try:
-        head = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SpecError("file not found", file=str(path)) from None
-    except OSError as exc:
-        raise SpecError(f"cannot read file: {exc.strerror}", file=str(path)) from None
-    except UnicodeDecodeError:
-        raise SpecError("not a text (UTF-8) file", file=str(path)) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"TOML syntax error: {exc}", file=str(path)) from None
+    head = read_toml(path, "file")  # regular file, size limit, before reading
     if "scene" in head:
         scene = Scene(path, _parse_effects(args.effect, args.no_effect) or None, _parse_set(args.set))
     elif "model" in head:
@@ -245,22 +240,23 @@ def cmd_compile(args: argparse.Namespace) -> int:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Simulate a scene; print statistics, optionally write the trajectory and plots."""
-    if args.out:
-        from .bench import check_out_dir
-
-        check_out_dir(args.out)  # before any work: a bad --out is bad input, not a late failure
+    checks.check_simulate(args)  # before any work: bad options and a bad --out are bad input
     scene = _load(args)
     system = scene.compile()
     kw: dict[str, Any] = {}
     rtol = args.rtol if args.rtol is not None else float(scene.spec.simulate.get("rtol", 1e-8))
     atol = args.atol if args.atol is not None else float(scene.spec.simulate.get("atol", 1e-10))
     if args.x0:
-        try:
-            kw["x0"] = [float(v) for v in args.x0.split(",")]
-        except ValueError:
-            raise ParameterError(f"--x0: '{args.x0}' is not a comma-separated list of numbers") from None
-    traj = system.simulate(t_end=args.t_end, periods=args.periods, rtol=rtol, atol=atol,
-                           method=args.method, **kw)
+        kw["x0"] = checks.float_list(args.x0, "--x0")
+    if args.max_steps is not None:
+        kw["max_steps"] = args.max_steps
+    from .engine.errors import TooMuchWorkError
+
+    try:
+        traj = system.simulate(t_end=args.t_end, periods=args.periods, rtol=rtol, atol=atol,
+                               method=args.method, **kw)
+    except TooMuchWorkError as exc:
+        raise TooMuchWorkError(f"{exc}; raise the limit with --max-steps N") from None
     info = {
         "scene": scene.name,
         "state_names": traj.state_names,
@@ -299,7 +295,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             from .plots import plot_outputs
 
             files.append(plot_outputs(traj.t, outputs, out, system.generated.output_units, scene.name))
-            np.savez_compressed(out / "outputs.npz", t=traj.t, **outputs)
+            save_npz(out / "outputs.npz", t=traj.t, **outputs)
             files.append(out / "outputs.npz")
             info["outputs"] = {k: {"min": float(v.min()), "max": float(v.max())} for k, v in outputs.items()}
         info["files"] = [str(out / "trajectory.npz")] + [str(f) for f in files]
@@ -321,11 +317,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     rtols = bench.parse_rtols(args.rtols) if args.rtols else None
     methods = bench.parse_methods(args.methods) if args.methods else None
-    out = bench.check_out_dir(args.out) if args.out else None
-    if args.periods is not None and not (math.isfinite(args.periods) and args.periods > 0):
-        raise ParameterError(f"--periods must be positive and finite, got {args.periods}")
-    if args.points_per_period < 2 or args.rounds < 0:
-        raise ParameterError("--points-per-period must be >= 2 and --rounds >= 0")
+    checks.check_bench(args)
+    out = Path(args.out) if args.out else None
     scene = _load(args)
     data = bench.bench_scene(scene, rtols=rtols, methods=methods, periods=args.periods,
                              points_per_period=args.points_per_period, rounds=args.rounds,
@@ -346,45 +339,41 @@ def cmd_continue(args: argparse.Namespace) -> int:
     """Continue periodic orbits in one parameter: branch, stability, located bifurcations."""
     from .analysis.continuation import continuation
 
+    checks.check_continue(args)
     scene = _load(args)
     name = args.param
     spec_p = scene.model_spec.parameters.get(name)
     if spec_p is None:
         raise ParameterError(f"--param {name}: not a parameter of model '{scene.model_spec.name}' (have: "
                              f"{', '.join(scene.model_spec.parameters)})")
-    for flag, v in (("--from", args.start), ("--to", args.stop)):
-        if not math.isfinite(v):
-            raise ParameterError(f"{flag}: non-finite value {v}")
-    if args.start == args.stop:
-        raise ParameterError(f"--from and --to must differ (both {args.start:g})")
-    if args.periods <= 0 or args.segments < 1 or args.max_points < 2 or args.switch < 0:
-        raise ParameterError("--periods must be > 0, --segments >= 1, --max-points >= 2, --switch >= 0")
     si = float(spec_p.si_scale)
+    unit = _unit_suffix(spec_p.unit)
     system = scene.compile()
     kw: dict[str, Any] = {}
     if args.x0:
-        try:
-            kw["x0"] = [float(v) for v in args.x0.split(",")]
-        except ValueError:
-            raise ParameterError(f"--x0: expected comma-separated numbers, got '{args.x0}'") from None
-    if args.rtol is not None:
-        kw["rtol"] = args.rtol
-    if args.harmonics is not None:
-        kw["harmonics"] = args.harmonics
+        kw["x0"] = checks.float_list(args.x0, "--x0")
+    for key in ("rtol", "atol", "harmonics"):
+        if getattr(args, key) is not None:
+            kw[key] = getattr(args, key)
     if args.ds_max is not None:
         kw["ds_max"] = args.ds_max
+        kw["ds"] = min(0.005, args.ds_max)
+        kw["ds_min"] = min(1e-7, kw["ds"])
     branch = continuation(system, name, args.start * si, args.stop * si, periods=args.periods,
                           method=args.method, segments=args.segments, max_points=args.max_points,
-                          switch=args.switch, progress=False if args.no_progress else None, **kw)
+                          switch=args.switch, progress=False if args.no_progress else None,
+                          display=(si, spec_p.unit), **kw)
     data = branch.to_dict()
 
     def to_declared(d: dict[str, Any]) -> None:
         if si != 1.0:
             for item in d["points"] + d["bifurcations"]:
                 item["value"] = item["value"] / si
-            for k in ("start", "stop", "switched_at"):
+            for k in ("start", "stop", "stop_value", "switched_at"):
                 if isinstance(d.get(k), (int, float)):
                     d[k] = d[k] / si
+            if isinstance(d.get("switched_at"), dict):
+                d["switched_at"]["value"] = d["switched_at"]["value"] / si
         d["unit"] = spec_p.unit
         for c in d.get("children", []):
             to_declared(c)
@@ -392,9 +381,11 @@ def cmd_continue(args: argparse.Namespace) -> int:
     to_declared(data)
     data["scene"] = scene.name
     if args.out:
+        from .files import save_figure
+
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        (out / "branch.json").write_text(json.dumps(data, indent=1, default=_json_default))
+        write_json(out / "branch.json", data)
         files = [out / "branch.json"]
         import matplotlib
 
@@ -410,7 +401,7 @@ def cmd_continue(args: argparse.Namespace) -> int:
             ax.set_xlabel(label)
             ax.set_title(f"{scene.name}: continuation in {name}")
             fig.tight_layout()
-            fig.savefig(out / fname, dpi=110)
+            save_figure(fig, out / fname, dpi=110)
             plt.close(fig)
             files.append(out / fname)
         files += branch_mesh_figure(branch, out, si, label, f"{scene.name}: mesh deflections against {name}")
@@ -420,35 +411,32 @@ def cmd_continue(args: argparse.Namespace) -> int:
     else:
         for br in branch.all_branches():
             print(f"{scene.name}: period-{br.periods:g} branch in {name}, {len(br.points)} points, "
-                  f"{br.values.min() / si:.6g} .. {br.values.max() / si:.6g} {spec_p.unit}, "
+                  f"{br.values.min() / si:.6g} .. {br.values.max() / si:.6g}{unit}, "
                   f"{int(np.sum(br.stable))} stable; {br.stop_reason}")
             for b in br.bifurcations:
                 mu = b.point.multipliers
                 big = mu[np.argsort(-np.abs(mu))][:2]
                 extra = f" ({b.info['surface']}, {b.info['side']} g)" if b.type == "grazing" else ""
-                print(f"  {b.type:16s} {name} = {b.value / si:.8g}{extra}  multipliers "
+                print(f"  {b.type:16s} {name} = {b.value / si:.8g}{unit}{extra}  multipliers "
                       + ", ".join(f"{m.real:.4f}{m.imag:+.4f}j" for m in big))
             print_branch_meshes(br)
         for f in data.get("files", []):
             print(f"wrote {f}")
+    if not branch.complete:
+        # the command did not cover the range it was asked for: never exit 0
+        print(f"gearsym: error: the continuation stopped before the end of the range: {branch.stop_reason}",
+              file=sys.stderr)
+        return ConvergenceError.exit_code
     return 0
-
-
-def _float_list(text: str, what: str) -> list[float]:
-    try:
-        return [float(v) for v in text.split(",")]
-    except ValueError:
-        raise ParameterError(f"{what}: '{text}' is not a comma-separated list of numbers") from None
 
 
 def cmd_orbit(args: argparse.Namespace) -> int:
     """Find a periodic orbit (shooting or harmonic balance) and its Floquet multipliers."""
-    if not (math.isfinite(args.periods) and args.periods > 0):
-        raise ParameterError(f"--periods must be positive and finite, got {args.periods}")
+    checks.check_orbit(args)
     scene = _load(args)
     system = scene.compile()
     opts: dict[str, Any] = {}
-    x0 = _float_list(args.x0, "--x0") if args.x0 else None
+    x0 = checks.float_list(args.x0, "--x0") if args.x0 else None
     if args.method == "shooting":
         opts["segments"] = args.segments
         if args.transient is not None:
@@ -460,10 +448,11 @@ def cmd_orbit(args: argparse.Namespace) -> int:
             opts[key] = getattr(args, key)
     orbit = system.periodic_orbit(periods=args.periods, x0=x0, method=args.method, **opts)
     info: dict[str, Any] = {"scene": scene.name, **orbit.to_dict()}
+    info.setdefault("isolation", orbit.info.get("isolation"))  # smallest singular value of M - I, threshold
     if args.out:
         out = Path(args.out)
         files = orbit.save_plots(out, title=f"{scene.name}: periodic orbit ({orbit.method})")
-        (out / "orbit.json").write_text(json.dumps(info, indent=1, default=_json_default))
+        write_json(out / "orbit.json", info)
         info["files"] = [str(out / "orbit.json")] + [str(f) for f in files]
     if args.json:
         _emit(info)
@@ -487,23 +476,11 @@ def cmd_orbit(args: argparse.Namespace) -> int:
     return 0
 
 
-def _axis_arg(values: list[str], flag: str) -> tuple[str, float, float, int]:
-    name, lo, hi, n = values
-    try:
-        lo_f, hi_f, n_i = float(lo), float(hi), int(n)
-    except ValueError:
-        raise ParameterError(f"{flag} expects NAME LO HI N (numbers LO, HI and an integer N), got "
-                             f"{' '.join(values)}") from None
-    if not (math.isfinite(lo_f) and math.isfinite(hi_f)) or n_i < 1:
-        raise ParameterError(f"{flag}: need finite LO, HI and N >= 1, got {' '.join(values)}")
-    return name, lo_f, hi_f, n_i
-
-
 def cmd_map(args: argparse.Namespace) -> int:
     """Two-parameter stability / response map (netCDF + heat-map PNG)."""
     from .analysis.maps import save_map, stability_map
 
-    xa, ya = _axis_arg(args.x, "--x"), _axis_arg(args.y, "--y")
+    xa, ya = checks.check_map(args)
     scene = _load(args)
     opts: dict[str, Any] = {}
     if args.harmonics is not None:
@@ -512,6 +489,11 @@ def cmd_map(args: argparse.Namespace) -> int:
         opts["rtol"] = args.rtol
     ds = stability_map(scene, xa, ya, quantity=args.quantity, method=args.method, periods=args.periods,
                        dask=args.dask, workers=args.workers, orbit_options=opts)
+    if int(ds.attrs["n_failed"]) >= int(ds.attrs["n_points"]):
+        # nothing computed: no all-NaN map files, exit 1 with the first errors
+        first = str(ds.attrs.get("errors", "")).splitlines()[:1]
+        raise ConvergenceError(f"every one of the {int(ds.attrs['n_points'])} points of the map failed"
+                               + (f"; first error at {first[0]}" if first else ""))
     files = save_map(ds, args.out)
     q = ds[args.quantity].values
     mm = ds["max_multiplier"].values
@@ -562,16 +544,35 @@ def _surface_levels(system, traj) -> list[float]:
 
 
 # -------------------------------------------------------------------- main
+def cmd_export(args: argparse.Namespace) -> int:
+    """Export a scene as a standalone C project (--c DIR) and/or an FMI 2.0 ME FMU (--fmu FILE)."""
+    from .export import ExportError, export_scene
+
+    if not args.c and not args.fmu:
+        raise ExportError("export: give --c DIR and/or --fmu FILE.fmu")
+    info = export_scene(_load(args), c_dir=args.c, fmu=args.fmu, force=args.force)
+    if args.json:
+        _emit(info)
+    else:
+        if "c" in info:
+            print(f"wrote the C project {info['c']['directory']} (build: make -C {info['c']['directory']}; "
+                  f"run: ./{info['c']['program']} --help)")
+        if "fmu" in info:
+            print(f"wrote {info['fmu']['fmu']} (FMI 2.0 Model Exchange, linux64 binary built in "
+                  f"{info['fmu']['build_seconds']:.2f} s)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``gearsym`` command."""
-    parser = argparse.ArgumentParser(
+    parser = checks.GearsymArgumentParser(
         prog="gearsym",
         description="Symbolic model compiler for gear-transmission dynamics.",
         epilog="Exit codes: 0 success, 2 bad input, 1 internal or numerical failure.",
     )
     parser.add_argument("--version", action="version", version=f"gearsym {_version()}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=checks.GearsymArgumentParser)
 
     p = sub.add_parser("inspect", help="show derived equations, states, parameters, effects, modes")
     p.add_argument("path", help="scene or model file")
@@ -595,6 +596,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--atol", type=float, help="absolute tolerance (default: scene, else 1e-10)")
     p.add_argument("--method", choices=["bdf", "adams", "ida"], help="integrator")
     p.add_argument("--x0", help="initial state, comma-separated")
+    p.add_argument("--max-steps", type=int, help="limit on internal integrator steps (default: the scene's, "
+                   "else 10,000,000)")
     p.add_argument("--out", help="folder for trajectory.npz and PNG plots")
     p.set_defaults(func=cmd_simulate)
 
@@ -627,6 +630,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ds-max", type=float, help="largest step in scaled arclength (default 0.02)")
     p.add_argument("--max-points", type=int, default=5000, help="limit on branch points (default 5000)")
     p.add_argument("--rtol", type=float, help="integrator relative tolerance (default 1e-10)")
+    p.add_argument("--atol", type=float, help="integrator absolute tolerance (default: rtol * 1e-2 * the smallest "
+                   "state magnitude on the first orbit; for the orbit x = 0 the scene's scale)")
     p.add_argument("--x0", help="initial guess of the orbit's state at t = 0, comma-separated")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.add_argument("--out", help="folder for branch.json, response.png, multipliers.png")
@@ -646,6 +651,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="folder for orbit.json, orbit_phase.png, orbit_multipliers.png")
     p.set_defaults(func=cmd_orbit)
 
+    p = sub.add_parser("export", help="standalone C project (--c DIR) and/or FMI 2.0 Model Exchange FMU "
+                       "(--fmu FILE.fmu) of a scene")
+    _scene_args(p)
+    p.add_argument("--c", metavar="DIR", help="folder for the C project (main.c, driver, Makefile, README)")
+    p.add_argument("--fmu", metavar="FILE", help="FMU file to write (.fmu)")
+    p.add_argument("--force", action="store_true", help="write into an existing non-empty folder / over a file")
+    p.set_defaults(func=cmd_export)
+
     p = sub.add_parser("map", help="two-parameter stability / response map (netCDF + heat map)")
     _scene_args(p)
     p.add_argument("--x", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"),
@@ -662,6 +675,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
     p.add_argument("--out", required=True, help="folder for map.nc and map.png")
     p.set_defaults(func=cmd_map)
+
+    from .cli_cache import add_cache_parser
+
+    add_cache_parser(sub)
     return parser
 
 
@@ -674,7 +691,11 @@ def _version() -> str:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``gearsym`` console script."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except checks.UsageError as exc:  # one line, exit 2 (argparse would print the usage and exit)
+        print(f"gearsym: error: {exc}", file=sys.stderr)
+        return exc.exit_code
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
@@ -686,6 +707,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("gearsym: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`): no traceback, no message
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     except Exception as exc:  # internal error: short message, traceback on request
         if args.debug:
             traceback.print_exc()

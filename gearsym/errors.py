@@ -8,6 +8,16 @@ or numerical failure).
 
 from __future__ import annotations
 
+import re
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f\x85\u2028\u2029]")
+
+
+def one_line(text: str) -> str:
+    """``text`` with control characters and line breaks escaped (``\\n``), so that a
+    message quoting user input stays on one line."""
+    return _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode(), text)
+
 
 class GearsymError(Exception):
     """Base class of all gearsym errors."""
@@ -31,6 +41,7 @@ class SpecError(GearsymError):
     exit_code = 2
 
     def __init__(self, message: str, file: str | None = None, field: str | None = None):
+        message, file, field = one_line(message), file and one_line(file), field and one_line(field)
         self.message = message
         self.file = file
         self.field = field

@@ -8,12 +8,12 @@ never sees sympy, and a cached compile does not even derive the equations.
 from __future__ import annotations
 
 import os
-import shutil
 from collections.abc import Mapping
 from functools import cached_property
 from pathlib import Path
 
-from .codegen.generate import GeneratedModel, build_functions, cache_key, write_and_compile
+from .codegen.cache import BuildCache, build_key
+from .codegen.generate import GeneratedModel, build_functions, write_and_compile
 from .errors import GearsymError
 from .spec.model import ModelSpec, load_model
 from .spec.scene import ResolvedScene, SceneSpec, load_scene_spec, resolve_scene
@@ -22,7 +22,8 @@ from .symbolic.model import SymbolicModel
 
 def default_generated_dir(scene_path: str | Path) -> Path:
     """Where compiled scenes go: ``$GEARSYM_GENERATED``, else ``generated/`` of the
-    project the scene belongs to (``scenes/../generated``), else ``~/.cache/gearsym``."""
+    project the scene belongs to (the nearest folder above the scene that has a
+    ``generated/`` folder), else ``~/.cache/gearsym``."""
     env = os.environ.get("GEARSYM_GENERATED")
     if env:
         return Path(env)
@@ -96,36 +97,71 @@ class Scene:
         return System(gen, values, self.initial_state(), self.spec.simulate, self.name)
 
     def generate(self, generated_dir: str | Path | None = None, force: bool = False) -> GeneratedModel:
-        """Generate and compile, returning the :class:`GeneratedModel` (cache-aware)."""
+        """Generate and compile, returning the :class:`GeneratedModel` (cache-aware).
+
+        The build is looked up by its key (:func:`gearsym.codegen.cache.build_key`) and
+        reused only if it verifies (key and SHA-256 of the shared object); otherwise
+        it is built in a private folder under a file lock and renamed into place, so
+        concurrent callers get one build.
+
+        Parameters
+        ----------
+        generated_dir
+            Root folder of the builds (default: :func:`default_generated_dir`).
+        force
+            Rebuild even if a verified build exists.
+
+        Raises
+        ------
+        CompileError
+            If the build fails or its folder would lie outside ``generated_dir``.
+        """
         root = Path(generated_dir) if generated_dir else default_generated_dir(self.path)
-        model_text = Path(self.model_spec.path).read_text(encoding="utf-8")
-        key = cache_key(model_text, self.resolved.effects, self.model_spec.form, self.name)
-        directory = root / f"{self.name}-{key}"
-        meta = directory / "meta.json"
-        if meta.exists() and not force:
-            try:
-                gen = GeneratedModel.from_json(meta.read_text())
-                if Path(gen.so_path).exists():
-                    gen.cached = True
-                    gen.compile_seconds = 0.0
-                    return gen
-            except (ValueError, TypeError, KeyError):
-                pass  # corrupt cache entry: rebuild it
-        fns = build_functions(self.model)  # derive first: a model that fails leaves no folder behind
-        created = directory  # the outermost folder this call creates, removed again on failure
+        try:
+            model_text = Path(self.model_spec.path).read_text(encoding="utf-8")
+        except OSError as exc:
+            raise GearsymError(f"cannot read the model file {self.model_spec.path}: {exc.strerror}") from None
+        key, parts = build_key(model_text, self.resolved.effects, self.model_spec.form)
+        cache = BuildCache(root)
+        entry = cache.entry(self.name, key)
+        if not force:
+            gen = cache.lookup(entry, key)
+            if gen is not None:
+                return self._reused(gen)
+        created = root.absolute()  # the outermost folder this call creates, removed again on failure
         while not created.parent.exists():
             created = created.parent
-        created = created if not created.exists() else None
+        created_root = None if created.exists() else created
         try:
-            directory.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise GearsymError(f"cannot create build folder {directory}: {exc.strerror}") from None
-        try:
-            return write_and_compile(self.model, fns, directory, self.name, key, self.resolved.effects)
+            with cache.locked(entry):
+                if not force:  # another process may have built it while we waited
+                    gen = cache.lookup(entry, key)
+                    if gen is not None:
+                        return self._reused(gen)
+                fns = build_functions(self.model)
+                with cache.staging(entry) as staging:
+                    gen = write_and_compile(self.model, fns, staging, entry.directory, self.name, key,
+                                            self.resolved.effects, parts)
+                    cache.install(staging, entry)
+                return gen
         except BaseException:
-            if created is not None:
-                shutil.rmtree(created, ignore_errors=True)
+            if created_root is not None:  # a failed first build leaves no empty folder behind
+                d = root.absolute()
+                while True:
+                    try:
+                        d.rmdir()
+                    except OSError:
+                        break
+                    if d == created_root:
+                        break
+                    d = d.parent
             raise
+
+    def _reused(self, gen: GeneratedModel) -> GeneratedModel:
+        gen.cached = True
+        gen.compile_seconds = 0.0
+        gen.scene = self.name  # builds are shared by scenes whose names map to one folder
+        return gen
 
 
 def load_scene(path: str | Path, effects: Mapping[str, bool | str] | None = None,

@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .files import save_figure  # noqa: E402
 from .results import Trajectory  # noqa: E402
 
 
@@ -72,7 +73,7 @@ def plot_all(traj: Trajectory, out_dir: str | Path, title: str = "", state: int 
     ax.set_title(f"{title} time history".strip())
     fig.tight_layout()
     files.append(out / "time_history.png")
-    fig.savefig(files[-1], dpi=120)
+    save_figure(fig, files[-1], dpi=120)
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(4.8, 4.2))
@@ -89,7 +90,7 @@ def plot_all(traj: Trajectory, out_dir: str | Path, title: str = "", state: int 
     ax.set_title(f"{title} phase portrait".strip())
     fig.tight_layout()
     files.append(out / "phase_portrait.png")
-    fig.savefig(files[-1], dpi=120)
+    save_figure(fig, files[-1], dpi=120)
     plt.close(fig)
 
     if traj.period:
@@ -102,7 +103,7 @@ def plot_all(traj: Trajectory, out_dir: str | Path, title: str = "", state: int 
         ax.set_title(f"{title} Poincare section (t = kT)".strip())
         fig.tight_layout()
         files.append(out / "poincare.png")
-        fig.savefig(files[-1], dpi=120)
+        save_figure(fig, files[-1], dpi=120)
         plt.close(fig)
 
     w, a = amplitude_spectrum(traj.t[steady], traj.y[steady, state])
@@ -119,7 +120,7 @@ def plot_all(traj: Trajectory, out_dir: str | Path, title: str = "", state: int 
     ax.set_title(f"{title} amplitude spectrum".strip())
     fig.tight_layout()
     files.append(out / "spectrum.png")
-    fig.savefig(files[-1], dpi=120)
+    save_figure(fig, files[-1], dpi=120)
     plt.close(fig)
     return files
 
@@ -141,7 +142,7 @@ def plot_outputs(t: np.ndarray, outputs: dict[str, np.ndarray], out_dir: str | P
     axes[0, 0].set_title(f"{title} outputs".strip())
     fig.tight_layout()
     path = out / "outputs.png"
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 

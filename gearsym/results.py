@@ -84,12 +84,49 @@ class Trajectory:
         return pts[skip:]
 
     def save_npz(self, path: str | Path) -> None:
-        """Write the trajectory to a ``.npz`` file."""
+        """Write the trajectory to a ``.npz`` file (atomically: a complete file or none)."""
+        from .files import save_npz
+
         ev = np.array([(e.t, e.direction) for e in self.events]).reshape(-1, 2)
-        np.savez_compressed(
+        save_npz(
             path, t=self.t, y=self.y, state_names=np.array(self.state_names),
             event_t=ev[:, 0], event_direction=ev[:, 1],
             event_surface=np.array([e.surface for e in self.events]),
             period=np.nan if self.period is None else self.period,
             param_names=np.array(list(self.params)), param_values=np.array(list(self.params.values())),
         )
+
+
+@dataclass(frozen=True)
+class Flow:
+    """One integration of the flow map ``phi(t1, t0, x0)``, as the periodic-orbit solvers use it.
+
+    Returned by :meth:`gearsym.system.System.flow` (no output grid, no event objects: the
+    cheap path of shooting and continuation).
+
+    Attributes
+    ----------
+    x_final : ndarray, shape (nx,)
+        ``phi(t1, t0, x0)``.
+    monodromy : ndarray, shape (nx, nx), or None
+        ``d x(t1) / d x0`` with saltation matrices at the events (when requested).
+    event_t, event_surface, event_direction, event_speed : ndarray
+        The events (times, surface indices, directions +1/-1, ``dg/dt`` along the flow).
+    sigma_final : ndarray, shape (nsw,)
+        Side of each switching surface at ``t1``.
+    amplitude : ndarray, shape (nx,)
+        ``max |x_i(t)|`` over the sampled points (``n_samples`` of :meth:`System.flow`).
+    stats : dict
+        ``n_steps``, ``n_rhs``, ``n_jac``, ``n_events``, ...
+    """
+
+    x_final: np.ndarray
+    monodromy: np.ndarray | None
+    event_t: np.ndarray
+    event_surface: np.ndarray
+    event_direction: np.ndarray
+    event_speed: np.ndarray
+    sigma_final: np.ndarray
+    amplitude: np.ndarray
+    stats: dict
+

@@ -12,9 +12,15 @@ from .bound_functions import evaluate as evaluate_bound
 from .codegen.generate import GeneratedModel
 from .engine.driver import Engine, load_engine
 from .errors import ParameterError
-from .results import Event, Trajectory
+from .results import Event, Flow, Trajectory
 
 _METHODS = ("bdf", "adams", "ida")
+
+#: Largest output grid :meth:`System.simulate` accepts, in stored numbers (points x (states + 1)):
+#: 2**28 doubles = 2 GiB for the trajectory alone (plots and outputs copy it again).
+MAX_OUTPUT_VALUES = 2 ** 28
+#: The engine's internal step budget when none is given (``max_steps=0``).
+DEFAULT_MAX_STEPS = 10_000_000
 
 
 class System:
@@ -35,7 +41,8 @@ class System:
     def __init__(self, generated: GeneratedModel, params: Mapping[str, float], x0: Sequence[float],
                  defaults: Mapping[str, object] | None = None, scene_name: str = ""):
         self.generated = generated
-        self.engine: Engine = load_engine(generated.so_path)
+        self.engine: Engine = load_engine(generated.so_path, sha256=generated.so_sha256 or None,
+                                          build_key=generated.build_key or None)
         # run-time inputs: the generated parameters, except the bound ones (numeric
         # functions of other parameters), which param_vector() evaluates from theirs
         self.params = {name: float(params[name]) for name in generated.input_names}
@@ -78,9 +85,53 @@ class System:
         return np.array([values[k] for k in self.generated.param_names], dtype=float)
 
     def period(self, params: Mapping[str, float] | None = None) -> float | None:
-        """The forcing period at these parameters (``None`` if the scene has none)."""
-        T = float(self.generated.casadi_function("gs_period")(self.param_vector(params)))
-        return T if math.isfinite(T) else None
+        """The forcing period at these parameters (``None`` if the scene has none, or if it is not
+        finite and positive at these values; :meth:`require_period` says which).
+
+        Evaluated by the generated C (``gs_period``) through the engine: about a microsecond.
+        """
+        T = self.engine.period(self.param_vector(params))
+        return T if math.isfinite(T) and T > 0 else None
+
+    def period_of(self, p: np.ndarray) -> float | None:
+        """:meth:`period` for a parameter *vector* (as :meth:`param_vector` returns)."""
+        T = self.engine.period(p)
+        return T if math.isfinite(T) and T > 0 else None
+
+    @property
+    def has_forcing_period(self) -> bool:
+        """Whether the model declares a forcing period (``[forcing] period``)."""
+        fn = self.generated.casadi_function("gs_period")
+        return any(fn.which_depends("p", ["T"], 1, False)) or not math.isnan(float(fn(self.param_vector())))
+
+    def require_period(self, params: Mapping[str, float] | None = None, what: str = "this") -> float:
+        """The forcing period, or a :class:`ParameterError` saying why there is none.
+
+        Parameters
+        ----------
+        params
+            Parameter overrides (SI).
+        what
+            What needs the period (for the message), e.g. ``"periods="``.
+
+        Raises
+        ------
+        ParameterError
+            The model declares no forcing period, or it is not finite and positive at these
+            parameter values (e.g. ``Omega = 0`` in ``period = "2*pi/Omega"``).
+        """
+        p = self.param_vector(params)
+        T = self.engine.period(p)
+        if math.isfinite(T) and T > 0:
+            return T
+        fn = self.generated.casadi_function("gs_period")  # which parameters T depends on, for the message
+        deps = [f"{n} = {v:g}" for n, v, d in zip(self.param_names, p, fn.which_depends("p", ["T"], 1, False),
+                                                   strict=True) if d]
+        if not deps and math.isnan(T):
+            raise ParameterError(f"{what} needs a scene with a forcing period ([forcing] period); give t_end")
+        at = f" at {', '.join(deps)}" if deps else ""
+        raise ParameterError(f"the forcing period is not finite and positive{at} (T = {T:g}); {what} needs a "
+                             f"forcing period")
 
     def rhs(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
             params: Mapping[str, float] | None = None) -> np.ndarray:
@@ -88,23 +139,45 @@ class System:
 
         ``sigma`` defaults to the sides of the switching surfaces at ``x``.
         """
-        return np.asarray(self._call("gs_rhs", t, x, sigma, params)).ravel()
+        return self._eval_one("rhs", t, x, sigma, params)
 
     def jacobian(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
                  params: Mapping[str, float] | None = None) -> np.ndarray:
         """The generated Jacobian ``df/dx`` (explicit models), ``sigma`` as in :meth:`rhs`."""
-        return np.asarray(self._call("gs_jac", t, x, sigma, params))
+        return self._eval_one("jac", t, x, sigma, params)
 
-    def _call(self, name: str, t: float, x: Sequence[float], sigma: Sequence[float] | None,
-              params: Mapping[str, float] | None):
-        """Call a generated (t, x, p, m) function with the mode at (t, x)."""
-        p = self.param_vector(params)
-        x = np.asarray(x, dtype=float)
-        if sigma is None:
-            g = np.asarray(self.generated.casadi_function("gs_sw")(t, x, p)).ravel()
-            sigma = np.where(g >= 0, 1.0, -1.0)
-        m = np.concatenate([np.asarray(sigma, float), self._sched_mode(t, p)])
-        return self.generated.casadi_function(name)(t, x, p, m)
+    def _eval_one(self, name: str, t: float, x: Sequence[float], sigma: Sequence[float] | None,
+                  params: Mapping[str, float] | None) -> np.ndarray:
+        if self.generated.implicit:
+            raise ParameterError(f"{name}() needs an explicit model; this one is in implicit (residual) form")
+        sg = None if sigma is None else np.asarray(sigma, float).reshape(1, -1)
+        return self.engine.evaluate(name, [float(t)], np.asarray(x, float).reshape(1, -1),
+                                    self.param_vector(params), sg)[0]
+
+    def switching(self, t: Sequence[float] | float, x: Sequence[float], params: Mapping[str, float] | None = None,
+                  p: np.ndarray | None = None) -> np.ndarray:
+        """The switching functions ``g(t, x)`` at one or many points (generated C, no CasADi call).
+
+        Parameters
+        ----------
+        t
+            Time(s), shape () or (n,).
+        x
+            State(s), shape (nx,) or (n, nx).
+        params
+            Parameter overrides (SI units); or give the vector ``p`` directly.
+
+        Returns
+        -------
+        ndarray
+            Shape (nsw,) for one point, (n, nsw) for many.
+        """
+        one = np.ndim(t) == 0
+        ta = np.atleast_1d(np.asarray(t, float))
+        xa = np.asarray(x, float).reshape(ta.shape[0], self.generated.nx)
+        pv = self.param_vector(params) if p is None else p
+        g = self.engine.evaluate("sw", ta, xa, pv)
+        return g[0] if one else g
 
     @property
     def output_names(self) -> list[str]:
@@ -126,32 +199,14 @@ class System:
         """
         if not self.generated.outputs:
             return {}
-        fn = self.generated.casadi_function("gs_out")
         p = self.param_vector({k: v for k, v in traj.params.items() if k in self.params})
-        sw = self.generated.casadi_function("gs_sw")
-        n = len(traj.t)
-        tt = traj.t.reshape(1, n)
-        xx = traj.y.T
-        g = np.asarray(sw.map(n)(tt, xx, p)).reshape(-1, n)
-        sigma = np.where(g >= 0, 1.0, -1.0)
-        sched = np.array([self._sched_mode(float(t), p) for t in traj.t]).reshape(n, -1).T
-        m = np.vstack([sigma, sched]) if sched.size else sigma
-        vals = np.asarray(fn.map(n)(tt, xx, p, m)).reshape(len(self.generated.outputs), n)
-        return {name: vals[i] for i, name in enumerate(self.generated.outputs)}
+        vals = self.engine.evaluate("out", traj.t, traj.y, p)
+        return {name: vals[:, i].copy() for i, name in enumerate(self.generated.outputs)}
 
     def _sched_mode(self, t: float, p: np.ndarray) -> np.ndarray:
-        s = np.asarray(self.generated.casadi_function("gs_sched")(p)).ravel()
-        out = []
-        i = 0
-        for sch in self.generated.schedules:
-            P = s[i]
-            breaks = s[i + 1: i + 1 + sch["n_breaks"]]
-            i += 1 + sch["n_breaks"]
-            u = t / P
-            n = math.floor(u)
-            seg = int(np.searchsorted(breaks, u - n, side="right") - 1)
-            out += [n, seg]
-        return np.array(out, dtype=float)
+        """Schedule part of the mode vector at time ``t``: ``[n_0, seg_0, n_1, seg_1, ...]``."""
+        m = self.engine.evaluate("mode", [float(t)], np.zeros((1, self.generated.nx)), p)[0]
+        return m[self.generated.nsw:].copy()
 
     # -------------------------------------------------------------- simulate
 
@@ -160,7 +215,8 @@ class System:
                  n_out: int | None = None, params: Mapping[str, float] | None = None, *,
                  t0: float = 0.0, method: str | None = None, max_step: float | None = None,
                  monodromy: bool = False, sigma0: Sequence[float] | None = None,
-                 max_steps: int = 0, t_out: Sequence[float] | None = None) -> Trajectory:
+                 max_steps: int = 0, t_out: Sequence[float] | None = None, nonlinear: str = "auto",
+                 linear_solver: str = "auto") -> Trajectory:
         """Integrate the system with the C engine (one call into C).
 
         Parameters
@@ -193,9 +249,15 @@ class System:
         sigma0
             Side (+1/-1) of each switching surface at ``t0``; from the state if ``None``.
         max_steps
-            Limit on internal steps (0: ten million).
+            Limit on internal steps (0: the scene's ``max_steps``, else ten million).  A run
+            that needs more than this many steps of ``max_step`` is refused before it starts.
         t_out
-            Explicit output times (overrides ``n_out``).
+            Explicit output times (ascending, in ``[t0, t_end]``; overrides ``n_out``).  Without
+            ``t_end`` and ``periods`` the integration ends at ``t_out[-1]``.
+        nonlinear, linear_solver
+            CVODE's nonlinear solver (``"newton"``, ``"fixedpoint"``) and Newton's
+            linear solver (``"dense"``, ``"blockdiag"``), ``"auto"`` by default; see
+            :meth:`gearsym.engine.driver.Engine.run`.
 
         Returns
         -------
@@ -206,19 +268,28 @@ class System:
         SimulationError
             Too much work, event storm, non-finite state, solver failure.
         ParameterError
-            Unknown or non-finite parameter override.
+            Unknown or non-finite parameter override; an output grid above
+            :data:`MAX_OUTPUT_VALUES` numbers; a horizon that needs more than ``max_steps`` steps.
         """
         wall = time.perf_counter()
         p = self.param_vector(params)
         T = self.period(params)
+        grid = None
+        if t_out is not None:
+            grid = np.asarray(t_out, dtype=float).reshape(-1)
+            if grid.size == 0 or not np.all(np.isfinite(grid)) or np.any(np.diff(grid) < 0):
+                raise ParameterError("t_out must be a non-empty ascending sequence of finite times")
+            if t_end is None and periods is None:
+                t_end = float(grid[-1])  # integrate to the last output time, not the scene's horizon
         if t_end is None:
             if periods is None:
-                periods = float(self.defaults.get("periods", 100)) if T else None
-                if periods is None:
+                if T:
+                    periods = float(self.defaults.get("periods", 100))
+                elif "t_end" in self.defaults or not self.has_forcing_period:
                     t_end = float(self.defaults.get("t_end", 100.0))
             if t_end is None:
                 if not T:
-                    raise ParameterError("periods= needs a scene with a forcing period; give t_end")
+                    T = self.require_period(params, "periods=")  # says why there is none
                 if not (math.isfinite(float(periods)) and float(periods) > 0):
                     raise ParameterError(f"periods must be positive and finite, got {periods}")
                 t_end = t0 + float(periods) * T
@@ -234,8 +305,11 @@ class System:
         if x0v.shape != (self.generated.nx,):
             raise ParameterError(f"x0 must have {self.generated.nx} entries "
                                  f"({', '.join(self.state_names)}), got shape {x0v.shape}")
-        if t_out is not None:
-            grid = np.asarray(t_out, dtype=float)
+        if grid is not None:
+            if grid[0] < t0 or grid[-1] > t_end:
+                raise ParameterError(f"t_out must lie in [t0, t_end] = [{t0:g}, {t_end:g}], got "
+                                     f"[{grid[0]:g}, {grid[-1]:g}]")
+            n_points = grid.size
         else:
             if n_out is None:
                 if T:
@@ -243,7 +317,16 @@ class System:
                     n_out = int(round((t_end - t0) / T * ppp)) + 1
                 else:
                     n_out = 1001
-            grid = np.linspace(t0, t_end, max(int(n_out), 2))
+            n_points = max(int(n_out), 2)
+        n_values = float(n_points) * (self.generated.nx + 1)
+        if n_values > MAX_OUTPUT_VALUES:
+            raise ParameterError(
+                f"the output grid has {float(n_points):.3g} points x {self.generated.nx + 1} values "
+                f"({n_values * 8 / 2**30:.3g} GiB); the limit is {MAX_OUTPUT_VALUES:.3g} values "
+                f"({MAX_OUTPUT_VALUES * 8 / 2**30:g} GiB): use fewer periods, a smaller points_per_period "
+                f"or n_out / t_out")
+        if grid is None:
+            grid = np.linspace(t0, t_end, n_points)
             grid[-1] = t_end
         if method is None:
             method = "ida" if self.generated.implicit else str(self.defaults.get("method", "adams"))
@@ -257,9 +340,17 @@ class System:
             max_step = T / 8 if T else 0.0
         if not max_steps:
             max_steps = int(self.defaults.get("max_steps", 0))
+        if max_steps < 0:
+            raise ParameterError(f"max_steps must be positive (0: the default), got {max_steps}")
+        budget = max_steps or DEFAULT_MAX_STEPS
+        if max_step and math.isfinite(max_step) and max_step > 0 and (t_end - t0) / max_step > budget:
+            raise ParameterError(
+                f"integrating to t_end = {t_end:g} needs at least {(t_end - t0) / max_step:.3g} steps "
+                f"(largest step {max_step:.3g}{' = T/8' if T and max_step == T / 8 else ''}), more than "
+                f"max_steps = {budget:d}: raise max_steps (--max-steps) or integrate fewer periods")
         res = self.engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
                               sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
-                              max_step=max_step)
+                              max_step=max_step, nonlinear=nonlinear, linear_solver=linear_solver)
         names = self.surface_names
         events = [Event(float(tt), names[int(j)], int(d))
                   for tt, j, d in zip(res.events.t, res.events.surface, res.events.direction)]
@@ -270,6 +361,59 @@ class System:
                           period=T, params={k: float(v) for k, v in zip(self.param_names, p)},
                           x_final=res.x_final, monodromy=res.monodromy,
                           event_speed=np.asarray(res.events.speed))
+
+    def flow(self, x0: Sequence[float], t0: float, t1: float, p: np.ndarray | None = None, *,
+             rtol: float = 1e-10, atol: float = 1e-12, monodromy: bool = True, method: str | None = None,
+             max_step: float | None = None, n_samples: int = 2, sigma0: Sequence[float] | None = None,
+             max_steps: int = 0) -> Flow:
+        """The flow map ``phi(t1, t0, x0)`` and its Jacobian: the cheap path of the orbit solvers.
+
+        One C call with a reused engine workspace; no output grid beyond ``n_samples``
+        points, no trajectory object, the forcing period from the generated C.
+
+        Parameters
+        ----------
+        x0
+            Initial state.
+        t0, t1
+            Time span, ``t1 > t0``.
+        p
+            Parameter vector (:meth:`param_vector`); the current values when ``None``.
+        rtol, atol
+            Tolerances (the variational equations use them too).
+        monodromy
+            Integrate the variational equations (explicit models).
+        method
+            ``"adams"`` / ``"bdf"`` (default: the scene's, else Adams), ``"ida"`` for
+            implicit models.
+        max_step
+            Largest internal step; default an eighth of the forcing period.
+        n_samples
+            Evenly spaced samples from ``t0`` to ``t1`` for :attr:`Flow.amplitude`.
+        sigma0
+            Side of each switching surface at ``t0`` (default: from the state).
+        max_steps
+            Step budget (0: the scene's, else ten million).
+
+        Returns
+        -------
+        Flow
+        """
+        pv = self.param_vector() if p is None else p
+        if method is None:
+            method = "ida" if self.generated.implicit else str(self.defaults.get("method", "adams"))
+        if max_step is None:
+            T = self.engine.period(pv)
+            max_step = T / 8 if math.isfinite(T) and T > 0 else 0.0
+        grid = np.linspace(t0, t1, max(int(n_samples), 2))
+        grid[-1] = t1
+        res = self.engine.run(x0, pv, t0, t1, grid, method=method, rtol=rtol, atol=atol, sigma0=sigma0,
+                              want_monodromy=bool(monodromy and not self.generated.implicit),
+                              max_steps=max_steps or int(self.defaults.get("max_steps", 0)), max_step=max_step)
+        ev = res.events
+        return Flow(x_final=res.x_final, monodromy=res.monodromy, event_t=ev.t, event_surface=ev.surface,
+                    event_direction=ev.direction, event_speed=ev.speed, sigma_final=res.sigma_final,
+                    amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats)
 
     # --------------------------------------------------------- periodic orbits
 

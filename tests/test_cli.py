@@ -92,11 +92,13 @@ def test_bad_input_exit_2_without_traceback(args, needle):
 
 
 def test_numerical_failure_exit_1(tmp_path):
-    # too few steps allowed: a SimulationError, reported without a traceback
+    # too few steps allowed: a SimulationError, reported without a traceback (500 steps pass the
+    # up-front budget of 8 steps per period for 50 periods, but the integration needs more)
     scene = tmp_path / "s.toml"
     scene.write_text(Path(KS).read_text().replace('model = "../models/kahraman_singh.toml"',
                                                    f'model = "{ROOT / "models" / "kahraman_singh.toml"}"')
-                     .replace("points_per_period = 64", "points_per_period = 64\nmax_steps = 50"))
+                     .replace("points_per_period = 64", "points_per_period = 64\nmax_steps = 500"))
     r = run("simulate", str(scene), "--periods", "50")
     assert r.returncode == 1, r.stderr
     assert "Traceback" not in r.stderr and "gearsym: error" in r.stderr
+    assert "--max-steps" in r.stderr  # the way out is named

@@ -189,7 +189,9 @@ def test_vaishya_singh_fig5_tongues_and_fig6_statements(tmp_path):
     sub = stability_map(scA, ("Omega_p", 1400, 1600, 11), ("Gamma", 1.15, 1.55, 5), method="shooting",
                         workers=1)
     exact = stability_map(scA, ("Omega_p", 1400, 1600, 11), ("Gamma", 1.15, 1.55, 5))
-    # (default atol 1e-13 m on a DTE of ~1e-5 m: ~1e-7 here)
-    assert np.max(np.abs(sub["max_multiplier"].values - exact["max_multiplier"].values)) < 1e-6
+    # (default atol 1e-13 m on a DTE of ~1e-5 m: ~1e-7 here; next to a zone edge the two multipliers
+    # are a near-double eigenvalue whose error grows like the square root of the monodromy's:
+    # 1.3e-6 at |mu| = 1.086 with the solid-disc inertias of models/vaishya_singh.toml)
+    assert np.max(np.abs(sub["max_multiplier"].values - exact["max_multiplier"].values)) < 3e-6
     assert np.array_equal(sub["stable"].values, exact["stable"].values)
     assert 0 < int(exact["stable"].sum()) < exact["stable"].size

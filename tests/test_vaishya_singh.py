@@ -44,7 +44,7 @@ A_C = 88.9e-3
 PHI = math.radians(25.0)
 R_P = A_C * PI_P / (PI_P + PI_G) * math.cos(PHI)
 R_G = A_C * PI_G / (PI_P + PI_G) * math.cos(PHI)
-J_P = J_G = 1.6575e-3
+J_P, J_G = 1.0807e-3, 2.5550e-3           # solid discs, J_g/J_p = (31/25)^4
 J_T = J_P * R_G**2 + J_G * R_P**2            # eq. 15b
 M_E = J_P * J_G / J_T                         # J_e/J_t, eqs. 9, 15a
 K_MAX = 7.2e8
@@ -180,7 +180,7 @@ def test_friction_forcing_formulation_a():
     # the printed eq. 12 sign would be the opposite one in double contact
     printed_12 = -MU0 * N0 * (2 * math.pi / PI_P) * R_P * (J_P * R_G - J_G * R_P) / (2 * J_T)
     got0 = system.rhs(0.1 * T, [0.0, 0.0])[1] * M_E - N0
-    assert got0 == pytest.approx(-printed_12, rel=1e-10) and printed_12 < 0
+    assert got0 == pytest.approx(-printed_12, rel=1e-10) and abs(printed_12) > 1.0    # N; J_d != 0
     # power of the model's friction torques, T_fp*Omega_p - T_fg*Omega_g <= 0
     model = gearsym.load_scene(FRICTION).model
     ns = model.ns
@@ -235,7 +235,11 @@ def test_friction_off_is_a_meissner_equation():
 
 
 # --------------------------------------------------------------- stability
-CASES = [(1.24, 1500.0, "unstable"), (1.374, 1484.0, "stable"), (1.453, 1484.0, "unstable")]
+# (Gamma, rpm, verdict with friction (formulation B, mu0 = 0.1), verdict without friction):
+# Figs. 5, 6(a), 6(b); Fig. 8 is 6(a) without friction.  Gamma = 1.24 at 1500 rpm is inside
+# the zone only with friction (friction moves the zone to higher speed, Fig. 9).
+CASES = [(1.24, 1500.0, "unstable", "stable"), (1.374, 1484.0, "stable", "stable"),
+         (1.453, 1484.0, "unstable", "unstable")]
 
 
 def monodromy_frictionless(gamma: float, n_rpm: float) -> np.ndarray:
@@ -270,8 +274,8 @@ def _rho(Phi: np.ndarray) -> float:
     return float(np.max(np.abs(np.linalg.eigvals(Phi))))
 
 
-@pytest.mark.parametrize("gamma,n_rpm,verdict", CASES)
-def test_stability_frictionless_undamped(parametric, gamma, n_rpm, verdict):
+@pytest.mark.parametrize("gamma,n_rpm,verdict_b,verdict", CASES)
+def test_stability_frictionless_undamped(parametric, gamma, n_rpm, verdict_b, verdict):
     """Figs. 5/6 without friction: exact expm monodromy vs gearsym's variational monodromy."""
     exact = monodromy_frictionless(gamma, n_rpm)
     pr = {"Gamma": gamma, "Omega_p": rpm(n_rpm), "zeta": 0.0}
@@ -286,12 +290,12 @@ def test_stability_frictionless_undamped(parametric, gamma, n_rpm, verdict):
         assert abs(rho - 1.0) < 1e-9
     else:
         assert rho > 1.05
-    expected = {1.24: 1.12167, 1.374: 1.0, 1.453: 1.08920}[gamma]
+    expected = {1.24: 1.0, 1.374: 1.0, 1.453: 1.15638}[gamma]
     assert rho == pytest.approx(expected, abs=2e-5)
 
 
-@pytest.mark.parametrize("gamma,n_rpm,verdict", CASES)
-def test_stability_formulation_b_undamped(fig6, gamma, n_rpm, verdict):
+@pytest.mark.parametrize("gamma,n_rpm,verdict,verdict_frictionless", CASES)
+def test_stability_formulation_b_undamped(fig6, gamma, n_rpm, verdict, verdict_frictionless):
     """Fig. 5 (Gamma = 1.24 at 1500 rpm unstable) and Fig. 6 (1.374 stable, 1.453
     unstable at 1484 rpm), formulation B, mu0 = 0.1, no damping: scipy variational
     equations vs gearsym's monodromy."""
@@ -307,8 +311,51 @@ def test_stability_formulation_b_undamped(fig6, gamma, n_rpm, verdict):
         assert abs(rho - 1.0) < 1e-9
     else:
         assert rho > 1.05
-    expected = {1.24: 1.10337, 1.374: 1.0, 1.453: 1.11251}[gamma]
+    expected = {1.24: 1.11051, 1.374: 1.0, 1.453: 1.08437}[gamma]
     assert rho == pytest.approx(expected, abs=2e-5)
+
+
+def _zone_edge(system, gamma: float, mu: float, J: tuple[float, float] | None, stable: float,
+               unstable: float) -> float:
+    """Speed (rpm) between a stable and an unstable speed where |trace(monodromy)| = 2
+    (undamped: det = 1, so that is where the multipliers leave the unit circle); the
+    model's inertias unless ``J`` is given."""
+    pr = {"Gamma": gamma, "zeta": 0.0, "mu0": mu} | ({"J_p": J[0], "J_g": J[1]} if J else {})
+
+    def unstable_at(n_rpm: float) -> bool:
+        p = pr | {"Omega_p": rpm(n_rpm)}
+        M = system.simulate(t_end=system.period(p), x0=[1e-6, 0.0], params=p, monodromy=True, rtol=1e-11,
+                            atol=1e-18, n_out=2).monodromy
+        return abs(M[0, 0] + M[1, 1]) > 2
+
+    assert unstable_at(unstable) and not unstable_at(stable)
+    for _ in range(16):                    # 14 rpm / 2^16: 2e-4 rpm
+        mid = 0.5 * (stable + unstable)
+        if unstable_at(mid):
+            unstable = mid
+        else:
+            stable = mid
+    return 0.5 * (stable + unstable)
+
+
+def test_friction_moves_the_zone_to_higher_speed(fig6):
+    """Fig. 9: friction (formulation B) shifts the instability zone "a little towards the
+    higher speed side".  The shift has the sign of J_d = J_g R_p - J_p R_g (eqs. 17, 29):
+    friction stiffens the mesh on average when J_g/J_p > R_g/R_p, as for solid discs
+    (the model's inertias); with equal inertias (J_d < 0) it moves the zone lower."""
+    lo = [_zone_edge(fig6, 1.24, mu, None, 1478.0, 1492.0) for mu in (0.0, MU0)]    # the model's inertias
+    hi = [_zone_edge(fig6, 1.24, mu, None, 1506.0, 1492.0) for mu in (0.0, MU0)]
+    assert lo[1] > lo[0] and hi[1] > hi[0]
+    assert lo[1] - lo[0] == pytest.approx(0.678, abs=0.01)      # measured +0.678 rpm
+    assert hi[1] - hi[0] == pytest.approx(1.677, abs=0.01)      # measured +1.677 rpm
+    assert lo[0] < 1500.0 - 1 and hi[0] < 1500.0 < hi[1]     # 1500 rpm is in the zone only with friction
+    assert (fig6.params["J_p"], fig6.params["J_g"]) == pytest.approx((J_P, J_G), rel=1e-12)
+    # the same m_e with J_p = J_g (J_d < 0): both edges move to lower speed
+    assert J_G * R_P - J_P * R_G > 0
+    Jeq = (M_E * (R_P**2 + R_G**2),) * 2
+    lo_eq = _zone_edge(fig6, 1.24, MU0, Jeq, 1478.0, 1492.0)
+    hi_eq = _zone_edge(fig6, 1.24, MU0, Jeq, 1506.0, 1492.0)
+    assert lo_eq - lo[0] < -1.0 and hi_eq - hi[0] < -0.2
 
 
 # ---------------------------------------------------- combined simulation

@@ -11,7 +11,6 @@ the branch.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -219,6 +218,14 @@ class Branch:
         The observed state (``max``, ``min``, ``rms``).
     stop_reason : str
         Why the continuation ended.
+    complete : bool
+        Whether the branch ended where a branch may end: at an end of the parameter
+        range (after any number of turning points) or, for a switched branch, where it
+        merges back.  ``False`` when the continuation gave up before: the step size fell
+        below ``ds_min``, ``max_points`` was reached, or the branch stopped advancing
+        (the parameter stalled while the orbit grew, e.g. an undamped resonance).
+    stop_value : float or None
+        Parameter value (SI) of the last point.
     children : list of Branch
         Branches switched onto at period doublings of this one.
     info : dict
@@ -233,6 +240,8 @@ class Branch:
     state: str = ""
     state_names: list[str] = field(default_factory=list)
     stop_reason: str = ""
+    complete: bool = True
+    stop_value: float | None = None
     children: list[Branch] = field(default_factory=list)
     parent: Bifurcation | None = field(default=None, repr=False)
     info: dict[str, Any] = field(default_factory=dict)
@@ -364,7 +373,8 @@ class Branch:
 
         ``{"param", "points": [{"value", "stable", "max", "min", "rms",
         "rattle_state", "x0", "period", "multipliers": [[re, im], ...], ...}],
-        "bifurcations": [{"type", "value", "multipliers", ...}], ...}``.
+        "bifurcations": [{"type", "value", "multipliers", ...}], "stop_reason",
+        "complete", "stop_value", ...}``.
         """
         d: dict[str, Any] = {
             "param": self.param,
@@ -375,6 +385,8 @@ class Branch:
             "state": self.state,
             "state_names": list(self.state_names),
             "stop_reason": self.stop_reason,
+            "complete": bool(self.complete),
+            "stop_value": None if self.stop_value is None else float(self.stop_value),
         }
         if self.parent is not None:
             d["switched_at"] = {"type": self.parent.type, "value": float(self.parent.value)}
@@ -386,9 +398,9 @@ class Branch:
 
     def save_json(self, path: str | Path) -> Path:
         """Write :meth:`to_dict` to a file."""
-        path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=1))
-        return path
+        from ..files import write_json
+
+        return write_json(path, self.to_dict())
 
     # ------------------------------------------------------------- plots
     def plot(self, ax: Axes | None = None, quantity: str | list[str] = "max", color: str | None = None,
@@ -546,7 +558,9 @@ class Branch:
             a1.set_title(title)
         fig.tight_layout()
         if path is not None:
-            fig.savefig(path, dpi=110)
+            from ..files import save_figure
+
+            save_figure(fig, path, dpi=110)
             plt.close(fig)
         return fig
 

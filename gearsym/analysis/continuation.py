@@ -29,6 +29,13 @@ in variables scaled by the state magnitudes and the parameter range):
   oriented so that the parameter keeps its direction.  A step in which a real
   multiplier crosses +1 is redone with the arclength.
 
+**The branch must advance**: the continuation ends with ``complete = False`` and the
+reason in ``Branch.stop_reason`` when the step size falls below ``ds_min``, when
+``max_points`` is reached before the range is left, or when the parameter stays within
+``stall_tol`` of the range over ``stall_points`` consecutive points (the orbit grows
+without bound while the parameter converges: an undamped system at resonance, where
+the branch never reaches the other side).
+
 Between two accepted points the test functions of
 :mod:`gearsym.analysis.bifurcation` are compared; a sign change is *located*
 by solving ``tau(sigma) = 0`` in the arclength ``sigma`` (each evaluation is a
@@ -74,6 +81,7 @@ from .floquet import monodromy_product
 from .meshes import mesh_point
 from .orbit import PeriodicOrbit, rattle_states
 from .stability import complex_sides, floquet, neutral_step_limit, rigid_state_basis
+from .stall import QUICK_STALL, stalled_branch
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..facade import Scene
@@ -118,7 +126,7 @@ class _Residual:
         if T is None:
             T = self.system.period(self.params(lam))
             if not T:
-                raise ParameterError("continuation of periodic orbits needs a forcing period ([forcing] period)")
+                T = self.system.require_period(self.params(lam), "continuation of periodic orbits")
             if len(cache) > 64:
                 cache.clear()
             cache[lam] = T
@@ -674,7 +682,8 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
                  rtol: float = 1e-10, atol: float | None = None, max_newton: int = 7,
                  detect: Sequence[str] | bool = True, locate: bool = True, state: int | str = 0,
                  n_dense: int | None = None, switch: int = 0, progress: bool | None = None,
-                 transient: float | None = None, state_weight: float = 1.0) -> Branch:
+                 transient: float | None = None, state_weight: float = 1.0, stall_points: int = 50,
+                 stall_tol: float = 1e-5, display: tuple[float, str] | None = None) -> Branch:
     """Continue a periodic orbit in one parameter from ``start`` to ``stop``.
 
     Parameters
@@ -718,8 +727,11 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     tol
         Corrector tolerance on the residual scaled by the state magnitudes.
     rtol, atol
-        Integrator tolerances (``atol`` default: ``rtol * 1e-2 *`` the smallest
-        state magnitude).
+        Integrator tolerances.  ``atol`` default: ``rtol * 1e-2 *`` the smallest state
+        magnitude on the first orbit; a state that is identically zero there (the
+        trivial orbit ``x = 0``) takes its magnitude from the scene instead: the
+        largest entry of its initial state, else the magnitude its ``[simulate]``
+        tolerances imply (``atol / (1e-2 * rtol)``), else 1.
     max_newton
         Newton steps per correction.
     detect
@@ -746,6 +758,15 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     transient
         Forcing periods integrated before the first Newton solve when no ``x0``
         or ``orbit`` is given.
+    stall_points, stall_tol
+        The branch does not advance (``complete = False``) when the parameter stays
+        within ``stall_tol * |stop - start|`` over ``stall_points`` consecutive points.
+        Measured on a forced linear oscillator: with damping ratios down to 1e-4 the
+        smallest spread over 50 points through the resonance peak is 1.9e-4 of the range;
+        undamped, the parameter converges to the resonance and the branch stalls.
+    display
+        ``(SI value of one display unit, unit name)`` for the parameter values in
+        ``stop_reason`` (the CLI passes the model's declared unit); default SI.
 
     Returns
     -------
@@ -757,6 +778,10 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
         Unknown parameter, empty range, bad options.
     ConvergenceError
         No periodic orbit at ``start``.
+
+    Notes
+    -----
+    A branch that stops early is returned, not raised: check ``branch.complete``.
     """
     system = _as_system(system)
     wall = time.perf_counter()
@@ -785,15 +810,19 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
         if not 0 <= state_idx < system.generated.nx:
             raise ParameterError(f"state index {state} out of range (0..{system.generated.nx - 1})")
     if not (0 < ds_min <= ds <= ds_max) or max_points < 2 or tol <= 0 or periods <= 0 or switch < 0 \
-            or not 0 < state_weight or not 0 < max_angle:
+            or not 0 < state_weight or not 0 < max_angle or stall_points < 2 or not 0 <= stall_tol < 1:
         raise ParameterError("need 0 < ds_min <= ds <= ds_max, max_points >= 2, tol > 0, periods > 0, "
-                             "switch >= 0, state_weight > 0, max_angle > 0")
+                             "switch >= 0, state_weight > 0, max_angle > 0, stall_points >= 2, "
+                             "0 <= stall_tol < 1")
+    from .shooting import _check_tolerances
+
+    _check_tolerances(tol=tol, rtol=rtol, **({"atol": atol} if atol is not None else {}))
     base = dict(params or {})
     base.pop(param, None)
     p_start = dict(base)
     p_start[param] = start
-    if system.period(p_start) is None:
-        raise ParameterError("continuation of periodic orbits needs a scene with a forcing period")
+    system.require_period(p_start, "continuation of periodic orbits")
+    fmt = _formatter(display)
 
     # ------------------------------------------------------------- first orbit
     if n_dense is None:
@@ -802,7 +831,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
         x_start, state_scale = _first_orbit_shooting(system, param, start, p_start, base, periods, x0, orbit,
                                                      segments, t0, rtol, atol, tol, transient)
         if atol is None:
-            atol = float(rtol * 1e-2 * np.min(state_scale))
+            atol = _default_atol(rtol, state_scale)
         res: _Residual = ShootingResidual(system, param, periods, base, segments, t0, rtol, atol,
                                           fd_step=_fd_step(start, stop, rtol))
         u0 = res.u_from_orbit(x_start, start)  # type: ignore[attr-defined]
@@ -814,14 +843,14 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
                                      rtol=rtol, atol=atol or 1e-12)
         state_scale = _state_scale(system, orbit.x0, t0, float(orbit.period), p_start, rtol, atol or 1e-12)
         if atol is None:
-            atol = float(rtol * 1e-2 * np.min(state_scale))
+            atol = _default_atol(rtol, state_scale)
         H = int(harmonics or orbit.harmonics or 16)
         res = HBResidual(system, param, H, periods, base, t0, rtol=rtol, atol=atol, fd_step=_fd_step(start, stop, rtol))
         u0 = res.u_from_orbit(orbit, start)  # type: ignore[attr-defined]
     branch = _run(res, u0, start, stop, state_scale=state_scale, ds=ds, ds_min=ds_min, ds_max=ds_max,
                   max_angle=max_angle, max_points=max_points, tol=tol, max_newton=max_newton, types=types,
                   locate=locate, state=state_idx, n_dense=n_dense, progress=progress, method=method,
-                  state_weight=state_weight)
+                  state_weight=state_weight, stall_points=stall_points, stall_tol=stall_tol, fmt=fmt)
     branch.info.update({"rtol": rtol, "atol": atol, "tol": tol, "segments": segments if method == "shooting"
                         else None, "harmonics": getattr(res, "H", None), "start": start, "stop": stop,
                         "params": {k: float(v) for k, v in res.params(start).items() if k != param},
@@ -829,17 +858,58 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     if switch > 0:
         _switch_all(branch, switch, stop=stop, start=start, ds=ds, ds_min=ds_min, ds_max=ds_max,
                     max_angle=max_angle, max_points=max_points, tol=tol, max_newton=max_newton, types=types,
-                    locate=locate, n_dense=n_dense, progress=progress)
+                    locate=locate, n_dense=n_dense, progress=progress, stall_points=stall_points,
+                    stall_tol=stall_tol, fmt=fmt)
     branch.info["wall_s"] = time.perf_counter() - wall
     return branch
 
 
 def _state_scale(system: System, x0: np.ndarray, t0: float, period: float, params: Mapping[str, float],
                  rtol: float, atol: float) -> np.ndarray:
-    """Magnitude of each state over one period from ``x0`` (max of |x| and peak-to-peak)."""
+    """Magnitude of each state over one period from ``x0`` (max of |x| and peak-to-peak).
+
+    An orbit that is identically zero (``x = 0``) gets :func:`_zero_orbit_scale` for every state.
+    """
     tr = system.simulate(t_end=t0 + period, t0=t0, x0=x0, rtol=rtol, atol=atol, n_out=257, params=params)
     sc = np.maximum(np.max(np.abs(tr.y), axis=0), np.ptp(tr.y, axis=0))
-    return np.maximum(sc, 1e-12 * max(1e-300, float(np.max(sc))))
+    top = float(np.max(sc))
+    if not (math.isfinite(top) and top > 1e-280):
+        return np.full(len(sc), _zero_orbit_scale(system))
+    return np.maximum(sc, 1e-12 * top)
+
+
+def _zero_orbit_scale(system: System) -> float:
+    """A state magnitude for the trivial orbit ``x = 0``, from the scene.
+
+    The largest entry of the scene's initial state; else the magnitude that the scene's
+    ``[simulate]`` tolerances imply (``atol / (1e-2 * rtol)``, the convention of the
+    continuation's default ``atol``); else 1.
+    """
+    x0 = np.abs(np.asarray(system.x0, float))
+    if x0.size and np.all(np.isfinite(x0)) and float(np.max(x0)) > 0:
+        return float(np.max(x0))
+    d = system.defaults
+    try:
+        a, r = float(d["atol"]), float(d["rtol"])
+        if a > 0 and r > 0 and math.isfinite(a / r):
+            return a / (1e-2 * r)
+    except (KeyError, TypeError, ValueError):
+        pass
+    return 1.0
+
+
+def _default_atol(rtol: float, state_scale: np.ndarray) -> float:
+    """``rtol * 1e-2 *`` the smallest state magnitude (positive by construction of the scales)."""
+    return float(rtol * 1e-2 * np.min(state_scale))
+
+
+def _formatter(display: tuple[float, str] | None):
+    """Format a parameter value (SI) for messages: in the display unit, unit ``1`` omitted."""
+    if display is None:
+        return lambda v: f"{v:.10g}"
+    scale, unit = float(display[0]), str(display[1] or "")
+    suffix = "" if unit in ("", "1") else f" {unit}"
+    return lambda v: f"{v / scale:.10g}{suffix}"
 
 
 def _first_orbit_shooting(system: System, param: str, start: float, p_start: dict[str, float],
@@ -869,7 +939,7 @@ def _first_orbit_shooting(system: System, param: str, start: float, p_start: dic
             guess = system.simulate(t_end=t0, t0=t0 - n * T, x0=guess, rtol=max(rtol, 1e-9),
                                     atol=max(atol or 1e-12, 1e-14), n_out=2, params=p_start).x_final
     scale = _state_scale(system, guess, t0, P, p_start, max(rtol, 1e-9), atol or 1e-12)
-    a_tol = atol if atol is not None else float(rtol * 1e-2 * np.min(scale))
+    a_tol = atol if atol is not None else _default_atol(rtol, scale)
     res = ShootingResidual(system, param, periods, base, segments, t0, rtol, a_tol, fd_step=1e-6)
     C = _Continuer(res, lam_scale=1.0, tol=tol, max_newton=25, state=0, n_dense=64, detect=())
     C.set_state_scale(scale)
@@ -913,8 +983,10 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
          ds_min: float, ds_max: float, max_angle: float, max_points: int, tol: float, max_newton: int,
          types: tuple[str, ...], locate: bool, state: int, n_dense: int, progress: bool | None,
          method: str, first: tuple[np.ndarray, np.ndarray] | None = None, parent: Bifurcation | None = None,
-         stop_on_merge: bool = False, state_weight: float = 1.0) -> Branch:
+         stop_on_merge: bool = False, state_weight: float = 1.0, stall_points: int = 50, stall_tol: float = 1e-5,
+         fmt=None) -> Branch:
     """The predictor-corrector loop (shared by :func:`continuation` and branch switching)."""
+    fmt = fmt or _formatter(None)
     lo, hi = min(start, stop), max(start, stop)
     lam_scale = abs(stop - start)
     C = _Continuer(res, lam_scale=lam_scale, tol=tol, max_newton=max_newton, state=state, n_dense=n_dense,
@@ -940,6 +1012,7 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
     specials: list[tuple[int, str, dict[str, Any]]] = []  # (node index, type, info)
     prog = _Progress(progress, start, stop, res.param)
     stop_reason = ""
+    complete = False
     h = h_arc = h_nat = float(ds)
     force_arc = False
     n_rejected = 0
@@ -948,7 +1021,8 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
         while True:
             A = nodes[-1]
             if len(nodes) >= max_points:
-                stop_reason = f"max_points={max_points} reached"
+                stop_reason = (f"max_points={max_points} reached at {res.param} = {fmt(float(A.z[-1]))} before the "
+                               f"end of the range ({fmt(stop)}): raise max_points or ds_max")
                 break
             wA = A.z / C.S
             # where no turning point is possible (no multiplier near +1) and the state moves fast
@@ -988,8 +1062,9 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
                 else:
                     h_arc = h
                 if h < ds_min:
-                    stop_reason = (f"step size below ds_min={ds_min:g} at {res.param} = {A.z[-1]:.8g} "
-                                   f"({exc})")
+                    stop_reason = (f"the branch cannot advance: step size below ds_min={ds_min:g} at {res.param} = "
+                                   f"{fmt(float(A.z[-1]))} before the end of the range ({fmt(stop)}); last "
+                                   f"rejection: {exc}")
                     break
                 continue
             lamB = float(B.z[-1])
@@ -1000,8 +1075,9 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
                     B = _boundary_node(C, A, B, bound)
                 except GearsymError:
                     pass
-                stop_reason = (f"reached {res.param} = {bound:g}" if bound == (hi if stop > start else lo)
-                               else f"left the range at {res.param} = {bound:g}")
+                stop_reason = (f"reached {res.param} = {fmt(bound)}" if bound == (hi if stop > start else lo)
+                               else f"left the range at {res.param} = {fmt(bound)}")
+                complete = True
             new_specials = _detect_between(C, A, B, types, locate, row) if types else []
             for nd, kind, info in new_specials:
                 nodes.append(nd)
@@ -1016,8 +1092,19 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
                     merge_ref = d
                 elif d < 1e-4 * max(merge_ref, 1e-300) or d < 1e3 * tol:
                     stop_reason = "merged back into the branch of the base period (period doubling)"
+                    complete = True
                     break
                 merge_ref = max(merge_ref, d)
+            stalled = stalled_branch([(float(nd.z[-1]), nd.scale, nd.point.multipliers) for nd in
+                                      nodes[-max(stall_points, QUICK_STALL[0]) - 1:]], stall_points,
+                                     stall_tol * lam_scale, lam_scale, getattr(res, "rtol", 1e-10))
+            if stalled:
+                k_st, lo_st, hi_st, s0_st, s1_st = stalled
+                stop_reason = (f"the branch does not advance: {res.param} stayed within {fmt(lo_st)} .. "
+                               f"{fmt(hi_st)} over the last {k_st} points while the orbit's magnitude went "
+                               f"from {s0_st:.3g} to {s1_st:.3g} (a resonance of an undamped system: no "
+                               f"periodic orbit beyond it; or a multiplier at +1 along the branch)")
+                break
             # step control
             force_arc = False
             h_used = h
@@ -1046,7 +1133,7 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
                                 info=info))
     br = Branch(param=res.param, points=points, bifurcations=bifs, periods=res.periods, method=method,
                 state=res.system.state_names[state], state_names=res.system.state_names, stop_reason=stop_reason,
-                parent=parent, system=res.system,
+                complete=complete, stop_value=float(nodes[-1].z[-1]), parent=parent, system=res.system,
                 info={"n_rejected_steps": n_rejected, "n_residual_evaluations": res.n_evals,
                       "n_integrations": res.n_integrations})
     br._residual = res  # type: ignore[attr-defined]
@@ -1312,13 +1399,15 @@ def switch_period_doubling(branch: Branch, bifurcation: Bifurcation | int | None
     t_dir = t_dir / np.linalg.norm(t_dir)
     z_first = np.concatenate([u_guess, [lam]])
     opts = {k: options[k] for k in ("ds", "ds_min", "ds_max", "max_angle", "max_points", "tol", "max_newton",
-                                    "locate", "n_dense", "progress") if k in options}
+                                    "locate", "n_dense", "progress", "stall_points", "stall_tol", "fmt")
+            if k in options}
     types = _detect_types(options.get("detect", True))
     kw = dict(ds=opts.get("ds", 0.005), ds_min=opts.get("ds_min", 1e-7), ds_max=opts.get("ds_max", 0.02),
               max_angle=opts.get("max_angle", 0.3), max_points=opts.get("max_points", 5000),
               tol=opts.get("tol", float(branch.info.get("tol", 1e-9))), max_newton=opts.get("max_newton", 7),
               types=types, locate=opts.get("locate", True), state=C0.state,
-              n_dense=opts.get("n_dense", C0.n_dense), progress=opts.get("progress"))
+              n_dense=opts.get("n_dense", C0.n_dense), progress=opts.get("progress"),
+              stall_points=opts.get("stall_points", 50), stall_tol=opts.get("stall_tol", 1e-5), fmt=opts.get("fmt"))
     # direction: towards the side where the doubled orbit exists is found by the corrector; the
     # continuation range keeps the parent's orientation
     lo, hi = min(start, stop), max(start, stop)

@@ -28,6 +28,13 @@ This is a second, independent periodic solver: it shares only the generated
 model functions with shooting, not the integrator.  The Floquet multipliers of
 the orbit it finds come from one engine integration of the variational
 equations from the balanced state ``x(t0)`` (``monodromy=False`` skips it).
+
+Honest results: when that monodromy has a multiplier at +1 to working precision
+(:func:`~gearsym.analysis.isolation.isolation`, outside the known ``trivial``
+directions), the orbit is not isolated and the balance may have "converged" only
+relative to coefficients that a singular Jacobian blew up (the undamped oscillator at
+exact resonance gives coefficients ~1e33 with a residual ~1e18); such a solve counts as
+converged only if its residual is also below ``tol`` times the size of the initial guess.
 """
 
 from __future__ import annotations
@@ -40,12 +47,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ConvergenceError, GearsymError, ParameterError
+from .isolation import isolation
 from .orbit import PeriodicOrbit, finish_orbit
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
 
 __all__ = ["HarmonicBalance", "harmonic_balance"]
+
+#: Largest harmonic-balance Jacobian (entries): 2**28 doubles = 2 GiB.
+MAX_JACOBIAN_VALUES = 2 ** 28
 
 
 class HarmonicBalance:
@@ -84,6 +95,11 @@ class HarmonicBalance:
         self.t0 = float(t0)
         self.nx = system.generated.nx
         self.nc = 2 * H + 1
+        n = self.nx * self.nc
+        if float(n) * n > MAX_JACOBIAN_VALUES:
+            raise ParameterError(f"harmonics={H}: the harmonic-balance Jacobian would have {n} x {n} entries "
+                                 f"({8.0 * n * n / 2**30:.3g} GiB), above the limit of {MAX_JACOBIAN_VALUES:.3g} "
+                                 f"({8 * MAX_JACOBIAN_VALUES / 2**30:g} GiB): use fewer harmonics")
         M = samples or max(64, 1 << int(math.ceil(math.log2(4 * self.nc))))
         if M < self.nc:
             raise ParameterError(f"samples={M} must be at least 2*harmonics+1 = {self.nc}")
@@ -294,8 +310,8 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
                      samples: int | None = None, t0: float = 0.0, tol: float = 1e-10, max_iter: int = 100,
                      guess: np.ndarray | PeriodicOrbit | None = None, monodromy: bool = True,
                      rtol: float = 1e-11, atol: float = 1e-13, raise_on_failure: bool = True,
-                     initial_guess: str = "auto", transient: float = 50, floor_tol: float = 1e-5
-                     ) -> PeriodicOrbit:
+                     initial_guess: str = "auto", transient: float = 50, floor_tol: float = 1e-5,
+                     trivial: np.ndarray | None = None) -> PeriodicOrbit:
     """Find a periodic orbit by harmonic balance (AFT + quasi-Newton).
 
     Parameters
@@ -346,6 +362,10 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
         switching surface (mesh damping only in contact) the AFT residual jumps
         whenever a sample changes side and has a floor of order jump/samples.
         Recorded as ``"residual floor"`` in the history.
+    trivial
+        Known trivial directions of the state space (nx x k), e.g. a rigid-body mode: a
+        multiplier +1 with its eigenvector in their span does not make the orbit
+        non-isolated.  Default: none.
 
     Returns
     -------
@@ -353,10 +373,21 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
         With ``harmonics``, ``coefficients`` and ``info["harmonic_growth"]``
         (``H``, change, peak-to-peak of the first state, iterations per step)
         and ``info["defect"] = max |phi(t0 + P, x0) - x0|`` (truncation error seen by the integrator).
+
+    Raises
+    ------
+    ConvergenceError
+        The balance did not converge, or it converged only relative to coefficients
+        blown up along a direction of a multiplier at +1 (no isolated orbit).
     """
     wall = time.perf_counter()
+    from .shooting import _check_tolerances
+
+    _check_tolerances(tol=tol, rtol=rtol, atol=atol)
     T = system.period(params)
     if period is None:
+        if not T and system.has_forcing_period:
+            system.require_period(params, "a periodic orbit")  # raises: says why
         if not T:
             raise ParameterError("the scene has no forcing period: give period=")
         period = float(periods) * T
@@ -452,9 +483,11 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
     history: list[dict[str, Any]] = []
     growth: list[dict[str, Any]] = []
     used = ""
+    guess_scale = 1.0
     for k, (name, C0) in enumerate(attempts):
         if C0 is None:
             C0 = simulation_guess()
+        guess_scale = max(1.0, float(np.max(np.abs(C0))) if np.size(C0) else 1.0)
         last = k == len(attempts) - 1
         hb, C, r, conv, failure, g, it, hist, harmonics_converged = grow(C0, stop_on_stall=not last)
         total_it += it
@@ -476,15 +509,27 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
     mono = None
     events = []
     defect = math.nan
+    iso = None
     if monodromy and conv:
         try:
-            tr = system.simulate(t_end=t0 + period, t0=t0, x0=x_start, rtol=rtol, atol=atol, n_out=2,
+            tr = system.simulate(t_end=t0 + period, t0=t0, x0=x_start, rtol=rtol, atol=atol, n_out=256,
                                  params=params, monodromy=True)
             mono = tr.monodromy
             events = list(tr.events)
             defect = float(np.max(np.abs(tr.x_final - x_start)))
+            amp = np.max(np.abs(tr.y), axis=0)
+            iso = isolation(mono, np.maximum(amp, max(1e-9 * float(np.max(amp)), atol / tol)), rtol, trivial)
         except GearsymError:
             mono = None
+        if iso is not None and not iso.isolated and r > max(tol, floor_tol if hb.floor else tol) * guess_scale:
+            # converged only relative to coefficients blown up along the unresolved direction
+            conv = False
+            failure = (f"{iso.reason()}: the balance's residual {r:.3g} is small only relative to coefficients "
+                       f"of size {float(np.max(np.abs(C))):.3g} (initial guess {guess_scale:.3g})")
+            if raise_on_failure:
+                raise ConvergenceError(f"harmonic balance: {failure}. Add damping, move the forcing off the "
+                                       f"resonance, or tighten rtol (now {rtol:g}) if the system is lightly "
+                                       f"damped.")
     p = system.param_vector(params)
     samples = None
     if mono is None:  # no integration: contact sides from the series
@@ -496,6 +541,7 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
                 if k in system.params},
         events=events, samples=samples, harmonics=H, coefficients=C, history=history,
         info={"harmonic_growth": growth, "harmonics_converged": harmonics_converged, "defect": defect,
-              "initial_guess": used, "quadrature": hb.quadrature,
+              "initial_guess": used, "quadrature": hb.quadrature, "failure": failure or None,
+              "isolation": iso.to_dict() if iso is not None else None,
               "samples": hb.M, "tol": tol, "rtol": rtol, "atol": atol,
               "wall_s": time.perf_counter() - wall})

@@ -57,6 +57,9 @@ QUANTITIES: dict[str, str] = {
     "rattle_state": "0 no contact loss, 1 contact loss only, 2 back-side contact",
 }
 
+#: Largest map (grid points): every point keeps its orbit summary, about 1 kB.
+MAX_POINTS = 1_000_000
+
 _SYSTEMS: dict[str, System] = {}
 #: Smallest relative error assigned to an exact (matrix-exponential) monodromy in the stability
 #: rule; the estimate is :meth:`~gearsym.analysis.floquet.PiecewiseLTV.rounding_error`.
@@ -298,6 +301,10 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     wall = time.perf_counter()
     xname, xs = _axis(x, "x")
     yname, ys = _axis(y, "y")
+    if len(xs) * len(ys) > MAX_POINTS:
+        raise ParameterError(f"a map of {len(xs)} x {len(ys)} = {len(xs) * len(ys):.3g} points is above the limit "
+                             f"of {MAX_POINTS:,} points (about 1 kB of memory each); use coarser axes or "
+                             f"several maps")
     if xname == yname:
         raise ParameterError("the two axes must be different parameters")
     scene = target if isinstance(target, Scene) else None
@@ -447,10 +454,13 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     import matplotlib.pyplot as plt
     from matplotlib.colors import TwoSlopeNorm
 
+    from ..files import atomic_path, save_figure
+
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     nc = out / f"{stem}.nc"
-    ds.to_netcdf(nc, engine=_netcdf_engine())
+    with atomic_path(nc) as tmp:
+        ds.to_netcdf(tmp, engine=_netcdf_engine())
     q = quantity or str(ds.attrs.get("quantity", "max_multiplier"))
     if q not in ds:
         raise ParameterError(f"the map has no variable '{q}' (have: {', '.join(ds.data_vars)})")
@@ -481,6 +491,6 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     ax.set_title(f"{ds.attrs.get('scene', '')}: {q.replace('_', ' ')}")
     fig.tight_layout()
     png = out / f"{stem}.png"
-    fig.savefig(png, dpi=120)
+    save_figure(fig, png, dpi=120)
     plt.close(fig)
     return [nc, png]

@@ -189,6 +189,8 @@ class PeriodicOrbit:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
+        from ..files import save_figure
+
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         files = []
@@ -223,7 +225,7 @@ class PeriodicOrbit:
                      f"{(self.stability or '').replace('_', ' ')}, max|mu| = {self.max_multiplier:.6g}")
         fig.tight_layout()
         f1 = out / "orbit_phase.png"
-        fig.savefig(f1, dpi=120)
+        save_figure(fig, f1, dpi=120)
         plt.close(fig)
         files.append(f1)
         fig, ax = plt.subplots(figsize=(5, 5))
@@ -249,7 +251,7 @@ class PeriodicOrbit:
         ax.legend(loc="upper right", fontsize=8)
         fig.tight_layout()
         f2 = out / "orbit_multipliers.png"
-        fig.savefig(f2, dpi=120)
+        save_figure(fig, f2, dpi=120)
         plt.close(fig)
         files.append(f2)
         return files

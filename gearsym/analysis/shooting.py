@@ -19,6 +19,14 @@ integration also halves it); when no step helps or the iteration budget is spent
 a :class:`~gearsym.errors.ConvergenceError` reports the residual history, the
 last iterate and what to try.  For implicit (IDA) models the monodromy comes from
 central finite differences of the flow.
+
+Honest results: the Newton step is the minimum-norm solution with the directions
+that the monodromy cannot resolve dropped (:func:`~gearsym.analysis.isolation.truncated_solve`:
+singular values of the scaled ``M - I`` below its error level), so the state is never
+moved by noise divided by noise; an orbit whose ``M - I`` is singular to working
+precision outside the known trivial directions (``trivial=``) and whose residual
+cannot be removed is reported as "no isolated periodic orbit: a Floquet multiplier at
++1" (the undamped oscillator at exact resonance has no periodic orbit).
 """
 
 from __future__ import annotations
@@ -32,6 +40,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, GearsymError, ParameterError
 from .floquet import monodromy_product
+from .isolation import Isolation, isolation, truncated_solve
 from .orbit import PeriodicOrbit, finish_orbit
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -83,7 +92,7 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
           segments: int = 1, t0: float = 0.0, transient: float | None = None, tol: float = 1e-10,
           rtol: float = 1e-11, atol: float = 1e-13, max_iter: int = 50, min_step: float = 2.0 ** -12,
           raise_on_failure: bool = True, method: str | None = None,
-          relax_periods: float = 200) -> PeriodicOrbit:
+          relax_periods: float = 200, trivial: np.ndarray | None = None) -> PeriodicOrbit:
     """Find a periodic orbit by (multiple) shooting with damped Newton.
 
     Parameters
@@ -129,6 +138,10 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         of forcing periods from the current iterate (this converges towards an
         attracting orbit) and resume Newton, up to this many periods in all
         (0: never; unstable orbits need a good ``x0`` instead).
+    trivial
+        Known trivial directions of the state space (nx x k), e.g. the rigid-body mode
+        of a semi-definite model: a multiplier +1 whose eigenvector lies in their span
+        does not count against the orbit's isolation.  Default: none.
 
     Returns
     -------
@@ -137,13 +150,18 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     Raises
     ------
     ConvergenceError
-        Newton did not converge (message: residual history, last iterate, advice).
+        Newton did not converge (message: residual history, last iterate, advice), or
+        there is no isolated orbit (a multiplier at +1 to working precision and a
+        residual that no step can remove: e.g. an undamped system forced at resonance).
     SimulationError
         The first integration already fails.
     """
     wall = time.perf_counter()
+    _check_tolerances(tol=tol, rtol=rtol, atol=atol)
     T = system.period(params)
     if period is None:
+        if not T and system.has_forcing_period:
+            system.require_period(params, "a periodic orbit")  # raises: says why
         if not T:
             raise ParameterError("the scene has no forcing period: give period= (autonomous orbits "
                                  "need a phase condition, not supported by shooting yet)")
@@ -243,13 +261,14 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
             # coordinates of the first segment where they are (anchor rows), least squares
             dz = np.linalg.lstsq(np.vstack([J, anchor]), np.concatenate([rhs, np.zeros(len(anchor))]),
                                  rcond=None)[0]
+            n_drop = 0
         else:
-            try:
-                dz = np.linalg.solve(J, rhs)
-                if not np.all(np.isfinite(dz)):
-                    raise np.linalg.LinAlgError
-            except np.linalg.LinAlgError:
-                dz = np.linalg.lstsq(J, rhs, rcond=None)[0]
+            # minimum-norm step without the directions the monodromy cannot resolve: never move
+            # the state by noise divided by noise (a multiplier at +1 to working precision)
+            dz, n_drop = truncated_solve(J, rhs, np.tile(scales(), segments), rtol)
+        if not np.all(np.isfinite(dz)):
+            failure = "the Newton matrix is not finite"
+            break
         dX = dz.reshape(segments, nx)
         lam = 1.0
         accepted = False
@@ -298,6 +317,8 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
             break
         X, R, Ms, evs, rnorm = Xn, Rn, Msn, evsn, rn
         history.append({"iteration": it, "residual": rnorm, "relative": rel(R), "step": lam})
+        if n_drop:
+            history[-1]["dropped_directions"] = n_drop
         converged = rel(R) <= tol
         if not converged and lam == 1.0 and rel(dX) <= tol and rel(R) <= 100 * tol:
             # a full Newton step below the tolerance: the residual left is integration noise
@@ -306,15 +327,30 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     if not converged and not failure:
         failure = f"no convergence in max_iter={max_iter} Newton iterations"
     mono = monodromy_product(Ms) if all(M is not None for M in Ms) else None
+    iso: Isolation | None = None
+    if mono is not None and np.all(np.isfinite(mono)):
+        if trivial is None:  # the model's rigid-body subspace, found by the symbolic layer
+            from .stability import rigid_state_basis
+
+            trivial = rigid_state_basis(system, params)
+        iso = isolation(mono, scales(), rtol, trivial)
     wall = time.perf_counter() - wall
     if not converged and raise_on_failure:
         hist = ", ".join(f"{h['residual']:.3g}" for h in history[-12:])
+        if iso is not None and not iso.isolated:
+            raise ConvergenceError(
+                f"{iso.reason()}: shooting cannot remove the residual of the orbit of period {period:.6g} "
+                f"({periods:g} forcing period(s)): {failure}. Residual history (max |phi(T,x0)-x0|): [{hist}]. "
+                f"Add damping, move the forcing off the resonance, or tighten rtol (now {rtol:g}) if the "
+                f"system is lightly damped.")
         raise ConvergenceError(
             f"shooting did not converge for the orbit of period {period:.6g} ({periods:g} forcing "
             f"period(s), {segments} segment(s)): {failure}. Residual history (max |phi(T,x0)-x0|): "
             f"[{hist}]; last x0 = {np.array2string(X[0], precision=8)}. Try a better initial guess "
             f"(x0=..., or transient=<more periods>), more segments (segments=N) for long or unstable "
             f"orbits, or method='hbm'.")
+    if not converged and iso is not None and not iso.isolated:
+        failure = f"{iso.reason()}; {failure}"
     orbit = finish_orbit(
         system, x0=X[0].copy(), period=period, periods=periods, t0=t0, monodromy=mono, iterations=it,
         residual=rnorm, converged=converged, method="shooting", params=_params_used(system, params),
@@ -323,7 +359,8 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         info={"rtol": rtol, "atol": atol, "tol": tol, "wall_s": wall, "failure": failure or None,
               "monodromy_rtol": max(rtol / 1e-6, 1e-12) if system.generated.implicit else rtol,
               "rigid_anchor": anchor is not None,
-              "relative_residual": rel(R), "state_scales": scales().tolist()})
+              "relative_residual": rel(R), "state_scales": scales().tolist(),
+              "isolation": iso.to_dict() if iso is not None else None})
     return orbit
 
 
@@ -341,6 +378,19 @@ def _anchor_rows(system: System, params: Mapping[str, float] | None, segments: i
     out = np.zeros((k, segments * Pq.shape[0]))
     out[:, : Pq.shape[0]] = Pq.T
     return out
+
+
+def _check_tolerances(**tols: float) -> None:
+    """Each tolerance positive, finite and below 1 (``rtol`` at least 1e-15)."""
+    for name, v in tols.items():
+        try:
+            ok = math.isfinite(float(v)) and 0 < float(v) < 1
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise ParameterError(f"{name} must be positive, finite and below 1, got {name}={v}")
+    if "rtol" in tols and float(tols["rtol"]) < 1e-15:
+        raise ParameterError(f"rtol={tols['rtol']:g} is below what double precision can deliver (1e-15)")
 
 
 def _params_used(system: System, params: Mapping[str, float] | None) -> dict[str, float]:

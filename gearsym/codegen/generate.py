@@ -3,15 +3,18 @@
 The generated functions follow the contract in ``gearsym/engine/gs_model_abi.h``
 (``gs_rhs``, ``gs_jac``, ``gs_res``, ``gs_resjac``, ``gs_sw``, ``gs_swx``, ``gs_swt``,
 ``gs_sched``, ``gs_period`` and ``gs_model_info``).  Parameters are inputs of every
-function, so changing one never recompiles.  Sources go to
-``generated/<scene>-<key>/`` and are compiled with ``gcc -O3`` together with the
-engine's C driver into ``gs_<content hash>.so``; ``dlopen`` caches by path, so a
-changed model can never run stale code.
+function, so changing one never recompiles.  :func:`write_and_compile` writes the
+sources into a private staging folder and compiles them with ``gcc -O3`` together
+with the engine's C driver into ``gs_<sha256[:16]>.so`` (named by its own bytes:
+``dlopen`` caches by path, so a different object never hides behind an old name);
+:mod:`gearsym.codegen.cache` keys, verifies and installs builds.
+
+Nothing user-written reaches the C files unescaped: names appear only in the
+header comment, through :func:`c_comment`.
 """
 
 from __future__ import annotations
 
-import hashlib
 import json
 import time
 from dataclasses import asdict, dataclass, field
@@ -22,12 +25,13 @@ import sympy as sp
 
 from ..errors import CompileError
 from ..symbolic.model import SymbolicModel
+from .cache import KEY_MARKER
 from .extras import DOCS as _EXTRA_DOCS
 from .extras import analysis_functions, analysis_meta
 from .sx import SXTranslator
 
 #: Bump when the generated code's layout changes (invalidates caches).
-CODEGEN_VERSION = "2"
+CODEGEN_VERSION = "3"
 ENGINE_DIR = Path(__file__).resolve().parent.parent / "engine"
 
 
@@ -78,6 +82,15 @@ class GeneratedModel:
     #: (``gs_rigid``; coefficients as text), see :mod:`gearsym.codegen.extras`
     meshes: list[str] = field(default_factory=list)
     rigid_modes: list[dict] = field(default_factory=list)
+    #: the full build key (64 hex digits; ``key`` is its first 16), compiled into the
+    #: object as ``gs_build_key()`` (:func:`gearsym.codegen.cache.build_key`)
+    build_key: str = ""
+    #: SHA-256 of the shared object, checked before it is loaded
+    so_sha256: str = ""
+    #: what the key was computed from (versions, toolchain, model hash, effects)
+    key_parts: dict = field(default_factory=dict)
+    model: str = ""
+    built: float = 0.0
 
     @property
     def input_names(self) -> list[str]:
@@ -120,18 +133,41 @@ class GeneratedModel:
         return cls(**json.loads(text))
 
 
-def cache_key(model_text: str, effects: dict, form: str, scene: str) -> str:
-    """Content key of a compile: model file, effect choices, form, generator and driver."""
-    h = hashlib.sha256()
-    h.update(CODEGEN_VERSION.encode())
-    h.update(model_text.encode())
-    h.update(json.dumps(effects, sort_keys=True).encode())
-    h.update(form.encode())
-    for src in sorted(ENGINE_DIR.glob("*.[ch]")):
-        h.update(src.read_bytes())
-    for src in sorted(Path(__file__).resolve().parent.glob("*.py")):
-        h.update(src.read_bytes())
-    return h.hexdigest()[:16]
+#: Characters that :func:`c_comment` keeps as they are.
+_COMMENT_SAFE = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_ .,:;=+-()[]{}<>'\"#!&|^~@$")
+
+
+def c_comment(text: object, limit: int = 160) -> str:
+    """Text made safe for the inside of a C ``/* ... */`` comment.
+
+    Every character outside a conservative printable set (letters, digits, space,
+    ``_ . , : ; = + - ( ) [ ] { } < > ' " # ! & | ^ ~ @ $``) is written as ``%XX``
+    (UTF-8 bytes, percent-encoded; ``%`` itself too), so no ``*/``, ``/*``,
+    backslash-newline, trigraph or control character can end the comment or splice
+    lines; text longer than ``limit`` characters is cut with ``...``.
+
+    Parameters
+    ----------
+    text
+        Any user-derived text (model, scene, state, parameter or element names).
+    limit
+        Maximal length of the result before the ``...``.
+
+    Returns
+    -------
+    str
+        A single line containing no ``*``, ``/``, ``\\``, ``?`` or control characters.
+    """
+    out = []
+    n = 0
+    for ch in str(text):
+        piece = ch if ch in _COMMENT_SAFE else "".join(f"%{b:02X}" for b in ch.encode("utf-8"))
+        if n + len(piece) > limit:
+            out.append("...")
+            break
+        out.append(piece)
+        n += len(piece)
+    return "".join(out)
 
 
 def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
@@ -157,7 +193,7 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     if model.form == "explicit":
         f = tr.matrix(model.modal.rhs)
         fns["gs_rhs"] = ca.Function("gs_rhs", [t, x, p, m], [f], ["t", "x", "p", "m"], ["xdot"])
-        fns["gs_jac"] = ca.Function("gs_jac", [t, x, p, m], [ca.densify(ca.jacobian(f, x))],
+        fns["gs_jac"] = ca.Function("gs_jac", [t, x, p, m], [ca.jacobian(f, x)],
                                     ["t", "x", "p", "m"], ["J"])
     else:
         xd = ca.SX.sym("xd", nx)
@@ -203,7 +239,7 @@ _HEADER = """/*
 """
 _DOCS = {
     "gs_rhs": "first-order right-hand side xdot = f(t, x, p, m) in the mode m",
-    "gs_jac": "Jacobian d f / d x (dense, column-major)",
+    "gs_jac": "Jacobian d f / d x (sparse, CasADi compressed-column)",
     "gs_res": "implicit residual r = [q' - v; M(q) v' - F(t, q, v, p, m)]",
     "gs_resjac": "dr/dx + cj * dr/dxd (dense, column-major), for IDA's Newton iteration",
     "gs_sw": "switching functions g(t, x, p) (events at their zeros)",
@@ -216,29 +252,32 @@ _DOCS = {
 }
 
 
-def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], directory: Path,
-                      scene: str, key: str, effects: dict) -> GeneratedModel:
-    """Write C sources into ``directory`` and compile them with the driver."""
-    t0 = time.perf_counter()
-    directory.mkdir(parents=True, exist_ok=True)
+def model_c_sources(model: SymbolicModel, fns: dict[str, ca.Function], scene: str,
+                    build_key: str) -> tuple[str, str]:
+    """The text of ``gs_model.c`` and ``gs_model.h``.
+
+    User-written names enter only the header comment, escaped by :func:`c_comment`;
+    the key (hex digits of our own) is compiled in as ``gs_build_key()``.
+    """
+    import tempfile
+
+    if not all(c in "0123456789abcdef" for c in build_key):
+        raise ValueError("build_key must be lowercase hex")
     cg = ca.CodeGenerator("gs_model.c", {"with_header": True, "casadi_real": "double"})
     for f in fns.values():
         cg.add(f)
-    tmp = directory / "_cg"
-    tmp.mkdir(exist_ok=True)
-    cg.generate(str(tmp) + "/")
-    c_text = (tmp / "gs_model.c").read_text()
-    h_text = (tmp / "gs_model.h").read_text()
-    for f in tmp.iterdir():
-        f.unlink()
-    tmp.rmdir()
+    with tempfile.TemporaryDirectory(prefix="gearsym-cg-") as tmp:
+        cg.generate(str(tmp) + "/")
+        c_text = (Path(tmp) / "gs_model.c").read_text()
+        h_text = (Path(tmp) / "gs_model.h").read_text()
     nsw = len(model.switching)
-    modes = [f"sigma_{j} (side of {s.name})" for j, s in enumerate(model.switching)]
+    modes = [f"sigma_{j} (side of {c_comment(s.name, 64)})" for j, s in enumerate(model.switching)]
     for s in model.schedules:
-        modes += [f"n_{s.name}", f"seg_{s.name}"]
+        modes += [f"n_{c_comment(s.name, 64)}", f"seg_{c_comment(s.name, 64)}"]
     header = _HEADER.format(
-        version=CODEGEN_VERSION, scene=scene, model=model.name,
-        states=", ".join(model.state_names), params=", ".join(model.parameter_names),
+        version=CODEGEN_VERSION, scene=c_comment(scene), model=c_comment(model.name),
+        states=c_comment(", ".join(model.state_names), 2000),
+        params=c_comment(", ".join(model.parameter_names), 4000),
         modes=", ".join(modes),
         functions="\n".join(f" *   {name:10s} {_DOCS[name]}" for name in fns),
     )
@@ -251,23 +290,59 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], directo
         f"  static const int info[{len(info)}] = {{{', '.join(map(str, info))}}};\n"
         f"  int i;\n  if (len < {len(info)}) return -1;\n"
         f"  for (i = 0; i < {len(info)}; ++i) out[i] = info[i];\n  return {len(info)};\n}}\n"
+        "/* Key of this build (gearsym.codegen.cache.build_key), checked when it is loaded. */\n"
+        f'static const char gs_build_key_text[] = "{KEY_MARKER.decode()}{build_key}";\n'
+        f"const char* gs_build_key(void) {{ return gs_build_key_text + {len(KEY_MARKER)}; }}\n"
     )
-    (directory / "gs_model.c").write_text(header + c_text + "\n" + info_c)
-    (directory / "gs_model.h").write_text(
-        header + h_text + "\nint gs_model_info(int* out, int len);\n")
-    from ..engine import build as engine_build
+    return (header + c_text + "\n" + info_c,
+            header + h_text + "\nint gs_model_info(int* out, int len);\nconst char* gs_build_key(void);\n")
 
-    sources = [directory / "gs_model.c", ENGINE_DIR / "gs_driver.c"]
-    digest = hashlib.sha256(b"".join(s.read_bytes() for s in sources)).hexdigest()[:16]
-    so = directory / f"gs_{digest}.so"
-    cached = so.exists()
-    if not cached:
-        try:
-            engine_build.build_shared_object(sources, [directory, ENGINE_DIR], so)
-        except Exception as exc:  # surface compiler errors as gearsym errors
-            raise CompileError(f"compiling {directory} failed: {exc}") from exc
+
+def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], staging: Path, directory: Path,
+                      scene: str, build_key: str, effects: dict,
+                      key_parts: dict | None = None) -> GeneratedModel:
+    """Write the C sources into ``staging``, compile and verify them, write ``meta.json``.
+
+    Parameters
+    ----------
+    model, fns
+        The symbolic model and its CasADi functions (:func:`build_functions`).
+    staging
+        A private, empty folder (:meth:`gearsym.codegen.cache.BuildCache.staging`).
+    directory
+        Where the build will be installed (recorded in ``meta.json``).
+    scene, build_key, effects, key_parts
+        Scene name, the build's key and what it was computed from.
+
+    Returns
+    -------
+    GeneratedModel
+        With paths inside ``directory``.
+
+    Raises
+    ------
+    CompileError
+        If the compiler fails or the object does not load with the right key.
+    """
+    from ..engine import build as engine_build
+    from ..engine.driver import load_engine
+
+    t0 = time.perf_counter()
+    c_text, h_text = model_c_sources(model, fns, scene, build_key)
+    (staging / "gs_model.c").write_text(c_text)
+    (staging / "gs_model.h").write_text(h_text)
+    built = staging / "gs_model.so"
+    try:
+        engine_build.build_shared_object([Path("gs_model.c"), ENGINE_DIR / "gs_driver.c"],
+                                         [Path("."), ENGINE_DIR], built, cwd=staging)
+        digest = engine_build.file_sha256(built)
+        so = staging / f"gs_{digest[:16]}.so"
+        built.rename(so)
+        load_engine(so, sha256=digest, build_key=build_key)  # the object loads and is ours
+    except Exception as exc:  # surface compiler and loader errors as gearsym errors
+        raise CompileError(f"compiling {directory.name} failed: {exc}") from exc
     gen = GeneratedModel(
-        scene=scene, key=key, directory=str(directory), so_path=str(so),
+        scene=scene, key=build_key[:16], directory=str(directory), so_path=str(directory / so.name),
         state_names=model.state_names, param_names=model.parameter_names,
         surfaces=[{"name": s.name, "kind": s.kind, "contact_sign": s.contact_sign,
                    "meaning": s.meaning, "expr": sp.sstr(s.expr)} for s in model.switching],
@@ -276,12 +351,14 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], directo
         n_ops={name: int(f.n_instructions()) for name, f in fns.items()},
         effects=dict(effects),
         compile_seconds=time.perf_counter() - t0,
-        cached=cached,
+        cached=False,
         functions={name: f.serialize() for name, f in fns.items()},
         bound={k: [f, list(a)] for k, (f, a) in getattr(model, "bound_parameters", {}).items()},
         outputs=list(getattr(model, "outputs", {})),
         output_units={k: (o.unit or "") for k, o in model.spec.outputs.items()},
         **analysis_meta(model),
+        build_key=build_key, so_sha256=digest, key_parts=dict(key_parts or {}), model=model.name,
+        built=time.time(),
     )
-    (directory / "meta.json").write_text(gen.to_json())
+    (staging / "meta.json").write_text(gen.to_json())
     return gen

@@ -3,14 +3,21 @@ scikit-sundae wheel.
 
 The wheel ships SUNDIALS 7.9 shared libraries (``scikit_sundae.libs/`` next to
 the ``sksundae`` package) but no headers; the driver declares the API it uses in
-``sundials7.h`` and links the libraries by full path with an rpath, so the built
-object needs no environment variables at run time.  The ABI (version >= 7,
-32-bit ``sunindextype``) is checked when the object is loaded
+``sundials7.h`` and links the libraries by full path **without** an rpath: the
+object records only the libraries' SONAMEs, and :func:`preload_sundials` loads the
+installed wheel's libraries (``RTLD_LOCAL``, in dependency order) before a model
+is loaded, so a build survives the deletion or move of the venv that built it.
+:func:`toolchain_identity` (compiler path and ``--version``, flags, content hashes
+of the libraries and driver sources) enters the build cache key, so a build made
+against other libraries or another compiler is never reused.  The ABI (version
+>= 7, 32-bit ``sunindextype``) is checked when the object is loaded
 (:func:`gearsym.engine.driver.load_engine`).
 """
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import hashlib
 import importlib.util
 import os
@@ -20,30 +27,44 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from gearsym.engine.errors import EngineBuildError, SundialsNotFoundError
+from gearsym.engine.errors import EngineABIError, EngineBuildError, SundialsNotFoundError
 
 __all__ = [
+    "CFLAGS",
     "ENGINE_DIR",
     "SundialsLibs",
     "build_shared_object",
     "content_hash",
     "driver_sources",
+    "file_sha256",
     "find_sundials_libs",
+    "preload_sundials",
+    "resolve_compiler",
+    "toolchain_identity",
 ]
 
 #: Directory holding the driver sources (gs_driver.c, gs_driver.h,
 #: gs_model_abi.h, sundials7.h) -- package data.
 ENGINE_DIR = Path(__file__).resolve().parent
 
-#: Library stems needed by the driver, in link order.
+#: Library stems needed by the driver, in dependency order (each needs only the
+#: ones before it): the order in which :func:`preload_sundials` loads them.
 _REQUIRED = (
+    "sundials_core",
+    "sundials_nvecserial",
+    "sundials_sunmatrixdense",
+    "sundials_sunlinsoldense",
     "sundials_cvode",
     "sundials_ida",
-    "sundials_sunlinsoldense",
-    "sundials_sunmatrixdense",
-    "sundials_nvecserial",
-    "sundials_core",
 )
+
+#: Compiler flags of every build (they enter the cache key through
+#: :func:`toolchain_identity`).  No rpath: see the module docstring.
+CFLAGS: tuple[str, ...] = ("-O3", "-fPIC", "-shared")
+_LDLIBS: tuple[str, ...] = ("-lm",)
+
+#: Files of this package whose bytes change the binary of every build.
+_DRIVER_FILES = ("gs_driver.c", "gs_driver.h", "gs_model_abi.h", "sundials7.h", "build.py")
 
 
 @dataclass(frozen=True)
@@ -53,9 +74,9 @@ class SundialsLibs:
     Attributes
     ----------
     libdir
-        The ``scikit_sundae.libs`` directory (used as rpath).
+        The ``scikit_sundae.libs`` directory.
     libs
-        Full paths of the libraries, in link order.
+        Full paths of the libraries, in dependency order (core first).
     """
 
     libdir: Path
@@ -80,7 +101,7 @@ def find_sundials_libs() -> SundialsLibs:
     -------
     SundialsLibs
         Library directory and the full paths of the required libraries
-        (core, cvode, ida, nvecserial, sunmatrixdense, sunlinsoldense).
+        (core, nvecserial, sunmatrixdense, sunlinsoldense, cvode, ida).
 
     Raises
     ------
@@ -90,6 +111,15 @@ def find_sundials_libs() -> SundialsLibs:
     """
     pkg = _sksundae_dir()
     libdir = pkg.parent / "scikit_sundae.libs"
+    try:
+        mtime = libdir.stat().st_mtime_ns
+    except OSError:
+        mtime = -1
+    return _scan_libdir(pkg, libdir, mtime)
+
+
+@functools.lru_cache(maxsize=8)
+def _scan_libdir(pkg: Path, libdir: Path, mtime_ns: int) -> SundialsLibs:
     if not libdir.is_dir():
         raise SundialsNotFoundError(
             f"the scikit-sundae wheel has no 'scikit_sundae.libs' directory next to {pkg}; "
@@ -110,6 +140,145 @@ def find_sundials_libs() -> SundialsLibs:
     if missing:
         raise SundialsNotFoundError(f"SUNDIALS libraries missing in {libdir}: {', '.join(missing)}")
     return SundialsLibs(libdir=libdir, libs=tuple(found))
+
+
+_PRELOADED: dict[Path, list[ctypes.CDLL]] = {}
+
+
+def preload_sundials() -> SundialsLibs:
+    """Load the installed wheel's SUNDIALS libraries (``RTLD_LOCAL``).
+
+    Model objects are linked without an rpath: their ``DT_NEEDED`` entries name the
+    libraries by SONAME only, and the dynamic loader satisfies them from objects
+    already loaded (glibc matches a ``DT_NEEDED`` SONAME against every loaded object,
+    local or global).  ``RTLD_LOCAL`` keeps the SUNDIALS 7 symbols out of the
+    process's global scope: with ``RTLD_GLOBAL`` they interposed on other libraries
+    that bundle their own SUNDIALS (fmpy's CVODE crashed with a segmentation fault).  Called by :func:`gearsym.engine.driver.load_engine` before
+    every model is loaded (once per process and library folder).
+
+    Returns
+    -------
+    SundialsLibs
+        The libraries that are now loaded.
+
+    Raises
+    ------
+    SundialsNotFoundError
+        If the libraries are missing.
+    EngineABIError
+        If one of them cannot be loaded.
+    """
+    sl = find_sundials_libs()
+    if sl.libdir not in _PRELOADED:
+        handles = []
+        for p in sl.libs:
+            try:
+                handles.append(ctypes.CDLL(str(p), mode=ctypes.RTLD_LOCAL))
+            except OSError as exc:
+                raise EngineABIError(f"cannot load the SUNDIALS library {p}: {exc}") from exc
+        _PRELOADED[sl.libdir] = handles
+    return sl
+
+
+def _sha256(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=64)
+def _sha256_cached(path: str, size: int, mtime_ns: int, ino: int) -> str:
+    return _sha256(path)
+
+
+def file_sha256(path: str | os.PathLike[str], *, cache: bool = False) -> str:
+    """SHA-256 of a file's bytes (hex).
+
+    Parameters
+    ----------
+    path
+        The file.
+    cache
+        Reuse the digest computed earlier in this process while the file's size,
+        modification time and inode are unchanged (for read-only inputs such as the
+        SUNDIALS libraries; never for cache entries that are being verified).
+    """
+    p = os.fspath(path)
+    if cache:
+        st = os.stat(p)
+        return _sha256_cached(p, st.st_size, st.st_mtime_ns, st.st_ino)
+    return _sha256(p)
+
+
+def resolve_compiler(cc: str | None = None) -> str:
+    """The C compiler to use: ``cc``, else ``$CC``, else ``gcc``, as an absolute path.
+
+    Raises
+    ------
+    EngineBuildError
+        If it is not found.
+    """
+    cc = cc or os.environ.get("CC") or "gcc"
+    path = shutil.which(cc)
+    if path is None:
+        raise EngineBuildError(f"C compiler '{cc}' not found; install gcc (e.g. apt-get install gcc)")
+    return os.path.realpath(path)
+
+
+@functools.lru_cache(maxsize=8)
+def _compiler_version(path: str, size: int, mtime_ns: int) -> str:
+    try:
+        proc = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise EngineBuildError(f"cannot run the C compiler {path} --version: {exc}") from exc
+    return (proc.stdout or proc.stderr).strip()
+
+
+def toolchain_identity(cc: str | None = None, extra_cflags: list[str] | tuple[str, ...] = ()) -> dict[str, object]:
+    """Everything outside the generated model source that changes the binary.
+
+    Parameters
+    ----------
+    cc
+        Compiler (default: ``$CC`` or ``gcc``).
+    extra_cflags
+        Flags added to :data:`CFLAGS`.
+
+    Returns
+    -------
+    dict
+        ``compiler`` (absolute path), ``compiler_version`` (its ``--version``),
+        ``cflags``, ``sundials`` (library file name -> SHA-256 of its bytes; the
+        file names carry the SONAMEs) and ``driver`` (SHA-256 of the driver sources
+        and of this module).  JSON-serialisable; computed once per process.
+
+    Raises
+    ------
+    EngineBuildError, SundialsNotFoundError
+        If the compiler or the libraries are missing.
+    """
+    path = resolve_compiler(cc)
+    st = os.stat(path)
+    sl = find_sundials_libs()
+    stamps = tuple((name, *(lambda st: (st.st_size, st.st_mtime_ns))(os.stat(ENGINE_DIR / name)))
+                   for name in _DRIVER_FILES)
+    return {
+        "compiler": path,
+        "compiler_version": _compiler_version(path, st.st_size, st.st_mtime_ns),
+        "cflags": [*CFLAGS, *extra_cflags, *_LDLIBS],
+        "sundials": {p.name: file_sha256(p, cache=True) for p in sl.libs},
+        "driver": _driver_digest(stamps),
+    }
+
+
+@functools.lru_cache(maxsize=8)
+def _driver_digest(stamps: tuple) -> str:
+    h = hashlib.sha256()
+    for name, *_ in stamps:
+        h.update(name.encode() + b"\0" + (ENGINE_DIR / name).read_bytes() + b"\0")
+    return h.hexdigest()
 
 
 def driver_sources() -> tuple[list[Path], list[Path]]:
@@ -157,19 +326,21 @@ def build_shared_object(
     *,
     extra_cflags: list[str] | None = None,
     cc: str | None = None,
+    cwd: Path | None = None,
 ) -> Path:
     """Compile C sources into a shared object linked against SUNDIALS 7.
 
-    Runs ``gcc -O3 -fPIC -shared -I... sources -o tmp <full library paths>
-    -Wl,-rpath,<libdir> -lm``; the object is written to a temporary name in
-    the destination directory and moved into place with :func:`os.replace`,
-    so concurrent builders never see a half-written file.
+    Runs ``gcc -O3 -fPIC -shared -I... sources -o tmp <full library paths> -lm``
+    (no rpath: load it with :func:`gearsym.engine.driver.load_engine`, which
+    preloads the libraries); the object is written to a temporary name in the
+    destination directory and moved into place with :func:`os.replace`, so a
+    reader never sees a half-written file.
 
     Parameters
     ----------
     c_sources
         C files (typically the generated model files and
-        :func:`driver_sources`).
+        :func:`driver_sources`); relative paths are relative to ``cwd``.
     include_dirs
         Include directories (the engine directory and the directory holding
         ``gs_model.h``).
@@ -179,6 +350,10 @@ def build_shared_object(
         Additional compiler flags.
     cc
         Compiler (default: ``$CC`` or ``gcc``).
+    cwd
+        Working directory of the compiler (default: the current one).  Passing the
+        model's folder and relative source names keeps temporary folder names out
+        of the object, so equal sources give equal bytes.
 
     Returns
     -------
@@ -193,24 +368,25 @@ def build_shared_object(
         If the compiler is missing or fails (the message contains its stderr).
     """
     sl = find_sundials_libs()
-    cc = cc or os.environ.get("CC") or "gcc"
-    if shutil.which(cc) is None:
-        raise EngineBuildError(f"C compiler '{cc}' not found; install gcc (e.g. apt-get install gcc)")
-    out_path = Path(out_path)
+    cc = resolve_compiler(cc)
+    out_path = Path(out_path).absolute()
     out_path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{out_path.name}.", suffix=".tmp", dir=out_path.parent)
     os.close(fd)
     tmp = Path(tmp_name)
-    cmd = [cc, "-O3", "-fPIC", "-shared"]
+    cmd = [cc, *CFLAGS]
     cmd += list(extra_cflags or [])
     for d in include_dirs:
         cmd.append(f"-I{Path(d)}")
     cmd += [str(Path(s)) for s in c_sources]
     cmd += ["-o", str(tmp)]
     cmd += [str(p) for p in sl.libs]
-    cmd += [f"-Wl,-rpath,{sl.libdir}", "-lm"]
+    cmd += list(_LDLIBS)
     try:
-        proc = subprocess.run(cmd, capture_output=True, text=True)
+        try:
+            proc = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
+        except OSError as exc:
+            raise EngineBuildError(f"cannot run the C compiler {cc}: {exc}") from exc
         if proc.returncode != 0:
             raise EngineBuildError(
                 f"C compilation failed (exit {proc.returncode}):\n{' '.join(cmd)}\n{proc.stderr.strip()}"

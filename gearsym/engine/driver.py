@@ -10,18 +10,30 @@ from __future__ import annotations
 import ctypes as C
 import math
 import os
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from gearsym.engine import interrupt as _interrupt
 from gearsym.engine.errors import EngineABIError, EngineInputError, error_for_status
 
-__all__ = ["Engine", "GsSimArgs", "RunResult", "load_engine", "METHODS"]
+__all__ = ["EVAL_FUNCTIONS", "Engine", "GsSimArgs", "LINEAR_SOLVERS", "METHODS", "NONLINEAR", "RunResult",
+           "load_engine"]
+
+#: Status of a run stopped by SIGINT (gs_driver.h).
+GS_ERR_INTERRUPTED = -8
 
 #: Integration methods: name -> GS_METHOD_* code.
 METHODS: dict[str, int] = {"bdf": 0, "adams": 1, "ida": 2}
+#: Functions of :meth:`Engine.evaluate`: name -> GS_EVAL_* code.
+EVAL_FUNCTIONS: dict[str, int] = {"sw": 0, "out": 1, "rhs": 2, "jac": 3, "mode": 4}
+#: CVODE nonlinear solvers: name -> GS_NONLIN_* code.
+NONLINEAR: dict[str, int] = {"auto": 0, "newton": 1, "fixedpoint": 2}
+#: Newton's linear solvers: name -> GS_LINSOL_* code.
+LINEAR_SOLVERS: dict[str, int] = {"auto": 0, "dense": 1, "blockdiag": 2}
 
 # Pointer members are declared c_void_p (same layout as double*/int*) so that
 # numpy buffers can be passed as plain addresses (fast: no ctypes casts).
@@ -52,6 +64,10 @@ class GsSimArgs(C.Structure):
         ("init_step", C.c_double),
         ("want_monodromy", C.c_int),
         ("max_events_out", C.c_int),
+        ("check_interrupt", C.c_int),
+        ("interrupt_fd", C.c_int),
+        ("nonlinear", C.c_int),
+        ("linear_solver", C.c_int),
         # outputs
         ("y_out", _PD),
         ("x_final", _PD),
@@ -164,6 +180,11 @@ class Engine:
         self._lib = lib
         self.path = path
         self.sundials_version = version
+        # one C workspace per thread (work buffers, SUNDIALS context, integrator
+        # memory reused across calls: gs_simulate_ws), freed with the engine
+        self._tls = threading.local()
+        self._workspaces: list[int] = []
+        self._ws_lock = threading.Lock()
         info = (C.c_int * 64)()
         n = lib.gs_model_info(info, 64)
         if n < 6:
@@ -171,6 +192,98 @@ class Engine:
         self.nx, self.np, self.nm, self.nsw, self.nsched = (int(info[i]) for i in range(5))
         self.implicit = bool(info[5])
         self.nb = tuple(int(info[6 + k]) for k in range(self.nsched))
+
+    def _ws(self) -> int:
+        """This thread's workspace (created on first use)."""
+        ws = getattr(self._tls, "ws", None)
+        if ws is None:
+            ws = self._lib.gs_ws_new()
+            if not ws:
+                raise MemoryError("gs_ws_new: out of memory")
+            with self._ws_lock:
+                self._workspaces.append(ws)
+            self._tls.ws = ws
+        return ws
+
+    def __del__(self) -> None:
+        lib = getattr(self, "_lib", None)
+        for ws in getattr(self, "_workspaces", ()):
+            if lib is not None:
+                lib.gs_ws_free(ws)
+        self._workspaces = []
+
+    def __getstate__(self) -> dict[str, Any]:
+        raise TypeError("an Engine holds a loaded shared object and C workspaces; pickle the System "
+                        "(or its generated model) instead")
+
+    def period(self, p: np.ndarray) -> float:
+        """The forcing period ``T(p)`` from the generated ``gs_period`` (NaN if none).
+
+        Parameters
+        ----------
+        p
+            Parameter vector, shape (np,), C-contiguous float64.
+
+        Returns
+        -------
+        float
+        """
+        out = C.c_double(math.nan)
+        msg = C.create_string_buffer(256)
+        pa = p if p.shape[0] else None
+        if self._lib.gs_eval_period(self._ws(), _ptr(pa), C.byref(out), msg, 256) != 0:
+            raise EngineInputError(msg.value.decode(errors="replace"))
+        return float(out.value)
+
+    def n_outputs(self) -> int:
+        """Number of model outputs (``gs_out``)."""
+        return int(self._lib.gs_n_outputs(self._ws()))
+
+    def evaluate(self, function: str, t: Any, x: Any, p: Any, sigma: Any = None) -> np.ndarray:
+        """Evaluate a generated function at many points, in the driver's mode there.
+
+        Parameters
+        ----------
+        function
+            ``"sw"`` (switching functions), ``"out"`` (the model's outputs),
+            ``"rhs"``, ``"jac"`` (dense ``d xdot / d x``) or ``"mode"`` (the mode
+            vector: surface sides, schedule cycle and segment).
+        t
+            Times, shape (n,).
+        x
+            States, shape (n, nx).
+        p
+            Parameter vector, shape (np,).
+        sigma
+            Sides (+1/-1) of the switching surfaces at each point, shape (n, nsw);
+            default: from the signs of the switching functions (``g >= 0`` -> +1).
+
+        Returns
+        -------
+        ndarray
+            Shape (n, k) with ``k`` = nsw, number of outputs, nx or nm; for
+            ``"jac"`` shape (n, nx, nx).
+        """
+        code = EVAL_FUNCTIONS[function]
+        ta = np.ascontiguousarray(np.asarray(t, dtype=float).reshape(-1))
+        n = ta.shape[0]
+        xa = np.ascontiguousarray(np.asarray(x, dtype=float).reshape(n, self.nx))
+        pa = np.ascontiguousarray(np.asarray(p, dtype=float).reshape(-1))
+        sg = None
+        if sigma is not None:
+            sg = np.ascontiguousarray(np.asarray(sigma, dtype=float).reshape(n, self.nsw))
+        k = {"sw": self.nsw, "out": max(self.n_outputs(), 0), "rhs": self.nx, "jac": self.nx * self.nx,
+             "mode": self.nm}[function]
+        out = np.empty((n, max(k, 1)))
+        msg = C.create_string_buffer(256)
+        rc = self._lib.gs_eval(self._ws(), code, n, _ptr(ta), _ptr(xa), _ptr(pa) if pa.shape[0] else None,
+                               _ptr(sg), _ptr(out), msg, 256)
+        if rc != 0:
+            raise EngineInputError(msg.value.decode(errors="replace"))
+        out = out[:, :k]
+        if function == "jac":
+            return out.reshape(n, self.nx, self.nx).transpose(0, 2, 1)  # column-major -> [i, row, col]
+        return out
 
     def __repr__(self) -> str:
         return (
@@ -197,6 +310,8 @@ class Engine:
         storm_events: int = 0,
         storm_window: float = 0.0,
         max_events_out: int = 4096,
+        nonlinear: str = "auto",
+        linear_solver: str = "auto",
     ) -> RunResult:
         """Integrate the model from ``t0`` to ``t_end`` in one C call.
 
@@ -233,6 +348,17 @@ class Engine:
         max_events_out
             Initial capacity of the event log; the run is repeated with a
             larger log if more events occur (the result is deterministic).
+        nonlinear
+            CVODE's nonlinear solver: ``"newton"`` (modified Newton with the
+            analytic Jacobian), ``"fixedpoint"`` (functional iteration: no
+            Jacobian and no linear algebra, for non-stiff models; cheapest for
+            large models) or ``"auto"`` (Newton).
+        linear_solver
+            Newton's linear solver: ``"dense"`` (SUNDIALS' dense LU of the whole
+            system; with the monodromy that is an (n + n^2)^2 matrix),
+            ``"blockdiag"`` (monodromy only: one n x n LU applied to the state and
+            every column of the variational matrix) or ``"auto"`` (blockdiag with
+            the monodromy, dense without).
 
         Returns
         -------
@@ -244,9 +370,18 @@ class Engine:
             A subclass per failure (:class:`~gearsym.engine.errors.TooMuchWorkError`,
             :class:`~gearsym.engine.errors.NonFiniteError`, ...), with the
             driver's message.
+        KeyboardInterrupt
+            On Ctrl-C (SIGINT) during the integration, within a few thousand
+            right-hand side evaluations (calls from the main thread; see
+            :mod:`gearsym.engine.interrupt`).
         """
         if method not in METHODS:
             raise EngineInputError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
+        if nonlinear not in NONLINEAR:
+            raise EngineInputError(f"unknown nonlinear solver {nonlinear!r}; use one of {sorted(NONLINEAR)}")
+        if linear_solver not in LINEAR_SOLVERS:
+            raise EngineInputError(f"unknown linear solver {linear_solver!r}; use one of "
+                                   f"{sorted(LINEAR_SOLVERS)}")
         x0a = np.ascontiguousarray(np.asarray(x0, dtype=float).reshape(-1))
         pa = np.ascontiguousarray(np.asarray(p if p is not None else [], dtype=float).reshape(-1))
         if x0a.shape[0] != self.nx:
@@ -279,6 +414,8 @@ class Engine:
                 int(storm_events),
                 float(storm_window),
                 cap,
+                NONLINEAR[nonlinear],
+                LINEAR_SOLVERS[linear_solver],
             )
             if isinstance(res, int):  # event log too small: rerun with the exact size
                 cap = res
@@ -304,13 +441,16 @@ class Engine:
         storm_events,
         storm_window,
         cap,
+        nonlin=0,
+        linsol=0,
     ) -> RunResult | int:
         nx, nsw = self.nx, self.nsw
         n_out = int(tout.shape[0])
-        y = np.full((n_out, nx), np.nan)
-        x_final = np.full(nx, np.nan)
+        # the driver writes every entry before it returns success (and a failure raises)
+        y = np.empty((n_out, nx))
+        x_final = np.empty(nx)
         sigma_final = np.zeros(max(nsw, 1))
-        mono_arr = np.full((nx, nx), np.nan) if mono else None
+        mono_arr = np.empty((nx, nx)) if mono else None
         ev_t = np.empty(cap)
         ev_s = np.empty(cap, dtype=np.intc)
         ev_d = np.empty(cap, dtype=np.intc)
@@ -328,6 +468,7 @@ class Engine:
         a.max_step, a.init_step = max_step, init_step
         a.want_monodromy = 1 if mono else 0
         a.max_events_out = cap
+        a.nonlinear, a.linear_solver = nonlin, linsol
         a.y_out = _ptr(y) if n_out else None
         a.x_final = _ptr(x_final)
         a.sigma_final = _ptr(sigma_final)
@@ -338,7 +479,16 @@ class Engine:
             _ptr(ev_d),
             _ptr(ev_v),
         )
-        status = self._lib.gs_simulate(C.byref(a))
+        a.interrupt_fd, previous = _interrupt.arm()
+        a.check_interrupt = 1 if a.interrupt_fd >= 0 else 0
+        try:
+            status = self._lib.gs_simulate_ws(self._ws(), C.byref(a))
+        finally:
+            _interrupt.disarm(previous)
+        if status == GS_ERR_INTERRUPTED:
+            # Python's SIGINT handler has normally raised KeyboardInterrupt already
+            # (when the call returned); this covers a handler that did not raise.
+            raise KeyboardInterrupt(f"simulation interrupted at t={float(a.t_reached):.6g}")
         if status != 0:
             msg = a.errmsg.decode("utf-8", errors="replace")
             raise error_for_status(int(status), msg, float(a.t_reached))
@@ -372,17 +522,26 @@ class Engine:
         )
 
 
-def load_engine(so_path: str | os.PathLike[str]) -> Engine:
-    """Load a model + driver shared object and check the SUNDIALS runtime.
+def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
+                build_key: str | None = None) -> Engine:
+    """Load a model + driver shared object and check it and the SUNDIALS runtime.
 
     ``dlopen`` caches libraries by path: a rebuilt object at the same path
     silently keeps running the old code, so callers must name builds by
-    content hash (see :func:`gearsym.engine.build.content_hash`).
+    content hash (see :func:`gearsym.engine.build.content_hash`).  The object is
+    linked without an rpath; the installed wheel's SUNDIALS libraries are loaded
+    first (:func:`gearsym.engine.build.preload_sundials`).
 
     Parameters
     ----------
     so_path
         The shared object built by :func:`gearsym.engine.build.build_shared_object`.
+    sha256
+        Expected SHA-256 of the file, checked *before* ``dlopen`` (a truncated
+        object would otherwise kill the process with SIGBUS).
+    build_key
+        Expected value of the object's ``gs_build_key()`` (generated models
+        record the key of their build there).
 
     Returns
     -------
@@ -391,18 +550,39 @@ def load_engine(so_path: str | os.PathLike[str]) -> Engine:
     Raises
     ------
     EngineABIError
-        If the object cannot be loaded, its ``gs_sim_args`` layout differs from
-        the ctypes mirror, or the SUNDIALS runtime is not version >= 7 with
-        32-bit indices.
+        If the object is missing, does not match ``sha256`` or ``build_key``,
+        cannot be loaded, its ``gs_sim_args`` layout differs from the ctypes
+        mirror, or the SUNDIALS runtime is not version >= 7 with 32-bit indices.
     """
+    from gearsym.engine.build import file_sha256, preload_sundials
+
     path = Path(so_path).resolve()
+    if sha256 is not None:
+        try:
+            actual = file_sha256(path)
+        except OSError as exc:
+            raise EngineABIError(f"cannot read the compiled model {path}: {exc.strerror}") from exc
+        if actual != sha256:
+            raise EngineABIError(f"the compiled model {path} is damaged (its SHA-256 differs from the one "
+                                 "recorded when it was built); rebuild it (gearsym compile --force)")
+    preload_sundials()
     try:
         lib = C.CDLL(str(path))
     except OSError as exc:
         raise EngineABIError(f"cannot load the compiled model {path}: {exc}") from exc
-    for name in ("gs_simulate", "gs_check_abi", "gs_sizeof_args", "gs_model_info"):
+    for name in ("gs_simulate", "gs_simulate_ws", "gs_ws_new", "gs_ws_free", "gs_eval", "gs_eval_period",
+                 "gs_check_abi", "gs_sizeof_args", "gs_model_info"):
         if not hasattr(lib, name):
             raise EngineABIError(f"{path} does not export {name}; was it built with gs_driver.c?")
+    if build_key is not None:
+        if not hasattr(lib, "gs_build_key"):
+            raise EngineABIError(f"{path} does not export gs_build_key; rebuild it (gearsym compile --force)")
+        lib.gs_build_key.restype = C.c_char_p
+        lib.gs_build_key.argtypes = []
+        found = (lib.gs_build_key() or b"").decode(errors="replace")
+        if found != build_key:
+            raise EngineABIError(f"{path} was built for key {found[:16]}, expected {build_key[:16]}; "
+                                 "rebuild it (gearsym compile --force)")
     lib.gs_sizeof_args.restype = C.c_int
     lib.gs_sizeof_args.argtypes = []
     lib.gs_check_abi.restype = C.c_int
@@ -411,6 +591,19 @@ def load_engine(so_path: str | os.PathLike[str]) -> Engine:
     lib.gs_simulate.argtypes = [C.POINTER(GsSimArgs)]
     lib.gs_model_info.restype = C.c_int
     lib.gs_model_info.argtypes = [C.POINTER(C.c_int), C.c_int]
+    lib.gs_ws_new.restype = C.c_void_p
+    lib.gs_ws_new.argtypes = []
+    lib.gs_ws_free.restype = None
+    lib.gs_ws_free.argtypes = [C.c_void_p]
+    lib.gs_simulate_ws.restype = C.c_int
+    lib.gs_simulate_ws.argtypes = [C.c_void_p, C.POINTER(GsSimArgs)]
+    lib.gs_eval_period.restype = C.c_int
+    lib.gs_eval_period.argtypes = [C.c_void_p, C.c_void_p, C.POINTER(C.c_double), C.c_char_p, C.c_int]
+    lib.gs_n_outputs.restype = C.c_int
+    lib.gs_n_outputs.argtypes = [C.c_void_p]
+    lib.gs_eval.restype = C.c_int
+    lib.gs_eval.argtypes = [C.c_void_p, C.c_int, C.c_int, C.c_void_p, C.c_void_p, C.c_void_p, C.c_void_p,
+                            C.c_void_p, C.c_char_p, C.c_int]
     size_c = lib.gs_sizeof_args()
     if size_c != C.sizeof(GsSimArgs):
         raise EngineABIError(

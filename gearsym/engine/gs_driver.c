@@ -13,18 +13,29 @@
  * Nothing here aborts the process: every failure becomes a status code and a
  * message in args->errmsg, and every allocation is released on every path.
  * There is no global state, so concurrent calls from several threads are safe.
+ *
+ * Interrupts: with args->check_interrupt, the right-hand side / residual callback
+ * reads the non-blocking pipe args->interrupt_fd every GS_POLL_EVERY evaluations
+ * (one read(2) that returns EAGAIN: ~0.5 us per GS_POLL_EVERY evaluations) and,
+ * when it holds a SIGINT byte (Python's signal wakeup fd), fails the evaluation so
+ * that the solver returns at once; gs_simulate then reports GS_ERR_INTERRUPTED.
+ * Bytes already in the pipe when gs_simulate starts are stale (signals of earlier
+ * calls, handled by Python since) and are discarded.
  */
 #if !defined(_POSIX_C_SOURCE) || _POSIX_C_SOURCE < 200809L
 #undef _POSIX_C_SOURCE
 #define _POSIX_C_SOURCE 200809L /* open_memstream */
 #endif
+#include <errno.h>
 #include <float.h>
 #include <math.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "gs_model.h"
 #include "gs_model_abi.h"
@@ -59,6 +70,8 @@ GS_DECLARE_MODEL_FN(gs_sw)
 GS_DECLARE_MODEL_FN(gs_swx)
 GS_DECLARE_MODEL_FN(gs_swt)
 GS_DECLARE_MODEL_FN(gs_sched)
+GS_DECLARE_MODEL_FN(gs_period)
+GS_DECLARE_MODEL_FN(gs_out)
 extern int gs_model_info(int* out, int len) GS_WEAK;
 
 typedef int (*gs_cfun_ptr)(const casadi_real**, casadi_real**, casadi_int*, casadi_real*, int);
@@ -87,13 +100,14 @@ typedef struct {
   int nx, np, nm, nsw, nsched, implicit;
   int nA;          /* solver state size: nx, or nx*(nx+1) with monodromy      */
   int mono;        /* variational equations on                               */
+  int blockdiag;   /* block-diagonal linear solver of the variational system */
   int use_ida;
   const double* p;
   double* m;       /* current mode vector [nm]                               */
   double* m_alt;   /* scratch mode vector [nm]                               */
   double dummy[1]; /* non-NULL pointer for empty inputs                      */
 
-  gs_fn rhs, jac, res, resjac, sw, swx, swt, sched;
+  gs_fn rhs, jac, res, resjac, sw, swx, swt, sched, period, out;
   const casadi_real** arg;
   casadi_real** resp;
   casadi_int* iw;
@@ -118,6 +132,11 @@ typedef struct {
   int nf_state_index; /* first non-finite state entry, or -1 */
   const char* nf_what;
 
+  /* interrupt polling (see the top of this file) */
+  int intr_fd;      /* -1: off */
+  int intr_count;
+  int interrupted;
+
   /* last SUNDIALS error message */
   char sunmsg[512];
 } gs_ud;
@@ -125,6 +144,31 @@ typedef struct {
 /* --------------------------------------------------------------------------
  * Small helpers
  * -------------------------------------------------------------------------- */
+#define GS_POLL_EVERY 1024
+
+/* 1 if a SIGINT byte arrived on the interrupt pipe (checked every GS_POLL_EVERY
+ * calls; other signal numbers are consumed and ignored: their Python handlers run
+ * when the call returns). */
+static int poll_interrupt(gs_ud* ud) {
+  unsigned char buf[64];
+  ssize_t n, i;
+  if (ud->intr_fd < 0) return 0;
+  if (ud->interrupted) return 1;
+  if (++ud->intr_count < GS_POLL_EVERY) return 0;
+  ud->intr_count = 0;
+  for (;;) {
+    n = read(ud->intr_fd, buf, sizeof(buf));
+    if (n > 0) {
+      for (i = 0; i < n; ++i)
+        if (buf[i] == (unsigned char)SIGINT) ud->interrupted = 1;
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    break; /* EAGAIN (empty), EOF or an error: nothing pending */
+  }
+  return ud->interrupted;
+}
+
 static int set_err(gs_sim_args* a, int status, const char* fmt, ...) {
   va_list ap;
   va_start(ap, fmt);
@@ -200,6 +244,172 @@ static int lu_solve(int n, double* A, double* b) {
     b[k] = s / A[k * n + k];
   }
   return 0;
+}
+
+/* LU factorisation with partial pivoting of A (column-major n x n, in place);
+ * piv[k] is the row swapped with row k.  Returns 0, or -1 if A is singular. */
+static int lu_factor(int n, double* A, int* piv) {
+  int i, j, k, p;
+  for (k = 0; k < n; ++k) {
+    double amax = fabs(A[(size_t)k * n + k]);
+    p = k;
+    for (i = k + 1; i < n; ++i) {
+      double v = fabs(A[(size_t)k * n + i]);
+      if (v > amax) {
+        amax = v;
+        p = i;
+      }
+    }
+    piv[k] = p;
+    if (!(amax > 0.0)) return -1;
+    if (p != k)
+      for (j = 0; j < n; ++j) {
+        double tmp = A[(size_t)j * n + k];
+        A[(size_t)j * n + k] = A[(size_t)j * n + p];
+        A[(size_t)j * n + p] = tmp;
+      }
+    {
+      double inv = 1.0 / A[(size_t)k * n + k];
+      for (i = k + 1; i < n; ++i) A[(size_t)k * n + i] *= inv;
+    }
+    for (j = k + 1; j < n; ++j) {
+      double akj = A[(size_t)j * n + k];
+      if (akj != 0.0) {
+        double* colj = A + (size_t)j * n;
+        const double* colk = A + (size_t)k * n;
+        for (i = k + 1; i < n; ++i) colj[i] -= colk[i] * akj;
+      }
+    }
+  }
+  return 0;
+}
+
+/* Solve with the factors of lu_factor, b overwritten by the solution. */
+static void lu_apply(int n, const double* LU, const int* piv, double* b) {
+  int i, k;
+  /* whole-row interchanges were applied to L as well (as in LAPACK's getrf):
+   * permute b first, then forward and back substitution */
+  for (k = 0; k < n; ++k)
+    if (piv[k] != k) {
+      double tmp = b[k];
+      b[k] = b[piv[k]];
+      b[piv[k]] = tmp;
+    }
+  for (k = 0; k < n; ++k) {
+    double bk = b[k];
+    if (bk != 0.0) {
+      const double* col = LU + (size_t)k * n;
+      for (i = k + 1; i < n; ++i) b[i] -= col[i] * bk;
+    }
+  }
+  for (k = n - 1; k >= 0; --k) {
+    const double* col = LU + (size_t)k * n;
+    double bk = b[k] / col[k];
+    b[k] = bk;
+    if (bk != 0.0)
+      for (i = 0; i < k; ++i) b[i] -= col[i] * bk;
+  }
+}
+
+/* --------------------------------------------------------------------------
+ * Block-diagonal linear solver of the variational equations.
+ *
+ * With the monodromy on, the solver state is [x; Phi(:,0); ...; Phi(:,nx-1)]
+ * (nx + 1 blocks of nx).  The Newton matrix of the augmented system is
+ * approximated by blockdiag(I - gamma J, ..., I - gamma J) (the terms
+ * d(J Phi)/dx are left out, as a modified Newton iteration may), so one
+ * n x n factorisation serves all nx + 1 blocks: O(n^3) per setup and O(n^3)
+ * per solve instead of O(n^6) and O(n^4) for the dense (n + n^2)^2 matrix,
+ * and O(n^3) memory instead of O(n^4).  CVODE builds I - gamma J in an
+ * (n + n^2) x n dense SUNMatrix whose top n x n block cv_jac fills (the
+ * rest stays zero); setup factors that block, solve applies it per block.
+ * -------------------------------------------------------------------------- */
+typedef struct {
+  int n, nblk;
+  double* lu;
+  int* piv;
+  long last_flag;
+} gs_bdls;
+
+static int bdls_gettype(SUNLinearSolver S) {
+  (void)S;
+  return GS_SUNLINEARSOLVER_DIRECT;
+}
+static int bdls_getid(SUNLinearSolver S) {
+  (void)S;
+  return GS_SUNLINEARSOLVER_CUSTOM;
+}
+static SUNErrCode bdls_initialize(SUNLinearSolver S) {
+  ((gs_bdls*)S->content)->last_flag = 0;
+  return SUN_SUCCESS;
+}
+static int bdls_setup(SUNLinearSolver S, SUNMatrix A) {
+  gs_bdls* c = (gs_bdls*)S->content;
+  const double* a = SUNDenseMatrix_Data(A);
+  size_t ld = (size_t)SUNDenseMatrix_Rows(A);
+  int j, n = c->n;
+  for (j = 0; j < n; ++j) memcpy(c->lu + (size_t)j * n, a + (size_t)j * ld, sizeof(double) * (size_t)n);
+  c->last_flag = lu_factor(n, c->lu, c->piv) ? GS_SUNLS_LUFACT_FAIL : 0;
+  return (int)c->last_flag;
+}
+static int bdls_solve(SUNLinearSolver S, SUNMatrix A, N_Vector x, N_Vector b, sunrealtype tol) {
+  gs_bdls* c = (gs_bdls*)S->content;
+  double* xv = N_VGetArrayPointer(x);
+  const double* bv = N_VGetArrayPointer(b);
+  int k, n = c->n;
+  (void)A;
+  (void)tol;
+  if (xv != bv) memcpy(xv, bv, sizeof(double) * (size_t)n * (size_t)c->nblk);
+  for (k = 0; k < c->nblk; ++k) lu_apply(n, c->lu, c->piv, xv + (size_t)k * n);
+  c->last_flag = 0;
+  return 0;
+}
+static sunindextype bdls_lastflag(SUNLinearSolver S) { return (sunindextype)((gs_bdls*)S->content)->last_flag; }
+static SUNErrCode bdls_space(SUNLinearSolver S, long int* lrw, long int* liw) {
+  gs_bdls* c = (gs_bdls*)S->content;
+  *lrw = (long)c->n * c->n;
+  *liw = c->n;
+  return SUN_SUCCESS;
+}
+static SUNErrCode bdls_free(SUNLinearSolver S) {
+  if (!S) return SUN_SUCCESS;
+  if (S->content) {
+    gs_bdls* c = (gs_bdls*)S->content;
+    free(c->lu);
+    free(c->piv);
+    free(c);
+    S->content = NULL;
+  }
+  SUNLinSolFreeEmpty(S);
+  return SUN_SUCCESS;
+}
+
+/* A block-diagonal solver for nblk blocks of size n (NULL when out of memory). */
+static SUNLinearSolver bdls_new(int n, int nblk, SUNContext ctx) {
+  SUNLinearSolver S = SUNLinSolNewEmpty(ctx);
+  gs_bdls* c;
+  if (!S) return NULL;
+  c = (gs_bdls*)calloc(1, sizeof(gs_bdls));
+  if (c) {
+    c->n = n;
+    c->nblk = nblk;
+    c->lu = (double*)calloc((size_t)n * n, sizeof(double));
+    c->piv = (int*)calloc((size_t)n, sizeof(int));
+  }
+  S->content = c;
+  S->ops->gettype = bdls_gettype;
+  S->ops->getid = bdls_getid;
+  S->ops->initialize = bdls_initialize;
+  S->ops->setup = bdls_setup;
+  S->ops->solve = bdls_solve;
+  S->ops->lastflag = bdls_lastflag;
+  S->ops->space = bdls_space;
+  S->ops->free = bdls_free;
+  if (!c || !c->lu || !c->piv) {
+    bdls_free(S);
+    return NULL;
+  }
+  return S;
 }
 
 /* Last line written to the SUNDIALS warning stream, as "; last SUNDIALS
@@ -390,24 +600,17 @@ static int eval_xdot(gs_ud* ud, double t, const double* x, const double* m, cons
 /* --------------------------------------------------------------------------
  * SUNDIALS callbacks
  * -------------------------------------------------------------------------- */
-static int cv_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user_data) {
-  gs_ud* ud = (gs_ud*)user_data;
-  const double* yv = N_VGetArrayPointer(y);
-  double* yd = N_VGetArrayPointer(ydot);
-  int nx = ud->nx, bad = 0;
-  if (eval_rhs(ud, t, yv, ud->m, yd)) {
-    record_nonfinite(ud, t, "gs_rhs (evaluation failed)", 0, yv);
-    return 1;
-  }
-  if (ud->mono) {
-    /* Phi' = J Phi, Phi column-major after the state */
-    const double* Phi = yv + nx;
-    double* dPhi = yd + nx;
-    int c, i, k;
-    if (eval_jac(ud, t, yv, ud->m, ud->J)) {
-      record_nonfinite(ud, t, "gs_jac (evaluation failed)", 0, yv);
-      return 1;
-    }
+/* Phi' = J Phi (Phi column-major after the state).  With a sparse generated
+ * Jacobian the product runs over its nonzeros only: O(nnz n) instead of
+ * O(n^3) per evaluation. */
+static int variational_rhs(gs_ud* ud, double t, const double* yv, double* yd) {
+  const gs_fn* fn = &ud->jac;
+  const double* Phi = yv + ud->nx;
+  double* dPhi = yd + ud->nx;
+  const double* in[4];
+  int nx = ud->nx, c, k, i;
+  if (fn->dense) {
+    if (eval_jac(ud, t, yv, ud->m, ud->J)) return -1;
     for (c = 0; c < nx; ++c) {
       double* dcol = dPhi + (size_t)c * nx;
       const double* pcol = Phi + (size_t)c * nx;
@@ -415,9 +618,46 @@ static int cv_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user_data) {
       for (k = 0; k < nx; ++k) {
         double pk = pcol[k];
         const double* Jk = ud->J + (size_t)k * nx;
+        if (pk == 0.0) continue;
         for (i = 0; i < nx; ++i) dcol[i] += Jk[i] * pk;
       }
     }
+    return 0;
+  }
+  in[0] = &t;
+  in[1] = yv;
+  in[2] = ud->np ? ud->p : ud->dummy;
+  in[3] = ud->nm ? ud->m : ud->dummy;
+  for (i = 0; i < 4; ++i) ud->arg[i] = in[i];
+  ud->resp[0] = ud->nzbuf;
+  if (fn->f(ud->arg, ud->resp, ud->iw, ud->w, 0) != 0) return -1;
+  memset(dPhi, 0, sizeof(double) * (size_t)nx * (size_t)nx);
+  for (c = 0; c < nx; ++c) {
+    double* dcol = dPhi + (size_t)c * nx;
+    const double* pcol = Phi + (size_t)c * nx;
+    for (k = 0; k < nx; ++k) {
+      double pk = pcol[k];
+      casadi_int q;
+      if (pk == 0.0) continue;
+      for (q = fn->colind[k]; q < fn->colind[k + 1]; ++q) dcol[fn->row[q]] += ud->nzbuf[q] * pk;
+    }
+  }
+  return 0;
+}
+
+static int cv_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user_data) {
+  gs_ud* ud = (gs_ud*)user_data;
+  const double* yv = N_VGetArrayPointer(y);
+  double* yd = N_VGetArrayPointer(ydot);
+  int nx = ud->nx, bad = 0;
+  if (poll_interrupt(ud)) return -1; /* unrecoverable: the solver returns at once */
+  if (eval_rhs(ud, t, yv, ud->m, yd)) {
+    record_nonfinite(ud, t, "gs_rhs (evaluation failed)", 0, yv);
+    return 1;
+  }
+  if (ud->mono && variational_rhs(ud, t, yv, yd)) {
+    record_nonfinite(ud, t, "gs_jac (evaluation failed)", 0, yv);
+    return 1;
   }
   if (!all_finite(yd, ud->nA, &bad)) {
     record_nonfinite(ud, t, bad < nx ? "the right-hand side (gs_rhs)" : "the variational equations", bad, yv);
@@ -442,9 +682,9 @@ static int cv_jac(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix Jm, void* us
   }
   if (!ud->mono) {
     memcpy(A, ud->J, sizeof(double) * (size_t)(nx * nx));
-  } else {
-    /* block-diagonal approximation blockdiag(J, ..., J) of the augmented
-     * Jacobian, good enough for the Newton iteration */
+  } else if (!ud->blockdiag) {
+    /* dense (n + n^2)^2 matrix: blockdiag(J, ..., J), the terms d(J Phi)/dx
+     * left out (modified Newton) */
     int nA = ud->nA, b, c;
     memset(A, 0, sizeof(double) * (size_t)nA * (size_t)nA);
     for (b = 0; b <= nx; ++b) {
@@ -452,6 +692,11 @@ static int cv_jac(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix Jm, void* us
       for (c = 0; c < nx; ++c)
         memcpy(A + (size_t)(off + c) * nA + off, ud->J + (size_t)c * nx, sizeof(double) * (size_t)nx);
     }
+  } else {
+    /* the (n + n^2) x n matrix of the block-diagonal solver (bdls_*): J in
+     * its top n x n block, the rest zero (CVODE zeroes it before the call) */
+    int nA = ud->nA, c;
+    for (c = 0; c < nx; ++c) memcpy(A + (size_t)c * nA, ud->J + (size_t)c * nx, sizeof(double) * (size_t)nx);
   }
   return 0;
 }
@@ -473,6 +718,7 @@ static int ida_res(sunrealtype t, N_Vector y, N_Vector yp, N_Vector r, void* use
   const double* ypv = N_VGetArrayPointer(yp);
   double* rv = N_VGetArrayPointer(r);
   int i, bad = 0;
+  if (poll_interrupt(ud)) return -1;
   if (ud->implicit) {
     if (eval_res(ud, t, yv, ypv, ud->m, rv)) {
       record_nonfinite(ud, t, "gs_res (evaluation failed)", 0, yv);
@@ -544,6 +790,7 @@ typedef struct {
   N_Vector y, yp, id;
   SUNMatrix A;
   SUNLinearSolver LS;
+  SUNNonlinearSolver NLS; /* fixed-point iteration (else CVODE's default Newton) */
   long acc_steps, acc_rhs, acc_jac, acc_g;
   char flagname[64];
 } gs_solver;
@@ -776,6 +1023,65 @@ static int resolve_zero_surfaces(gs_ud* ud, gs_evlog* L, double t, double* yv, c
  * -------------------------------------------------------------------------- */
 int gs_sizeof_args(void) { return (int)sizeof(gs_sim_args); }
 
+/* Layout check of the linear-solver operations table (used by the
+ * block-diagonal solver): every slot gets a probe that records its own number
+ * in the solver's content; each public SUNLinSol* wrapper must reach its slot. */
+#define GS_PROBE(K, RET, NAME, ARGS, VAL) \
+  static RET NAME ARGS {                 \
+    *(int*)S->content = K;               \
+    return VAL;                          \
+  }
+GS_PROBE(1, int, probe_gettype, (SUNLinearSolver S), 0)
+GS_PROBE(2, int, probe_getid, (SUNLinearSolver S), 0)
+GS_PROBE(5, SUNErrCode, probe_setscaling, (SUNLinearSolver S, N_Vector a, N_Vector b), ((void)a, (void)b, 0))
+GS_PROBE(7, SUNErrCode, probe_setzeroguess, (SUNLinearSolver S, sunbooleantype f), ((void)f, 0))
+GS_PROBE(8, SUNErrCode, probe_initialize, (SUNLinearSolver S), 0)
+GS_PROBE(9, int, probe_setup, (SUNLinearSolver S, SUNMatrix A), ((void)A, 0))
+GS_PROBE(10, int, probe_solve, (SUNLinearSolver S, SUNMatrix A, N_Vector x, N_Vector b, sunrealtype tol),
+         ((void)A, (void)x, (void)b, (void)tol, 0))
+GS_PROBE(11, int, probe_numiters, (SUNLinearSolver S), 0)
+GS_PROBE(12, sunrealtype, probe_resnorm, (SUNLinearSolver S), 0.0)
+GS_PROBE(13, sunindextype, probe_lastflag, (SUNLinearSolver S), 0)
+GS_PROBE(15, N_Vector, probe_resid, (SUNLinearSolver S), NULL)
+#undef GS_PROBE
+
+static int lsops_layout_ok(SUNContext ctx) {
+  int hit = 0, ok = 1;
+  SUNLinearSolver S = SUNLinSolNewEmpty(ctx);
+  if (!S || !S->ops) return 0;
+  S->content = &hit;
+  S->ops->gettype = probe_gettype;
+  S->ops->getid = probe_getid;
+  S->ops->setscalingvectors = probe_setscaling;
+  S->ops->setzeroguess = probe_setzeroguess;
+  S->ops->initialize = probe_initialize;
+  S->ops->setup = probe_setup;
+  S->ops->solve = probe_solve;
+  S->ops->numiters = probe_numiters;
+  S->ops->resnorm = probe_resnorm;
+  S->ops->lastflag = probe_lastflag;
+  S->ops->resid = probe_resid;
+#define GS_EXPECT(CALL, K) \
+  hit = 0;                 \
+  (void)(CALL);            \
+  ok = ok && (hit == (K));
+  GS_EXPECT(SUNLinSolGetType(S), 1)
+  GS_EXPECT(SUNLinSolGetID(S), 2)
+  GS_EXPECT(SUNLinSolSetScalingVectors(S, NULL, NULL), 5)
+  GS_EXPECT(SUNLinSolSetZeroGuess(S, SUNTRUE), 7)
+  GS_EXPECT(SUNLinSolInitialize(S), 8)
+  GS_EXPECT(SUNLinSolSetup(S, NULL), 9)
+  GS_EXPECT(SUNLinSolSolve(S, NULL, NULL, NULL, 0.0), 10)
+  GS_EXPECT(SUNLinSolNumIters(S), 11)
+  GS_EXPECT(SUNLinSolResNorm(S), 12)
+  GS_EXPECT(SUNLinSolLastFlag(S), 13)
+  GS_EXPECT(SUNLinSolResid(S), 15)
+#undef GS_EXPECT
+  S->content = NULL;
+  SUNLinSolFreeEmpty(S);
+  return ok;
+}
+
 int gs_check_abi(char* msg, int len) {
   char ver[64];
   int major = 0, ok = 0;
@@ -816,47 +1122,110 @@ int gs_check_abi(char* msg, int len) {
                ver);
     SUNMatDestroy(A);
   }
+  if (ok && !lsops_layout_ok(ctx)) {
+    ok = 0;
+    snprintf(msg, (size_t)len,
+             "SUNDIALS %s: the linear-solver operations table (struct _generic_SUNLinearSolver_Ops) is not laid "
+             "out as gearsym's driver declares it (sundials7.h); use the SUNDIALS libraries of the scikit-sundae "
+             "wheel",
+             ver);
+  }
   SUNContext_Free(&ctx);
   if (!ok) return -1;
   snprintf(msg, (size_t)len, "%s", ver);
   return 0;
 }
 
-int gs_simulate(gs_sim_args* a) {
-  gs_ud U;
-  gs_ud* ud = &U;
-  gs_solver S;
-  gs_evlog L;
-  gs_sched_data SD;
-  SUNContext ctx = NULL;
+/* --------------------------------------------------------------------------
+ * Workspaces: what one model needs across calls (model metadata and function
+ * checks, CasADi work buffers, the SUNDIALS context, vectors, matrix, linear
+ * and nonlinear solvers and the CVODE/IDA memory).  A call with the same
+ * configuration (method, monodromy, solvers) reuses them with CVodeReInit /
+ * IDAReInit instead of allocating everything again: the fixed cost of a short
+ * integration (a shooting residual) drops to the integration itself.  A
+ * workspace is used by one thread at a time; gs_simulate makes a temporary one.
+ * -------------------------------------------------------------------------- */
+struct gs_workspace {
+  int ready;                /* model part set up                                 */
   int info[64];
-  int* nb = NULL;
-  int* sched_off = NULL;
-  double* sched_s = NULL;
-  int nsched_total = 0;
-  int nx, np, nm, nsw, nsched, nA, i, j, k, rc, flag, is_break = 0, io = 0;
-  int pending_reinit = 0, need_ic = 0, stop_set = 0, first_solve = 1;
-  casadi_int mx[5] = {0, 0, 0, 0, 0};
-  double t, tb, tiny, *yv = NULL, *ypv = NULL;
-  long max_steps;
+  int nsched_total;
+  casadi_int mx[5];
+  gs_ud U;
+  gs_solver S;
+  int cfg_valid, cfg_nA, cfg_ida, cfg_method, cfg_blockdiag, cfg_nonlin;
+  int* nb;
+  int* sched_off;
+  double* sched_s;
+  SUNContext ctx;
+  FILE* warn_fp;
+  char* warn_buf;
+  size_t warn_len;
+  int n_out_fn;             /* outputs of gs_out (0: none)                       */
+};
+
+gs_workspace* gs_ws_new(void) { return (gs_workspace*)calloc(1, sizeof(gs_workspace)); }
+
+/* Free the SUNDIALS solver objects (vectors, matrix, solvers, integrator). */
+static void ws_free_solver(gs_workspace* ws) {
+  gs_solver* S = &ws->S;
+  if (S->mem) {
+    if (S->ida)
+      IDAFree(&S->mem);
+    else
+      CVodeFree(&S->mem);
+  }
+  if (S->LS) SUNLinSolFree(S->LS);
+  if (S->NLS) SUNNonlinSolFree(S->NLS);
+  if (S->A) SUNMatDestroy(S->A);
+  if (S->y) N_VDestroy(S->y);
+  if (S->yp) N_VDestroy(S->yp);
+  if (S->id) N_VDestroy(S->id);
+  memset(S, 0, sizeof(*S));
+  ws->cfg_valid = 0;
+}
+
+void gs_ws_free(gs_workspace* ws) {
+  gs_ud* ud;
+  if (!ws) return;
+  ud = &ws->U;
+  ws_free_solver(ws);
+  if (ws->ctx) SUNContext_Free(&ws->ctx);
+  if (ws->warn_fp) fclose(ws->warn_fp);
+  free(ws->warn_buf);
+  free((void*)ud->arg);
+  free(ud->resp);
+  free(ud->iw);
+  free(ud->w);
+  free(ud->nzbuf);
+  free(ud->m);
+  free(ud->m_alt);
+  free(ud->J);
+  free(ud->J2);
+  free(ud->f);
+  free(ud->f2);
+  free(ud->f3);
+  free(ud->g);
+  free(ud->G);
+  free(ud->gt);
+  free(ud->rootsfound);
+  free(ud->rootdir);
+  free(ws->nb);
+  free(ws->sched_off);
+  free(ws->sched_s);
+  free(ws);
+}
+
+/* Set up the model part of a workspace (once): metadata, the generated
+ * functions' shapes, work buffers, the SUNDIALS context.  Returns 0, or a
+ * status with the message in a. */
+static int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
+  gs_ud* ud = &ws->U;
+  int* info = ws->info;
+  casadi_int* mx = ws->mx;
+  int nx, np, nm, nsw, nsched, rc, k;
   char cmsg[512];
-  char lastwarn[300];
-  FILE* warn_fp = NULL;
-  char* warn_buf = NULL;
-  size_t warn_len = 0;
-  double hmin;
-
-  if (!a) return GS_ERR_INPUT;
-  memset(&U, 0, sizeof(U));
-  memset(&S, 0, sizeof(S));
-  memset(&L, 0, sizeof(L));
-  a->status = GS_OK;
-  a->errmsg[0] = '\0';
-  a->n_events = 0;
-  a->t_reached = a->t0;
-  a->n_steps = a->n_rhs = a->n_jac = a->n_root_evals = a->n_breaks = a->n_reinit = 0;
-
   /* ---- model metadata ---- */
+  memset(ud, 0, sizeof(*ud));
   if (!gs_model_info) return set_err(a, GS_ERR_INPUT, "the compiled model lacks gs_model_info");
   rc = gs_model_info(info, 64);
   if (rc < 6) return set_err(a, GS_ERR_INPUT, "gs_model_info failed (returned %d)", rc);
@@ -874,6 +1243,156 @@ int gs_simulate(gs_sim_args* a) {
   ud->nm = nm;
   ud->nsw = nsw;
   ud->nsched = nsched;
+
+  /* ---- model functions ---- */
+  GS_FN_SETUP(ud->rhs, gs_rhs);
+  GS_FN_SETUP(ud->jac, gs_jac);
+  GS_FN_SETUP(ud->res, gs_res);
+  GS_FN_SETUP(ud->resjac, gs_resjac);
+  GS_FN_SETUP(ud->sw, gs_sw);
+  GS_FN_SETUP(ud->swx, gs_swx);
+  GS_FN_SETUP(ud->swt, gs_swt);
+  GS_FN_SETUP(ud->sched, gs_sched);
+  GS_FN_SETUP(ud->period, gs_period);
+  GS_FN_SETUP(ud->out, gs_out);
+  {
+    int s4[4] = {1, nx, np, nm};
+    int s5[5] = {1, nx, nx, np, nm};
+    int s6[6] = {1, nx, nx, np, nm, 1};
+    int s3[3] = {1, nx, np};
+    int s1[1] = {np};
+    int nbsum = 0;
+    for (k = 0; k < nsched; ++k) {
+      if (info[6 + k] < 1) return set_err(a, GS_ERR_INPUT, "schedule %d has %d breaks (need >= 1)", k, info[6 + k]);
+      nbsum += 1 + info[6 + k];
+    }
+    ws->nsched_total = nbsum;
+    cmsg[0] = '\0';
+#define GS_CHECK(FN, NAME, SIZES, NIN, NR, NC)                                                                  \
+  if (gs_fn_check(&ud->FN, NAME##_work, NAME##_n_in, NAME##_n_out, NAME##_sparsity_in, NAME##_sparsity_out, \
+                  SIZES, NIN, NR, NC, mx, cmsg, (int)sizeof(cmsg)))                                          \
+    return set_err(a, GS_ERR_INPUT, "%s", cmsg);
+    if (!ud->implicit) {
+      GS_CHECK(rhs, gs_rhs, s4, 4, nx, 1)
+      GS_CHECK(jac, gs_jac, s4, 4, nx, nx)
+    } else {
+      GS_CHECK(res, gs_res, s5, 5, nx, 1)
+      GS_CHECK(resjac, gs_resjac, s6, 6, nx, nx)
+    }
+    GS_CHECK(sw, gs_sw, s3, 3, nsw, 1)
+    GS_CHECK(swx, gs_swx, s3, 3, nsw, nx)
+    GS_CHECK(swt, gs_swt, s3, 3, nsw, 1)
+    GS_CHECK(sched, gs_sched, s1, 1, ws->nsched_total, 1)
+    if (ud->period.present) GS_CHECK(period, gs_period, s1, 1, 1, 1)
+    if (ud->out.present) {
+      const casadi_int* sp = gs_out_sparsity_out(0);
+      ws->n_out_fn = sp ? (int)sp[0] : 0;
+      GS_CHECK(out, gs_out, s4, 4, ws->n_out_fn, 1)
+    }
+#undef GS_CHECK
+  }
+
+  /* ---- work buffers (freed by gs_ws_free) ---- */
+  ud->arg = (const casadi_real**)calloc((size_t)mx[0] + 8, sizeof(casadi_real*));
+  ud->resp = (casadi_real**)calloc((size_t)mx[1] + 2, sizeof(casadi_real*));
+  ud->iw = (casadi_int*)calloc((size_t)mx[2] + 1, sizeof(casadi_int));
+  ud->w = (casadi_real*)calloc((size_t)mx[3] + 1, sizeof(casadi_real));
+  ud->nzbuf = (double*)calloc((size_t)mx[4] + 1, sizeof(double));
+  ud->m = (double*)calloc((size_t)nm + 1, sizeof(double));
+  ud->m_alt = (double*)calloc((size_t)nm + 1, sizeof(double));
+  ud->J = (double*)calloc((size_t)nx * nx, sizeof(double));
+  ud->J2 = (double*)calloc((size_t)nx * nx, sizeof(double));
+  ud->f = (double*)calloc((size_t)nx, sizeof(double));
+  ud->f2 = (double*)calloc((size_t)nx, sizeof(double));
+  ud->f3 = (double*)calloc((size_t)nx, sizeof(double));
+  ud->g = (double*)calloc((size_t)nsw + 1, sizeof(double));
+  ud->G = (double*)calloc((size_t)nsw * nx + 1, sizeof(double));
+  ud->gt = (double*)calloc((size_t)nsw + 1, sizeof(double));
+  ud->rootsfound = (int*)calloc((size_t)nsw + 1, sizeof(int));
+  ud->rootdir = (int*)calloc((size_t)nsw + 1, sizeof(int));
+  ws->nb = (int*)calloc((size_t)nsched + 1, sizeof(int));
+  ws->sched_off = (int*)calloc((size_t)nsched + 1, sizeof(int));
+  ws->sched_s = (double*)calloc((size_t)ws->nsched_total + 1, sizeof(double));
+  if (!ud->arg || !ud->resp || !ud->iw || !ud->w || !ud->nzbuf || !ud->m || !ud->m_alt || !ud->J || !ud->J2 ||
+      !ud->f || !ud->f2 || !ud->f3 || !ud->g || !ud->G || !ud->gt || !ud->rootsfound || !ud->rootdir || !ws->nb ||
+      !ws->sched_off || !ws->sched_s)
+    return set_err(a, GS_ERR_INPUT, "out of memory");
+
+  for (k = 0; k < nsched; ++k) ws->nb[k] = info[6 + k];
+
+  /* ---- SUNDIALS context ---- */
+  if (SUNContext_Create(SUN_COMM_NULL, &ws->ctx) != 0 || !ws->ctx) return set_err(a, GS_ERR_SOLVER, "SUNContext_Create failed");
+  SUNContext_ClearErrHandlers(ws->ctx);
+  SUNContext_PushErrHandler(ws->ctx, sun_err_handler, ud);
+  {
+    /* keep SUNDIALS' log output off stdout/stderr: errors arrive through
+     * sun_err_handler, warnings go to a memory stream quoted in messages */
+    SUNLogger logger = NULL;
+    if (SUNContext_GetLogger(ws->ctx, &logger) == 0 && logger) {
+      ws->warn_fp = open_memstream(&ws->warn_buf, &ws->warn_len);
+      SUNLogger_SetWarningFile(logger, ws->warn_fp);
+      SUNLogger_SetErrorFile(logger, NULL);
+      SUNLogger_SetInfoFile(logger, NULL);
+      SUNLogger_SetDebugFile(logger, NULL);
+    }
+  }
+  ws->ready = 1;
+  return 0;
+}
+
+int gs_simulate(gs_sim_args* a) {
+  gs_workspace* ws;
+  int rc;
+  if (!a) return GS_ERR_INPUT;
+  ws = gs_ws_new();
+  if (!ws) {
+    a->status = GS_ERR_INPUT;
+    snprintf(a->errmsg, sizeof(a->errmsg), "out of memory");
+    return a->status;
+  }
+  rc = gs_simulate_ws(ws, a);
+  gs_ws_free(ws);
+  return rc;
+}
+
+int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
+  gs_ud* ud;
+  gs_solver* S;
+  gs_evlog L;
+  gs_sched_data SD;
+  int* nb;
+  int* sched_off;
+  double* sched_s;
+  int nsched_total;
+  int nx, np, nsw, nsched, nA, i, j, k, rc, flag = 0, is_break = 0, io = 0;
+  int pending_reinit = 0, need_ic = 0, stop_set = 0, first_solve = 1, reuse;
+  double t, tb, tiny, *yv = NULL, *ypv = NULL;
+  long max_steps;
+  char lastwarn[300];
+  double hmin;
+
+  if (!a) return GS_ERR_INPUT;
+  memset(&L, 0, sizeof(L));
+  a->status = GS_OK;
+  a->errmsg[0] = '\0';
+  a->n_events = 0;
+  a->t_reached = a->t0;
+  a->n_steps = a->n_rhs = a->n_jac = a->n_root_evals = a->n_breaks = a->n_reinit = 0;
+  if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
+  if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
+  ud = &ws->U;
+  S = &ws->S;
+  nb = ws->nb;
+  sched_off = ws->sched_off;
+  sched_s = ws->sched_s;
+  nsched_total = ws->nsched_total;
+  nx = ud->nx;
+  np = ud->np;
+  nsw = ud->nsw;
+  nsched = ud->nsched;
+  ud->nf_seen = 0;
+  ud->sunmsg[0] = '\0';
+  if (ws->warn_fp) rewind(ws->warn_fp);
 
   /* ---- arguments ---- */
   if (a->method != GS_METHOD_BDF && a->method != GS_METHOD_ADAMS && a->method != GS_METHOD_IDA)
@@ -905,6 +1424,15 @@ int gs_simulate(gs_sim_args* a) {
       return set_err(a, GS_ERR_INPUT, "output times must be ascending (t_out[%d] < t_out[%d])", i, i - 1);
   }
   if (a->want_monodromy && !a->monodromy) return set_err(a, GS_ERR_INPUT, "want_monodromy but monodromy is NULL");
+  if (a->nonlinear < GS_NONLIN_AUTO || a->nonlinear > GS_NONLIN_FIXEDPOINT)
+    return set_err(a, GS_ERR_INPUT, "unknown nonlinear solver %d", a->nonlinear);
+  if (a->linear_solver < GS_LINSOL_AUTO || a->linear_solver > GS_LINSOL_BLOCKDIAG)
+    return set_err(a, GS_ERR_INPUT, "unknown linear solver %d", a->linear_solver);
+  if (a->linear_solver == GS_LINSOL_BLOCKDIAG && !a->want_monodromy)
+    return set_err(a, GS_ERR_INPUT, "the block-diagonal linear solver is for the variational equations "
+                                    "(want_monodromy) only");
+  if (a->nonlinear == GS_NONLIN_FIXEDPOINT && a->method == GS_METHOD_IDA)
+    return set_err(a, GS_ERR_INPUT, "IDA has no fixed-point nonlinear solver");
   if (a->max_events_out < 0) return set_err(a, GS_ERR_INPUT, "max_events_out < 0");
   if (!(a->max_step >= 0.0) || !(a->init_step >= 0.0) || !(a->storm_window >= 0.0))
     return set_err(a, GS_ERR_INPUT, "max_step, init_step and storm_window must be >= 0");
@@ -918,6 +1446,14 @@ int gs_simulate(gs_sim_args* a) {
   ud->nA = ud->mono ? nx * (nx + 1) : nx;
   nA = ud->nA;
   ud->p = a->p;
+  ud->intr_fd = (a->check_interrupt && a->interrupt_fd >= 0) ? a->interrupt_fd : -1;
+  ud->interrupted = 0; /* per call (the workspace outlives an interrupted run) */
+  ud->intr_count = 0;
+  if (ud->intr_fd >= 0) { /* discard bytes left from signals of earlier calls */
+    unsigned char buf[64];
+    while (read(ud->intr_fd, buf, sizeof(buf)) > 0) {
+    }
+  }
   tiny = 32.0 * DBL_EPSILON * fmax(fabs(a->t0), fabs(a->t_end));
   if (tiny == 0.0) tiny = DBL_MIN;
   /* minimal step: a few ulps of the largest |t|, so that t + h != t always;
@@ -925,98 +1461,21 @@ int gs_simulate(gs_sim_args* a) {
    * model becomes non-finite (steps of 1e-17 that never advance t) */
   hmin = 8.0 * DBL_EPSILON * fmax(fabs(a->t0), fabs(a->t_end));
 
-  /* ---- model functions ---- */
-  GS_FN_SETUP(ud->rhs, gs_rhs);
-  GS_FN_SETUP(ud->jac, gs_jac);
-  GS_FN_SETUP(ud->res, gs_res);
-  GS_FN_SETUP(ud->resjac, gs_resjac);
-  GS_FN_SETUP(ud->sw, gs_sw);
-  GS_FN_SETUP(ud->swx, gs_swx);
-  GS_FN_SETUP(ud->swt, gs_swt);
-  GS_FN_SETUP(ud->sched, gs_sched);
-  {
-    int s4[4] = {1, nx, np, nm};
-    int s5[5] = {1, nx, nx, np, nm};
-    int s6[6] = {1, nx, nx, np, nm, 1};
-    int s3[3] = {1, nx, np};
-    int s1[1] = {np};
-    int nbsum = 0;
-    for (k = 0; k < nsched; ++k) {
-      if (info[6 + k] < 1) return set_err(a, GS_ERR_INPUT, "schedule %d has %d breaks (need >= 1)", k, info[6 + k]);
-      nbsum += 1 + info[6 + k];
-    }
-    nsched_total = nbsum;
-    cmsg[0] = '\0';
-#define GS_CHECK(FN, NAME, SIZES, NIN, NR, NC)                                                                  \
-  if (gs_fn_check(&ud->FN, NAME##_work, NAME##_n_in, NAME##_n_out, NAME##_sparsity_in, NAME##_sparsity_out, \
-                  SIZES, NIN, NR, NC, mx, cmsg, (int)sizeof(cmsg)))                                          \
-    return set_err(a, GS_ERR_INPUT, "%s", cmsg);
-    if (!ud->implicit) {
-      GS_CHECK(rhs, gs_rhs, s4, 4, nx, 1)
-      GS_CHECK(jac, gs_jac, s4, 4, nx, nx)
-    } else {
-      GS_CHECK(res, gs_res, s5, 5, nx, 1)
-      GS_CHECK(resjac, gs_resjac, s6, 6, nx, nx)
-    }
-    GS_CHECK(sw, gs_sw, s3, 3, nsw, 1)
-    GS_CHECK(swx, gs_swx, s3, 3, nsw, nx)
-    GS_CHECK(swt, gs_swt, s3, 3, nsw, 1)
-    GS_CHECK(sched, gs_sched, s1, 1, nsched_total, 1)
-#undef GS_CHECK
-  }
-
-  /* ---- allocations (freed at `done`) ---- */
-  ud->arg = (const casadi_real**)calloc((size_t)mx[0] + 8, sizeof(casadi_real*));
-  ud->resp = (casadi_real**)calloc((size_t)mx[1] + 2, sizeof(casadi_real*));
-  ud->iw = (casadi_int*)calloc((size_t)mx[2] + 1, sizeof(casadi_int));
-  ud->w = (casadi_real*)calloc((size_t)mx[3] + 1, sizeof(casadi_real));
-  ud->nzbuf = (double*)calloc((size_t)mx[4] + 1, sizeof(double));
-  ud->m = (double*)calloc((size_t)nm + 1, sizeof(double));
-  ud->m_alt = (double*)calloc((size_t)nm + 1, sizeof(double));
-  ud->J = (double*)calloc((size_t)nx * nx, sizeof(double));
-  ud->J2 = (double*)calloc((size_t)nx * nx, sizeof(double));
-  ud->f = (double*)calloc((size_t)nx, sizeof(double));
-  ud->f2 = (double*)calloc((size_t)nx, sizeof(double));
-  ud->f3 = (double*)calloc((size_t)nx, sizeof(double));
-  ud->g = (double*)calloc((size_t)nsw + 1, sizeof(double));
-  ud->G = (double*)calloc((size_t)nsw * nx + 1, sizeof(double));
-  ud->gt = (double*)calloc((size_t)nsw + 1, sizeof(double));
-  ud->rootsfound = (int*)calloc((size_t)nsw + 1, sizeof(int));
-  ud->rootdir = (int*)calloc((size_t)nsw + 1, sizeof(int));
-  nb = (int*)calloc((size_t)nsched + 1, sizeof(int));
-  sched_off = (int*)calloc((size_t)nsched + 1, sizeof(int));
-  sched_s = (double*)calloc((size_t)nsched_total + 1, sizeof(double));
-  if (!ud->arg || !ud->resp || !ud->iw || !ud->w || !ud->nzbuf || !ud->m || !ud->m_alt || !ud->J || !ud->J2 ||
-      !ud->f || !ud->f2 || !ud->f3 || !ud->g || !ud->G || !ud->gt || !ud->rootsfound || !ud->rootdir || !nb ||
-      !sched_off || !sched_s) {
-    set_err(a, GS_ERR_INPUT, "out of memory");
-    goto done;
-  }
-
   /* ---- schedules ---- */
   {
     const double* in[1];
     int off = 0;
     in[0] = np ? a->p : ud->dummy;
-    if (nsched_total > 0 && gs_call(ud, &ud->sched, in, 1, sched_s)) {
-      set_err(a, GS_ERR_INPUT, "gs_sched failed");
-      goto done;
-    }
+    if (nsched_total > 0 && gs_call(ud, &ud->sched, in, 1, sched_s)) return set_err(a, GS_ERR_INPUT, "gs_sched failed");
     for (k = 0; k < nsched; ++k) {
       double P = sched_s[off];
-      nb[k] = info[6 + k];
       sched_off[k] = off;
-      if (!isfinite(P) || !(P > 0.0)) {
-        set_err(a, GS_ERR_INPUT, "schedule %d: period %g is not finite and > 0", k, P);
-        goto done;
-      }
+      if (!isfinite(P) || !(P > 0.0)) return set_err(a, GS_ERR_INPUT, "schedule %d: period %g is not finite and > 0", k, P);
       for (i = 0; i < nb[k]; ++i) {
         double c = sched_s[off + 1 + i];
-        if (!isfinite(c) || c < 0.0 || c >= 1.0 || (i == 0 && c != 0.0) || (i > 0 && !(c > sched_s[off + i]))) {
-          set_err(a, GS_ERR_INPUT,
-                  "schedule %d: break fractions must satisfy 0 = c_0 < c_1 < ... < 1 (c_%d = %g)", k, i, c);
-          goto done;
-        }
+        if (!isfinite(c) || c < 0.0 || c >= 1.0 || (i == 0 && c != 0.0) || (i > 0 && !(c > sched_s[off + i])))
+          return set_err(a, GS_ERR_INPUT,
+                         "schedule %d: break fractions must satisfy 0 = c_0 < c_1 < ... < 1 (c_%d = %g)", k, i, c);
       }
       off += 1 + nb[k];
     }
@@ -1026,43 +1485,59 @@ int gs_simulate(gs_sim_args* a) {
     SD.s = sched_s;
   }
 
-  /* ---- SUNDIALS objects ---- */
-  if (SUNContext_Create(SUN_COMM_NULL, &ctx) != 0 || !ctx) {
-    set_err(a, GS_ERR_SOLVER, "SUNContext_Create failed");
+  /* ---- SUNDIALS objects: reused when the configuration is the same ---- */
+  {
+    int blockdiag = ud->mono && a->nonlinear != GS_NONLIN_FIXEDPOINT && a->linear_solver != GS_LINSOL_DENSE;
+    reuse = ws->cfg_valid && ws->cfg_nA == nA && ws->cfg_ida == ud->use_ida && ws->cfg_method == a->method &&
+            ws->cfg_blockdiag == blockdiag && ws->cfg_nonlin == (a->nonlinear == GS_NONLIN_FIXEDPOINT);
+    if (!reuse) {
+      ws_free_solver(ws);
+      ws->cfg_nA = nA;
+      ws->cfg_ida = ud->use_ida;
+      ws->cfg_method = a->method;
+      ws->cfg_blockdiag = blockdiag;
+      ws->cfg_nonlin = (a->nonlinear == GS_NONLIN_FIXEDPOINT);
+    }
+    ud->blockdiag = blockdiag;
+  }
+  S->acc_steps = S->acc_rhs = S->acc_jac = S->acc_g = 0;
+  if (!reuse) {
+  S->ida = ud->use_ida;
+  S->y = N_VNew_Serial((sunindextype)nA, ws->ctx);
+  if (S->ida) {
+    S->yp = N_VNew_Serial((sunindextype)nA, ws->ctx);
+    S->id = N_VNew_Serial((sunindextype)nA, ws->ctx);
+  }
+  /* with the monodromy: the block-diagonal solver (one n x n factorisation for
+   * all nx + 1 blocks) on an (n + n^2) x n matrix; else SUNDIALS' dense solver */
+  if (!S->y || (S->ida && (!S->yp || !S->id))) {
+    set_err(a, GS_ERR_SOLVER, "could not allocate SUNDIALS vectors (n=%d): %s", nA, ud->sunmsg);
     goto done;
   }
-  SUNContext_ClearErrHandlers(ctx);
-  SUNContext_PushErrHandler(ctx, sun_err_handler, ud);
-  {
-    /* keep SUNDIALS' log output off stdout/stderr: errors arrive through
-     * sun_err_handler, warnings go to a memory stream quoted in messages */
-    SUNLogger logger = NULL;
-    if (SUNContext_GetLogger(ctx, &logger) == 0 && logger) {
-      warn_fp = open_memstream(&warn_buf, &warn_len);
-      SUNLogger_SetWarningFile(logger, warn_fp);
-      SUNLogger_SetErrorFile(logger, NULL);
-      SUNLogger_SetInfoFile(logger, NULL);
-      SUNLogger_SetDebugFile(logger, NULL);
+  if (a->nonlinear == GS_NONLIN_FIXEDPOINT) {
+    S->NLS = SUNNonlinSol_FixedPoint(S->y, 0, ws->ctx);
+    if (!S->NLS) {
+      set_err(a, GS_ERR_SOLVER, "creating the fixed-point solver failed: %s", ud->sunmsg);
+      goto done;
+    }
+  } else {
+    int blockdiag = ud->blockdiag;
+    S->A = SUNDenseMatrix((sunindextype)nA, (sunindextype)(blockdiag ? nx : nA), ws->ctx);
+    if (!S->A) {
+      set_err(a, GS_ERR_SOLVER, "could not allocate the %dx%d system matrix: %s", nA, blockdiag ? nx : nA,
+              ud->sunmsg[0] ? ud->sunmsg : "out of memory");
+      goto done;
+    }
+    S->LS = blockdiag ? bdls_new(nx, nx + 1, ws->ctx) : SUNLinSol_Dense(S->y, S->A, ws->ctx);
+    if (!S->LS) {
+      set_err(a, GS_ERR_SOLVER, "creating the linear solver failed: %s",
+              ud->sunmsg[0] ? ud->sunmsg : "out of memory");
+      goto done;
     }
   }
-  S.ida = ud->use_ida;
-  S.y = N_VNew_Serial((sunindextype)nA, ctx);
-  if (S.ida) {
-    S.yp = N_VNew_Serial((sunindextype)nA, ctx);
-    S.id = N_VNew_Serial((sunindextype)nA, ctx);
   }
-  S.A = SUNDenseMatrix((sunindextype)nA, (sunindextype)nA, ctx);
-  if (!S.y || !S.A || (S.ida && (!S.yp || !S.id))) {
-    set_err(a, GS_ERR_SOLVER, "could not allocate SUNDIALS vectors/matrix (n=%d): %s", nA, ud->sunmsg);
-    goto done;
-  }
-  S.LS = SUNLinSol_Dense(S.y, S.A, ctx);
-  if (!S.LS) {
-    set_err(a, GS_ERR_SOLVER, "SUNLinSol_Dense failed: %s", ud->sunmsg);
-    goto done;
-  }
-  yv = N_VGetArrayPointer(S.y);
-  ypv = S.ida ? N_VGetArrayPointer(S.yp) : NULL;
+  yv = N_VGetArrayPointer(S->y);
+  ypv = S->ida ? N_VGetArrayPointer(S->yp) : NULL;
 
   /* ---- initial state, first interval, initial sides ---- */
   t = a->t0;
@@ -1079,52 +1554,61 @@ int gs_simulate(gs_sim_args* a) {
     }
     for (j = 0; j < nsw; ++j) ud->m[j] = a->sigma0 ? a->sigma0[j] : (ud->g[j] >= 0.0 ? 1.0 : -1.0);
   }
-  if (S.ida) memset(ypv, 0, sizeof(double) * (size_t)nA);
+  if (S->ida) memset(ypv, 0, sizeof(double) * (size_t)nA);
   rc = resolve_zero_surfaces(ud, &L, t, yv, ypv ? ypv : ud->f, a->sigma0 ? 0 : nsw);
   if (rc) goto done;
-  if (S.ida) {
+  if (S->ida) {
     /* consistent initial derivative as a starting guess; IDACalcIC refines it */
     if (eval_xdot(ud, t, yv, ud->m, ypv, ud->f3) == 0) memcpy(ypv, ud->f3, sizeof(double) * (size_t)nx);
-    N_VConst(1.0, S.id);
+    N_VConst(1.0, S->id);
   }
 
-  if (S.ida) {
-    S.mem = IDACreate(ctx);
-    if (!S.mem) {
+  if (reuse) {
+    flag = S->ida ? IDAReInit(S->mem, t, S->y, S->yp) : CVodeReInit(S->mem, t, S->y);
+    need_ic = S->ida;
+  } else if (S->ida) {
+    S->mem = IDACreate(ws->ctx);
+    if (!S->mem) {
       set_err(a, GS_ERR_SOLVER, "IDACreate failed: %s", ud->sunmsg);
       goto done;
     }
-    flag = IDAInit(S.mem, ida_res, t, S.y, S.yp);
-    if (!flag) flag = IDASStolerances(S.mem, a->rtol, a->atol);
-    if (!flag) flag = IDASetUserData(S.mem, ud);
-    if (!flag) flag = IDASetLinearSolver(S.mem, S.LS, S.A);
-    if (!flag) flag = IDASetJacFn(S.mem, ida_jac);
-    if (!flag) flag = IDASetId(S.mem, S.id);
-    if (!flag && a->max_step > 0.0) flag = IDASetMaxStep(S.mem, a->max_step);
-    if (!flag && hmin > 0.0) flag = IDASetMinStep(S.mem, hmin);
-    if (!flag && a->init_step > 0.0) flag = IDASetInitStep(S.mem, a->init_step);
-    if (!flag && nsw > 0) flag = IDARootInit(S.mem, nsw, ida_root);
-    if (!flag && nsw > 0) flag = IDASetNoInactiveRootWarn(S.mem);
+    flag = IDAInit(S->mem, ida_res, t, S->y, S->yp);
+    if (!flag) flag = IDASetUserData(S->mem, ud);
+    if (!flag) flag = IDASetLinearSolver(S->mem, S->LS, S->A);
+    if (!flag) flag = IDASetJacFn(S->mem, ida_jac);
+    if (!flag) flag = IDASetId(S->mem, S->id);
+    if (!flag && nsw > 0) flag = IDARootInit(S->mem, nsw, ida_root);
+    if (!flag && nsw > 0) flag = IDASetNoInactiveRootWarn(S->mem);
     need_ic = 1;
   } else {
-    S.mem = CVodeCreate(a->method == GS_METHOD_ADAMS ? CV_ADAMS : CV_BDF, ctx);
-    if (!S.mem) {
+    S->mem = CVodeCreate(a->method == GS_METHOD_ADAMS ? CV_ADAMS : CV_BDF, ws->ctx);
+    if (!S->mem) {
       set_err(a, GS_ERR_SOLVER, "CVodeCreate failed: %s", ud->sunmsg);
       goto done;
     }
-    flag = CVodeInit(S.mem, cv_rhs, t, S.y);
-    if (!flag) flag = CVodeSStolerances(S.mem, a->rtol, a->atol);
-    if (!flag) flag = CVodeSetUserData(S.mem, ud);
-    if (!flag) flag = CVodeSetLinearSolver(S.mem, S.LS, S.A);
-    if (!flag) flag = CVodeSetJacFn(S.mem, cv_jac);
-    if (!flag && a->max_step > 0.0) flag = CVodeSetMaxStep(S.mem, a->max_step);
-    if (!flag && hmin > 0.0) flag = CVodeSetMinStep(S.mem, hmin);
-    if (!flag && a->init_step > 0.0) flag = CVodeSetInitStep(S.mem, a->init_step);
-    if (!flag && nsw > 0) flag = CVodeRootInit(S.mem, nsw, cv_root);
-    if (!flag && nsw > 0) flag = CVodeSetNoInactiveRootWarn(S.mem);
+    flag = CVodeInit(S->mem, cv_rhs, t, S->y);
+    if (!flag) flag = CVodeSetUserData(S->mem, ud);
+    if (!flag && S->NLS) flag = CVodeSetNonlinearSolver(S->mem, S->NLS);
+    if (!flag && S->LS) flag = CVodeSetLinearSolver(S->mem, S->LS, S->A);
+    if (!flag && S->LS) flag = CVodeSetJacFn(S->mem, cv_jac);
+    if (!flag && nsw > 0) flag = CVodeRootInit(S->mem, nsw, cv_root);
+    if (!flag && nsw > 0) flag = CVodeSetNoInactiveRootWarn(S->mem);
+  }
+  if (!flag) ws->cfg_valid = 1;
+  /* per-call settings (a reused integrator keeps the last call's otherwise) */
+  if (S->ida) {
+    if (!flag) flag = IDASStolerances(S->mem, a->rtol, a->atol);
+    if (!flag) flag = IDASetMaxStep(S->mem, a->max_step > 0.0 ? a->max_step : 0.0);
+    if (!flag) flag = IDASetMinStep(S->mem, hmin > 0.0 ? hmin : 0.0);
+    if (!flag) flag = IDASetInitStep(S->mem, a->init_step > 0.0 ? a->init_step : 0.0);
+  } else {
+    if (!flag) flag = CVodeSStolerances(S->mem, a->rtol, a->atol);
+    if (!flag) flag = CVodeSetMaxStep(S->mem, a->max_step > 0.0 ? a->max_step : 0.0);
+    if (!flag) flag = CVodeSetMinStep(S->mem, hmin > 0.0 ? hmin : 0.0);
+    if (!flag) flag = CVodeSetInitStep(S->mem, a->init_step > 0.0 ? a->init_step : 0.0);
   }
   if (flag) {
-    set_err(a, GS_ERR_SOLVER, "solver setup failed: %s (%s)", slv_flagname(&S, flag), ud->sunmsg);
+    set_err(a, GS_ERR_SOLVER, "solver setup failed: %s (%s)", slv_flagname(S, flag), ud->sunmsg);
     goto done;
   }
 
@@ -1153,29 +1637,29 @@ int gs_simulate(gs_sim_args* a) {
     if (io < a->n_out && a->t_out[io] < tb - tiny) target = a->t_out[io];
 
     if (pending_reinit) {
-      slv_accumulate(&S);
+      slv_accumulate(S);
       if (nsw > 0) {
         for (j = 0; j < nsw; ++j) ud->rootdir[j] = ud->m[j] > 0.0 ? -1 : 1;
-        flag = S.ida ? IDASetRootDirection(S.mem, ud->rootdir) : CVodeSetRootDirection(S.mem, ud->rootdir);
+        flag = S->ida ? IDASetRootDirection(S->mem, ud->rootdir) : CVodeSetRootDirection(S->mem, ud->rootdir);
         if (flag) {
-          set_err(a, GS_ERR_SOLVER, "SetRootDirection failed: %s (%s)", slv_flagname(&S, flag), ud->sunmsg);
+          set_err(a, GS_ERR_SOLVER, "SetRootDirection failed: %s (%s)", slv_flagname(S, flag), ud->sunmsg);
           goto done;
         }
       }
-      if (S.ida) {
+      if (S->ida) {
         if (eval_xdot(ud, t, yv, ud->m, ypv, ud->f3) == 0) memcpy(ypv, ud->f3, sizeof(double) * (size_t)nx);
-        flag = IDAReInit(S.mem, t, S.y, S.yp);
+        flag = IDAReInit(S->mem, t, S->y, S->yp);
         need_ic = 1;
       } else {
-        flag = CVodeReInit(S.mem, t, S.y);
+        flag = CVodeReInit(S->mem, t, S->y);
       }
       if (flag) {
-        set_err(a, GS_ERR_SOLVER, "ReInit at t=%.17g failed: %s (%s)", t, slv_flagname(&S, flag), ud->sunmsg);
+        set_err(a, GS_ERR_SOLVER, "ReInit at t=%.17g failed: %s (%s)", t, slv_flagname(S, flag), ud->sunmsg);
         goto done;
       }
       if (!first_solve && a->init_step > 0.0) {
         /* the user's initial step applies to the very first start only */
-        flag = S.ida ? IDASetInitStep(S.mem, 0.0) : CVodeSetInitStep(S.mem, 0.0);
+        flag = S->ida ? IDASetInitStep(S->mem, 0.0) : CVodeSetInitStep(S->mem, 0.0);
         (void)flag;
       }
       a->n_reinit++;
@@ -1183,50 +1667,50 @@ int gs_simulate(gs_sim_args* a) {
       stop_set = 0;
     } else if (first_solve && nsw > 0) {
       for (j = 0; j < nsw; ++j) ud->rootdir[j] = ud->m[j] > 0.0 ? -1 : 1;
-      flag = S.ida ? IDASetRootDirection(S.mem, ud->rootdir) : CVodeSetRootDirection(S.mem, ud->rootdir);
+      flag = S->ida ? IDASetRootDirection(S->mem, ud->rootdir) : CVodeSetRootDirection(S->mem, ud->rootdir);
       if (flag) {
-        set_err(a, GS_ERR_SOLVER, "SetRootDirection failed: %s (%s)", slv_flagname(&S, flag), ud->sunmsg);
+        set_err(a, GS_ERR_SOLVER, "SetRootDirection failed: %s (%s)", slv_flagname(S, flag), ud->sunmsg);
         goto done;
       }
     }
     if (need_ic) {
       ud->nf_seen = 0;
-      flag = IDACalcIC(S.mem, IDA_YA_YDP_INIT, target);
-      if (!flag) flag = IDAGetConsistentIC(S.mem, NULL, S.yp);
+      flag = IDACalcIC(S->mem, IDA_YA_YDP_INIT, target);
+      if (!flag) flag = IDAGetConsistentIC(S->mem, NULL, S->yp);
       if (flag) {
         if (ud->nf_seen)
           set_err(a, GS_ERR_NONFINITE, "non-finite value in %s (component %d) at t=%.17g during IDACalcIC",
                   ud->nf_what, ud->nf_index, ud->nf_t);
         else
-          set_err(a, GS_ERR_SOLVER, "IDACalcIC at t=%.17g failed: %s (%s)", t, slv_flagname(&S, flag),
+          set_err(a, GS_ERR_SOLVER, "IDACalcIC at t=%.17g failed: %s (%s)", t, slv_flagname(S, flag),
                   ud->sunmsg);
         goto done;
       }
       need_ic = 0;
     }
     if (!stop_set) {
-      flag = S.ida ? IDASetStopTime(S.mem, tb) : CVodeSetStopTime(S.mem, tb);
+      flag = S->ida ? IDASetStopTime(S->mem, tb) : CVodeSetStopTime(S->mem, tb);
       if (flag) {
-        set_err(a, GS_ERR_SOLVER, "SetStopTime(%.17g) failed: %s (%s)", tb, slv_flagname(&S, flag), ud->sunmsg);
+        set_err(a, GS_ERR_SOLVER, "SetStopTime(%.17g) failed: %s (%s)", tb, slv_flagname(S, flag), ud->sunmsg);
         goto done;
       }
       stop_set = 1;
     }
-    remaining = max_steps - slv_total_steps(&S);
+    remaining = max_steps - slv_total_steps(S);
     if (remaining <= 0) {
       set_err(a, GS_ERR_TOO_MUCH_WORK, "max_steps=%ld internal steps exhausted at t=%.17g (t_end=%g)", max_steps, t,
               a->t_end);
       goto done;
     }
-    flag = S.ida ? IDASetMaxNumSteps(S.mem, remaining) : CVodeSetMaxNumSteps(S.mem, remaining);
+    flag = S->ida ? IDASetMaxNumSteps(S->mem, remaining) : CVodeSetMaxNumSteps(S->mem, remaining);
     first_solve = 0;
 
     ud->nf_seen = 0;
     ud->sunmsg[0] = '\0';
-    if (S.ida)
-      flag = IDASolve(S.mem, target, &tret, S.y, S.yp, IDA_NORMAL);
+    if (S->ida)
+      flag = IDASolve(S->mem, target, &tret, S->y, S->yp, IDA_NORMAL);
     else
-      flag = CVode(S.mem, target, S.y, &tret, CV_NORMAL);
+      flag = CVode(S->mem, target, S->y, &tret, CV_NORMAL);
 
     if (flag == CV_SUCCESS || flag == CV_WARNING) { /* == IDA_*: reached an output time */
       t = tret;
@@ -1236,16 +1720,16 @@ int gs_simulate(gs_sim_args* a) {
     } else if (flag == CV_ROOT_RETURN) { /* == IDA_ROOT_RETURN */
       const double* xdot_old;
       t = tret;
-      flag = S.ida ? IDAGetRootInfo(S.mem, ud->rootsfound) : CVodeGetRootInfo(S.mem, ud->rootsfound);
+      flag = S->ida ? IDAGetRootInfo(S->mem, ud->rootsfound) : CVodeGetRootInfo(S->mem, ud->rootsfound);
       if (flag) {
-        set_err(a, GS_ERR_SOLVER, "GetRootInfo failed: %s", slv_flagname(&S, flag));
+        set_err(a, GS_ERR_SOLVER, "GetRootInfo failed: %s", slv_flagname(S, flag));
         goto done;
       }
       if (eval_swfn(ud, &ud->swx, t, yv, ud->G) || eval_swfn(ud, &ud->swt, t, yv, ud->gt)) {
         set_err(a, GS_ERR_NONFINITE, "gs_swx/gs_swt failed at the event t=%.17g", t);
         goto done;
       }
-      if (S.ida) {
+      if (S->ida) {
         xdot_old = ypv; /* consistent xdot of the old mode at the root */
       } else {
         if (eval_rhs(ud, t, yv, ud->m, ud->f3)) {
@@ -1275,13 +1759,13 @@ int gs_simulate(gs_sim_args* a) {
         if (sp != speeds) free(sp);
         if (rc) goto done;
       }
-      rc = resolve_zero_surfaces(ud, &L, t, yv, S.ida ? ypv : ud->f3, 0);
+      rc = resolve_zero_surfaces(ud, &L, t, yv, S->ida ? ypv : ud->f3, 0);
       if (rc) goto done;
       pending_reinit = 1;
     } else {
       /* failure */
       t = tret;
-      last_warning(warn_fp, &warn_buf, &warn_len, lastwarn, (int)sizeof(lastwarn));
+      last_warning(ws->warn_fp, &ws->warn_buf, &ws->warn_len, lastwarn, (int)sizeof(lastwarn));
       if (flag == CV_TOO_MUCH_WORK) { /* == IDA_TOO_MUCH_WORK */
         set_err(a, GS_ERR_TOO_MUCH_WORK,
                 "too much work: max_steps=%ld internal steps exhausted at t=%.17g (t_end=%g)%s", max_steps, tret,
@@ -1291,10 +1775,10 @@ int gs_simulate(gs_sim_args* a) {
         if (ud->nf_state_index >= 0) snprintf(where, sizeof(where), "; state x[%d] is non-finite", ud->nf_state_index);
         set_err(a, GS_ERR_NONFINITE,
                 "non-finite value in %s, component %d, at t=%.17g%s (solver stopped at t=%.17g with %s)%s",
-                ud->nf_what, ud->nf_index, ud->nf_t, where, tret, slv_flagname(&S, flag), lastwarn);
+                ud->nf_what, ud->nf_index, ud->nf_t, where, tret, slv_flagname(S, flag), lastwarn);
       } else {
-        set_err(a, GS_ERR_SOLVER, "%s failed at t=%.17g: %s: %s%s", S.ida ? "IDASolve" : "CVode", tret,
-                slv_flagname(&S, flag), ud->sunmsg[0] ? ud->sunmsg : "(no message)", lastwarn);
+        set_err(a, GS_ERR_SOLVER, "%s failed at t=%.17g: %s: %s%s", S->ida ? "IDASolve" : "CVode", tret,
+                slv_flagname(S, flag), ud->sunmsg[0] ? ud->sunmsg : "(no message)", lastwarn);
       }
       goto done;
     }
@@ -1314,44 +1798,157 @@ done:
   }
   if (a->sigma_final && ud->m)
     for (j = 0; j < nsw; ++j) a->sigma_final[j] = ud->m[j];
-  if (S.mem) {
-    slv_accumulate(&S);
-    a->n_steps = S.acc_steps;
-    a->n_rhs = S.acc_rhs;
-    a->n_jac = S.acc_jac;
-    a->n_root_evals = S.acc_g;
-    if (S.ida)
-      IDAFree(&S.mem);
-    else
-      CVodeFree(&S.mem);
+  if (S->mem) {
+    slv_accumulate(S);
+    a->n_steps = S->acc_steps;
+    a->n_rhs = S->acc_rhs;
+    a->n_jac = S->acc_jac;
+    a->n_root_evals = S->acc_g;
   }
-  if (S.LS) SUNLinSolFree(S.LS);
-  if (S.A) SUNMatDestroy(S.A);
-  if (S.y) N_VDestroy(S.y);
-  if (S.yp) N_VDestroy(S.yp);
-  if (S.id) N_VDestroy(S.id);
-  if (ctx) SUNContext_Free(&ctx);
-  if (warn_fp) fclose(warn_fp);
-  free(warn_buf);
-  free((void*)ud->arg);
-  free(ud->resp);
-  free(ud->iw);
-  free(ud->w);
-  free(ud->nzbuf);
-  free(ud->m);
-  free(ud->m_alt);
-  free(ud->J);
-  free(ud->J2);
-  free(ud->f);
-  free(ud->f2);
-  free(ud->f3);
-  free(ud->g);
-  free(ud->G);
-  free(ud->gt);
-  free(ud->rootsfound);
-  free(ud->rootdir);
-  free(nb);
-  free(sched_off);
-  free(sched_s);
+  /* a failed integrator is rebuilt by the next call rather than trusted */
+  if (a->status != GS_OK) ws_free_solver(ws);
   return a->status;
+}
+
+/* --------------------------------------------------------------------------
+ * Evaluating the generated functions from the caller (no integration): the
+ * forcing period, and switching functions, outputs, right-hand side or
+ * Jacobian at many points with the mode the driver would use there (sides
+ * from the signs of g unless given, schedule segment from t).  Lets Python
+ * avoid CasADi's own Python calls on hot paths.
+ * -------------------------------------------------------------------------- */
+static int ws_ready(gs_workspace* ws, char* msg, int len) {
+  gs_sim_args a;
+  if (!ws) {
+    snprintf(msg, (size_t)len, "no workspace");
+    return -1;
+  }
+  if (ws->ready) return 0;
+  memset(&a, 0, sizeof(a));
+  if (ws_model_setup(ws, &a)) {
+    snprintf(msg, (size_t)len, "%s", a.errmsg);
+    return -1;
+  }
+  return 0;
+}
+
+int gs_eval_period(gs_workspace* ws, const double* p, double* T, char* msg, int len) {
+  gs_ud* ud;
+  const double* in[1];
+  if (ws_ready(ws, msg, len)) return -1;
+  ud = &ws->U;
+  if (!ud->period.present) {
+    *T = NAN;
+    return 0; /* no forcing period (an autonomous or test model) */
+  }
+  in[0] = ud->np ? p : ud->dummy;
+  if (gs_call(ud, &ud->period, in, 1, T)) {
+    snprintf(msg, (size_t)len, "gs_period failed");
+    return -1;
+  }
+  return 0;
+}
+
+int gs_n_outputs(gs_workspace* ws) {
+  char msg[256];
+  if (ws_ready(ws, msg, (int)sizeof(msg))) return -1;
+  return ws->n_out_fn;
+}
+
+/* Schedule part of the mode at time t (n_k, seg_k) from the schedule vector s. */
+static void sched_modes_at(gs_workspace* ws, const double* s, double t, double* m) {
+  gs_ud* ud = &ws->U;
+  int k, off = 0;
+  for (k = 0; k < ud->nsched; ++k) {
+    gs_sched_data sd;
+    int nbk = ws->nb[k], zero = 0;
+    sd.nsched = 1;
+    sd.nb = &nbk;
+    sd.off = &zero;
+    sd.s = s + off;
+    sched_mode_at(&sd, 0, t, &m[2 * k], &m[2 * k + 1]);
+    off += 1 + nbk;
+  }
+}
+
+int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p, const double* sigma,
+            double* out, char* msg, int len) {
+  gs_ud* ud;
+  int i, j, nx, nsw, nout;
+  double* m;
+  double* s;
+  const double* in[4];
+  const gs_fn* f;
+  if (ws_ready(ws, msg, len)) return -1;
+  ud = &ws->U;
+  nx = ud->nx;
+  nsw = ud->nsw;
+  if (fn == GS_EVAL_SW) {
+    f = &ud->sw;
+    nout = nsw;
+  } else if (fn == GS_EVAL_OUT) {
+    f = &ud->out;
+    nout = ws->n_out_fn;
+  } else if (fn == GS_EVAL_RHS) {
+    f = &ud->rhs;
+    nout = nx;
+  } else if (fn == GS_EVAL_JAC) {
+    f = &ud->jac;
+    nout = nx * nx;
+  } else if (fn == GS_EVAL_MODE) {
+    f = NULL;
+    nout = ud->nm;
+  } else {
+    snprintf(msg, (size_t)len, "unknown function code %d", fn);
+    return -1;
+  }
+  if (f && !f->present) {
+    snprintf(msg, (size_t)len, "the compiled model has no %s", f->name ? f->name : "such function");
+    return -1;
+  }
+  if (n < 0 || !t || !x || (ud->np > 0 && !p) || (nout > 0 && !out)) {
+    snprintf(msg, (size_t)len, "bad arguments");
+    return -1;
+  }
+  ud->p = p; /* eval_swfn reads the parameters from ud */
+  s = ws->sched_s;
+  if (ws->nsched_total > 0) {
+    in[0] = ud->np ? p : ud->dummy;
+    if (gs_call(ud, &ud->sched, in, 1, s)) {
+      snprintf(msg, (size_t)len, "gs_sched failed");
+      return -1;
+    }
+  }
+  m = ud->m_alt;
+  for (i = 0; i < n; ++i) {
+    const double* xi = x + (size_t)i * nx;
+    double ti = t[i];
+    if (fn == GS_EVAL_SW) {
+      if (eval_swfn(ud, &ud->sw, ti, xi, out + (size_t)i * nsw)) goto fail;
+      continue;
+    }
+    /* mode at (t_i, x_i): sides given or from the signs of g, schedule segment from t */
+    if (nsw > 0) {
+      if (sigma) {
+        for (j = 0; j < nsw; ++j) m[j] = sigma[(size_t)i * nsw + j];
+      } else {
+        if (eval_swfn(ud, &ud->sw, ti, xi, ud->g)) goto fail;
+        for (j = 0; j < nsw; ++j) m[j] = ud->g[j] >= 0.0 ? 1.0 : -1.0;
+      }
+    }
+    sched_modes_at(ws, s, ti, m + nsw);
+    if (fn == GS_EVAL_MODE) {
+      memcpy(out + (size_t)i * nout, m, sizeof(double) * (size_t)nout);
+      continue;
+    }
+    in[0] = &ti;
+    in[1] = xi;
+    in[2] = ud->np ? p : ud->dummy;
+    in[3] = ud->nm ? m : ud->dummy;
+    if (gs_call(ud, f, in, 4, out + (size_t)i * nout)) goto fail;
+  }
+  return 0;
+fail:
+  snprintf(msg, (size_t)len, "evaluation of %s failed at point %d", f ? f->name : "the mode", i);
+  return -1;
 }

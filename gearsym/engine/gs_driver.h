@@ -22,10 +22,22 @@
 #define GS_ERR_ABI          (-5)   /* SUNDIALS version / index size mismatch     */
 #define GS_ERR_INPUT        (-6)   /* bad arguments (sizes, t_end <= t0, ...)    */
 #define GS_ERR_MAX_EVENTS   (-7)   /* more events than max_events                */
+#define GS_ERR_INTERRUPTED  (-8)   /* SIGINT seen on interrupt_fd (Ctrl-C)       */
 
 #define GS_METHOD_BDF   0          /* CVODE, BDF, Newton with dense analytic Jacobian */
 #define GS_METHOD_ADAMS 1          /* CVODE, Adams-Moulton, Newton, dense Jacobian    */
 #define GS_METHOD_IDA   2          /* IDA (implicit models), dense analytic Jacobian  */
+
+/* CVODE's nonlinear solver.  AUTO: Newton. */
+#define GS_NONLIN_AUTO       0
+#define GS_NONLIN_NEWTON     1     /* modified Newton with the analytic Jacobian       */
+#define GS_NONLIN_FIXEDPOINT 2     /* functional iteration: no Jacobian, no linear     */
+                                   /* solve (non-stiff problems; cheap for large n)    */
+/* Newton's linear solver.  AUTO: DENSE without the monodromy, BLOCKDIAG with it. */
+#define GS_LINSOL_AUTO      0
+#define GS_LINSOL_DENSE     1      /* SUNDIALS dense LU of the whole system matrix     */
+                                   /* ((n + n^2)^2 with the monodromy: small n only)   */
+#define GS_LINSOL_BLOCKDIAG 2      /* monodromy: one n x n LU for all n + 1 blocks     */
 
 typedef struct gs_sim_args {
   /* ---- inputs ---- */
@@ -47,6 +59,12 @@ typedef struct gs_sim_args {
   double  init_step;       /* initial step, 0 = solver chooses                      */
   int     want_monodromy;  /* 1: integrate variational eqs (explicit models only)   */
   int     max_events_out;  /* capacity of the ev_* arrays                           */
+  int     check_interrupt; /* 1: every GS_POLL_EVERY right-hand side evaluations,   */
+  int     interrupt_fd;    /* read the non-blocking pipe interrupt_fd (Python's     */
+                           /* signal wakeup fd: one byte per signal number) and     */
+                           /* stop with GS_ERR_INTERRUPTED if it holds SIGINT       */
+  int     nonlinear;       /* GS_NONLIN_*: CVODE's nonlinear solver (0 = auto)      */
+  int     linear_solver;   /* GS_LINSOL_*: Newton's linear solver (0 = auto)        */
   /* ---- outputs ---- */
   double* y_out;           /* [n_out*nx] row-major states at t_out                  */
   double* x_final;         /* [nx] state at the time reached                        */
@@ -67,6 +85,39 @@ typedef struct gs_sim_args {
 
 /* Integrate.  Returns args->status. */
 int gs_simulate(gs_sim_args* args);
+
+/* A workspace keeps what a model needs across calls (work buffers, the SUNDIALS
+ * context, vectors, solvers and integrator memory): calls with the same method,
+ * monodromy and solver options reuse them (CVodeReInit/IDAReInit), so a short
+ * integration costs the integration only.  One thread at a time per workspace. */
+typedef struct gs_workspace gs_workspace;
+gs_workspace* gs_ws_new(void);
+void gs_ws_free(gs_workspace* ws);
+int gs_simulate_ws(gs_workspace* ws, gs_sim_args* args);
+
+/* The forcing period T(p) (gs_period; NaN if the model has none).  Returns 0, or
+ * -1 with a message. */
+int gs_eval_period(gs_workspace* ws, const double* p, double* T, char* msg, int len);
+
+/* Number of model outputs (gs_out), or -1. */
+int gs_n_outputs(gs_workspace* ws);
+
+/* Evaluate a generated function at n points (t[i], x[i*nx..]) with parameters p:
+ * GS_EVAL_SW   g(t, x, p)                          -> out[i*nsw + j]
+ * GS_EVAL_OUT  the model's outputs                 -> out[i*nout + j]
+ * GS_EVAL_RHS  xdot (explicit models)              -> out[i*nx + j]
+ * GS_EVAL_JAC  d xdot / d x, dense column-major    -> out[i*nx*nx + c*nx + r]
+ * GS_EVAL_MODE the mode vector m (sides, schedule) -> out[i*nm + j]
+ * in the mode the driver would use there: the side of each switching surface
+ * from sigma[i*nsw + j] (or, with sigma NULL, +1 where g >= 0), the schedule
+ * cycle and segment from t.  Returns 0, or -1 with a message. */
+#define GS_EVAL_SW   0
+#define GS_EVAL_OUT  1
+#define GS_EVAL_RHS  2
+#define GS_EVAL_JAC  3
+#define GS_EVAL_MODE 4
+int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p, const double* sigma,
+            double* out, char* msg, int len);
 
 /* Check the SUNDIALS runtime: version >= 7 and 32-bit sunindextype.  Writes the
  * version string (e.g. "7.9.0") or the problem into msg.  Returns 0 if OK. */

@@ -106,6 +106,56 @@ void         SUNMatDestroy(SUNMatrix A);
 /* ---- sundials/sundials_linearsolver.h, sunlinsol/sunlinsol_dense.h ------ */
 SUNLinearSolver SUNLinSol_Dense(N_Vector y, SUNMatrix A, SUNContext sunctx);
 SUNErrCode      SUNLinSolFree(SUNLinearSolver S);
+sunindextype    SUNDenseMatrix_Rows(SUNMatrix A);
+
+/* A custom linear solver (the block-diagonal solver of the variational
+ * equations) fills the operations table of a SUNLinearSolver made by
+ * SUNLinSolNewEmpty.  Layout of struct _generic_SUNLinearSolver_Ops and
+ * _generic_SUNLinearSolver as in sundials_linearsolver.h of SUNDIALS 7.9 (with
+ * `setoptions`, 16 slots); enum return types are int-sized.  gs_check_abi verifies the
+ * table slot by slot (each public SUNLinSol* wrapper must reach its own slot)
+ * before any solver uses it. */
+#define GS_SUNLINEARSOLVER_DIRECT 0
+#define GS_SUNLINEARSOLVER_CUSTOM 17
+#define GS_SUNLS_LUFACT_FAIL 808 /* recoverable: singular matrix */
+struct _generic_SUNLinearSolver_Ops {
+  int (*gettype)(SUNLinearSolver);
+  int (*getid)(SUNLinearSolver);
+  SUNErrCode (*setatimes)(SUNLinearSolver, void*, void*);
+  SUNErrCode (*setpreconditioner)(SUNLinearSolver, void*, void*, void*);
+  SUNErrCode (*setscalingvectors)(SUNLinearSolver, N_Vector, N_Vector);
+  SUNErrCode (*setoptions)(SUNLinearSolver, const char*, const char*, int, char**);
+  SUNErrCode (*setzeroguess)(SUNLinearSolver, sunbooleantype);
+  SUNErrCode (*initialize)(SUNLinearSolver);
+  int (*setup)(SUNLinearSolver, SUNMatrix);
+  int (*solve)(SUNLinearSolver, SUNMatrix, N_Vector, N_Vector, sunrealtype);
+  int (*numiters)(SUNLinearSolver);
+  sunrealtype (*resnorm)(SUNLinearSolver);
+  sunindextype (*lastflag)(SUNLinearSolver);
+  SUNErrCode (*space)(SUNLinearSolver, long int*, long int*);
+  N_Vector (*resid)(SUNLinearSolver);
+  SUNErrCode (*free)(SUNLinearSolver);
+};
+struct _generic_SUNLinearSolver {
+  void* content;
+  void* python; /* 7.9 (read off the wheel's SUNLinSolNewEmpty: ops at offset 16,
+                 * 32-byte object): the Python-bindings slot of recent 7.x */
+  struct _generic_SUNLinearSolver_Ops* ops;
+  SUNContext sunctx;
+};
+SUNLinearSolver SUNLinSolNewEmpty(SUNContext sunctx);
+void            SUNLinSolFreeEmpty(SUNLinearSolver S);
+int             SUNLinSolGetType(SUNLinearSolver S);
+int             SUNLinSolGetID(SUNLinearSolver S);
+SUNErrCode      SUNLinSolSetScalingVectors(SUNLinearSolver S, N_Vector s1, N_Vector s2);
+SUNErrCode      SUNLinSolSetZeroGuess(SUNLinearSolver S, sunbooleantype onoff);
+SUNErrCode      SUNLinSolInitialize(SUNLinearSolver S);
+int             SUNLinSolSetup(SUNLinearSolver S, SUNMatrix A);
+int             SUNLinSolSolve(SUNLinearSolver S, SUNMatrix A, N_Vector x, N_Vector b, sunrealtype tol);
+int             SUNLinSolNumIters(SUNLinearSolver S);
+sunrealtype     SUNLinSolResNorm(SUNLinearSolver S);
+sunindextype    SUNLinSolLastFlag(SUNLinearSolver S);
+N_Vector        SUNLinSolResid(SUNLinearSolver S);
 
 /* ---- cvode/cvode.h (v7) -------------------------------------------------- */
 #define CV_ADAMS 1
@@ -162,6 +212,12 @@ int   CVodeGetNumRhsEvals(void* cvode_mem, long int* nfevals);
 int   CVodeGetNumGEvals(void* cvode_mem, long int* ngevals);
 char* CVodeGetReturnFlagName(long int flag); /* malloc'ed: caller frees */
 void  CVodeFree(void** cvode_mem);
+
+/* ---- sundials/sundials_nonlinearsolver.h, sunnonlinsol_fixedpoint.h ----- */
+typedef struct _generic_SUNNonlinearSolver* SUNNonlinearSolver;
+SUNNonlinearSolver SUNNonlinSol_FixedPoint(N_Vector y, int m, SUNContext sunctx);
+SUNErrCode         SUNNonlinSolFree(SUNNonlinearSolver NLS);
+int CVodeSetNonlinearSolver(void* cvode_mem, SUNNonlinearSolver NLS);
 
 /* ---- cvode/cvode_ls.h (v7) ----------------------------------------------- */
 typedef int (*CVLsJacFn)(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix Jac,

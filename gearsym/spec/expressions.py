@@ -1,99 +1,109 @@
 """Checking expression strings of a spec without any computer algebra.
 
 Expressions in model files are Python/sympy syntax (``k_m*(1 + eps*cos(Omega*t))``,
-``Piecewise((x - b, x > b), (0, True))``).  This module parses them with :mod:`ast`
-to find the names they use and to infer their physical dimension, so that the spec
-layer can report unknown symbols and unit mismatches with the field they are in,
-before anything is handed to sympy.
+``Piecewise((x - b, x > b), (0, True))``).  :mod:`gearsym.spec.syntax` reads them with a
+whitelist parser into a checked tree; this module finds the names they use and infers
+their physical dimension, so that the spec layer can report unknown symbols and unit
+mismatches with the field they are in, before anything is handed to sympy.
 """
 
 from __future__ import annotations
 
-import ast
-import keyword
-from collections.abc import Callable, Mapping
+import math
+import re
+from collections.abc import Mapping
 from fractions import Fraction
 
+from . import syntax as sx
+from .names import check_symbol_name
+from .syntax import BOUND_FUNCTIONS, CONSTANTS, FUNCTIONS, Expression, ExpressionError
 from .units import ONE, Unit
 
-#: Functions allowed in expressions, and the names sympy knows them by.
-FUNCTIONS: dict[str, str] = {
-    "sin": "sin", "cos": "cos", "tan": "tan", "exp": "exp", "log": "log",
-    "sinh": "sinh", "cosh": "cosh", "tanh": "tanh", "atan": "atan", "asin": "asin",
-    "acos": "acos", "atan2": "atan2", "sqrt": "sqrt", "abs": "Abs", "Abs": "Abs",
-    "sign": "sign", "Max": "Max", "Min": "Min", "max": "Max", "min": "Min",
-    "floor": "floor", "Heaviside": "Heaviside", "Piecewise": "Piecewise",
-}
-#: Constants always available.
-CONSTANTS = {"pi", "E"}
-#: Numeric functions of parameters, evaluated when the parameters are bound (not
-#: symbolically, never inside the integrator): name -> (dimension of each argument,
-#: dimension of the result), dimensions as (kg, m, s) exponents.  Their arguments
-#: must be parameter names.  Implementations: :mod:`gearsym.bound_functions`.
-BOUND_FUNCTIONS: dict[str, tuple[tuple[tuple[int, int, int], ...], tuple[int, int, int]]] = {
-    # Weierstrass-Mandelbrot mean asperity height (D, G, lam, L, l_a) -> length
-    "wm_mean_height": (((0, 0, 0), (0, 1, 0), (0, 0, 0), (0, 1, 0), (0, 1, 0)), (0, 1, 0)),
-}
+__all__ = ["BOUND_FUNCTIONS", "CONSTANTS", "FUNCTIONS", "ExpressionError", "Expression", "bound_calls",
+           "check_identifier", "constant_value", "infer_unit", "names_in", "parse", "rename"]
 
 _DIMLESS_ARG = {"sin", "cos", "tan", "exp", "log", "sinh", "cosh", "tanh", "atan", "asin",
                 "acos", "floor"}
 
 
-class ExpressionError(ValueError):
-    """An expression is malformed, uses an unknown name or mixes dimensions."""
-
-
-def parse(text: object) -> ast.Expression:
-    """Parse an expression string into an :mod:`ast` tree.
+def parse(text: object) -> Expression:
+    """Parse and check an expression (see :mod:`gearsym.spec.syntax` for the language).
 
     Raises
     ------
     ExpressionError
-        If ``text`` is not a string, or not a valid expression.
+        If ``text`` is not a string or number, or not a valid expression.
     """
-    if isinstance(text, bool):
-        raise ExpressionError(f"expected an expression, got the boolean {text}")
-    if isinstance(text, (int, float)):
-        text = repr(float(text))
-    if not isinstance(text, str):
-        raise ExpressionError(f"expected an expression string, got {type(text).__name__}")
-    if not text.strip():
-        raise ExpressionError("empty expression")
-    try:
-        return ast.parse(text.strip().replace("^", "**"), mode="eval")
-    except SyntaxError as exc:
-        raise ExpressionError(f"syntax error in '{text}': {exc.msg}") from None
+    return sx.parse_checked(text)
 
 
 def names_in(text: object) -> set[str]:
     """The variable names an expression uses (functions and constants excluded)."""
-    tree = parse(text)
-    out: set[str] = set()
-    for node in ast.walk(tree):
-        if (isinstance(node, ast.Name) and node.id not in FUNCTIONS and node.id not in CONSTANTS
-                and node.id not in BOUND_FUNCTIONS):
-            out.add(node.id)
-        if isinstance(node, ast.Call) and not (
-            isinstance(node.func, ast.Name) and (node.func.id in FUNCTIONS or node.func.id in BOUND_FUNCTIONS)
-        ):
-            fname = ast.unparse(node.func)
-            raise ExpressionError(f"unknown function '{fname}' (known: {', '.join(sorted(FUNCTIONS))})")
-        if isinstance(node, (ast.Attribute, ast.Subscript, ast.Lambda, ast.Dict, ast.Set,
-                             ast.ListComp, ast.GeneratorExp, ast.Starred)):
-            raise ExpressionError(f"unsupported syntax '{ast.unparse(node)}'")
-    return out
+    return {n.id for n in sx.walk(parse(text).body) if isinstance(n, sx.Name) and n.id not in CONSTANTS}
 
 
 def check_identifier(name: str) -> str | None:
-    """Return a problem with ``name`` as a symbol name, or ``None`` if it is fine."""
-    if not isinstance(name, str) or not name.isidentifier():
-        return f"'{name}' is not a valid symbol name (letters, digits, underscores)"
-    if keyword.iskeyword(name):
-        return f"'{name}' is a Python keyword and cannot be a symbol name"
-    if (name in FUNCTIONS or name in CONSTANTS or name in BOUND_FUNCTIONS
-            or name in ("t", "I", "S", "N", "O", "Q")):
-        return f"'{name}' is reserved (function, constant, time or sympy name)"
-    return None
+    """Return a problem with ``name`` as a symbol name, or ``None`` if it is fine
+    (see :func:`gearsym.spec.names.check_symbol_name`)."""
+    return check_symbol_name(name)
+
+
+def bound_calls(text: object) -> list[tuple[str, list[str | None]]]:
+    """Calls of :data:`BOUND_FUNCTIONS` in an expression: ``(name, argument names)``.
+
+    An argument that is not a plain name is reported as ``None``.
+    """
+    return [(n.func, [a.id if isinstance(a, sx.Name) else None for a in n.args])
+            for n in sx.walk(parse(text).body) if isinstance(n, sx.Call) and n.func in BOUND_FUNCTIONS]
+
+
+def rename(text: str, mapping: Mapping[str, str]) -> str:
+    """``text`` with the names in ``mapping`` replaced (the text must parse)."""
+    parse(text)  # only names, numbers and operators: a word-boundary replacement is exact
+    pattern = re.compile(r"(?<![A-Za-z0-9_.])(" + "|".join(map(re.escape, mapping)) + r")(?![A-Za-z0-9_])")
+    return pattern.sub(lambda m: mapping[m.group(1)], text)
+
+
+def constant_value(text: str, env: Mapping[str, float]) -> float | None:
+    """Numeric value of an expression of constants and the names in ``env`` only.
+
+    ``None`` if it uses anything else (time, states, schedules, conditions, unknown
+    names) or if the value is not a finite number.
+    """
+    try:
+        expr = parse(text)
+    except ExpressionError:
+        return None
+    try:
+        v = _Eval(env).visit(expr.body)
+    except (KeyError, ArithmeticError, ValueError, TypeError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+class _Eval:
+    def __init__(self, env: Mapping[str, float]):
+        self.env = env
+
+    def visit(self, n: sx.Node) -> float:
+        if isinstance(n, sx.Number):
+            return float(n.text)
+        if isinstance(n, sx.Name):
+            return sx.CONSTANT_VALUES[n.id] if n.id in CONSTANTS else float(self.env[n.id])
+        if isinstance(n, sx.Unary):
+            v = self.visit(n.operand)
+            return -v if n.op == "-" else v
+        if isinstance(n, sx.Chain):
+            acc = self.visit(n.first)
+            for op, x in n.rest:
+                v = self.visit(x)
+                acc = acc + v if op == "+" else acc - v if op == "-" else acc * v if op == "*" else acc / v
+            return acc
+        if isinstance(n, sx.Power):
+            return float(self.visit(n.base) ** self.visit(n.exponent))
+        if isinstance(n, sx.Call) and n.func in sx._MATH:
+            return float(sx._MATH[n.func](*[self.visit(a) for a in n.args]))
+        raise KeyError("not constant")
 
 
 def infer_unit(text: object, units: Mapping[str, Unit]) -> Unit:
@@ -112,155 +122,111 @@ def infer_unit(text: object, units: Mapping[str, Unit]) -> Unit:
         On unknown names or dimensionally inconsistent operations; the message
         quotes the offending sub-expression.
     """
-    tree = parse(text)
-    names_in(text)  # raises on unknown functions / syntax
-    return _Dim(units).visit(tree.body)
+    expr = parse(text)
+    return _Dim(units, expr).visit(expr.body)
 
 
 class _Dim:
-    def __init__(self, units: Mapping[str, Unit]):
+    """Units of a checked tree (recursion is bounded by the nesting-depth limit)."""
+
+    def __init__(self, units: Mapping[str, Unit], expr: Expression):
         self.units = units
+        self.expr = expr
 
-    def visit(self, node: ast.AST) -> Unit:
-        meth: Callable[[ast.AST], Unit] = getattr(self, "v_" + type(node).__name__, self.generic)
-        return meth(node)
+    def src(self, node: sx.Node) -> str:
+        return self.expr.source(node)
 
-    def generic(self, node: ast.AST) -> Unit:
-        raise ExpressionError(f"unsupported syntax '{ast.unparse(node)}'")
-
-    def v_Constant(self, node: ast.Constant) -> Unit:
-        if isinstance(node.value, bool):
+    def visit(self, node: sx.Node) -> Unit:
+        if isinstance(node, (sx.Number, sx.Boolean)):
             return ONE
-        if not isinstance(node.value, (int, float)):
-            raise ExpressionError(f"unsupported constant {node.value!r}")
-        return ONE
-
-    def v_Name(self, node: ast.Name) -> Unit:
-        if node.id in CONSTANTS or node.id in ("True", "False"):
+        if isinstance(node, sx.Name):
+            if node.id in CONSTANTS:
+                return ONE
+            if node.id not in self.units:
+                raise ExpressionError(f"unknown symbol '{node.id}'")
+            return self.units[node.id]
+        if isinstance(node, sx.Unary):
+            return self.visit(node.operand)
+        if isinstance(node, sx.Chain):
+            return self.chain(node)
+        if isinstance(node, sx.Power):
+            return self.power(node)
+        if isinstance(node, sx.Compare):
+            self._same(self.visit(node.left), self.visit(node.right), node, "compared sides")
             return ONE
-        if node.id not in self.units:
-            raise ExpressionError(f"unknown symbol '{node.id}'")
-        return self.units[node.id]
+        if isinstance(node, sx.Logic):
+            for v in node.operands:
+                self.visit(v)
+            return ONE
+        if isinstance(node, sx.Piecewise):
+            unit: Unit | None = None
+            for val, cond in node.pairs:
+                u = self.visit(val)
+                self.visit(cond)
+                unit = u if unit is None else self._same(unit, u, node, "branches")
+            assert unit is not None
+            return unit
+        if isinstance(node, sx.Call):
+            return self.call(node)
+        raise ExpressionError(f"unsupported syntax '{self.src(node)}'")  # pragma: no cover
 
-    def v_UnaryOp(self, node: ast.UnaryOp) -> Unit:
-        return self.visit(node.operand)
-
-    def _same(self, a: Unit, b: Unit, node: ast.AST, what: str) -> Unit:
+    def _same(self, a: Unit, b: Unit, node: sx.Node, what: str) -> Unit:
         if not a.same_dimension(b):
-            raise ExpressionError(
-                f"unit mismatch in '{ast.unparse(node)}': {what} [{a.si_string()}] "
-                f"and [{b.si_string()}]"
-            )
+            raise ExpressionError(f"unit mismatch in '{self.src(node)}': {what} [{a.si_string()}] "
+                                  f"and [{b.si_string()}]")
         return a
 
-    def v_BinOp(self, node: ast.BinOp) -> Unit:
-        a = self.visit(node.left)
-        if isinstance(node.op, ast.Pow):
-            exp = _const(node.right)
-            if exp is None:
-                b = self.visit(node.right)
-                if not b.dimensionless:
-                    raise ExpressionError(f"exponent of '{ast.unparse(node)}' must be dimensionless")
-                if not a.dimensionless:
-                    raise ExpressionError(
-                        f"'{ast.unparse(node)}': a dimensional base needs a numeric exponent"
-                    )
-                return ONE
-            return a ** exp
-        b = self.visit(node.right)
-        if isinstance(node.op, (ast.Add, ast.Sub)):
-            return self._same(a, b, node, "terms")
-        if isinstance(node.op, ast.Mult):
-            return a * b
-        if isinstance(node.op, ast.Div):
-            return a / b
-        if isinstance(node.op, (ast.BitAnd, ast.BitOr)):
+    def chain(self, node: sx.Chain) -> Unit:
+        acc = self.visit(node.first)
+        for op, x in node.rest:
+            u = self.visit(x)
+            if op in "+-":
+                self._same(acc, u, node, "terms")
+            else:
+                acc = acc * u if op == "*" else acc / u
+        return acc
+
+    def power(self, node: sx.Power) -> Unit:
+        a = self.visit(node.base)
+        exp = self.expr.const.get(id(node.exponent))
+        if exp is None:
+            b = self.visit(node.exponent)
+            if not b.dimensionless:
+                raise ExpressionError(f"exponent of '{self.src(node)}' must be dimensionless")
+            if not a.dimensionless:
+                raise ExpressionError(f"'{self.src(node)}': a dimensional base needs a numeric exponent")
             return ONE
-        raise ExpressionError(f"unsupported operator in '{ast.unparse(node)}'")
+        return a ** Fraction(exp).limit_denominator(1000)
 
-    def v_Compare(self, node: ast.Compare) -> Unit:
-        a = self.visit(node.left)
-        for comp in node.comparators:
-            self._same(a, self.visit(comp), node, "compared sides")
-        return ONE
-
-    def v_BoolOp(self, node: ast.BoolOp) -> Unit:
-        for v in node.values:
-            self.visit(v)
-        return ONE
-
-    def v_Tuple(self, node: ast.Tuple) -> Unit:
-        raise ExpressionError(f"unexpected tuple '{ast.unparse(node)}'")
-
-    def v_Call(self, node: ast.Call) -> Unit:
-        name = node.func.id  # type: ignore[attr-defined]
-        args = node.args
-        if name == "Piecewise":
-            unit: Unit | None = None
-            for arg in args:
-                if not isinstance(arg, ast.Tuple) or len(arg.elts) != 2:
-                    raise ExpressionError(
-                        f"Piecewise takes (value, condition) pairs: '{ast.unparse(node)}'"
-                    )
-                u = self.visit(arg.elts[0])
-                self.visit(arg.elts[1])
-                unit = u if unit is None else self._same(unit, u, node, "branches")
-            if unit is None:
-                raise ExpressionError("Piecewise needs at least one (value, condition) pair")
-            return unit
-        units = [self.visit(a) for a in args]
+    def call(self, node: sx.Call) -> Unit:
+        name = node.func
+        units = [self.visit(a) for a in node.args]
         if name in BOUND_FUNCTIONS:
             want, result = BOUND_FUNCTIONS[name]
-            if len(units) != len(want):
-                raise ExpressionError(f"{name}() takes {len(want)} arguments: '{ast.unparse(node)}'")
             for i, (u, w) in enumerate(zip(units, want)):
                 wu = Unit(1.0, tuple(Fraction(d) for d in w))
                 if not u.same_dimension(wu):
                     raise ExpressionError(
                         f"argument {i + 1} of {name}() must be [{wu.si_string()}] in "
-                        f"'{ast.unparse(node)}', got [{u.si_string()}]")
+                        f"'{self.src(node)}', got [{u.si_string()}]")
             return Unit(1.0, tuple(Fraction(d) for d in result))
         if name in _DIMLESS_ARG:
-            if len(units) != 1:
-                raise ExpressionError(f"{name}() takes one argument: '{ast.unparse(node)}'")
             if not units[0].dimensionless:
                 raise ExpressionError(
-                    f"argument of {name}() must be dimensionless in '{ast.unparse(node)}', "
-                    f"got [{units[0].si_string()}]"
-                )
+                    f"argument of {name}() must be dimensionless in '{self.src(node)}', "
+                    f"got [{units[0].si_string()}]")
             return ONE
         if name == "sqrt":
             return units[0] ** Fraction(1, 2)
         if name in ("abs", "Abs"):
             return units[0]
         if name in ("sign", "Heaviside"):
+            if name == "Heaviside" and len(units) == 2 and not units[1].dimensionless:
+                raise ExpressionError(f"the value at 0 of Heaviside() must be dimensionless in "
+                                      f"'{self.src(node)}'")
             return ONE
-        if name in ("Max", "Min", "max", "min", "atan2"):
-            u = units[0]
-            for other in units[1:]:
-                self._same(u, other, node, "arguments")
-            return ONE if name == "atan2" else u
-        raise ExpressionError(f"unknown function '{name}'")
-
-
-def _const(node: ast.AST) -> Fraction | None:
-    try:
-        value = ast.literal_eval(node)
-    except (ValueError, SyntaxError, TypeError):
-        return None
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return Fraction(value).limit_denominator(1000)
-    return None
-
-
-def bound_calls(text: object) -> list[tuple[str, list[str | None]]]:
-    """Calls of :data:`BOUND_FUNCTIONS` in an expression: ``(name, argument names)``.
-
-    An argument that is not a plain name is reported as ``None``.
-    """
-    out: list[tuple[str, list[str | None]]] = []
-    for node in ast.walk(parse(text)):
-        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
-                and node.func.id in BOUND_FUNCTIONS):
-            out.append((node.func.id, [a.id if isinstance(a, ast.Name) else None for a in node.args]))
-    return out
+        # Max, Min, max, min, atan2
+        u = units[0]
+        for other in units[1:]:
+            self._same(u, other, node, "arguments")
+        return ONE if name == "atan2" else u

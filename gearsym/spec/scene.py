@@ -29,7 +29,6 @@ parameters are active.
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,7 +36,9 @@ from typing import Any
 
 from ..errors import ParameterError, SpecError
 from . import expressions as ex
+from .files import read_toml
 from .model import ModelSpec, Term, load_model
+from .names import check_label, sanitize_label
 
 _SIM_KEYS = {"periods": (int, float), "t_end": (int, float), "rtol": (float, int), "atol": (float, int),
              "points_per_period": (int,), "method": (str,), "transient_periods": (int, float),
@@ -131,19 +132,13 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
     """
     path = Path(path)
     where_file = str(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SpecError("scene file not found", file=where_file) from None
-    except OSError as exc:
-        raise SpecError(f"cannot read scene file: {exc.strerror}", file=where_file) from None
-    except UnicodeDecodeError:
-        raise SpecError("not a text (UTF-8) file", file=where_file) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"TOML syntax error: {exc}", file=where_file) from None
+    data = read_toml(path, "scene file")
 
     def err(fld: str | None, msg: str) -> SpecError:
         return SpecError(msg, file=where_file, field=fld)
+
+    if "model" in data and "scene" not in data:
+        raise err(None, "this is a model file; give a scene (or use `gearsym inspect` on the model)")
 
     allowed = {"scene", "effects", "parameters", "initial", "simulate", "orbit", "map", "continue",
                "figures"}
@@ -159,10 +154,26 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
     model_rel = sc.get("model")
     if not isinstance(model_rel, str):
         raise err("scene.model", "missing or not a string: the path of the model file")
-    model_path = (path.parent / model_rel).resolve()
+    if not model_rel.strip() or "\x00" in model_rel or len(model_rel) > 4096:
+        raise err("scene.model", "not a valid path of a model file")
+    if "name" in sc:
+        name = sc["name"]
+        problem = check_label(name, "scene name")
+        if problem:
+            raise err("scene.name", problem)
+    else:
+        name = sanitize_label(path.stem)
+    description = sc.get("description", "")
+    if not isinstance(description, str):
+        raise err("scene.description", f"wrong type: expected a string, got {type(description).__name__}")
+    try:
+        model_path = (path.parent / model_rel).resolve()
+    except (OSError, RuntimeError) as exc:  # e.g. a symlink loop
+        raise err("scene.model", f"cannot resolve the model path: {exc}") from None
+    for section in ("effects", "parameters", "initial", "simulate"):
+        if not isinstance(data.get(section, {}), dict):
+            raise err(section, "wrong type: expected a table")
     effects = data.get("effects", {})
-    if not isinstance(effects, dict):
-        raise err("effects", "wrong type: expected a table")
     for k, v in effects.items():
         if not isinstance(v, (bool, str)):
             raise err(f"effects.{k}", "must be true, false or a variant name")
@@ -188,8 +199,8 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
         if k in sim and not (math.isfinite(sim[k]) and sim[k] > 0):
             raise err(f"simulate.{k}", f"must be positive, got {sim[k]}")
     extra = {k: data[k] for k in ("orbit", "map", "continue", "figures") if k in data}
-    return SceneSpec(where_file, sc.get("name") or path.stem, sc.get("description", ""),
-                     str(model_path), dict(effects), params, initial, dict(sim), extra)
+    return SceneSpec(where_file, name, description, str(model_path), dict(effects), params, initial,
+                     dict(sim), extra)
 
 
 def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
@@ -216,6 +227,9 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
         For an unknown parameter, a non-finite value, or a parameter that only
         switched-off effects use.
     """
+    problem = check_label(scene.name, "scene name")
+    if problem:  # a SceneSpec made in Python rather than read from a file
+        raise SpecError(problem, file=scene.path, field="scene.name")
     if model is None:
         model = load_model(scene.model_path)
     state: dict[str, bool | str] = {name: e.default for name, e in model.effects.items()}
@@ -328,49 +342,6 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
     return rs
 
 
-_MATH = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "exp": math.exp, "log": math.log,
-         "sqrt": math.sqrt, "abs": abs, "Abs": abs, "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh,
-         "atan": math.atan, "atan2": math.atan2, "Max": max, "Min": min, "max": max, "min": min}
-
-
-def _constant_value(text: str, env: Mapping[str, float]) -> float | None:
-    """Numeric value of an expression of constants only (``None`` if it uses anything else:
-    time, states, schedules, conditions, unknown functions)."""
-    import ast
-
-    try:
-        node = ex.parse(text).body
-    except ex.ExpressionError:
-        return None
-
-    def ev(n: ast.AST) -> float:
-        if isinstance(n, ast.Constant) and isinstance(n.value, (int, float)) and not isinstance(n.value, bool):
-            return float(n.value)
-        if isinstance(n, ast.Name):
-            if n.id == "pi":
-                return math.pi
-            if n.id == "E":
-                return math.e
-            return env[n.id]  # KeyError: not a constant
-        if isinstance(n, ast.UnaryOp) and isinstance(n.op, (ast.USub, ast.UAdd)):
-            v = ev(n.operand)
-            return -v if isinstance(n.op, ast.USub) else v
-        if isinstance(n, ast.BinOp):
-            a, b = ev(n.left), ev(n.right)
-            ops = {ast.Add: lambda: a + b, ast.Sub: lambda: a - b, ast.Mult: lambda: a * b,
-                   ast.Div: lambda: a / b, ast.Pow: lambda: a ** b}
-            return float(ops[type(n.op)]())
-        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id in _MATH and not n.keywords:
-            return float(_MATH[n.func.id](*[ev(a) for a in n.args]))
-        raise KeyError("not constant")
-
-    try:
-        v = ev(node)
-    except (KeyError, ArithmeticError, ValueError, TypeError):
-        return None
-    return v if isinstance(v, float) and math.isfinite(v) else None
-
-
 def _check_inertias(rs: ResolvedScene) -> None:
     """Every active inertia element whose value is a constant must be positive."""
     model = rs.model
@@ -407,7 +378,7 @@ def _check_inertias(rs: ResolvedScene) -> None:
                 env[n] = v
             else:
                 return None
-        return _constant_value(text, env)
+        return ex.constant_value(text, env)
 
     for el in model.elements.values():
         if el.type != "inertia" or not rs.effect_active(el.effect, el.variant):

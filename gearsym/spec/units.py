@@ -89,6 +89,10 @@ KNOWN_UNITS: dict[str, Unit] = {
 }
 
 
+#: Longest unit string.
+MAX_UNIT_LENGTH = 200
+
+
 class UnitSyntaxError(ValueError):
     """A unit string could not be parsed (message says why)."""
 
@@ -117,11 +121,16 @@ def parse_unit(text: str | int | float) -> Unit:
     src = text.strip().replace("^", "**")
     if src in ("", "1", "-"):
         return ONE
+    if len(src) > MAX_UNIT_LENGTH or not src.isascii():
+        raise UnitSyntaxError(f"cannot parse unit '{text[:40]}': a unit is a short ASCII product of "
+                              f"known units with numeric powers")
     try:
         tree = ast.parse(src, mode="eval")
-    except SyntaxError as exc:
-        raise UnitSyntaxError(f"cannot parse unit '{text}'") from exc
-    return _eval_unit(tree.body, text)
+        return _eval_unit(tree.body, text)
+    except (SyntaxError, ValueError, RecursionError, MemoryError, OverflowError) as exc:
+        if isinstance(exc, UnitSyntaxError):
+            raise
+        raise UnitSyntaxError(f"cannot parse unit '{text}'") from None
 
 
 def _eval_unit(node: ast.AST, text: str) -> Unit:
@@ -141,6 +150,8 @@ def _eval_unit(node: ast.AST, text: str) -> Unit:
             exp = _number(node.right)
             if exp is None:
                 raise UnitSyntaxError(f"unit exponent must be a number in '{text}'")
+            if abs(exp) > 12:
+                raise UnitSyntaxError(f"unit exponent {float(exp):g} is too large in '{text}'")
             return _eval_unit(node.left, text) ** exp
     raise UnitSyntaxError(f"cannot parse unit '{text}'")
 

@@ -20,7 +20,7 @@ import sympy as sp
 
 from ..errors import SpecError
 from ..spec.scene import ResolvedScene
-from .parsing import Namespace
+from .parsing import Namespace, internal_symbol
 from .reduction import reduce_model
 from .rigid import mode_dicts, rigid_body_modes, transform_modes
 from .switching import ModalForm, make_modal
@@ -245,7 +245,8 @@ class SymbolicModel:
         Q = sp.zeros(n, 1)
 
         def ddt(expr: sp.Expr) -> sp.Expr:
-            return sp.diff(expr, ns.t) + sum(sp.diff(expr, qi) * vi for qi, vi in zip(q, v))
+            free = expr.free_symbols
+            return sp.diff(expr, ns.t) + sum(sp.diff(expr, qi) * vi for qi, vi in zip(q, v) if qi in free)
 
         for el in spec.elements.values():
             if not self.resolved.effect_active(el.effect, el.variant):
@@ -302,7 +303,10 @@ class SymbolicModel:
                     else:
                         f = delta
                     W = k * f + c * ddt(delta)
+                gfree = geom.free_symbols
                 for i, qi in enumerate(q):
+                    if qi not in gfree:
+                        continue  # d(geom)/d(qi) = 0: skip the (costly) symbolic derivative
                     dd = sp.diff(geom, qi)
                     if dd != 0:
                         Q[i, 0] -= W * dd
@@ -422,7 +426,7 @@ class SymbolicModel:
     def variational(self) -> sp.Matrix:
         """The variational system ``Phi' = J(t, x) Phi`` as a matrix expression."""
         n = len(self.states)
-        phi = sp.Matrix(n, n, lambda i, j: sp.Symbol(f"Phi_{i}{j}"))
+        phi = sp.Matrix(n, n, lambda i, j: internal_symbol(f"Phi_{i}_{j}"))
         return self.jacobian() * phi
 
     def residual(self, xdot: list[sp.Symbol]) -> sp.Matrix:

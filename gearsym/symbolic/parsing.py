@@ -1,14 +1,129 @@
-"""Turn checked expression strings of a resolved scene into sympy expressions."""
+"""Turn checked expressions of a resolved scene into sympy expressions.
+
+No user string ever reaches ``sympify``, ``parse_expr`` or ``eval``: the spec layer reads
+each expression into a checked tree (:mod:`gearsym.spec.syntax`), and :class:`Builder`
+turns that tree into sympy objects node by node, applying the same Python operators
+to sympy objects as evaluating the expression would (so ``1/2`` is ``Rational(1, 2)``,
+``0.5`` is ``Float('0.5')``, ``^`` is a power).  Flat sums and products are folded in
+a loop (a 500-term Fourier series is no deeper than one term); everything else is
+bounded by the spec layer's nesting-depth limit.
+
+Internal symbols (surface sides ``sigma_j(t)``, schedule cycle ``n_<s>(t)`` and segment
+``seg_<s>(t)`` indices) are made by :func:`internal_symbol`; their names contain
+parentheses, which no user name can (see :mod:`gearsym.spec.names`).
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
+
 import sympy as sp
-from sympy.parsing.sympy_parser import parse_expr
 
 from ..errors import SpecError
-from ..spec.expressions import BOUND_FUNCTIONS, FUNCTIONS
+from ..spec import syntax as sx
+from ..spec.expressions import BOUND_FUNCTIONS, FUNCTIONS, ExpressionError, names_in, parse
 from ..spec.model import Term
 from ..spec.scene import ResolvedScene
+from ..spec.syntax import quote
+
+_SYMPY_FUNCTIONS: dict[str, Callable[..., sp.Basic]] = {
+    name: getattr(sp, fn) for name, fn in FUNCTIONS.items() if name != "Piecewise"}
+#: Values no expression of a model may contain.
+_NOT_REAL = (sp.zoo, sp.nan, sp.oo, -sp.oo, sp.I)
+#: Products with at least this many factors are built as one ``Mul`` (see :meth:`Builder.chain`).
+LONG_PRODUCT = 64
+_COMPARE = {"<": lambda a, b: a < b, "<=": lambda a, b: a <= b,
+            ">": lambda a, b: a > b, ">=": lambda a, b: a >= b}
+
+
+def internal_symbol(name: str) -> sp.Symbol:
+    """A symbol of the symbolic layer that no user name can collide with.
+
+    ``name`` is the readable stem (``sigma_0``, ``n_mesh``, ``seg_mesh``); the symbol is
+    ``name + "(t)"``: user names are ``[A-Za-z][A-Za-z0-9_]*``, so none can equal it,
+    and it sorts next to ``name`` (sympy orders terms by name, so the generated code
+    of models without such a twin does not change).
+    """
+    return sp.Symbol(f"{name}(t)", real=True)
+
+
+class Builder:
+    """Build sympy objects from checked expression trees.
+
+    Parameters
+    ----------
+    names
+        What each name means (symbols, or sympy expressions of derived quantities).
+    bound
+        Called as ``bound(function name, argument names)`` for a call of a bound
+        function; returns the symbol standing for its value.
+    """
+
+    def __init__(self, names: Mapping[str, sp.Basic],
+                 bound: Callable[[str, list[str]], sp.Basic] | None = None):
+        self.names = names
+        self.bound = bound
+
+    def build(self, expr: sx.Expression) -> sp.Basic:
+        """The sympy object of a checked expression."""
+        return self.visit(expr.body)
+
+    def visit(self, node: sx.Node) -> sp.Basic:
+        if isinstance(node, sx.Number):
+            return sp.Integer(node.text) if node.is_int else sp.Float(node.text)
+        if isinstance(node, sx.Name):
+            if node.id == "pi":
+                return sp.pi
+            if node.id == "E":
+                return sp.E
+            if node.id not in self.names:
+                raise ExpressionError(f"unknown symbol '{node.id}'")
+            return self.names[node.id]
+        if isinstance(node, sx.Boolean):
+            return sp.true if node.value else sp.false
+        if isinstance(node, sx.Unary):
+            v = self.visit(node.operand)
+            return -v if node.op == "-" else +v
+        if isinstance(node, sx.Chain):
+            return self.chain(node)
+        if isinstance(node, sx.Power):
+            return self.visit(node.base) ** self.visit(node.exponent)
+        if isinstance(node, sx.Compare):
+            return _COMPARE[node.op](self.visit(node.left), self.visit(node.right))
+        if isinstance(node, sx.Logic):
+            ops = [self.visit(c) for c in node.operands]
+            return sp.And(*ops) if node.op == "and" else sp.Or(*ops)
+        if isinstance(node, sx.Piecewise):
+            return sp.Piecewise(*[(self.visit(v), self.visit(c)) for v, c in node.pairs])
+        if isinstance(node, sx.Call):
+            if node.func in BOUND_FUNCTIONS:
+                args = [a.id if isinstance(a, sx.Name) else None for a in node.args]
+                if self.bound is None or any(a is None for a in args):
+                    raise ExpressionError(f"arguments of {node.func}() must be parameter names")
+                return self.bound(node.func, args)  # type: ignore[arg-type]
+            return _SYMPY_FUNCTIONS[node.func](*[self.visit(a) for a in node.args])
+        raise ExpressionError(f"unsupported expression node {type(node).__name__}")  # pragma: no cover
+
+    def chain(self, node: sx.Chain) -> sp.Basic:
+        """A flat chain of ``+ -`` or ``* /``, without recursion and without quadratic cost.
+
+        A sum is one ``Add(a, -b, c, ...)``: the same object as Python's left-to-right
+        ``a - b + c ...`` (``x - y`` is ``Add(x, -y)``; ``Add`` flattens nested sums and
+        accumulates the coefficients of like terms in the order of its arguments either
+        way), built in one pass instead of one pass per term.  A product is folded left
+        to right with Python's operators (a division of numbers is exact then); only a
+        long product (more than :data:`LONG_PRODUCT` factors) is built as one ``Mul``.
+        """
+        first = self.visit(node.first)
+        if node.rest[0][0] in "+-":
+            return sp.Add(first, *[self.visit(x) if op == "+" else -self.visit(x) for op, x in node.rest])
+        if len(node.rest) >= LONG_PRODUCT:
+            return sp.Mul(first, *[self.visit(x) if op == "*" else sp.Pow(self.visit(x), -1)
+                                   for op, x in node.rest])
+        acc = first
+        for op, x in node.rest:  # left to right, as Python evaluates a chain
+            acc = acc * self.visit(x) if op == "*" else acc / self.visit(x)
+        return acc
 
 
 class Namespace:
@@ -41,10 +156,9 @@ class Namespace:
         self.coords = {c.name: sp.Symbol(c.name, real=True) for c in on}
         self.vels = {c.velocity: sp.Symbol(c.velocity, real=True) for c in on}
         self.bound: dict[sp.Symbol, tuple[str, tuple[str, ...]]] = {}
-        self.sched_n = {s: sp.Symbol(f"n_{s}", real=True) for s in m.schedules}
-        self.sched_seg = {s: sp.Symbol(f"seg_{s}", real=True) for s in m.schedules}
-        self._local: dict[str, object] = {name: getattr(sp, fn) for name, fn in FUNCTIONS.items()}
-        self._local.update({"pi": sp.pi, "E": sp.E, "t": self.t, "True": sp.true, "False": sp.false})
+        self.sched_n = {s: internal_symbol(f"n_{s}") for s in m.schedules}
+        self.sched_seg = {s: internal_symbol(f"seg_{s}") for s in m.schedules}
+        self._local: dict[str, sp.Basic] = {"t": self.t}
         self._local.update(self.params)
         self._local.update(self.coords)
         self._local.update(self.vels)
@@ -52,8 +166,6 @@ class Namespace:
             if c.name not in self.coords:  # gated coordinate of a switched-off effect
                 self._local[c.name] = sp.Integer(0)
                 self._local[c.velocity] = sp.Integer(0)
-        for fname in BOUND_FUNCTIONS:
-            self._local[fname] = self._bound_function(fname)
         self.schedule_period: dict[str, sp.Expr] = {}
         self.schedule_breaks: dict[str, list[sp.Expr]] = {}
         # Schedule periods/breaks may use derived quantities, and derived quantities may
@@ -69,8 +181,6 @@ class Namespace:
         while pending:
             progressed = False
             for name, d in list(pending.items()):
-                from ..spec.expressions import names_in
-
                 deps = set().union(*[names_in(t.expr) for t in d.terms]) if d.terms else set()
                 if deps & set(pending):
                     continue
@@ -86,42 +196,42 @@ class Namespace:
         fill = {placeholder[s]: self.schedule_period[s] for s in m.schedules}
         if fill:
             for s in m.schedules:
-                self.schedule_period[s] = sp.sympify(self.schedule_period[s]).xreplace(fill)
-                self.schedule_breaks[s] = [sp.sympify(b).xreplace(fill) for b in self.schedule_breaks[s]]
+                self.schedule_period[s] = self.schedule_period[s].xreplace(fill)
+                self.schedule_breaks[s] = [b.xreplace(fill) for b in self.schedule_breaks[s]]
                 self._local[f"{s}_phase"] = self.t / self.schedule_period[s] - self.sched_n[s]
             for name in m.derived:
-                self._local[name] = sp.sympify(self._local[name]).xreplace(fill)
+                self._local[name] = self._local[name].xreplace(fill)
 
-    def _bound_function(self, fname: str):
-        """A callable that turns ``fname(p1, p2, ...)`` into a parameter-like symbol."""
-        def call(*args: sp.Basic) -> sp.Symbol:
-            names = []
-            for a in args:
-                if not (isinstance(a, sp.Symbol) and str(a) in self.params):
-                    raise SpecError(f"arguments of {fname}() must be parameter names, got '{a}'",
-                                    file=self.rs.model.path)
-                names.append(str(a))
-            sym = sp.Symbol(f"{fname}({', '.join(names)})", real=True)
-            self.bound[sym] = (fname, tuple(names))
-            return sym
-        return call
+    def _bound_call(self, fname: str, names: list[str]) -> sp.Symbol:
+        """The parameter-like symbol standing for ``fname(p1, p2, ...)``."""
+        for a in names:
+            if a not in self.params:
+                raise SpecError(f"arguments of {fname}() must be parameter names, got '{a}'",
+                                file=self.rs.model.path)
+        sym = sp.Symbol(f"{fname}({', '.join(names)})", real=True)
+        self.bound[sym] = (fname, tuple(names))
+        return sym
 
     def parse(self, text: str, where: str = "") -> sp.Expr:
-        """Parse an expression string (already checked by the spec layer)."""
+        """Build the sympy expression of an expression string (checked by the spec layer)."""
         try:
-            return parse_expr(text.replace("^", "**"), local_dict=dict(self._local), evaluate=True)
-        except Exception as exc:  # sympy raises many types
-            raise SpecError(f"cannot interpret expression '{text}': {exc}", file=self.rs.model.path,
+            out = Builder(self._local, self._bound_call).build(parse(text))
+            if out.has(*_NOT_REAL):
+                raise ExpressionError(f"'{quote(text)}' evaluates to an infinite, undefined or complex "
+                                      f"value ({sp.sstr(out)[:60]})")
+            return out
+        except ExpressionError as exc:
+            raise SpecError(str(exc), file=self.rs.model.path, field=where or None) from None
+        except RecursionError:
+            raise SpecError("expression too deeply nested for the symbolic layer", file=self.rs.model.path,
                             field=where or None) from None
 
     def sum_terms(self, terms: tuple[Term, ...], el_effect: str | None = None,
                   el_variant: str | None = None) -> sp.Expr:
-        """Sum of the active terms of an expression field."""
-        total: sp.Expr = sp.Integer(0)
-        for term in terms:
-            if self.rs.is_active(term, el_effect, el_variant):
-                total = total + self.parse(term.expr, term.field)
-        return total
+        """Sum of the active terms of an expression field (one ``Add``: the same object as
+        adding them one by one, in one pass however many terms there are)."""
+        return sp.Add(*[self.parse(term.expr, term.field) for term in terms
+                        if self.rs.is_active(term, el_effect, el_variant)])
 
     def param_value(self, name: str) -> float:
         """SI value of a parameter in the resolved scene."""

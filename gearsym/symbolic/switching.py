@@ -3,7 +3,7 @@
 Every state-dependent condition in the equations (a ``Piecewise`` branch, or an
 ``Abs``/``sign``/``Max``/``Min``/``Heaviside`` of a state expression) is a switching
 surface ``g(t, x, p) = 0``.  The *modal form* replaces each such condition by the
-side ``sigma_j`` (+1 or -1) of its surface, which the engine holds fixed between
+side ``sigma_j(t)`` (+1 or -1) of its surface, which the engine holds fixed between
 events: for fixed ``sigma`` the right-hand side is smooth, so the integrator never
 steps across a kink, and root finding on ``g`` locates every transition exactly.
 Conditions on schedule segments (piecewise-in-time coefficients) stay as they are:
@@ -19,6 +19,7 @@ import sympy as sp
 from sympy.core.relational import Relational
 
 from ..errors import SpecError
+from .parsing import internal_symbol
 
 if TYPE_CHECKING:
     from .model import SwitchingFunction, SymbolicModel
@@ -62,28 +63,32 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
     seg_syms = {ns.sched_seg[s]: s for s in ns.sched_seg}
     n_syms = {ns.sched_n[s]: s for s in ns.sched_n}
     surfaces: list[SwitchingFunction] = []
-    canon: list[sp.Expr] = []
     sigma: list[sp.Symbol] = []
+    # registry of surfaces by canonical form (expanded, sign fixed so that exactly one
+    # of g and -g is the key): a dict lookup per condition instead of expanding the
+    # difference with every registered surface (quadratic in the number of surfaces)
+    known: dict[sp.Expr, tuple[int, int]] = {}
+    hint_keys: dict[sp.Expr, tuple[SwitchingFunction, int]] = {}
+    for h in hints:
+        key, sgn = _canonical(sp.expand(h.expr))
+        hint_keys.setdefault(key, (h, sgn))
 
     def register(g: sp.Expr) -> tuple[int, int]:
         ge = sp.expand(g)
-        for j, c in enumerate(canon):
-            if sp.expand(ge - c) == 0:
-                return j, 1
-            if sp.expand(ge + c) == 0:
-                return j, -1
-        for h in hints:
-            he = sp.expand(h.expr)
-            for sgn in (1, -1):
-                if sp.expand(ge - sgn * he) == 0:
-                    surfaces.append(h)
-                    canon.append(he)
-                    sigma.append(sp.Symbol(f"sigma_{len(sigma)}", real=True))
-                    return len(canon) - 1, sgn
-        j = len(canon)
+        key, sgn = _canonical(ge)
+        if key in known:  # ge = sgn*key, surface j = sj*key
+            j, sj = known[key]
+            return j, sgn * sj
+        j = len(surfaces)
+        if key in hint_keys:
+            h, sh = hint_keys[key]
+            surfaces.append(h)
+            known[key] = (j, sh)
+            sigma.append(internal_symbol(f"sigma_{j}"))
+            return j, sgn * sh
         surfaces.append(SwitchingFunction(f"surface{j}", ge, f"switch {j} (g > 0 side)", 0, "switch"))
-        canon.append(ge)
-        sigma.append(sp.Symbol(f"sigma_{j}", real=True))
+        known[key] = (j, sgn)
+        sigma.append(internal_symbol(f"sigma_{j}"))
         return j, 1
 
     def to_sigma(rel: Relational) -> sp.Basic:
@@ -145,6 +150,13 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
             if s in n_syms:
                 used.add(n_syms[s])
     return ModalForm(rhs, forces, surfaces, sigma, used)
+
+
+def _canonical(e: sp.Expr) -> tuple[sp.Expr, int]:
+    """``(key, s)`` with ``e = s*key``; ``key`` is the same for ``e`` and ``-e``."""
+    if e.could_extract_minus_sign():
+        return -e, -1
+    return e, 1
 
 
 def _bottom_up(expr: sp.Basic, fn, skip: type | tuple[type, ...] = ()) -> sp.Basic:

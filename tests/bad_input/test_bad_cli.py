@@ -60,7 +60,7 @@ CASES = [
          ["Makefile", "TOML syntax error"]),
     Case("inspect a folder", lambda w: ["inspect", str(ROOT / "scenes")], ["scenes", "cannot read file"]),
     Case("simulate a model file instead of a scene", lambda w: ["simulate", str(ROOT / "models" / "kahraman_singh.toml")],
-         ["kahraman_singh.toml", "unknown section 'model'"]),
+         ["kahraman_singh.toml", "this is a model file; give a scene"]),
     Case("bench: --rtols not numbers", lambda w: ["bench", KS, "--rtols", "1e-4,tight", "--out", _out(w)],
          ["--rtols", "'tight'"]),
     Case("bench: impossible tolerance", lambda w: ["bench", KS, "--rtols", "1e-6,1e-20", "--out", _out(w)],

@@ -89,3 +89,18 @@ def test_missing_model_function_is_a_clear_error(tmp_path):
     eng = compile_model(tmp_path, t=t, x=x, p=p, m=m, g=g, rhs=ca.vertcat(x[1], F), omit=("gs_jac",))
     with pytest.raises(EngineInputError, match="lacks the function gs_jac"):
         eng.run([1.1, 0.0], [0.05, 0.2, 0.8, 0.1, 1.0, 1.0], 0.0, 1.0)
+
+
+def test_sundials_symbols_stay_out_of_the_global_scope(backlash_engine):
+    """The wheel's SUNDIALS 7 libraries are preloaded RTLD_LOCAL: a library that bundles
+    another SUNDIALS (fmpy's CVODE) must not bind to them (with RTLD_GLOBAL fmpy's
+    simulate_fmu crashed the process with a segmentation fault)."""
+    import ctypes
+
+    from gearsym.engine.build import preload_sundials
+
+    preload_sundials()
+    assert backlash_engine.sundials_version.startswith("7.")
+    process = ctypes.CDLL(None)
+    for name in ("CVodeCreate", "SUNContext_Create", "N_VNew_Serial"):
+        assert not hasattr(process, name), name

@@ -1,0 +1,117 @@
+"""``gearsym cache path|list|clear``: where builds go, what is there, and removing them.
+
+Kept apart from :mod:`gearsym.cli` (which only registers it) so that neither module
+grows past the size limit.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import time
+from pathlib import Path
+
+from .codegen.cache import BuildCache
+from .errors import ParameterError
+
+__all__ = ["add_cache_parser", "cmd_cache"]
+
+
+def add_cache_parser(sub: argparse._SubParsersAction) -> None:
+    """Register the ``cache`` subcommand on the CLI's subparsers."""
+    p = sub.add_parser(
+        "cache", help="where compiled builds go; list or remove them",
+        description="Builds go to $GEARSYM_GENERATED if set, else to the generated/ folder of the "
+                    "project a scene belongs to (the nearest folder above the scene that has one), "
+                    "else to ~/.cache/gearsym.  Without SCENE or --dir, the folder is chosen the same "
+                    "way from the current directory.")
+    p.add_argument("action", choices=["path", "list", "clear"],
+                   help="path: print the build folder; list: the builds; clear: remove builds")
+    p.add_argument("scene", nargs="?",
+                   help="a scene file (its build folder; for list/clear only its builds) or, for "
+                        "list/clear, a scene name")
+    p.add_argument("--dir", help="the build cache folder (default: see above)")
+    p.add_argument("--older-than", type=float, metavar="DAYS",
+                   help="clear: only builds made more than DAYS days ago")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(func=cmd_cache)
+
+
+def _root_and_scene(args: argparse.Namespace):
+    from .facade import default_generated_dir, load_scene
+
+    scene = None
+    name = None
+    if args.scene:
+        path = Path(args.scene)
+        if path.suffix == ".toml" or path.exists():
+            scene = load_scene(path)  # a scene file: bad input gives the usual exit-2 message
+            name = scene.name
+        elif args.action == "path":
+            raise ParameterError(f"cache path: '{args.scene}' is not a scene file")
+        else:
+            name = args.scene
+    if args.dir:
+        root = Path(args.dir)
+    elif scene is not None:
+        root = default_generated_dir(scene.path)
+    else:
+        root = default_generated_dir(Path.cwd() / "_.toml")
+    return BuildCache(root), scene, name
+
+
+def _size(n: int) -> str:
+    return f"{n / 1024:.0f} KiB" if n < 1 << 20 else f"{n / (1 << 20):.1f} MiB"
+
+
+def cmd_cache(args: argparse.Namespace) -> int:
+    """Run ``gearsym cache ACTION``."""
+    if args.older_than is not None:
+        if args.action != "clear":
+            raise ParameterError("--older-than applies to 'gearsym cache clear' only")
+        if not (math.isfinite(args.older_than) and args.older_than >= 0):
+            raise ParameterError(f"--older-than must be a number of days >= 0, got {args.older_than}")
+    cache, scene, name = _root_and_scene(args)
+    if args.action == "path":
+        return _path(cache, scene, args.json)
+    builds = [b for b in cache.builds() if name is None or b.scene == name]
+    if args.action == "list":
+        if args.json:
+            print(json.dumps({"root": str(cache.root), "builds": [b.as_dict() for b in builds]}, indent=1))
+            return 0
+        print(f"{cache.root}: {len(builds)} build(s), {_size(sum(b.size for b in builds))}")
+        for b in builds:
+            when = time.strftime("%Y-%m-%d %H:%M", time.localtime(b.built))
+            state = "" if b.complete else "  (incomplete or old format)"
+            print(f"  {b.scene:28s} {b.model:24s} {_size(b.size):>10s}  {when}  {b.key[:16]}{state}")
+        return 0
+    removed = cache.clear(scene=name, older_than_days=args.older_than)
+    freed = sum(b.size for b in removed)
+    if args.json:
+        print(json.dumps({"root": str(cache.root), "removed": [b.as_dict() for b in removed],
+                          "freed_bytes": freed}, indent=1))
+    else:
+        print(f"{cache.root}: removed {len(removed)} build(s), {_size(freed)}")
+    return 0
+
+
+def _path(cache: BuildCache, scene, as_json: bool) -> int:
+    info: dict[str, object] = {"root": str(cache.root),
+                               "GEARSYM_GENERATED": os.environ.get("GEARSYM_GENERATED") or None}
+    if scene is not None:
+        from .codegen.cache import build_key
+
+        model_text = Path(scene.model_spec.path).read_text(encoding="utf-8")
+        key, _ = build_key(model_text, scene.resolved.effects, scene.model_spec.form)
+        entry = cache.entry(scene.name, key)
+        info.update(scene=scene.name, build=str(entry.directory), key=key,
+                    built=cache.lookup(entry, key) is not None)
+    if as_json:
+        print(json.dumps(info, indent=1))
+    elif scene is None:
+        print(cache.root)
+    else:
+        print(f"{info['build']}  ({'built' if info['built'] else 'not built yet'})")
+    return 0

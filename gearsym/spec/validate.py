@@ -1,0 +1,258 @@
+"""Cross-field checks of a parsed model: symbols, effects, units, circular definitions."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from . import expressions as ex
+from .fields import Ctx, Term, unit_of
+from .reduction import reduction_units
+from .units import ONE, Unit
+
+if TYPE_CHECKING:
+    from .model import ModelSpec
+
+
+def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
+    """Cross-field checks: symbols, effects, units, circular definitions."""
+    units: dict[str, Unit] = {"t": spec.time_dims}
+    for c in spec.coordinates.values():
+        units[c.name] = c.dims
+        units[c.velocity] = c.dims / spec.time_dims
+    for p in spec.parameters.values():
+        units[p.name] = Unit(1.0, p.dims.dims)
+    for s in spec.schedules.values():
+        units[f"{s.name}_phase"] = ONE
+        units[f"{s.name}_segment"] = ONE
+    if spec.reduction is not None:
+        for rc in spec.reduction.coordinates:
+            if rc.dims is not None:
+                units[rc.name] = rc.dims
+                units[rc.velocity] = rc.dims / spec.time_dims
+
+    # every term: effects exist, variants valid
+    for where, term in _all_terms(spec):
+        if term.effect is not None:
+            if term.effect not in spec.effects:
+                raise ctx.error(where, f"effect '{term.effect}' is not in the model "
+                                       f"(effects: {', '.join(spec.effects) or 'none'})")
+            eff = spec.effects[term.effect]
+            if term.variant is not None and term.variant not in eff.variants:
+                raise ctx.error(where, f"'{term.variant}' is not a variant of effect "
+                                       f"'{term.effect}' (variants: {', '.join(eff.variants) or 'none'})")
+        elif term.variant is not None:
+            raise ctx.error(where, "a variant needs an effect")
+        for fname, args in _bound_calls(ctx, where, term.expr):
+            for i, a in enumerate(args):
+                if a not in spec.parameters:
+                    raise ctx.error(where, f"argument {i + 1} of {fname}() must be the name of a "
+                                           f"parameter (it is evaluated when parameters are bound), "
+                                           f"got {a or 'an expression'}")
+    for c in spec.coordinates.values():
+        if c.effect is not None and c.effect not in spec.effects:
+            raise ctx.error(f"coordinates.{c.name}.effect", f"effect '{c.effect}' is not in the model "
+                                                             f"(effects: {', '.join(spec.effects) or 'none'})")
+
+    # derived: order by dependency (detect cycles), infer units
+    order = _derived_order(ctx, spec)
+    for dname in order:
+        d = spec.derived[dname]
+        u = _terms_unit(ctx, d.terms, units)
+        if d.unit is not None:
+            declared = unit_of(ctx, f"derived.{dname}.unit", d.unit)
+            if u is not None and not u.same_dimension(declared):
+                raise ctx.error(f"derived.{dname}.value",
+                                f"unit mismatch: value is [{u.si_string()}] but unit says "
+                                f"[{declared.si_string()}]")
+            u = declared
+        units[dname] = u if u is not None else ONE
+
+    # schedules
+    for s in spec.schedules.values():
+        _expect(ctx, f"schedules.{s.name}.period", s.period, units, spec.time_dims, "a time")
+        for i, b in enumerate(s.breaks):
+            _expect(ctx, f"schedules.{s.name}.breaks[{i}]", b, units, ONE, "dimensionless")
+    if spec.forcing_period is not None:
+        _expect(ctx, "forcing.period", spec.forcing_period, units, spec.time_dims, "a time")
+    dynamic = {"t"} | set(spec.coordinates) | {c.velocity for c in spec.coordinates.values()}
+    if spec.reduction is not None:
+        dynamic |= set(spec.reduction.state_names())
+    checks = [("forcing.period", spec.forcing_period)] if spec.forcing_period else []
+    for s in spec.schedules.values():
+        checks.append((f"schedules.{s.name}.period", s.period))
+        checks += [(f"schedules.{s.name}.breaks[{i}]", b) for i, b in enumerate(s.breaks)]
+    for where, text in checks:
+        bad = sorted(_names(ctx, where, text) & dynamic)
+        if bad:
+            raise ctx.error(where, f"must depend on parameters only, not on {', '.join(bad)}")
+
+    # elements: a common energy unit
+    energy: list[Unit | None] = [None]  # first one seen defines it
+
+    def energy_of(where: str, u: Unit) -> None:
+        if energy[0] is None:
+            energy[0] = Unit(1.0, u.dims)
+        elif not u.same_dimension(energy[0]):
+            raise ctx.error(where, f"unit mismatch: this term does work in [{u.si_string()}] but "
+                                   f"other terms in [{energy[0].si_string()}]")
+
+    tt = spec.time_dims
+    for el in spec.elements.values():
+        w = f"elements.{el.name}"
+        f = el.fields
+        if el.type == "inertia":
+            c = spec.coordinates[el.coordinate]  # type: ignore[index]
+            u = _terms_unit(ctx, f["value"], units)
+            if u is not None:
+                energy_of(f"{w}.value", u * (c.dims / tt) ** 2)
+        elif el.type == "force":
+            c = spec.coordinates[el.coordinate]  # type: ignore[index]
+            u = _terms_unit(ctx, f["value"], units)
+            if u is not None:
+                energy_of(f"{w}.value", u * c.dims)
+        else:
+            d = _terms_unit(ctx, f["deflection"], units)
+            if d is None:
+                raise ctx.error(f"{w}.deflection", "no active term")
+            for key in ("error", "backlash"):
+                if key in f:
+                    u = _terms_unit(ctx, f[key], units)
+                    if u is not None and not u.same_dimension(d):
+                        raise ctx.error(f"{w}.{key}", f"unit mismatch: [{u.si_string()}] but the "
+                                                      f"deflection is [{d.si_string()}]")
+            if "stiffness" in f:
+                u = _terms_unit(ctx, f["stiffness"], units)
+                if u is not None:
+                    energy_of(f"{w}.stiffness", u * d * d)
+            for key in ("coefficient", "damping"):
+                if key in f:
+                    u = _terms_unit(ctx, f[key], units)
+                    if u is not None:
+                        energy_of(f"{w}.{key}", u * d * d / tt)
+    for eq in spec.equations.values():
+        c = spec.coordinates[eq.coordinate]
+        if eq.force:
+            u = _terms_unit(ctx, eq.force, units)
+            if u is not None:
+                energy_of(f"equations.{eq.coordinate}.force", u * c.dims)
+        if eq.mass:
+            u = _terms_unit(ctx, eq.mass, units)
+            if u is not None:
+                energy_of(f"equations.{eq.coordinate}.mass", u * (c.dims / tt) ** 2)
+    if spec.reduction is not None:
+        red_units = reduction_units(ctx, spec.reduction, spec.elements, lambda terms: _terms_unit(ctx, terms, units))
+        for rc in spec.reduction.coordinates:
+            units[rc.name] = Unit(1.0, red_units[rc.name].dims)
+            units[rc.velocity] = units[rc.name] / spec.time_dims
+    has_mass = {el.coordinate for el in spec.elements.values() if el.type == "inertia"}
+    has_mass |= {q for q, eq in spec.equations.items() if eq.mass}
+    for q in spec.coordinates:
+        if q not in has_mass:
+            raise ctx.error(f"coordinates.{q}", f"coordinate '{q}' has no inertia element and no "
+                                                f"equations.{q}.mass")
+    if spec.dimensionless is not None:
+        for q in spec.dimensionless.coordinates:
+            if q not in spec.state_names()[: len(spec.state_names()) // 2]:
+                raise ctx.error(f"dimensionless.coordinates.{q}", f"'{q}' is not a coordinate of the "
+                                                                  f"(reduced) model")
+        for g in spec.dimensionless.groups:
+            gw = f"dimensionless.groups.{g.name}"
+            if g.eliminates not in spec.parameters:
+                raise ctx.error(f"{gw}.eliminates", f"unknown parameter '{g.eliminates}'")
+            _expect(ctx, f"{gw}.definition", g.definition, units, ONE, "dimensionless")
+            if g.eliminates not in ex.names_in(g.definition):
+                raise ctx.error(f"{gw}.eliminates", f"'{g.eliminates}' does not appear in the definition")
+        _expect(ctx, "dimensionless.time", spec.dimensionless.time, units, spec.time_dims, "a time")
+    for k in spec.initial:
+        if k not in spec.state_names():
+            raise ctx.error(f"initial.{k}", f"'{k}' is not a state (states: {', '.join(spec.state_names())})")
+    for o in spec.outputs.values():
+        u = _terms_unit(ctx, o.terms, units)
+        if o.unit is not None and u is not None:
+            declared = unit_of(ctx, f"outputs.{o.name}.unit", o.unit)
+            if not u.same_dimension(declared):
+                raise ctx.error(f"outputs.{o.name}.value", f"unit mismatch: value is [{u.si_string()}] "
+                                                           f"but unit says [{declared.si_string()}]")
+    spec.units.update(units)
+
+
+def _all_terms(spec: ModelSpec):
+    for d in spec.derived.values():
+        for t in d.terms:
+            yield t.field, t
+    for el in spec.elements.values():
+        for terms in el.fields.values():
+            for t in terms:
+                yield t.field, t
+        if el.effect is not None or el.variant is not None:
+            yield f"elements.{el.name}.effect", Term("0", f"elements.{el.name}", el.effect, el.variant)
+    for eq in spec.equations.values():
+        for t in (*eq.mass, *eq.force):
+            yield t.field, t
+    if spec.reduction is not None:
+        for rc in spec.reduction.coordinates:
+            if rc.element is None:
+                for t in rc.definition:
+                    yield t.field, t
+
+
+def _derived_order(ctx: Ctx, spec: ModelSpec) -> list[str]:
+    deps = {n: set().union(*[_names(ctx, t.field, t.expr) for t in d.terms]) & set(spec.derived)
+            for n, d in spec.derived.items()}
+    order: list[str] = []
+    state: dict[str, int] = {}
+
+    def visit(n: str, stack: list[str]) -> None:
+        if state.get(n) == 2:
+            return
+        if state.get(n) == 1:
+            cycle = " -> ".join(stack[stack.index(n):] + [n])
+            raise ctx.error(f"derived.{n}", f"circular definition: {cycle}")
+        state[n] = 1
+        for m in sorted(deps[n]):
+            visit(m, stack + [n])
+        state[n] = 2
+        order.append(n)
+
+    for n in spec.derived:
+        visit(n, [])
+    return order
+
+
+def _bound_calls(ctx: Ctx, where: str, text: str) -> list[tuple[str, list[str | None]]]:
+    try:
+        return ex.bound_calls(text)
+    except ex.ExpressionError as exc:
+        raise ctx.error(where, str(exc)) from None
+
+
+def _names(ctx: Ctx, where: str, text: str) -> set[str]:
+    try:
+        return ex.names_in(text)
+    except ex.ExpressionError as exc:
+        raise ctx.error(where, str(exc)) from None
+
+
+def _terms_unit(ctx: Ctx, terms: tuple[Term, ...], units: dict[str, Unit]) -> Unit | None:
+    out: Unit | None = None
+    for t in terms:
+        try:
+            u = ex.infer_unit(t.expr, units)
+        except ex.ExpressionError as exc:
+            raise ctx.error(t.field, str(exc)) from None
+        if out is not None and not out.same_dimension(u):
+            raise ctx.error(t.field, f"unit mismatch: this term is [{u.si_string()}] but earlier "
+                                     f"terms of the field are [{out.si_string()}]")
+        out = u
+    return out
+
+
+def _expect(ctx: Ctx, where: str, text: str, units: dict[str, Unit], want: Unit, what: str) -> None:
+    try:
+        u = ex.infer_unit(text, units)
+    except ex.ExpressionError as exc:
+        raise ctx.error(where, str(exc)) from None
+    if not u.same_dimension(want):
+        raise ctx.error(where, f"unit mismatch: must be {what} [{want.si_string()}], "
+                               f"got [{u.si_string()}]")
+
