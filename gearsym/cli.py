@@ -24,6 +24,15 @@ import numpy as np
 from . import cli_checks as checks
 from .errors import ConvergenceError, GearsymError, ParameterError, SpecError
 from .files import save_npz, to_json, write_json
+from .inspection import (
+    branch_mesh_figure,
+    inspect_structure,
+    mesh_figure,
+    print_branch_meshes,
+    print_meshes,
+    print_structure,
+    print_trivial,
+)
 
 
 # ----------------------------------------------------------------- arguments
@@ -132,6 +141,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         "forcing_period": sp.sstr(m.forcing_period) if m.forcing_period is not None else None,
         "equations": [sp.sstr(e.lhs) + " = " + sp.sstr(e.rhs) for e in m.equations()],
         "dimensionless_groups": {},
+        **inspect_structure(m),
     }
     if ms.dimensionless is not None and m.form == "explicit":
         d = m.dimensionless()
@@ -156,6 +166,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     for name, e in info["effects"].items():
         state = ("on" + (f" ({e['variant']})" if e["variant"] else "")) if e["on"] else "off"
         print(f"  {name:28s} {state:10s} {e['meaning']}")
+    print_structure(info)
     print("equations of motion:")
     for eq in info["equations"]:
         print(f"  {eq}")
@@ -263,6 +274,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         "rtol": rtol,
         "atol": atol,
     }
+    from .analysis.meshes import trajectory_meshes
+
+    meshes = trajectory_meshes(system, traj)
+    if meshes:
+        info["meshes"] = meshes
     if args.out:
         from .plots import plot_all
 
@@ -271,6 +287,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         traj.save_npz(out / "trajectory.npz")
         surfaces = _surface_levels(system, traj)
         files = plot_all(traj, out, title=scene.name, surfaces=surfaces)
+        mesh_fig = mesh_figure(system, traj, out, scene.name, info)
+        if mesh_fig is not None:
+            files.append(mesh_fig)
         outputs = system.outputs(traj)
         if outputs:
             from .plots import plot_outputs
@@ -385,6 +404,7 @@ def cmd_continue(args: argparse.Namespace) -> int:
             save_figure(fig, out / fname, dpi=110)
             plt.close(fig)
             files.append(out / fname)
+        files += branch_mesh_figure(branch, out, si, label, f"{scene.name}: mesh deflections against {name}")
         data["files"] = [str(f) for f in files]
     if args.json:
         _emit(data)
@@ -399,6 +419,7 @@ def cmd_continue(args: argparse.Namespace) -> int:
                 extra = f" ({b.info['surface']}, {b.info['side']} g)" if b.type == "grazing" else ""
                 print(f"  {b.type:16s} {name} = {b.value / si:.8g}{unit}{extra}  multipliers "
                       + ", ".join(f"{m.real:.4f}{m.imag:+.4f}j" for m in big))
+            print_branch_meshes(br)
         for f in data.get("files", []):
             print(f"wrote {f}")
     if not branch.complete:
@@ -452,16 +473,20 @@ def cmd_orbit(args: argparse.Namespace) -> int:
     if args.json:
         _emit(info)
     else:
-        verdict = "stable" if orbit.stable else "UNSTABLE"
+        verdict = {"asymptotically_stable": "asymptotically stable", "neutral": "neutral (stable, multipliers on "
+                   "the unit circle within the monodromy's error)", "unstable": "UNSTABLE"}.get(orbit.stability,
+                                                                                               orbit.stability)
         print(f"{scene.name}: periodic orbit by {orbit.method}, period {orbit.period:.10g} "
               f"({orbit.periods:g} forcing period(s)), {orbit.iterations} iterations, residual "
               f"{orbit.residual:.3g}")
         print("x0: " + ", ".join(f"{n} = {v:.12g}" for n, v in zip(orbit.state_names, orbit.x0)))
         print("multipliers: " + ", ".join(f"{m.real:.8g}{m.imag:+.8g}j (|mu| = {abs(m):.8g})"
                                           for m in orbit.multipliers))
+        print_trivial(orbit.trivial_multipliers)
         print(f"{verdict}, max|mu| = {orbit.max_multiplier:.10g}; {orbit.state_names[0]} in "
               f"[{info['min']:.10g}, {info['max']:.10g}]"
               + (f"; rattle state {orbit.rattle_state}" if orbit.rattle_state is not None else ""))
+        print_meshes(info.get("meshes", {}))
         for f in info.get("files", []):
             print(f"wrote {f}")
     return 0

@@ -145,3 +145,30 @@ def plot_outputs(t: np.ndarray, outputs: dict[str, np.ndarray], out_dir: str | P
     save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
+
+
+def plot_mesh_deflections(t: np.ndarray, deflections: dict[str, np.ndarray], out_dir: str | Path,
+                          flanks: dict[str, tuple[np.ndarray, np.ndarray]] | None = None, title: str = "",
+                          rattle: dict[str, int | None] | None = None) -> Path | None:
+    """Time history of every mesh's dynamic deflection (one panel each, in um), with its
+    contact flanks (backlash) as dashed lines -> ``mesh_deflections.png``."""
+    if not deflections:
+        return None
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(len(deflections), 1, figsize=(8, 2.4 * len(deflections)), sharex=True, squeeze=False)
+    for ax, (name, d) in zip(axes[:, 0], deflections.items()):
+        ax.plot(t, d * 1e6, lw=0.7)
+        for level in (flanks or {}).get(name, ()):
+            ax.plot(t, level * 1e6, color="0.5", lw=0.6, ls="--")
+        rs = (rattle or {}).get(name)
+        ax.set_ylabel(f"{name} [um]")
+        if rs is not None:
+            ax.set_title(f"{name}: rattle state {rs} (steady part)", fontsize=9)
+    axes[-1, 0].set_xlabel("t")
+    fig.suptitle(f"{title} mesh deflections (dynamic transmission errors)".strip(), fontsize=10)
+    fig.tight_layout()
+    path = out / "mesh_deflections.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

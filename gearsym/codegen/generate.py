@@ -26,6 +26,8 @@ import sympy as sp
 from ..errors import CompileError
 from ..symbolic.model import SymbolicModel
 from .cache import KEY_MARKER
+from .extras import DOCS as _EXTRA_DOCS
+from .extras import analysis_functions, analysis_meta
 from .sx import SXTranslator
 
 #: Bump when the generated code's layout changes (invalidates caches).
@@ -76,6 +78,10 @@ class GeneratedModel:
     #: names of the model's [outputs] (evaluated by ``gs_out``), with their units
     outputs: list[str] = field(default_factory=list)
     output_units: dict[str, str] = field(default_factory=dict)
+    #: mesh elements (``gs_mesh`` gives their dynamic deflections) and rigid-body modes
+    #: (``gs_rigid``; coefficients as text), see :mod:`gearsym.codegen.extras`
+    meshes: list[str] = field(default_factory=list)
+    rigid_modes: list[dict] = field(default_factory=list)
     #: the full build key (64 hex digits; ``key`` is its first 16), compiled into the
     #: object as ``gs_build_key()`` (:func:`gearsym.codegen.cache.build_key`)
     build_key: str = ""
@@ -216,6 +222,7 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     if outputs:
         o = ca.vertcat(*[tr(e) for e in outputs.values()])
         fns["gs_out"] = ca.Function("gs_out", [t, x, p, m], [o], ["t", "x", "p", "m"], ["y"])
+    fns.update(analysis_functions(model, tr, t, x, p, m))
     return fns
 
 
@@ -241,6 +248,7 @@ _DOCS = {
     "gs_sched": "schedules: [period, break fractions...] for each schedule",
     "gs_period": "the scene's forcing period T(p)",
     "gs_out": "the model's [outputs] along a trajectory (post-processing, not used by the driver)",
+    **_EXTRA_DOCS,
 }
 
 
@@ -349,6 +357,7 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], staging
         bound={k: [f, list(a)] for k, (f, a) in getattr(model, "bound_parameters", {}).items()},
         outputs=list(getattr(model, "outputs", {})),
         output_units={k: (o.unit or "") for k, o in model.spec.outputs.items()},
+        **analysis_meta(model),
         build_key=build_key, so_sha256=digest, key_parts=dict(key_parts or {}), model=model.name,
         built=time.time(),
     )

@@ -52,6 +52,7 @@ from .fields import (
 )
 from .files import read_toml
 from .names import check_label, check_symbol_name
+from .reduction import Reduction, parse_reduction
 from .units import Unit
 from .validate import validate_model
 
@@ -150,18 +151,6 @@ class Equation:
 
 
 @dataclass(frozen=True)
-class Reduction:
-    """Reduce the coordinates to one relative coordinate (e.g. the DTE)."""
-
-    coordinate: str
-    velocity: str
-    definition: tuple[Term, ...]
-    unit: str
-    meaning: str
-    dims: Unit
-
-
-@dataclass(frozen=True)
 class Group:
     """A dimensionless group: its definition and the parameter it eliminates."""
 
@@ -209,7 +198,7 @@ class ModelSpec:
     def state_names(self) -> list[str]:
         """Names of the first-order states: coordinates then velocities."""
         if self.reduction is not None:
-            return [self.reduction.coordinate, self.reduction.velocity]
+            return self.reduction.state_names()
         coords = list(self.coordinates.values())
         return [c.name for c in coords] + [c.velocity for c in coords]
 
@@ -421,21 +410,13 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
             read_terms(ctx, f"{where}.force", eq["force"], schedules) if "force" in eq else (),
         )
 
-    # reduction
+    # reduction (gearsym/spec/reduction.py)
     reduction = None
     if "reduction" in data:
-        r = table(ctx, data, "reduction")
-        only_keys(ctx, "reduction", r, {"coordinate", "velocity", "definition", "unit", "meaning"})
-        rc = string(ctx, r, "reduction.coordinate", required=True)
-        rv = string(ctx, r, "reduction.velocity") or f"{rc}_dot"
-        declare(rc, "reduction.coordinate")
-        declare(rv, "reduction.velocity")
-        if "definition" not in r:
-            raise ctx.error("reduction.definition", "missing definition of the reduced coordinate")
-        runit = string(ctx, r, "reduction.unit") or "1"
-        rdims = unit_of(ctx, "reduction.unit", runit)
-        reduction = Reduction(rc, rv, read_terms(ctx, "reduction.definition", r["definition"], schedules),
-                              runit, string(ctx, r, "reduction.meaning") or "", rdims)
+        reduction = parse_reduction(
+            ctx, table(ctx, data, "reduction"), declare, elements,
+            lambda where, value: read_terms(ctx, where, value, schedules),
+            lambda tbl, where: string(ctx, tbl, where), lambda where, text: unit_of(ctx, where, text))
 
     forcing = table(ctx, data, "forcing")
     only_keys(ctx, "forcing", forcing, {"period"})

@@ -112,7 +112,7 @@ class ResolvedScene:
         """Names of the first-order states of this scene (coordinates of switched-off
         effects removed)."""
         if self.model.reduction is not None:
-            return self.model.state_names()
+            return self.model.reduction.state_names(lambda c: self.effect_active(c.effect, c.variant))
         coords = [c for c in self.model.coordinates.values() if self.coordinate_active(c.name)]
         return [c.name for c in coords] + [c.velocity for c in coords]
 
@@ -425,8 +425,9 @@ def _terms_with_owner(model: ModelSpec):
         for t in (*eq.mass, *eq.force):
             yield t, model.coordinates[eq.coordinate].effect, None
     if model.reduction is not None:
-        for t in model.reduction.definition:
-            yield t, None, None
+        for rc in model.reduction.coordinates:
+            for t in rc.definition:
+                yield t, rc.effect, rc.variant
     for o in model.outputs.values():
         for t in o.terms:
             yield t, None, None
