@@ -93,7 +93,7 @@ def rigid_body_modes(q: Sequence[sp.Symbol], v: Sequence[sp.Symbol], deflections
 
     clean: list[list[sp.Expr]] = []
     for row in rows:
-        row = [sp.sympify(x) for x in row]
+        row = [x if isinstance(x, sp.Basic) else sp.Integer(x) for x in row]
         if not any(x.free_symbols & dyn for x in row):
             clean += indicator(row) if any(x.has(sp.Piecewise) for x in row) else [row]
             continue
