@@ -39,13 +39,24 @@ _EXPORTS: dict[str, str] = {
     "System": ".system",
 }
 
-__all__ = sorted([*_EXPORTS, "__version__"])
+__all__ = [  # every key of _EXPORTS (tests/test_docstrings.py checks), written out for linters and autodoc
+    "Bifurcation", "Branch", "BranchPoint", "CompileError", "ConvergenceError", "Event", "GearsymError",
+    "ParameterError", "PeriodicOrbit", "Scene", "SimulationError", "SpecError", "System", "Trajectory",
+    "__version__", "continuation", "load_scene",
+]
 
 if TYPE_CHECKING:  # pragma: no cover
     from .analysis.branch import Bifurcation, Branch, BranchPoint
     from .analysis.continuation import continuation
     from .analysis.orbit import PeriodicOrbit
-    from .errors import CompileError, ConvergenceError, GearsymError, ParameterError, SimulationError, SpecError
+    from .errors import (
+        CompileError,
+        ConvergenceError,
+        GearsymError,
+        ParameterError,
+        SimulationError,
+        SpecError,
+    )
     from .facade import Scene, load_scene
     from .results import Event, Trajectory
     from .system import System

@@ -25,11 +25,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _ks_loader import ks
 from packaging.markers import default_environment
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
-
-from _ks_loader import ks
 
 pytestmark = pytest.mark.wheel
 REPO = Path(__file__).resolve().parents[1]
