@@ -48,6 +48,9 @@ class Scene:
         ``{"sliding_friction": "B"}``.
     overrides
         Parameter values overriding the scene's, in the model's declared units.
+    model_spec
+        The model, when the caller has already loaded it (default: read the scene's
+        ``model`` file).
 
     Attributes
     ----------
@@ -129,6 +132,11 @@ class Scene:
             Root folder of the builds (default: :func:`default_generated_dir`).
         force
             Rebuild even if a verified build exists.
+
+        Returns
+        -------
+        GeneratedModel
+            Sources, shared object, state and parameter names of the build.
 
         Raises
         ------
