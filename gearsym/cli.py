@@ -12,15 +12,16 @@ work (:mod:`gearsym.cli_checks`); every output file is written atomically
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
-import traceback
 from pathlib import Path
-from typing import Any
 
 from . import cli_checks as checks
 from .errors import ConvergenceError, GearsymError, ParameterError, SpecError
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
+if TYPE_CHECKING:  # pragma: no cover
+    from typing import Any
 
 # numpy, sympy, CasADi and the layers that need them are imported inside the commands, so that
 # `gearsym --version`, `gearsym models` and argument errors stay fast.
@@ -194,6 +195,8 @@ def _model_scene(path: Path, model_spec, args):
     from .facade import Scene
 
     tmp = Path(tempfile.mkdtemp(prefix="gearsym-")) / f"{model_spec.name}.toml"
+    import json
+
     tmp.write_text(f'[scene]\nname = "{model_spec.name}"\nmodel = {json.dumps(str(path.resolve()))}\n')
     return Scene(tmp, _parse_effects(args.effect, args.no_effect) or None, _parse_set(args.set),
                  model_spec=model_spec)
@@ -687,6 +690,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except Exception as exc:  # internal error: short message, traceback on request
         if args.debug:
+            import traceback
+
             traceback.print_exc()
         print(f"gearsym: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the "
               f"traceback)", file=sys.stderr)

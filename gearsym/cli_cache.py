@@ -7,15 +7,14 @@ grows past the size limit.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from .errors import ParameterError
 
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
 if TYPE_CHECKING:  # pragma: no cover
     from .codegen.cache import BuildCache  # imports CasADi: only when the command runs
 
@@ -73,6 +72,8 @@ def _size(n: int) -> str:
 
 def cmd_cache(args: argparse.Namespace) -> int:
     """Run ``gearsym cache ACTION``."""
+    import json
+
     if args.older_than is not None:
         if args.action != "clear":
             raise ParameterError("--older-than applies to 'gearsym cache clear' only")
@@ -103,6 +104,8 @@ def cmd_cache(args: argparse.Namespace) -> int:
 
 
 def _path(cache: BuildCache, scene, as_json: bool) -> int:
+    import json
+
     info: dict[str, object] = {"root": str(cache.root),
                                "GEARSYM_GENERATED": os.environ.get("GEARSYM_GENERATED") or None}
     if scene is not None:

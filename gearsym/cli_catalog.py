@@ -7,7 +7,6 @@ grows past the size limit.  Neither command imports numpy, sympy or CasADi.
 from __future__ import annotations
 
 import argparse
-import json
 import re
 from pathlib import Path
 
@@ -58,6 +57,8 @@ def cmd_models(args: argparse.Namespace) -> int:
     int
         The exit code (0).
     """
+    import json
+
     from .catalog import data_root, shipped_models, shipped_scenes
 
     models, scenes = shipped_models(), shipped_scenes()
@@ -83,6 +84,8 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 def _rename(text: str, section: str, name: str, extra: dict[str, str] | None = None) -> str:
     """Set ``name`` (and the ``extra`` string fields) in ``[section]`` of a TOML text, keeping comments."""
+    import json
+
     head = re.search(rf"(?m)^\[{section}\][^\n]*\n", text)
     if head is None:
         raise SpecError(f"no [{section}] section to rename")
@@ -159,6 +162,8 @@ def cmd_init(args: argparse.Namespace) -> int:
     ParameterError
         A file to write exists already, or the name is not valid.
     """
+    import json
+
     model_text, scene_text = init_files(args.name, args.source)
     root = Path(args.dir)
     targets = [root / "models" / f"{args.name}.toml", root / "scenes" / f"{args.name}.toml"]

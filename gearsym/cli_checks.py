@@ -22,9 +22,12 @@ from __future__ import annotations
 import argparse
 import math
 import re
-from typing import Any
 
 from .errors import ParameterError
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
+if TYPE_CHECKING:  # pragma: no cover
+    from typing import Any
 
 __all__ = ["LIMITS", "UsageError", "GearsymArgumentParser", "check_bench", "check_continue", "check_map",
            "check_orbit", "check_simulate", "float_list", "state_list"]
