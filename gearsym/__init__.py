@@ -40,7 +40,7 @@ _EXPORTS: dict[str, str] = {
     "System": ".system",
 }
 
-__all__ = [  # every key of _EXPORTS (tests/test_docstrings.py checks), written out for linters and autodoc
+__all__ = [
     "Bifurcation", "Branch", "BranchPoint", "CompileError", "ConvergenceError", "Event", "GearsymError",
     "ParameterError", "PeriodicOrbit", "Scene", "SimulationError", "SpecError", "System", "Trajectory",
     "__version__", "continuation", "load_scene",
