@@ -19,12 +19,10 @@ from pathlib import Path
 from . import cli_checks as checks
 from .errors import ConvergenceError, GearsymError, ParameterError, SpecError
 
-TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
+# typing, numpy, sympy, CasADi and the layers that use them: imported where needed (a light --version)
+TYPE_CHECKING = False
 if TYPE_CHECKING:  # pragma: no cover
     from typing import Any
-
-# numpy, sympy, CasADi and the layers that need them are imported inside the commands, so that
-# `gearsym --version`, `gearsym models` and argument errors stay fast.
 
 
 # ----------------------------------------------------------------- arguments
@@ -544,7 +542,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=checks.GearsymArgumentParser)
 
     p = sub.add_parser("inspect", help="show derived equations, states, parameters, effects, modes")
-    p.add_argument("path", help="scene or model file")
+    p.add_argument("path", help="scene or model file, or the name of a shipped scene or model")
     p.add_argument("--latex", action="store_true", help="also print the equations as LaTeX")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter")
