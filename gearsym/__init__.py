@@ -15,7 +15,8 @@ The public names are imported on first use (PEP 562), so ``import gearsym`` and
 from __future__ import annotations
 
 import importlib
-from typing import TYPE_CHECKING, Any
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (type checkers read it as True)
 
 __version__ = "0.1.0"
 
@@ -62,7 +63,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .system import System
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     """Import a public name on first access."""
     try:
         module = _EXPORTS[name]

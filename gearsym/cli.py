@@ -12,19 +12,13 @@ work (:mod:`gearsym.cli_checks`); every output file is written atomically
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
-import traceback
 from pathlib import Path
-from typing import Any
-
-import numpy as np
 
 from . import cli_checks as checks
 from .errors import ConvergenceError, GearsymError, ParameterError, SpecError
-from .files import save_npz, to_json, write_json
-from .inspection import (
+from .inspection import (  # a light module: no numpy/sympy at import
     branch_mesh_figure,
     inspect_structure,
     mesh_figure,
@@ -33,6 +27,11 @@ from .inspection import (
     print_structure,
     print_trivial,
 )
+
+# typing, numpy, sympy, CasADi and the layers that use them: imported where needed (a light --version)
+TYPE_CHECKING = False
+if TYPE_CHECKING:  # pragma: no cover
+    from typing import Any
 
 
 # ----------------------------------------------------------------- arguments
@@ -66,7 +65,7 @@ def _parse_effects(on: list[str] | None, off: list[str] | None) -> dict[str, boo
 
 
 def _scene_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scene", help="scene file (scenes/*.toml)")
+    p.add_argument("scene", help="scene file, or the name of a shipped scene (gearsym models lists them)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="override a parameter (in the model's declared unit); repeatable")
     p.add_argument("--effect", action="append", metavar="NAME[=VARIANT]",
@@ -83,6 +82,8 @@ def _load(args: argparse.Namespace):
 
 
 def _emit(obj: dict[str, Any]) -> None:
+    from .files import to_json
+
     print(to_json(obj))
 
 
@@ -96,11 +97,12 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     """Show a model's derived equations, states, parameters, effects, modes."""
     import sympy as sp
 
+    from .catalog import find_spec_file
     from .facade import Scene
     from .spec.files import read_toml
     from .spec.model import load_model
 
-    path = Path(args.path)
+    path = find_spec_file(args.path)
     head = read_toml(path, "file")  # regular file, size limit, before reading
     if "scene" in head:
         scene = Scene(path, _parse_effects(args.effect, args.no_effect) or None, _parse_set(args.set))
@@ -202,6 +204,8 @@ def _model_scene(path: Path, model_spec, args):
     from .facade import Scene
 
     tmp = Path(tempfile.mkdtemp(prefix="gearsym-")) / f"{model_spec.name}.toml"
+    import json
+
     tmp.write_text(f'[scene]\nname = "{model_spec.name}"\nmodel = {json.dumps(str(path.resolve()))}\n')
     return Scene(tmp, _parse_effects(args.effect, args.no_effect) or None, _parse_set(args.set),
                  model_spec=model_spec)
@@ -242,6 +246,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     """Simulate a scene; print statistics, optionally write the trajectory and plots."""
     checks.check_simulate(args)  # before any work: bad options and a bad --out are bad input
     scene = _load(args)
+    plot_states = checks.state_list(args.plot_states, scene.resolved.state_names(), "--plot-states")
     system = scene.compile()
     kw: dict[str, Any] = {}
     rtol = args.rtol if args.rtol is not None else float(scene.spec.simulate.get("rtol", 1e-8))
@@ -280,19 +285,18 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if meshes:
         info["meshes"] = meshes
     if args.out:
-        from .plots import plot_all
+        from .files import save_npz
+        from .plots import plot_all, plot_outputs, surface_levels
 
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         traj.save_npz(out / "trajectory.npz")
-        surfaces = _surface_levels(system, traj)
-        files = plot_all(traj, out, title=scene.name, surfaces=surfaces)
+        files = plot_all(traj, out, title=scene.name, surfaces=surface_levels(system), states=plot_states)
         mesh_fig = mesh_figure(system, traj, out, scene.name, info)
         if mesh_fig is not None:
             files.append(mesh_fig)
         outputs = system.outputs(traj)
         if outputs:
-            from .plots import plot_outputs
 
             files.append(plot_outputs(traj.t, outputs, out, system.generated.output_units, scene.name))
             save_npz(out / "outputs.npz", t=traj.t, **outputs)
@@ -337,7 +341,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 def cmd_continue(args: argparse.Namespace) -> int:
     """Continue periodic orbits in one parameter: branch, stability, located bifurcations."""
+    import numpy as np
+
     from .analysis.continuation import continuation
+    from .files import write_json
 
     checks.check_continue(args)
     scene = _load(args)
@@ -448,6 +455,8 @@ def cmd_modes(args: argparse.Namespace) -> int:
 
 def cmd_orbit(args: argparse.Namespace) -> int:
     """Find a periodic orbit (shooting or harmonic balance) and its Floquet multipliers."""
+    from .files import write_json
+
     checks.check_orbit(args)
     scene = _load(args)
     system = scene.compile()
@@ -494,6 +503,8 @@ def cmd_orbit(args: argparse.Namespace) -> int:
 
 def cmd_map(args: argparse.Namespace) -> int:
     """Two-parameter stability / response map (netCDF + heat-map PNG)."""
+    import numpy as np
+
     from .analysis.maps import save_map, stability_map
 
     xa, ya = checks.check_map(args)
@@ -540,25 +551,6 @@ def cmd_map(args: argparse.Namespace) -> int:
     return 0
 
 
-def _surface_levels(system, traj) -> list[float]:
-    """Coordinate levels of surfaces of the form x -/+ b (for plots)."""
-    levels = []
-    try:
-        fn = system.generated.casadi_function("gs_sw")
-        p = system.param_vector()
-        x = np.zeros(system.generated.nx)
-        g0 = np.asarray(fn(0.0, x, p)).ravel()
-        x[0] = 1.0
-        g1 = np.asarray(fn(0.0, x, p)).ravel()
-        for a, b in zip(g0, g1):
-            slope = b - a
-            if abs(slope - 1.0) < 1e-12:
-                levels.append(-a)
-    except Exception:  # plots are a convenience; never fail the command for them
-        return []
-    return levels
-
-
 # -------------------------------------------------------------------- main
 def cmd_export(args: argparse.Namespace) -> int:
     """Export a scene as a standalone C project (--c DIR) and/or an FMI 2.0 ME FMU (--fmu FILE)."""
@@ -591,7 +583,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=checks.GearsymArgumentParser)
 
     p = sub.add_parser("inspect", help="show derived equations, states, parameters, effects, modes")
-    p.add_argument("path", help="scene or model file")
+    p.add_argument("path", help="scene or model file, or the name of a shipped scene or model")
     p.add_argument("--latex", action="store_true", help="also print the equations as LaTeX")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter")
@@ -615,6 +607,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-steps", type=int, help="limit on internal integrator steps (default: the scene's, "
                    "else 10,000,000)")
     p.add_argument("--out", help="folder for trajectory.npz and PNG plots")
+    p.add_argument("--plot-states", metavar="NAMES", help="comma-separated states the time-history figure "
+                   "shows (default: every state)")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("bench", help="work-precision benchmark: error vs wall time, gearsym vs peer integrators")
@@ -700,8 +694,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_map)
 
     from .cli_cache import add_cache_parser
+    from .cli_catalog import add_catalog_parsers
 
     add_cache_parser(sub)
+    add_catalog_parsers(sub)
     return parser
 
 
@@ -723,6 +719,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
+        from .extras import require_for_command
+
+        require_for_command(args)  # a missing optional dependency: exit 2, naming the extra
         return int(args.func(args) or 0)
     except GearsymError as exc:
         print(f"gearsym: error: {exc}", file=sys.stderr)
@@ -737,6 +736,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except Exception as exc:  # internal error: short message, traceback on request
         if args.debug:
+            import traceback
+
             traceback.print_exc()
         print(f"gearsym: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the "
               f"traceback)", file=sys.stderr)

@@ -10,7 +10,17 @@ import numpy as np
 
 
 class Event(NamedTuple):
-    """A contact transition: time, switching-surface name, direction (+1 / -1)."""
+    """A crossing of a switching surface (a contact transition).
+
+    Attributes
+    ----------
+    t : float
+        Time of the crossing, located by the integrator's root finding.
+    surface : str
+        Name of the switching surface, e.g. ``mesh.drive``.
+    direction : int
+        ``+1`` if ``g`` went from negative to positive, ``-1`` the other way.
+    """
 
     t: float
     surface: str
@@ -28,6 +38,7 @@ class Trajectory:
     y : ndarray, shape (n_out, n_states)
         States at ``t``.
     state_names : list of str
+        Names of the states, in the order of the columns of ``y``.
     events : list of Event
         Every crossing of a switching surface (contact loss / contact), in order.
     stats : dict
@@ -75,6 +86,16 @@ class Trajectory:
         ----------
         skip
             Number of leading periods to drop (transient).
+
+        Returns
+        -------
+        ndarray, shape (n_points, n_states)
+            The Poincare section at ``t = t0 + k*T``.
+
+        Raises
+        ------
+        ValueError
+            The scene has no forcing period.
         """
         if not self.period:
             raise ValueError("the scene has no forcing period")
@@ -84,7 +105,15 @@ class Trajectory:
         return pts[skip:]
 
     def save_npz(self, path: str | Path) -> None:
-        """Write the trajectory to a ``.npz`` file (atomically: a complete file or none)."""
+        """Write the trajectory to a ``.npz`` file (atomically: a complete file or none).
+
+        Parameters
+        ----------
+        path
+            The file (``.npz``).  It holds ``t``, ``y``, ``state_names``, the events
+            (``event_t``, ``event_direction``, ``event_surface``), ``period`` (NaN without
+            one) and the parameters (``param_names``, ``param_values``, SI units).
+        """
         from .files import save_npz
 
         ev = np.array([(e.t, e.direction) for e in self.events]).reshape(-1, 2)

@@ -28,6 +28,19 @@ class System:
 
     Obtained from :meth:`gearsym.Scene.compile`; not constructed directly.
 
+    Parameters
+    ----------
+    generated
+        The compiled model (:meth:`gearsym.Scene.generate`).
+    params
+        Values of the run-time parameters (SI units).
+    x0
+        The initial state.
+    defaults
+        The scene's ``[simulate]`` table (``periods``, ``rtol``, ``method``, ...).
+    scene_name
+        The scene's name (default: the build's).
+
     Attributes
     ----------
     generated : GeneratedModel
@@ -68,7 +81,23 @@ class System:
         return [s["name"] for s in self.generated.surfaces]
 
     def param_vector(self, params: Mapping[str, float] | None = None) -> np.ndarray:
-        """Parameter vector with ``params`` overriding the current values (SI units)."""
+        """Parameter vector with ``params`` overriding the current values (SI units).
+
+        Parameters
+        ----------
+        params
+            Overrides by name (SI units).
+
+        Returns
+        -------
+        ndarray
+            Values in the order of :attr:`param_names`, bound parameters evaluated.
+
+        Raises
+        ------
+        ParameterError
+            An unknown or non-finite override.
+        """
         values = dict(self.params)
         for k, v in (params or {}).items():
             if k not in values:
@@ -85,16 +114,36 @@ class System:
         return np.array([values[k] for k in self.generated.param_names], dtype=float)
 
     def period(self, params: Mapping[str, float] | None = None) -> float | None:
-        """The forcing period at these parameters (``None`` if the scene has none, or if it is not
-        finite and positive at these values; :meth:`require_period` says which).
+        """The forcing period at these parameters.
 
         Evaluated by the generated C (``gs_period``) through the engine: about a microsecond.
+
+        Parameters
+        ----------
+        params
+            Parameter overrides (SI units).
+
+        Returns
+        -------
+        float or None
+            ``None`` if the scene has none, or if it is not finite and positive at these
+            values (:meth:`require_period` says which).
         """
         T = self.engine.period(self.param_vector(params))
         return T if math.isfinite(T) and T > 0 else None
 
     def period_of(self, p: np.ndarray) -> float | None:
-        """:meth:`period` for a parameter *vector* (as :meth:`param_vector` returns)."""
+        """:meth:`period` for a parameter *vector*.
+
+        Parameters
+        ----------
+        p
+            Parameter vector (as :meth:`param_vector` returns).
+
+        Returns
+        -------
+        float or None
+        """
         T = self.engine.period(p)
         return T if math.isfinite(T) and T > 0 else None
 
@@ -113,6 +162,11 @@ class System:
             Parameter overrides (SI).
         what
             What needs the period (for the message), e.g. ``"periods="``.
+
+        Returns
+        -------
+        float
+            The forcing period.
 
         Raises
         ------
@@ -137,13 +191,44 @@ class System:
             params: Mapping[str, float] | None = None) -> np.ndarray:
         """Evaluate the right-hand side (explicit models) in a given mode.
 
-        ``sigma`` defaults to the sides of the switching surfaces at ``x``.
+        Parameters
+        ----------
+        t
+            Time.
+        x
+            State.
+        sigma
+            Side (+1/-1) of each switching surface; by default the sides at ``(t, x)``.
+        params
+            Parameter overrides (SI units).
+
+        Returns
+        -------
+        ndarray
+            ``dx/dt``.
         """
         return self._eval_one("rhs", t, x, sigma, params)
 
     def jacobian(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
                  params: Mapping[str, float] | None = None) -> np.ndarray:
-        """The generated Jacobian ``df/dx`` (explicit models), ``sigma`` as in :meth:`rhs`."""
+        """The generated Jacobian ``df/dx`` (explicit models).
+
+        Parameters
+        ----------
+        t
+            Time.
+        x
+            State.
+        sigma
+            Side (+1/-1) of each switching surface; by default the sides at ``(t, x)``.
+        params
+            Parameter overrides (SI units).
+
+        Returns
+        -------
+        ndarray, shape (n_states, n_states)
+            The Jacobian in that mode.
+        """
         return self._eval_one("jac", t, x, sigma, params)
 
     def _eval_one(self, name: str, t: float, x: Sequence[float], sigma: Sequence[float] | None,

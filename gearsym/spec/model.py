@@ -51,6 +51,7 @@ from .fields import (
     unit_of,
 )
 from .files import read_toml
+from .initial import read_initial
 from .names import check_label, check_symbol_name
 from .reduction import Reduction, parse_reduction
 from .units import Unit
@@ -189,11 +190,13 @@ class ModelSpec:
     equations: dict[str, Equation]
     reduction: Reduction | None
     forcing_period: str | None
-    initial: dict[str, float]
+    initial: dict[str, float | str]
     dimensionless: Dimensionless | None
     notes: str = ""
     units: dict[str, Unit] = field(default_factory=dict, repr=False)
     outputs: dict[str, Derived] = field(default_factory=dict)
+    #: ``[initial] static``: start from the static equilibrium (``None``: not given)
+    static: bool | None = None
 
     def state_names(self) -> list[str]:
         """Names of the first-order states: coordinates then velocities."""
@@ -422,9 +425,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     only_keys(ctx, "forcing", forcing, {"period"})
     period = expr_str(ctx, "forcing.period", forcing["period"]) if "period" in forcing else None
 
-    initial: dict[str, float] = {}
-    for k, v in table(ctx, data, "initial").items():
-        initial[k] = number(ctx, f"initial.{k}", v)
+    initial, static = read_initial(table(ctx, data, "initial"), ctx.error)
 
     dimless = None
     if "dimensionless" in data:
@@ -457,7 +458,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         time_dims=time_dims, coordinates=coordinates, parameters=parameters, derived=derived,
         effects=effects, schedules=schedules, elements=elements, equations=equations,
         reduction=reduction, forcing_period=period, initial=initial, dimensionless=dimless,
-        notes=string(ctx, meta, "model.notes") or "", outputs=outputs,
+        notes=string(ctx, meta, "model.notes") or "", outputs=outputs, static=static,
     )
     validate_model(ctx, spec)
     return spec
