@@ -250,7 +250,10 @@ class System:
         x
             State(s), shape (nx,) or (n, nx).
         params
-            Parameter overrides (SI units); or give the vector ``p`` directly.
+            Parameter overrides (SI units).
+        p
+            The parameter vector itself (from :meth:`param_vector`); when given,
+            ``params`` is ignored.
 
         Returns
         -------
