@@ -1,19 +1,35 @@
-# gearsym: `make demo` runs the flagship demo, `make test` runs the test suite.
-# Both create .venv (if missing) and install the project with its dependencies.
+# gearsym: `make demo` runs the flagship demo, `make test` runs the test suite, `make docs`
+# builds the documentation site (docs/_build/html; warnings are errors), `make dist` the
+# wheel and sdist (dist/).  They create .venv (if missing) and install the project with
+# every optional dependency (.[all,test]; `make docs` adds .[docs]).
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench gallery clean
+DOCSTAMP := $(VENV)/.installed-docs
+
+.PHONY: demo test lint bench gallery clean docs dist
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 
 $(STAMP): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e ".[test]"
+	$(PY) -m pip install --quiet -e ".[all,test]"
 	touch $(STAMP)
+
+$(DOCSTAMP): $(STAMP)
+	$(PY) -m pip install --quiet -e ".[all,test,docs]"
+	touch $(DOCSTAMP)
+
+# the guides (docs/guides/*.py) run during the build; -W: any warning fails it
+docs: $(DOCSTAMP)
+	$(PY) -m sphinx -E -W --keep-going -q -b html docs docs/_build/html
+	@echo "docs/_build/html/index.html"
+
+dist: $(STAMP)
+	$(PY) -m build --no-isolation --outdir dist .
 
 demo: $(STAMP)
 	$(PY) examples/demo.py --out out
@@ -29,4 +45,4 @@ bench: $(STAMP)
 	$(PY) benchmarks/simulate_speed.py --out out/bench
 
 clean:
-	rm -rf out generated/*/ .pytest_cache
+	rm -rf out generated/*/ .pytest_cache docs/_build docs/auto_guides docs/sg_execution_times.rst dist

@@ -242,7 +242,7 @@ def markdown_table(all_cases: list[dict]) -> str:
     for res in all_cases:
         case = res["case"]
         meths = list(dict.fromkeys(r["method"] for r in case["results"]))
-        lines.append(f"#### {case['case']}\n")
+        lines.append(f"### {case['case']}\n")
         ref = case["reference"]
         div = case["divergence"]
         note = (f"; chaotic: error over the first {div['horizon_periods']:.3g} periods"

@@ -15,7 +15,8 @@ The public names are imported on first use (PEP 562), so ``import gearsym`` and
 from __future__ import annotations
 
 import importlib
-from typing import TYPE_CHECKING, Any
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (type checkers read it as True)
 
 __version__ = "0.1.0"
 
@@ -39,19 +40,30 @@ _EXPORTS: dict[str, str] = {
     "System": ".system",
 }
 
-__all__ = sorted([*_EXPORTS, "__version__"])
+__all__ = [
+    "Bifurcation", "Branch", "BranchPoint", "CompileError", "ConvergenceError", "Event", "GearsymError",
+    "ParameterError", "PeriodicOrbit", "Scene", "SimulationError", "SpecError", "System", "Trajectory",
+    "__version__", "continuation", "load_scene",
+]
 
 if TYPE_CHECKING:  # pragma: no cover
     from .analysis.branch import Bifurcation, Branch, BranchPoint
     from .analysis.continuation import continuation
     from .analysis.orbit import PeriodicOrbit
-    from .errors import CompileError, ConvergenceError, GearsymError, ParameterError, SimulationError, SpecError
+    from .errors import (
+        CompileError,
+        ConvergenceError,
+        GearsymError,
+        ParameterError,
+        SimulationError,
+        SpecError,
+    )
     from .facade import Scene, load_scene
     from .results import Event, Trajectory
     from .system import System
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     """Import a public name on first access."""
     try:
         module = _EXPORTS[name]

@@ -12,18 +12,26 @@ work (:mod:`gearsym.cli_checks`); every output file is written atomically
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
-import traceback
 from pathlib import Path
-from typing import Any
-
-import numpy as np
 
 from . import cli_checks as checks
 from .errors import ConvergenceError, GearsymError, ParameterError, SpecError
-from .files import save_npz, to_json, write_json
+from .inspection import (  # a light module: no numpy/sympy at import
+    branch_mesh_figure,
+    inspect_structure,
+    mesh_figure,
+    print_branch_meshes,
+    print_meshes,
+    print_structure,
+    print_trivial,
+)
+
+# typing, numpy, sympy, CasADi and the layers that use them: imported where needed (a light --version)
+TYPE_CHECKING = False
+if TYPE_CHECKING:  # pragma: no cover
+    from typing import Any
 
 
 # ----------------------------------------------------------------- arguments
@@ -57,7 +65,7 @@ def _parse_effects(on: list[str] | None, off: list[str] | None) -> dict[str, boo
 
 
 def _scene_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scene", help="scene file (scenes/*.toml)")
+    p.add_argument("scene", help="scene file, or the name of a shipped scene (gearsym models lists them)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="override a parameter (in the model's declared unit); repeatable")
     p.add_argument("--effect", action="append", metavar="NAME[=VARIANT]",
@@ -74,6 +82,8 @@ def _load(args: argparse.Namespace):
 
 
 def _emit(obj: dict[str, Any]) -> None:
+    from .files import to_json
+
     print(to_json(obj))
 
 
@@ -87,12 +97,13 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     """Show a model's derived equations, states, parameters, effects, modes."""
     import sympy as sp
 
+    from .catalog import find_spec_file
     from .cli_inspect import inspect_details, print_details
     from .facade import Scene
     from .spec.files import read_toml
     from .spec.model import load_model
 
-    path = Path(args.path)
+    path = find_spec_file(args.path)
     head = read_toml(path, "file")  # regular file, size limit, before reading
     if "scene" in head:
         scene = Scene(path, _parse_effects(args.effect, args.no_effect) or None, _parse_set(args.set))
@@ -132,6 +143,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         ],
         "forcing_period": sp.sstr(m.forcing_period) if m.forcing_period is not None else None,
         "equations": [sp.sstr(e.lhs) + " = " + sp.sstr(e.rhs) for e in m.equations()],
+        **inspect_structure(m),
     }
     info.update(inspect_details(m, jacobian=args.jacobian))
     if args.latex:
@@ -151,6 +163,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     for name, e in info["effects"].items():
         state = ("on" + (f" ({e['variant']})" if e["variant"] else "")) if e["on"] else "off"
         print(f"  {name:28s} {state:10s} {e['meaning']}")
+    print_structure(info)
     print("equations of motion:")
     for eq in info["equations"]:
         print(f"  {eq}")
@@ -178,6 +191,8 @@ def _model_scene(path: Path, model_spec, args):
     from .facade import Scene
 
     tmp = Path(tempfile.mkdtemp(prefix="gearsym-")) / f"{model_spec.name}.toml"
+    import json
+
     tmp.write_text(f'[scene]\nname = "{model_spec.name}"\nmodel = {json.dumps(str(path.resolve()))}\n')
     return Scene(tmp, _parse_effects(args.effect, args.no_effect) or None, _parse_set(args.set),
                  model_spec=model_spec)
@@ -218,6 +233,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     """Simulate a scene; print statistics, optionally write the trajectory and plots."""
     checks.check_simulate(args)  # before any work: bad options and a bad --out are bad input
     scene = _load(args)
+    plot_states = checks.state_list(args.plot_states, scene.resolved.state_names(), "--plot-states")
     system = scene.compile()
     kw: dict[str, Any] = {}
     rtol = args.rtol if args.rtol is not None else float(scene.spec.simulate.get("rtol", 1e-8))
@@ -250,17 +266,24 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         "rtol": rtol,
         "atol": atol,
     }
+    from .analysis.meshes import trajectory_meshes
+
+    meshes = trajectory_meshes(system, traj)
+    if meshes:
+        info["meshes"] = meshes
     if args.out:
-        from .plots import plot_all
+        from .files import save_npz
+        from .plots import plot_all, plot_outputs, surface_levels
 
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         traj.save_npz(out / "trajectory.npz")
-        surfaces = _surface_levels(system, traj)
-        files = plot_all(traj, out, title=scene.name, surfaces=surfaces)
+        files = plot_all(traj, out, title=scene.name, surfaces=surface_levels(system), states=plot_states)
+        mesh_fig = mesh_figure(system, traj, out, scene.name, info)
+        if mesh_fig is not None:
+            files.append(mesh_fig)
         outputs = system.outputs(traj)
         if outputs:
-            from .plots import plot_outputs
 
             files.append(plot_outputs(traj.t, outputs, out, system.generated.output_units, scene.name))
             save_npz(out / "outputs.npz", t=traj.t, **outputs)
@@ -305,7 +328,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 def cmd_continue(args: argparse.Namespace) -> int:
     """Continue periodic orbits in one parameter: branch, stability, located bifurcations."""
+    import numpy as np
+
     from .analysis.continuation import continuation
+    from .files import write_json
 
     checks.check_continue(args)
     scene = _load(args)
@@ -372,6 +398,7 @@ def cmd_continue(args: argparse.Namespace) -> int:
             save_figure(fig, out / fname, dpi=110)
             plt.close(fig)
             files.append(out / fname)
+        files += branch_mesh_figure(branch, out, si, label, f"{scene.name}: mesh deflections against {name}")
         data["files"] = [str(f) for f in files]
     if args.json:
         _emit(data)
@@ -386,6 +413,7 @@ def cmd_continue(args: argparse.Namespace) -> int:
                 extra = f" ({b.info['surface']}, {b.info['side']} g)" if b.type == "grazing" else ""
                 print(f"  {b.type:16s} {name} = {b.value / si:.8g}{unit}{extra}  multipliers "
                       + ", ".join(f"{m.real:.4f}{m.imag:+.4f}j" for m in big))
+            print_branch_meshes(br)
         for f in data.get("files", []):
             print(f"wrote {f}")
     if not branch.complete:
@@ -396,8 +424,26 @@ def cmd_continue(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_modes(args: argparse.Namespace) -> int:
+    """Natural frequencies and mode shapes about the static equilibrium (mean mesh stiffness)."""
+    from .analysis.modes import modal_analysis
+    from .analysis.planetary import classify_planetary
+
+    if args.samples < 1:
+        raise ParameterError(f"--samples must be >= 1, got {args.samples}")
+    scene = _load(args)
+    res = classify_planetary(modal_analysis(scene.compile(), samples=args.samples))
+    if args.json:
+        _emit({"scene": scene.name, **res.to_dict()})
+    else:
+        print(res.table(scene.name, "Hz" if scene.model_spec.time_unit == "s" else "1/time"))
+    return 0
+
+
 def cmd_orbit(args: argparse.Namespace) -> int:
     """Find a periodic orbit (shooting or harmonic balance) and its Floquet multipliers."""
+    from .files import write_json
+
     checks.check_orbit(args)
     scene = _load(args)
     system = scene.compile()
@@ -423,16 +469,20 @@ def cmd_orbit(args: argparse.Namespace) -> int:
     if args.json:
         _emit(info)
     else:
-        verdict = "stable" if orbit.stable else "UNSTABLE"
+        verdict = {"asymptotically_stable": "asymptotically stable", "neutral": "neutral (stable, multipliers on "
+                   "the unit circle within the monodromy's error)", "unstable": "UNSTABLE"}.get(orbit.stability,
+                                                                                               orbit.stability)
         print(f"{scene.name}: periodic orbit by {orbit.method}, period {orbit.period:.10g} "
               f"({orbit.periods:g} forcing period(s)), {orbit.iterations} iterations, residual "
               f"{orbit.residual:.3g}")
         print("x0: " + ", ".join(f"{n} = {v:.12g}" for n, v in zip(orbit.state_names, orbit.x0)))
         print("multipliers: " + ", ".join(f"{m.real:.8g}{m.imag:+.8g}j (|mu| = {abs(m):.8g})"
                                           for m in orbit.multipliers))
+        print_trivial(orbit.trivial_multipliers)
         print(f"{verdict}, max|mu| = {orbit.max_multiplier:.10g}; {orbit.state_names[0]} in "
               f"[{info['min']:.10g}, {info['max']:.10g}]"
               + (f"; rattle state {orbit.rattle_state}" if orbit.rattle_state is not None else ""))
+        print_meshes(info.get("meshes", {}))
         for f in info.get("files", []):
             print(f"wrote {f}")
     return 0
@@ -440,6 +490,8 @@ def cmd_orbit(args: argparse.Namespace) -> int:
 
 def cmd_map(args: argparse.Namespace) -> int:
     """Two-parameter stability / response map (netCDF + heat-map PNG)."""
+    import numpy as np
+
     from .analysis.maps import save_map, stability_map
 
     xa, ya = checks.check_map(args)
@@ -486,25 +538,6 @@ def cmd_map(args: argparse.Namespace) -> int:
     return 0
 
 
-def _surface_levels(system, traj) -> list[float]:
-    """Coordinate levels of surfaces of the form x -/+ b (for plots)."""
-    levels = []
-    try:
-        fn = system.generated.casadi_function("gs_sw")
-        p = system.param_vector()
-        x = np.zeros(system.generated.nx)
-        g0 = np.asarray(fn(0.0, x, p)).ravel()
-        x[0] = 1.0
-        g1 = np.asarray(fn(0.0, x, p)).ravel()
-        for a, b in zip(g0, g1):
-            slope = b - a
-            if abs(slope - 1.0) < 1e-12:
-                levels.append(-a)
-    except Exception:  # plots are a convenience; never fail the command for them
-        return []
-    return levels
-
-
 # -------------------------------------------------------------------- main
 def cmd_export(args: argparse.Namespace) -> int:
     """Export a scene as a standalone C project (--c DIR) and/or an FMI 2.0 ME FMU (--fmu FILE)."""
@@ -537,7 +570,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=checks.GearsymArgumentParser)
 
     p = sub.add_parser("inspect", help="show derived equations, states, parameters, effects, modes")
-    p.add_argument("path", help="scene or model file")
+    p.add_argument("path", help="scene or model file, or the name of a shipped scene or model")
     p.add_argument("--latex", action="store_true", help="also print the equations as LaTeX")
     p.add_argument("--jacobian", action="store_true", help="also print the symbolic Jacobian")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
@@ -562,6 +595,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-steps", type=int, help="limit on internal integrator steps (default: the scene's, "
                    "else 10,000,000)")
     p.add_argument("--out", help="folder for trajectory.npz and PNG plots")
+    p.add_argument("--plot-states", metavar="NAMES", help="comma-separated states the time-history figure "
+                   "shows (default: every state)")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("bench", help="work-precision benchmark: error vs wall time, gearsym vs peer integrators")
@@ -622,6 +657,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="write into an existing non-empty folder / over a file")
     p.set_defaults(func=cmd_export)
 
+    p = sub.add_parser("modes", help="natural frequencies and mode shapes about the static equilibrium "
+                       "(mean mesh stiffness)")
+    _scene_args(p)
+    p.add_argument("--samples", type=int, default=32,
+                   help="samples per forcing period for the mean stiffness and loads (default 32)")
+    p.set_defaults(func=cmd_modes)
+
     p = sub.add_parser("map", help="two-parameter stability / response map (netCDF + heat map)")
     _scene_args(p)
     p.add_argument("--x", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"),
@@ -640,8 +682,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_map)
 
     from .cli_cache import add_cache_parser
+    from .cli_catalog import add_catalog_parsers
 
     add_cache_parser(sub)
+    add_catalog_parsers(sub)
     return parser
 
 
@@ -663,6 +707,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
+        from .extras import require_for_command
+
+        require_for_command(args)  # a missing optional dependency: exit 2, naming the extra
         return int(args.func(args) or 0)
     except GearsymError as exc:
         print(f"gearsym: error: {exc}", file=sys.stderr)
@@ -677,6 +724,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except Exception as exc:  # internal error: short message, traceback on request
         if args.debug:
+            import traceback
+
             traceback.print_exc()
         print(f"gearsym: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the "
               f"traceback)", file=sys.stderr)

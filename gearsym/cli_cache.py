@@ -7,14 +7,16 @@ grows past the size limit.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import time
 from pathlib import Path
 
-from .codegen.cache import BuildCache
 from .errors import ParameterError
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
+if TYPE_CHECKING:  # pragma: no cover
+    from .codegen.cache import BuildCache  # imports CasADi: only when the command runs
 
 __all__ = ["add_cache_parser", "cmd_cache"]
 
@@ -30,8 +32,8 @@ def add_cache_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("action", choices=["path", "list", "clear"],
                    help="path: print the build folder; list: the builds; clear: remove builds")
     p.add_argument("scene", nargs="?",
-                   help="a scene file (its build folder; for list/clear only its builds) or, for "
-                        "list/clear, a scene name")
+                   help="a scene file or shipped scene (its build folder; for list/clear only its builds) "
+                        "or, for list/clear, a scene name")
     p.add_argument("--dir", help="the build cache folder (default: see above)")
     p.add_argument("--older-than", type=float, metavar="DAYS",
                    help="clear: only builds made more than DAYS days ago")
@@ -40,17 +42,19 @@ def add_cache_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _root_and_scene(args: argparse.Namespace):
+    from .catalog import find_scene, shipped_scenes
+    from .codegen.cache import BuildCache
     from .facade import default_generated_dir, load_scene
 
     scene = None
     name = None
     if args.scene:
         path = Path(args.scene)
-        if path.suffix == ".toml" or path.exists():
-            scene = load_scene(path)  # a scene file: bad input gives the usual exit-2 message
+        if path.suffix == ".toml" or path.exists() or (args.action == "path" and args.scene in shipped_scenes()):
+            scene = load_scene(find_scene(args.scene))  # bad input gives the usual exit-2 message
             name = scene.name
         elif args.action == "path":
-            raise ParameterError(f"cache path: '{args.scene}' is not a scene file")
+            raise ParameterError(f"cache path: '{args.scene}' is not a scene file or a shipped scene")
         else:
             name = args.scene
     if args.dir:
@@ -68,6 +72,8 @@ def _size(n: int) -> str:
 
 def cmd_cache(args: argparse.Namespace) -> int:
     """Run ``gearsym cache ACTION``."""
+    import json
+
     if args.older_than is not None:
         if args.action != "clear":
             raise ParameterError("--older-than applies to 'gearsym cache clear' only")
@@ -98,6 +104,8 @@ def cmd_cache(args: argparse.Namespace) -> int:
 
 
 def _path(cache: BuildCache, scene, as_json: bool) -> int:
+    import json
+
     info: dict[str, object] = {"root": str(cache.root),
                                "GEARSYM_GENERATED": os.environ.get("GEARSYM_GENERATED") or None}
     if scene is not None:

@@ -22,12 +22,15 @@ from __future__ import annotations
 import argparse
 import math
 import re
-from typing import Any
 
 from .errors import ParameterError
 
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
+if TYPE_CHECKING:  # pragma: no cover
+    from typing import Any
+
 __all__ = ["LIMITS", "UsageError", "GearsymArgumentParser", "check_bench", "check_continue", "check_map",
-           "check_orbit", "check_simulate", "float_list"]
+           "check_orbit", "check_simulate", "float_list", "state_list"]
 
 #: Upper limits of counts on the command line.
 LIMITS: dict[str, int] = {
@@ -198,3 +201,36 @@ def check_map(args: argparse.Namespace) -> tuple[tuple[str, float, float, int], 
     _count("--workers", args.workers, 1)
     _out(args)
     return xa, ya
+
+
+def state_list(text: str | None, names: list[str], flag: str) -> list[str] | None:
+    """Comma-separated state names (``--plot-states x,v``), each checked against ``names``.
+
+    Parameters
+    ----------
+    text
+        The option's value (``None``: not given).
+    names
+        The states of the scene.
+    flag
+        The option, for messages.
+
+    Returns
+    -------
+    list of str or None
+        The names in the order given, ``None`` when ``text`` is ``None``.
+
+    Raises
+    ------
+    ParameterError
+        An empty list or a name that is not a state.
+    """
+    if text is None:
+        return None
+    out = [s.strip() for s in text.split(",") if s.strip()]
+    if not out:
+        raise ParameterError(f"{flag}: expected comma-separated state names, got '{text}'")
+    for s in out:
+        if s not in names:
+            raise ParameterError(f"{flag}: '{s}' is not a state (states: {', '.join(names)})")
+    return out

@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from functools import cached_property
 from pathlib import Path
 
+from .catalog import find_scene
 from .codegen.cache import BuildCache, build_key
 from .codegen.generate import GeneratedModel, build_functions, write_and_compile
 from .errors import GearsymError
@@ -40,12 +41,16 @@ class Scene:
     Parameters
     ----------
     path
-        Scene file (``scenes/*.toml``).
+        Scene file (``scenes/*.toml``), or the name of a shipped scene (``"kahraman_singh"``;
+        ``gearsym models`` lists them).
     effects
         Effect choices overriding the scene's: ``{"backlash": False}``,
         ``{"sliding_friction": "B"}``.
     overrides
         Parameter values overriding the scene's, in the model's declared units.
+    model_spec
+        The model, when the caller has already loaded it (default: read the scene's
+        ``model`` file).
 
     Attributes
     ----------
@@ -57,7 +62,7 @@ class Scene:
 
     def __init__(self, path: str | Path, effects: Mapping[str, bool | str] | None = None,
                  overrides: Mapping[str, float] | None = None, model_spec: ModelSpec | None = None):
-        self.path = Path(path)
+        self.path = find_scene(path)
         self.spec: SceneSpec = load_scene_spec(self.path)
         self.model_spec: ModelSpec = model_spec or load_model(self.spec.model_path)
         self.resolved: ResolvedScene = resolve_scene(self.spec, self.model_spec, effects, overrides)
@@ -73,7 +78,16 @@ class Scene:
         return SymbolicModel(self.resolved)
 
     def initial_state(self) -> list[float]:
-        """Initial state from the model and scene ``[initial]`` tables (SI units)."""
+        """Initial state from the model and scene ``[initial]`` tables (SI units).
+
+        With ``[initial] static = true`` these are the starting guess of the static
+        solve that :meth:`compile` does (:mod:`gearsym.static`).
+
+        Returns
+        -------
+        list of float
+            One value per state, in the order of the compiled system's states.
+        """
         return [self.resolved.initial[s] for s in self.resolved.state_names()]
 
     @property
@@ -99,12 +113,20 @@ class Scene:
         Returns
         -------
         System
+            The compiled system; its ``x0`` is the scene's initial state, or the static
+            equilibrium with ``[initial] static = true`` (:mod:`gearsym.static`).
         """
         from .system import System
 
         gen = self.generate(generated_dir, force, dimensionless)
         values = {k: self.resolved.values[k] for k in gen.input_names}
-        return System(gen, values, self.initial_state(), self.spec.simulate, self.name)
+        system = System(gen, values, self.initial_state(), self.spec.simulate, self.name)
+        if self.resolved.static:  # [initial] static = true: start from the static equilibrium
+            from .static import static_state
+
+            system.x0 = static_state(system, *self.resolved.coordinate_states(),
+                                     where=(self.spec.path, "initial.static"))
+        return system
 
     def generate(self, generated_dir: str | Path | None = None, force: bool = False,
                  dimensionless: bool | None = None) -> GeneratedModel:
@@ -123,6 +145,11 @@ class Scene:
             Rebuild even if a verified build exists.
         dimensionless
             Generate the dimensionless form (default: the scene's ``[simulate] dimensionless``).
+
+        Returns
+        -------
+        GeneratedModel
+            Sources, shared object, state and parameter names of the build.
 
         Raises
         ------
@@ -188,7 +215,7 @@ def load_scene(path: str | Path, effects: Mapping[str, bool | str] | None = None
     Parameters
     ----------
     path
-        Scene file.
+        Scene file, or the name of a shipped scene (:func:`gearsym.catalog.find_scene`).
     effects
         Maps effect names to ``True`` / ``False`` / a variant name, exactly as the
         CLI's ``--effect NAME[=VARIANT]`` / ``--no-effect NAME``.

@@ -10,7 +10,17 @@ import numpy as np
 
 
 class Event(NamedTuple):
-    """A contact transition: time, switching-surface name, direction (+1 / -1)."""
+    """A crossing of a switching surface (a contact transition).
+
+    Attributes
+    ----------
+    t : float
+        Time of the crossing, located by the integrator's root finding.
+    surface : str
+        Name of the switching surface, e.g. ``mesh.drive``.
+    direction : int
+        ``+1`` if ``g`` went from negative to positive, ``-1`` the other way.
+    """
 
     t: float
     surface: str
@@ -28,6 +38,7 @@ class Trajectory:
     y : ndarray, shape (n_out, n_states)
         States at ``t``.
     state_names : list of str
+        Names of the states, in the order of the columns of ``y``.
     events : list of Event
         Every crossing of a switching surface (contact loss / contact), in order.
     stats : dict
@@ -75,6 +86,16 @@ class Trajectory:
         ----------
         skip
             Number of leading periods to drop (transient).
+
+        Returns
+        -------
+        ndarray, shape (n_points, n_states)
+            The Poincare section at ``t = t0 + k*T``.
+
+        Raises
+        ------
+        ValueError
+            The scene has no forcing period.
         """
         if not self.period:
             raise ValueError("the scene has no forcing period")
@@ -84,7 +105,15 @@ class Trajectory:
         return pts[skip:]
 
     def save_npz(self, path: str | Path) -> None:
-        """Write the trajectory to a ``.npz`` file (atomically: a complete file or none)."""
+        """Write the trajectory to a ``.npz`` file (atomically: a complete file or none).
+
+        Parameters
+        ----------
+        path
+            The file (``.npz``).  It holds ``t``, ``y``, ``state_names``, the events
+            (``event_t``, ``event_direction``, ``event_surface``), ``period`` (NaN without
+            one) and the parameters (``param_names``, ``param_values``, SI units).
+        """
         from .files import save_npz
 
         ev = np.array([(e.t, e.direction) for e in self.events]).reshape(-1, 2)
@@ -95,3 +124,38 @@ class Trajectory:
             period=np.nan if self.period is None else self.period,
             param_names=np.array(list(self.params)), param_values=np.array(list(self.params.values())),
         )
+
+
+@dataclass(frozen=True)
+class Flow:
+    """One integration of the flow map ``phi(t1, t0, x0)``, as the periodic-orbit solvers use it.
+
+    Returned by :meth:`gearsym.system.System.flow` (no output grid, no event objects: the
+    cheap path of shooting and continuation).
+
+    Attributes
+    ----------
+    x_final : ndarray, shape (nx,)
+        ``phi(t1, t0, x0)``.
+    monodromy : ndarray, shape (nx, nx), or None
+        ``d x(t1) / d x0`` with saltation matrices at the events (when requested).
+    event_t, event_surface, event_direction, event_speed : ndarray
+        The events (times, surface indices, directions +1/-1, ``dg/dt`` along the flow).
+    sigma_final : ndarray, shape (nsw,)
+        Side of each switching surface at ``t1``.
+    amplitude : ndarray, shape (nx,)
+        ``max |x_i(t)|`` over the sampled points (``n_samples`` of :meth:`System.flow`).
+    stats : dict
+        ``n_steps``, ``n_rhs``, ``n_jac``, ``n_events``, ...
+    """
+
+    x_final: np.ndarray
+    monodromy: np.ndarray | None
+    event_t: np.ndarray
+    event_surface: np.ndarray
+    event_direction: np.ndarray
+    event_speed: np.ndarray
+    sigma_final: np.ndarray
+    amplitude: np.ndarray
+    stats: dict
+

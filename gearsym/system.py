@@ -12,7 +12,7 @@ from .bound_functions import evaluate as evaluate_bound
 from .codegen.generate import GeneratedModel
 from .engine.driver import Engine, load_engine
 from .errors import ParameterError
-from .results import Event, Trajectory
+from .results import Event, Flow, Trajectory
 
 _METHODS = ("bdf", "adams", "ida")
 
@@ -27,6 +27,19 @@ class System:
     """A compiled scene: simulate it, find its periodic orbits.
 
     Obtained from :meth:`gearsym.Scene.compile`; not constructed directly.
+
+    Parameters
+    ----------
+    generated
+        The compiled model (:meth:`gearsym.Scene.generate`).
+    params
+        Values of the run-time parameters (SI units).
+    x0
+        The initial state.
+    defaults
+        The scene's ``[simulate]`` table (``periods``, ``rtol``, ``method``, ...).
+    scene_name
+        The scene's name (default: the build's).
 
     Attributes
     ----------
@@ -86,7 +99,23 @@ class System:
         return float(np.asarray(self.generated.casadi_function("gs_scales")(self.param_vector(params))).ravel()[0])
 
     def param_vector(self, params: Mapping[str, float] | None = None) -> np.ndarray:
-        """Parameter vector with ``params`` overriding the current values (SI units)."""
+        """Parameter vector with ``params`` overriding the current values (SI units).
+
+        Parameters
+        ----------
+        params
+            Overrides by name (SI units).
+
+        Returns
+        -------
+        ndarray
+            Values in the order of :attr:`param_names`, bound parameters evaluated.
+
+        Raises
+        ------
+        ParameterError
+            An unknown or non-finite override.
+        """
         values = dict(self.params)
         for k, v in (params or {}).items():
             if k not in values:
@@ -103,9 +132,37 @@ class System:
         return np.array([values[k] for k in self.generated.param_names], dtype=float)
 
     def period(self, params: Mapping[str, float] | None = None) -> float | None:
-        """The forcing period at these parameters (``None`` if the scene has none, or if it is not
-        finite and positive at these values; :meth:`require_period` says which)."""
-        T = float(self.generated.casadi_function("gs_period")(self.param_vector(params)))
+        """The forcing period at these parameters.
+
+        Evaluated by the generated C (``gs_period``) through the engine: about a microsecond.
+
+        Parameters
+        ----------
+        params
+            Parameter overrides (SI units).
+
+        Returns
+        -------
+        float or None
+            ``None`` if the scene has none, or if it is not finite and positive at these
+            values (:meth:`require_period` says which).
+        """
+        T = self.engine.period(self.param_vector(params))
+        return T if math.isfinite(T) and T > 0 else None
+
+    def period_of(self, p: np.ndarray) -> float | None:
+        """:meth:`period` for a parameter *vector*.
+
+        Parameters
+        ----------
+        p
+            Parameter vector (as :meth:`param_vector` returns).
+
+        Returns
+        -------
+        float or None
+        """
+        T = self.engine.period(p)
         return T if math.isfinite(T) and T > 0 else None
 
     @property
@@ -124,6 +181,11 @@ class System:
         what
             What needs the period (for the message), e.g. ``"periods="``.
 
+        Returns
+        -------
+        float
+            The forcing period.
+
         Raises
         ------
         ParameterError
@@ -131,10 +193,10 @@ class System:
             parameter values (e.g. ``Omega = 0`` in ``period = "2*pi/Omega"``).
         """
         p = self.param_vector(params)
-        fn = self.generated.casadi_function("gs_period")
-        T = float(fn(p))
+        T = self.engine.period(p)
         if math.isfinite(T) and T > 0:
             return T
+        fn = self.generated.casadi_function("gs_period")  # which parameters T depends on, for the message
         deps = [f"{n} = {v:g}" for n, v, d in zip(self.param_names, p, fn.which_depends("p", ["T"], 1, False),
                                                    strict=True) if d]
         if not deps and math.isnan(T):
@@ -147,25 +209,81 @@ class System:
             params: Mapping[str, float] | None = None) -> np.ndarray:
         """Evaluate the right-hand side (explicit models) in a given mode.
 
-        ``sigma`` defaults to the sides of the switching surfaces at ``x``.
+        Parameters
+        ----------
+        t
+            Time.
+        x
+            State.
+        sigma
+            Side (+1/-1) of each switching surface; by default the sides at ``(t, x)``.
+        params
+            Parameter overrides (SI units).
+
+        Returns
+        -------
+        ndarray
+            ``dx/dt``.
         """
-        return np.asarray(self._call("gs_rhs", t, x, sigma, params)).ravel()
+        return self._eval_one("rhs", t, x, sigma, params)
 
     def jacobian(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
                  params: Mapping[str, float] | None = None) -> np.ndarray:
-        """The generated Jacobian ``df/dx`` (explicit models), ``sigma`` as in :meth:`rhs`."""
-        return np.asarray(self._call("gs_jac", t, x, sigma, params))
+        """The generated Jacobian ``df/dx`` (explicit models).
 
-    def _call(self, name: str, t: float, x: Sequence[float], sigma: Sequence[float] | None,
-              params: Mapping[str, float] | None):
-        """Call a generated (t, x, p, m) function with the mode at (t, x)."""
-        p = self.param_vector(params)
-        x = np.asarray(x, dtype=float)
-        if sigma is None:
-            g = np.asarray(self.generated.casadi_function("gs_sw")(t, x, p)).ravel()
-            sigma = np.where(g >= 0, 1.0, -1.0)
-        m = np.concatenate([np.asarray(sigma, float), self._sched_mode(t, p)])
-        return self.generated.casadi_function(name)(t, x, p, m)
+        Parameters
+        ----------
+        t
+            Time.
+        x
+            State.
+        sigma
+            Side (+1/-1) of each switching surface; by default the sides at ``(t, x)``.
+        params
+            Parameter overrides (SI units).
+
+        Returns
+        -------
+        ndarray, shape (n_states, n_states)
+            The Jacobian in that mode.
+        """
+        return self._eval_one("jac", t, x, sigma, params)
+
+    def _eval_one(self, name: str, t: float, x: Sequence[float], sigma: Sequence[float] | None,
+                  params: Mapping[str, float] | None) -> np.ndarray:
+        if self.generated.implicit:
+            raise ParameterError(f"{name}() needs an explicit model; this one is in implicit (residual) form")
+        sg = None if sigma is None else np.asarray(sigma, float).reshape(1, -1)
+        return self.engine.evaluate(name, [float(t)], np.asarray(x, float).reshape(1, -1),
+                                    self.param_vector(params), sg)[0]
+
+    def switching(self, t: Sequence[float] | float, x: Sequence[float], params: Mapping[str, float] | None = None,
+                  p: np.ndarray | None = None) -> np.ndarray:
+        """The switching functions ``g(t, x)`` at one or many points (generated C, no CasADi call).
+
+        Parameters
+        ----------
+        t
+            Time(s), shape () or (n,).
+        x
+            State(s), shape (nx,) or (n, nx).
+        params
+            Parameter overrides (SI units).
+        p
+            The parameter vector itself (from :meth:`param_vector`); when given,
+            ``params`` is ignored.
+
+        Returns
+        -------
+        ndarray
+            Shape (nsw,) for one point, (n, nsw) for many.
+        """
+        one = np.ndim(t) == 0
+        ta = np.atleast_1d(np.asarray(t, float))
+        xa = np.asarray(x, float).reshape(ta.shape[0], self.generated.nx)
+        pv = self.param_vector(params) if p is None else p
+        g = self.engine.evaluate("sw", ta, xa, pv)
+        return g[0] if one else g
 
     @property
     def output_names(self) -> list[str]:
@@ -187,32 +305,14 @@ class System:
         """
         if not self.generated.outputs:
             return {}
-        fn = self.generated.casadi_function("gs_out")
         p = self.param_vector({k: v for k, v in traj.params.items() if k in self.params})
-        sw = self.generated.casadi_function("gs_sw")
-        n = len(traj.t)
-        tt = traj.t.reshape(1, n)
-        xx = traj.y.T
-        g = np.asarray(sw.map(n)(tt, xx, p)).reshape(-1, n)
-        sigma = np.where(g >= 0, 1.0, -1.0)
-        sched = np.array([self._sched_mode(float(t), p) for t in traj.t]).reshape(n, -1).T
-        m = np.vstack([sigma, sched]) if sched.size else sigma
-        vals = np.asarray(fn.map(n)(tt, xx, p, m)).reshape(len(self.generated.outputs), n)
-        return {name: vals[i] for i, name in enumerate(self.generated.outputs)}
+        vals = self.engine.evaluate("out", traj.t, traj.y, p)
+        return {name: vals[:, i].copy() for i, name in enumerate(self.generated.outputs)}
 
     def _sched_mode(self, t: float, p: np.ndarray) -> np.ndarray:
-        s = np.asarray(self.generated.casadi_function("gs_sched")(p)).ravel()
-        out = []
-        i = 0
-        for sch in self.generated.schedules:
-            P = s[i]
-            breaks = s[i + 1: i + 1 + sch["n_breaks"]]
-            i += 1 + sch["n_breaks"]
-            u = t / P
-            n = math.floor(u)
-            seg = int(np.searchsorted(breaks, u - n, side="right") - 1)
-            out += [n, seg]
-        return np.array(out, dtype=float)
+        """Schedule part of the mode vector at time ``t``: ``[n_0, seg_0, n_1, seg_1, ...]``."""
+        m = self.engine.evaluate("mode", [float(t)], np.zeros((1, self.generated.nx)), p)[0]
+        return m[self.generated.nsw:].copy()
 
     # -------------------------------------------------------------- simulate
 
@@ -367,6 +467,79 @@ class System:
                           period=T, params={k: float(v) for k, v in zip(self.param_names, p)},
                           x_final=res.x_final, monodromy=res.monodromy,
                           event_speed=np.asarray(res.events.speed))
+
+    def flow(self, x0: Sequence[float], t0: float, t1: float, p: np.ndarray | None = None, *,
+             rtol: float = 1e-10, atol: float | np.ndarray = 1e-12, monodromy: bool = True,
+             method: str | None = None, max_step: float | None = None, n_samples: int = 2,
+             sigma0: Sequence[float] | None = None, max_steps: int = 0,
+             scales: np.ndarray | None = None) -> Flow:
+        """The flow map ``phi(t1, t0, x0)`` and its Jacobian: the cheap path of the orbit solvers.
+
+        One C call with a reused engine workspace; no output grid beyond ``n_samples``
+        points, no trajectory object, the forcing period from the generated C.
+
+        Parameters
+        ----------
+        x0
+            Initial state.
+        t0, t1
+            Time span, ``t1 > t0``.
+        p
+            Parameter vector (:meth:`param_vector`); the current values when ``None``.
+        rtol, atol
+            Tolerances; ``atol`` a number or one per state.
+        monodromy
+            Integrate the variational equations (explicit models).
+        method
+            ``"adams"`` / ``"bdf"`` (default: the scene's, else Adams), ``"ida"`` for
+            implicit models.
+        max_step
+            Largest internal step; default an eighth of the forcing period.
+        n_samples
+            Evenly spaced samples from ``t0`` to ``t1`` for :attr:`Flow.amplitude`.
+        sigma0
+            Side of each switching surface at ``t0`` (default: from the state).
+        max_steps
+            Step budget (0: the scene's, else ten million).
+        scales
+            Magnitude of each state (e.g. its largest value on the orbit).  With it the
+            variational entry ``Phi_ij = d x_i / d x0_j`` gets the absolute tolerance
+            ``atol_i / scales_j`` (its error, times a perturbation of size ``scales_j``,
+            is then an error ``atol_i`` in ``x_i``) instead of ``atol_i``: in SI units the
+            states and their ratios differ by orders of magnitude, and one ``atol`` for
+            all made the variational equations take 7-26x the steps of the state.
+
+        Returns
+        -------
+        Flow
+        """
+        pv = self.param_vector() if p is None else p
+        if method is None:
+            method = "ida" if self.generated.implicit else str(self.defaults.get("method", "adams"))
+        if max_step is None:
+            T = self.engine.period(pv)
+            max_step = T / 8 if math.isfinite(T) and T > 0 else 0.0
+        grid = np.linspace(t0, t1, max(int(n_samples), 2))
+        grid[-1] = t1
+        mono = bool(monodromy and not self.generated.implicit)
+        nx = self.generated.nx
+        atol_vec = None
+        if np.ndim(atol) or scales is not None:
+            ax = np.broadcast_to(np.asarray(atol, float), (nx,))
+            if mono:
+                sc = np.ones(nx) if scales is None else np.maximum(np.asarray(scales, float),
+                                                                    np.finfo(float).tiny)
+                atol_vec = np.concatenate([ax, (ax[:, None] / sc[None, :]).T.ravel()])  # Phi column-major
+            else:
+                atol_vec = np.array(ax)
+            atol = float(np.min(ax))
+        res = self.engine.run(x0, pv, t0, t1, grid, method=method, rtol=rtol, atol=atol, sigma0=sigma0,
+                              atol_vec=atol_vec, want_monodromy=mono,
+                              max_steps=max_steps or int(self.defaults.get("max_steps", 0)), max_step=max_step)
+        ev = res.events
+        return Flow(x_final=res.x_final, monodromy=res.monodromy, event_t=ev.t, event_surface=ev.surface,
+                    event_direction=ev.direction, event_speed=ev.speed, sigma_final=res.sigma_final,
+                    amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats)
 
     # --------------------------------------------------------- periodic orbits
 

@@ -227,13 +227,23 @@ def test_build_folder_through_a_symlink_is_refused(tmp_path):
 
 
 def test_scene_name_with_path_builds_inside_the_cache(tmp_path):
-    # before: [scene] name = "../../x" created the build folder outside the cache
+    # before: [scene] name = "../../x" created the build folder outside the cache.  The spec layer
+    # now rejects such a name; the build layer still keeps any name inside the cache (defense in
+    # depth, tested by handing it a scene whose name bypassed the spec check)
+    import dataclasses
+
+    from gearsym.errors import SpecError
+
     scene = tmp_path / "scenes" / "s.toml"
     scene.parent.mkdir()
     scene.write_text(KS_SCENE.read_text().replace('name = "kahraman_singh"', 'name = "../../escaped"')
                      .replace('"../models/kahraman_singh.toml"', json.dumps(str(KS_MODEL))))
+    with pytest.raises(SpecError, match="scene.name"):
+        gearsym.load_scene(scene)
+    sc = gearsym.load_scene(KS_SCENE)
+    sc.spec = dataclasses.replace(sc.spec, name="../../escaped")
     cache = tmp_path / "a" / "b" / "cache"
-    gen = gearsym.load_scene(scene).generate(generated_dir=cache)
+    gen = sc.generate(generated_dir=cache)
     assert Path(gen.directory).parent == cache and not (tmp_path / "a" / "escaped").exists()
     assert sorted(p.name for p in tmp_path.rglob("*escaped*")) == [Path(gen.directory).name]
 

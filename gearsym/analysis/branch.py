@@ -12,6 +12,7 @@ the branch.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -50,11 +51,13 @@ class BranchPoint:
     periods : float
         Forcing periods per orbit period.
     multipliers : ndarray (complex)
-        Floquet multipliers by decreasing modulus.
+        Non-trivial Floquet multipliers by decreasing modulus (the multipliers of
+        rigid-body modes are in ``trivial_multipliers``).
     stable : bool
-        ``max |mu| < 1``.
+        No multiplier outside the unit circle beyond its tolerance (the rule of
+        :mod:`gearsym.analysis.stability`).
     n_unstable : int
-        Number of multipliers with ``|mu| > 1``.
+        Number of multipliers outside the circle beyond their tolerances.
     max, min, rms : float
         Of the observed state (the first state unless chosen) over one period.
     rattle_state : int or None
@@ -74,6 +77,15 @@ class BranchPoint:
         Corrector (Newton) iterations.
     u : ndarray
         The unknowns of the continuation (shooting states or harmonic coefficients).
+    stability : str
+        ``"asymptotically_stable"``, ``"neutral"`` or ``"unstable"``.
+    trivial_multipliers : ndarray (complex)
+        Multipliers of the rigid-body modes (reported apart, not judged).
+    multiplier_tolerances : ndarray
+        The neutral band of each multiplier.
+    meshes : dict
+        Per mesh: ``rattle_state`` and ``min``, ``max``, ``peak_to_peak`` of its
+        dynamic deflection over the orbit.
     """
 
     value: float
@@ -95,6 +107,10 @@ class BranchPoint:
     iterations: int = 0
     u: np.ndarray | None = field(default=None, repr=False)
     monodromy: np.ndarray | None = field(default=None, repr=False)
+    stability: str = ""
+    trivial_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex), repr=False)
+    multiplier_tolerances: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    meshes: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     @property
     def peak_to_peak(self) -> float:
@@ -116,6 +132,9 @@ class BranchPoint:
             "n_unstable": int(self.n_unstable),
             "n_events": int(self.n_events),
             "bifurcation": self.bifurcation,
+            "stability": self.stability,
+            "trivial_multipliers": [[float(m.real), float(m.imag)] for m in self.trivial_multipliers],
+            "meshes": {k: {kk: _jsonable(vv) for kk, vv in v.items()} for k, v in self.meshes.items()},
         }
 
 
@@ -281,6 +300,25 @@ class Branch:
         if name in ("max", "min", "rms"):
             return getattr(self, name)
         raise ValueError(f"unknown branch quantity '{name}' (max, min, rms, ptp, x0)")
+
+    @property
+    def mesh_names(self) -> list[str]:
+        """Meshes reported at the points (every mesh element of the model)."""
+        names: dict[str, None] = {}
+        for p in self.points:
+            names.update(dict.fromkeys(p.meshes))
+        return list(names)
+
+    def mesh_quantity(self, mesh: str, name: str = "peak_to_peak") -> np.ndarray:
+        """Along the branch, for one mesh: ``"min"``, ``"max"``, ``"peak_to_peak"`` of its dynamic
+        deflection or its ``"rattle_state"`` (NaN / -1 where unknown)."""
+        if name == "ptp":
+            name = "peak_to_peak"
+        if name not in ("min", "max", "peak_to_peak", "rattle_state"):
+            raise ValueError(f"unknown mesh quantity '{name}' (min, max, peak_to_peak, rattle_state)")
+        default = -1 if name == "rattle_state" else math.nan
+        vals = [p.meshes.get(mesh, {}).get(name) for p in self.points]
+        return np.array([default if v is None else v for v in vals], float)
 
     def of_type(self, kind: str) -> list[Bifurcation]:
         """The located bifurcations of one type."""
@@ -454,6 +492,57 @@ class Branch:
         ax.set_ylabel("|Floquet multiplier|")
         ax.grid(alpha=0.3, which="both")
         return ax
+
+    def plot_meshes(self, axes: Sequence[Axes] | None = None, xscale: float = 1.0, yscale: float = 1.0,
+                    yunit: str = "", xlabel: str | None = None, children: bool = True) -> list[Axes]:
+        """One panel per mesh: max and min of its dynamic deflection along the branch
+        (stable solid, unstable dashed), bifurcations marked, rattle state as the colour
+        of the points (0 contact kept, 1 contact loss, 2 back-side contact).
+
+        Parameters
+        ----------
+        axes
+            One axes per mesh (a new figure if ``None``).
+        xscale, yscale
+            Factors for the parameter and the deflections (unit changes, e.g. 1e6 for um).
+        yunit
+            Unit label of the deflections.
+        xlabel
+            Label of the horizontal axis (default: the parameter name).
+        children
+            Also draw the branches switched onto at period doublings.
+        """
+        import matplotlib.pyplot as plt
+
+        names = self.mesh_names
+        if axes is None:
+            _, ax_arr = plt.subplots(len(names), 1, figsize=(7, 2.6 * max(1, len(names))), sharex=True,
+                                     squeeze=False)
+            axes = list(ax_arr[:, 0])
+        axes = list(axes)
+        colours = {0: "C2", 1: "C1", 2: "C3", -1: "0.5"}
+        branches = self.all_branches() if children else [self]
+        for ax, name in zip(axes, names):
+            for k, br in enumerate(branches):
+                x = br.values * xscale
+                for q in ("max", "min"):
+                    _styled_line(ax, x, br.mesh_quantity(name, q) * yscale, br.stable, f"C{k % 10}" if k else "C0",
+                                 None)
+                rs = br.mesh_quantity(name, "rattle_state").astype(int)
+                for code in np.unique(rs):
+                    sel = rs == code
+                    lab = {0: "contact kept", 1: "contact loss", 2: "back-side contact"}.get(int(code), "no backlash")
+                    ax.plot(x[sel], br.mesh_quantity(name, "max")[sel] * yscale, ".", ms=3,
+                            color=colours.get(int(code), "k"), label=lab if k == 0 else None)
+                for b in br.bifurcations:
+                    mk, mc = _MARKERS.get(b.type, ("x", "k"))
+                    ax.axvline(b.value * xscale, color=mc, lw=0.7, ls=":")
+            ax.set_ylabel(f"{name} deflection" + (f" [{yunit}]" if yunit else ""))
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7, loc="best")
+        if axes:
+            axes[-1].set_xlabel(xlabel or self.param)
+        return list(axes)
 
     def plot_figure(self, path: str | Path | None = None, quantity: str | list[str] = "max",
                     title: str = "", xscale: float = 1.0, children: bool = True):

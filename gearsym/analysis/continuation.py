@@ -70,7 +70,6 @@ import numpy as np
 from ..errors import ConvergenceError, GearsymError, ParameterError
 from .bifurcation import (
     bracket_root,
-    count_unstable,
     crossing_multiplier,
     tau_branch_point,
     tau_neimark_sacker,
@@ -78,8 +77,10 @@ from .bifurcation import (
     unit_circle_pair,
 )
 from .branch import Bifurcation, Branch, BranchPoint
-from .floquet import floquet_multipliers, monodromy_product
-from .orbit import PeriodicOrbit, rattle_state
+from .floquet import monodromy_product
+from .meshes import mesh_point
+from .orbit import PeriodicOrbit, rattle_states
+from .stability import complex_sides, floquet, neutral_step_limit, rigid_state_basis
 from .stall import QUICK_STALL, stalled_branch
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -145,6 +146,27 @@ class _Residual:
         """``(t, Y)``: the orbit on ``n`` evenly spaced times of one period (end excluded)."""
         raise NotImplementedError  # pragma: no cover
 
+    def rigid_basis(self, lam: float) -> np.ndarray | None:
+        """The rigid-body subspace of the state at ``lambda`` (``None`` without rigid-body modes)."""
+        return rigid_state_basis(self.system, self.params(lam))
+
+    def anchor_rows(self, lam: float) -> np.ndarray | None:
+        """Rows ``(k, n)`` that pin the rigid-body coordinates of the orbit (one per mode):
+        without them ``F_u`` is singular along the rigid-body shift."""
+        V = self.rigid_basis(lam)
+        if V is None:
+            return None
+        k = V.shape[1] // 2
+        Pq = V[:, :k] / np.linalg.norm(V[:, :k], axis=0)
+        out = np.zeros((k, self.n))
+        for j, i in enumerate(self._anchor_index()):
+            out[:, i] = Pq[j]
+        return out
+
+    def _anchor_index(self) -> list[int]:
+        """Index in the unknowns of the quantity of each state the anchor acts on."""
+        raise NotImplementedError  # pragma: no cover
+
     def _fd_lambda(self, u: np.ndarray, lam: float, R: np.ndarray | None = None) -> np.ndarray:
         """``dF/dlambda`` by a forward difference from ``R = F(u, lambda)`` (central without it)."""
         h = self.fd_step
@@ -208,6 +230,9 @@ class ShootingResidual(_Residual):
 
     def x0_of(self, u: np.ndarray) -> np.ndarray:
         return np.asarray(u[: self.nx], float)
+
+    def _anchor_index(self) -> list[int]:
+        return list(range(self.nx))  # the states of the first segment
 
     def unknown_scale(self, state_scale: np.ndarray) -> np.ndarray:
         return np.tile(state_scale, self.segments)
@@ -307,6 +332,9 @@ class HBResidual(_Residual):
 
     def coefficients(self, u: np.ndarray) -> np.ndarray:
         return np.asarray(u, float).reshape(self.nx, self.nc).T
+
+    def _anchor_index(self) -> list[int]:
+        return [i * self.nc for i in range(self.nx)]  # the mean (a0) of every state
 
     def x0_of(self, u: np.ndarray) -> np.ndarray:
         C = self.coefficients(u)
@@ -415,10 +443,19 @@ class _Continuer:
 
     # ------------------------------------------------------------ scaling
     def set_state_scale(self, state_scale: np.ndarray) -> None:
-        """Scales: residual rows by the state magnitudes, unknowns by them over ``state_weight``."""
-        self.state_scale = np.asarray(state_scale, float).copy()
+        """Scales: residual rows by the state magnitudes, unknowns by them over ``state_weight``.
+
+        A magnitude is at least ``atol / tol`` (as in shooting's convergence test): the
+        integration resolves no state better than ``atol``, so a state that vanishes on
+        the orbit (e.g. by symmetry) must not demand a scaled residual below ``tol``
+        from integration noise.  (With the default ``atol`` the floor is 1e-3 of the
+        smallest magnitude and never binds.)
+        """
+        floor = float(getattr(self.res, "atol", 0.0)) / self.tol
+        self.state_scale = np.maximum(np.asarray(state_scale, float), floor)
         self.Rs = self.res.unknown_scale(self.state_scale)
         self.S = np.concatenate([self.Rs / self.state_weight, [self.lam_scale]])
+        self.__dict__.pop("_anchor_cache", None)
 
     def scaled_jacobian(self, ev: _Eval) -> np.ndarray:
         """``[F_u, F_lambda]`` in scaled variables, rows scaled by the state magnitudes."""
@@ -427,6 +464,20 @@ class _Continuer:
 
     def scaled_residual(self, ev: _Eval) -> np.ndarray:
         return ev.R / self.Rs
+
+    def scaled_anchor(self, lam: float) -> np.ndarray | None:
+        """Anchor rows of the residual in scaled variables (unit rows; ``None`` without)."""
+        key = float(lam)
+        cache = self.__dict__.setdefault("_anchor_cache", {})
+        if key not in cache:
+            if len(cache) > 32:
+                cache.clear()
+            rows = self.res.anchor_rows(key)
+            if rows is not None:
+                rows = np.hstack([rows * self.S[None, :-1], np.zeros((len(rows), 1))])
+                rows = rows / np.linalg.norm(rows, axis=1)[:, None]
+            cache[key] = rows
+        return cache[key]
 
     # ------------------------------------------------------------ corrector
     def correct(self, z_guess: np.ndarray, row: np.ndarray, target: float, Flam: np.ndarray | None = None
@@ -465,11 +516,17 @@ class _Continuer:
                 raise ConvergenceError(f"corrector: Newton diverges (residual {r_prev:.3g} -> {r:.3g})")
             if ev.Flam is None:
                 ev.Flam = Flam
-            A = np.vstack([self.scaled_jacobian(ev), row[None, :]])
-            rhs = -np.concatenate([self.scaled_residual(ev), [c]])
-            try:
-                dw = np.linalg.solve(A, rhs)
-            except np.linalg.LinAlgError:
+            anchor = self.scaled_anchor(z[-1])
+            if anchor is None:
+                A = np.vstack([self.scaled_jacobian(ev), row[None, :]])
+                rhs = -np.concatenate([self.scaled_residual(ev), [c]])
+                try:
+                    dw = np.linalg.solve(A, rhs)
+                except np.linalg.LinAlgError:
+                    dw = np.linalg.lstsq(A, rhs, rcond=None)[0]
+            else:  # rigid-body modes: keep their coordinates where they are (least squares)
+                A = np.vstack([self.scaled_jacobian(ev), anchor, row[None, :]])
+                rhs = -np.concatenate([self.scaled_residual(ev), np.zeros(len(anchor)), [c]])
                 dw = np.linalg.lstsq(A, rhs, rcond=None)[0]
             if not np.all(np.isfinite(dw)):
                 raise ConvergenceError("corrector: singular Newton matrix")
@@ -491,15 +548,20 @@ class _Continuer:
             z, ev, r = zn, evn, rn
             c = float(row @ (z / self.S) - target)
 
-    def tangent(self, ev: _Eval, t_ref: np.ndarray) -> np.ndarray:
-        """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0``."""
-        A = np.vstack([self.scaled_jacobian(ev), t_ref[None, :]])
+    def tangent(self, ev: _Eval, t_ref: np.ndarray, lam: float | None = None) -> np.ndarray:
+        """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0`` (and, with
+        rigid-body modes, no component along their shift: anchor rows at ``lam``)."""
+        anchor = self.scaled_anchor(lam) if lam is not None else None
+        A = np.vstack([self.scaled_jacobian(ev)] + ([anchor] if anchor is not None else []) + [t_ref[None, :]])
         b = np.zeros(A.shape[0])
         b[-1] = 1.0
-        try:
-            t = np.linalg.solve(A, b)
-        except np.linalg.LinAlgError:
+        if anchor is not None:
             t = np.linalg.lstsq(A, b, rcond=None)[0]
+        else:
+            try:
+                t = np.linalg.solve(A, b)
+            except np.linalg.LinAlgError:
+                t = np.linalg.lstsq(A, b, rcond=None)[0]
         if not np.all(np.isfinite(t)) or not np.any(t):
             # fall back on the smallest right singular vector
             _, _, Vt = np.linalg.svd(self.scaled_jacobian(ev))
@@ -531,7 +593,8 @@ class _Continuer:
         """
         res = self.res
         u, lam = z[:-1], float(z[-1])
-        mu = floquet_multipliers(ev.monodromy) if ev.monodromy is not None else np.zeros(0, complex)
+        fq = floquet(ev.monodromy, res.rtol, res.rigid_basis(lam))
+        mu = fq.multipliers
         t_dense, Y = res.dense(u, lam, self.n_dense)
         y = Y[:, self.state]
         i_max, i_min = int(np.argmax(y)), int(np.argmin(y))
@@ -547,20 +610,23 @@ class _Continuer:
                              _periodic_extremum(g, int(np.argmax(g)), -1.0))
         x0 = res.x0_of(u)
         try:
-            rs = rattle_state(res.system, x0, res.t0, ev.events, params)
+            rss = rattle_states(res.system, x0, res.t0, ev.events, params)
         except Exception:  # noqa: BLE001 - the classification is informative only
-            rs = None
-        t = self.tangent(ev, t_ref)
+            rss = {}
+        meshes = mesh_point(res.system, t_dense, Y, params, rss)
+        t = self.tangent(ev, t_ref, lam)
         if ref is not None and _graph_like(mu, ref.point.multipliers) and ref.t[-1] * t[-1] < 0:
             t = -t
-        n_unst = count_unstable(mu)
         pt = BranchPoint(
             value=lam, x0=np.asarray(x0, float), period=res.period(lam), periods=res.periods, multipliers=mu,
-            stable=bool(len(mu) and np.max(np.abs(mu)) < 1.0), n_unstable=n_unst,
+            stable=fq.stable, n_unstable=fq.n_unstable,
             max=_periodic_extremum(y, i_max, -1.0), min=_periodic_extremum(y, i_min, +1.0),
-            rms=float(np.sqrt(np.mean(y ** 2))), rattle_state=rs, n_events=len(ev.events),
+            rms=float(np.sqrt(np.mean(y ** 2))), rattle_state=max(rss.values()) if rss else None,
+            n_events=len(ev.events),
             surface_extrema=ext, tangent=t, residual=float(np.max(np.abs(self.scaled_residual(ev)))),
-            iterations=iterations, u=np.asarray(u, float).copy(), monodromy=ev.monodromy)
+            iterations=iterations, u=np.asarray(u, float).copy(), monodromy=ev.monodromy,
+            stability=fq.stability, trivial_multipliers=fq.trivial, multiplier_tolerances=fq.tolerances,
+            meshes=meshes)
         tau: dict[str, float] = {"fold": float(t[-1])}
         if len(mu):
             tau["period_doubling"] = tau_period_doubling(mu)
@@ -1049,6 +1115,7 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
                 break
             # step control
             force_arc = False
+            h_used = h
             if it <= 1:
                 h = min(2.0 * h, ds_max)
             elif it <= 3:
@@ -1058,6 +1125,7 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
             cosang = abs(float(B.t @ A.t)) if B.graph else float(B.t @ A.t)
             if not natural and cosang < math.cos(0.5 * max_angle):
                 h = max(0.7 * h, ds_min)
+            h = neutral_step_limit(A.point, B.point, h, h_used, ds_min)
             if natural:
                 h_nat = h
             else:
@@ -1172,6 +1240,10 @@ def _detect_between(C: _Continuer, A: _Node, B: _Node, types: tuple[str, ...], l
             continue
         if kind == "branch_point" and fold_flip:
             continue  # a fold also changes the sign of det(M - I)
+        if kind == "neimark_sacker" and complex_sides(A.point) == complex_sides(B.point):
+            # no complex pair left or entered the circle beyond the tolerances: pairs sitting on
+            # the unit circle (a conservative branch) flip the sign of the test function by noise
+            continue
         if _sign_change(A.tau[key], B.tau[key]):
             keys.append(key)
     for key in keys:
@@ -1206,6 +1278,11 @@ def _detect_between(C: _Continuer, A: _Node, B: _Node, types: tuple[str, ...], l
         if left is not None and right is not None:
             info["n_unstable_before"] = int(left.point.n_unstable)
             info["n_unstable_after"] = int(right.point.n_unstable)
+            if left.point.n_unstable == right.point.n_unstable and A.point.n_unstable != B.point.n_unstable:
+                # the crossing multiplier is within its tolerance of the circle at the bracket
+                # (as close to the root as that): count on the neighbouring branch points
+                info["n_unstable_before"] = int(A.point.n_unstable)
+                info["n_unstable_after"] = int(B.point.n_unstable)
         if kind == "neimark_sacker":
             m = unit_circle_pair(nd.point.multipliers, tol=1e-2 if not nonsmooth else 0.5)
             if m is None:

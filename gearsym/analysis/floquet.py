@@ -288,6 +288,18 @@ class PiecewiseLTV:
         """Floquet multipliers of :meth:`monodromy`."""
         return floquet_multipliers(self.monodromy())
 
+    def rounding_error(self) -> float:
+        """Relative error of :meth:`monodromy`: ``eps * sum_i ||A_i dt_i||_1``.
+
+        Scaling and squaring loses about ``eps * ||A dt||`` relative accuracy per
+        exponential (Higham 2005), in the units of the states (no balancing): a stiff,
+        badly scaled segment (mesh stiffness in N/m, deflections in m) costs digits.
+        Measured on the undamped V&S pair: det(Phi) - 1 up to 1.6e-10 where this is 3e-10.
+        """
+        dts = np.diff(self.times)
+        return float(np.finfo(float).eps * sum(np.max(np.sum(np.abs(A * dt), axis=0)) for A, dt in
+                                                zip(self.A, dts, strict=True)))
+
     def _aug(self, i: int, dt: float) -> np.ndarray:
         assert self.B is not None
         n, m = self.nx, self.B[i].shape[1]
@@ -441,7 +453,7 @@ class PiecewiseLTV:
 
 
 def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]], periods: float = 1,
-                      check: bool = True) -> np.ndarray:
+                      check: bool = True, monodromies: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Floquet multipliers of a piecewise-constant LTV system at many parameter points.
 
     The vectorised form of ``PiecewiseLTV.from_system(...).multipliers()`` for
@@ -458,11 +470,16 @@ def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]]
         Period in forcing periods.
     check
         Verify that the Jacobian is constant on each segment (and independent of x).
+    monodromies
+        Also return the monodromy of each point and its relative rounding error (for the
+        stability rule of :mod:`gearsym.analysis.stability`).
 
     Returns
     -------
     ndarray, shape (len(params_list), nx), complex
-        Multipliers of each point, by decreasing modulus.
+        Multipliers of each point, by decreasing modulus.  With ``monodromies``, also
+        the monodromies, shape ``(len(params_list), nx, nx)``, and the relative error
+        ``eps * sum_i ||A_i dt_i||_1`` of each (:meth:`PiecewiseLTV.rounding_error`).
 
     Raises
     ------
@@ -480,6 +497,8 @@ def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]]
     S = _call_columns(gen, "gs_sched", P).reshape(-1, N) if gen.schedules else np.zeros((0, N))
     seg_times = [_breaks_from(S[:, k], gen.schedules, float(T[k]), 0.0) for k in range(N)]
     out = np.full((N, nx), complex(math.nan, math.nan))
+    monos = np.full((N, nx, nx), math.nan)
+    errs = np.full(N, math.nan)
     groups: dict[int, list[int]] = {}
     for k, tt in enumerate(seg_times):
         groups.setdefault(len(tt) - 1, []).append(k)
@@ -518,11 +537,14 @@ def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]]
                 raise NotPiecewiseConstantError(
                     f"the Jacobian changes inside segment {si} (by {dev[gi, si]:.3g}) at point "
                     f"{idx[gi]}: the coefficients are not piecewise constant, or the system is nonlinear")
-        E = expm_batch(A * (te - ts)[:, :, None, None])  # (G, nseg, nx, nx)
+        Adt = A * (te - ts)[:, :, None, None]
+        errs[idx_a] = np.finfo(float).eps * np.sum(np.max(np.sum(np.abs(Adt), axis=-2), axis=-1), axis=1)
+        E = expm_batch(Adt)  # (G, nseg, nx, nx)
         Mono = E[:, 0]
         for si in range(1, nseg):
             Mono = E[:, si] @ Mono
+        monos[idx_a] = Mono
         mu = np.linalg.eigvals(Mono)
         order = np.argsort(-np.abs(mu), axis=1, kind="stable")
         out[idx_a] = np.take_along_axis(mu, order, axis=1)
-    return out
+    return (out, monos, errs) if monodromies else out

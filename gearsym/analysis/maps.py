@@ -61,6 +61,10 @@ QUANTITIES: dict[str, str] = {
 MAX_POINTS = 1_000_000
 
 _SYSTEMS: dict[str, System] = {}
+#: Smallest relative error assigned to an exact (matrix-exponential) monodromy in the stability
+#: rule; the estimate is :meth:`~gearsym.analysis.floquet.PiecewiseLTV.rounding_error`.
+EXACT_RTOL = 1e-14
+_STABILITY_CODE = {"asymptotically_stable": 0, "neutral": 1, "unstable": 2}
 
 
 # ------------------------------------------------------------------ recipes
@@ -107,14 +111,16 @@ def _point(system: System, params: dict[str, float], method: str, periods: float
            want_ptp: bool, options: Mapping[str, Any]) -> dict[str, Any]:
     from .floquet import NotPiecewiseConstantError, PiecewiseLTV
     from .orbit import periodic_orbit
+    from .stability import floquet, rigid_state_basis
 
     out: dict[str, Any] = {"max_multiplier": math.nan, "peak_to_peak": math.nan, "rattle_state": -1,
-                           "converged": False, "iterations": 0, "method": method, "x0": None, "error": ""}
+                           "stability": "unknown", "converged": False, "iterations": 0, "method": method, "x0": None, "error": ""}
     if method in ("auto", "exact"):
         try:
             ltv = PiecewiseLTV.from_system(system, params, periods=periods)
-            mu = ltv.multipliers()
-            out.update(max_multiplier=float(np.max(np.abs(mu))), converged=True, method="exact")
+            fq = floquet(ltv.monodromy(), max(ltv.rounding_error(), EXACT_RTOL), rigid_state_basis(system, params))
+            out.update(max_multiplier=fq.max_multiplier, converged=True, method="exact",
+                       stability=fq.stability)
             if want_ptp:
                 if ltv.B is None:
                     out["peak_to_peak"] = 0.0
@@ -146,7 +152,7 @@ def _point(system: System, params: dict[str, float], method: str, periods: float
                 continue
             return out
     assert orbit is not None
-    out.update(max_multiplier=orbit.max_multiplier, converged=bool(orbit.converged),
+    out.update(max_multiplier=orbit.max_multiplier, converged=bool(orbit.converged), stability=orbit.stability,
                iterations=orbit.iterations, x0=orbit.x0.tolist(), error="",
                rattle_state=-1 if orbit.rattle_state is None else int(orbit.rattle_state))
     if want_ptp:
@@ -241,7 +247,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
                   quantity: str = "max_multiplier", *, method: str = "auto", periods: float = 1,
                   params: Mapping[str, float] | None = None, dask: Any = None, workers: int | None = None,
                   rows_per_task: int | None = None, orbit_options: Mapping[str, Any] | None = None,
-                  units: str | None = None, stability_tol: float = 1e-6) -> xr.Dataset:
+                  units: str | None = None) -> xr.Dataset:
     """Evaluate a stability / response map over two parameters.
 
     Parameters
@@ -272,15 +278,14 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     units
         ``"declared"`` or ``"si"``: the units of the grid values (default:
         declared for a scene, SI for a system).
-    stability_tol
-        A point is stable when ``max|mu| <= 1 + stability_tol``: undamped (e.g.
-        Hamiltonian) systems have their multipliers ON the unit circle where they
-        are stable, and the computed ``max|mu|`` is 1 only to rounding there.
 
     Returns
     -------
     xarray.Dataset
-        Variables ``max_multiplier``, ``stable`` (0/1), ``rattle_state``,
+        Variables ``max_multiplier``, ``stable`` (0/1), ``stability`` (0 asymptotically
+        stable, 1 neutral, 2 unstable: the rule of :mod:`gearsym.analysis.stability`,
+        which treats multipliers on the unit circle within the monodromy's error as
+        neutral, e.g. undamped systems), ``rattle_state``,
         ``converged``, ``iterations`` (and ``peak_to_peak``) on dims ``(y, x)`` named by
         the parameters, with the grid in the chosen units as coordinates and the
         SI values as ``<name>_si`` coordinates.
@@ -351,11 +356,15 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         pts = [dict(base, **{xname: float(xv * scale[xname]), yname: float(yv * scale[yname])})
                for yv in ys for xv in xs]
         try:
-            mu = exact_multipliers(system, pts, periods=periods)
-            mm = np.max(np.abs(mu), axis=1)
-            flat = [{"max_multiplier": float(v), "peak_to_peak": math.nan, "rattle_state": -1,
-                     "converged": bool(np.isfinite(v)), "iterations": 0, "method": "exact", "error": ""}
-                    for v in mm]
+            _, monos, errs = exact_multipliers(system, pts, periods=periods, monodromies=True)
+            from .stability import floquet, rigid_state_basis
+
+            fqs = [floquet(M, max(float(e), EXACT_RTOL), rigid_state_basis(system, pt))
+                   for M, e, pt in zip(monos, errs, pts)]
+            flat = [{"max_multiplier": fq.max_multiplier, "peak_to_peak": math.nan, "rattle_state": -1,
+                     "stability": fq.stability, "converged": bool(np.isfinite(fq.max_multiplier)),
+                     "iterations": 0, "method": "exact", "error": ""}
+                    for fq in fqs]
             runner = "vectorised (exact)"
         except NotPiecewiseConstantError:
             if method == "exact":
@@ -364,6 +373,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         flat, runner = _run_tasks(system, recipe, tasks, dask, n_workers, base)
     arr = {k: np.full((ny, nx), np.nan) for k in ("max_multiplier", "peak_to_peak")}
     rattle = np.full((ny, nx), -1, dtype=np.int8)
+    stab = np.full((ny, nx), -1, dtype=np.int8)
     conv = np.zeros((ny, nx), dtype=np.int8)
     iters = np.zeros((ny, nx), dtype=np.int32)
     methods: set[str] = set()
@@ -373,6 +383,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         arr["max_multiplier"][j, i] = r["max_multiplier"]
         arr["peak_to_peak"][j, i] = r["peak_to_peak"]
         rattle[j, i] = r["rattle_state"]
+        stab[j, i] = _STABILITY_CODE.get(r.get("stability", "unknown"), -1)
         conv[j, i] = 1 if r["converged"] else 0
         iters[j, i] = r["iterations"]
         methods.add(r["method"])
@@ -381,9 +392,11 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     dims = (yname, xname)
     data = {
         "max_multiplier": (dims, arr["max_multiplier"], {"long_name": QUANTITIES["max_multiplier"]}),
-        "stable": (dims, np.where(np.isfinite(arr["max_multiplier"]),
-                                  (arr["max_multiplier"] <= 1 + stability_tol).astype(np.int8), -1).astype(np.int8),
-                   {"long_name": f"1 stable (max|mu| <= 1 + {stability_tol:g}), 0 unstable, -1 unknown"}),
+        "stable": (dims, np.where(stab >= 0, (stab < 2).astype(np.int8), -1).astype(np.int8),
+                   {"long_name": "1 stable (no multiplier outside the unit circle beyond its tolerance, "
+                                 "gearsym.analysis.stability), 0 unstable, -1 unknown"}),
+        "stability": (dims, stab, {"long_name": "0 asymptotically stable, 1 neutral (on the unit circle "
+                                                "within the monodromy's error), 2 unstable, -1 unknown"}),
         "rattle_state": (dims, rattle, {"long_name": QUANTITIES["rattle_state"] + " (-1: none/unknown)"}),
         "converged": (dims, conv, {"long_name": "orbit solve converged (1) or not (0)"}),
         "iterations": (dims, iters, {"long_name": "Newton / quasi-Newton iterations"}),
@@ -411,7 +424,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         "n_failed": int(np.sum(conv == 0)),
         "errors": "\n".join(errors),
         "source": "gearsym.analysis.maps.stability_map",
-        "stability_tol": float(stability_tol),
+        "stability_rule": "gearsym.analysis.stability (neutral band from the monodromy error)",
     })
     return ds
 
@@ -432,8 +445,8 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     """Write ``<stem>.nc`` (netCDF) and ``<stem>.png`` (heat map) into ``out_dir``.
 
     The heat map shows ``quantity`` (default: the dataset's) over the two axes;
-    for ``max_multiplier`` the colour scale is centred on 1 and the stability
-    boundary ``max|mu| = 1 + stability_tol`` is drawn as a contour.
+    for ``max_multiplier`` the colour scale is centred on 1 and the boundary of the
+    unstable region (the ``stable`` variable of the stability rule) is drawn as a contour.
     """
     import matplotlib
 
@@ -460,9 +473,11 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
         lo = min(zmin, 0.999) if np.isfinite(zmin) else 0.5
         hi = max(zmax, 1.001) if np.isfinite(zmax) else 1.5
         pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="RdBu_r", norm=TwoSlopeNorm(1.0, lo, hi))
-        level = 1.0 + float(ds.attrs.get("stability_tol", 0.0))
-        if np.isfinite(Z).any() and np.nanmin(Z) < level < np.nanmax(Z) and min(Z.shape) > 1:
-            ax.contour(X, Y, Z, levels=[level], colors="k", linewidths=0.8)
+        if "stable" in ds and min(Z.shape) > 1:
+            st = ds["stable"].values.astype(float)
+            st[st < 0] = np.nan
+            if np.nanmin(st) < 0.5 < np.nanmax(st):
+                ax.contour(X, Y, st, levels=[0.5], colors="k", linewidths=0.8)
     elif q == "rattle_state":
         pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="viridis", vmin=-1, vmax=2)
     else:

@@ -18,13 +18,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ParameterError
-from .floquet import floquet_multipliers
+from .stability import floquet, rigid_state_basis
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..results import Event, Trajectory
     from ..system import System
 
-__all__ = ["PeriodicOrbit", "periodic_orbit", "rattle_state", "RATTLE_STATES"]
+__all__ = ["PeriodicOrbit", "periodic_orbit", "rattle_state", "rattle_states", "RATTLE_STATES"]
 
 #: Meaning of the rattle-state codes of :func:`rattle_state`.
 RATTLE_STATES: dict[int, str] = {
@@ -52,9 +52,12 @@ class PeriodicOrbit:
     monodromy : ndarray or None
         ``d x(t0 + period) / d x(t0)``, with saltation matrices at the events.
     multipliers : ndarray (complex)
-        Floquet multipliers (eigenvalues of the monodromy), by decreasing modulus.
+        The non-trivial Floquet multipliers, by decreasing modulus: the eigenvalues of
+        the monodromy, or -- when the model keeps rigid-body modes -- of the monodromy
+        on the complement of the rigid-body subspace (:mod:`gearsym.analysis.stability`).
     stable : bool
-        All multipliers strictly inside the unit circle (``max |mu| < 1``).
+        No multiplier outside the unit circle beyond its tolerance
+        (``stability != "unstable"``).
     iterations : int
         Newton (shooting) or quasi-Newton (harmonic balance) iterations.
     residual : float
@@ -88,6 +91,16 @@ class PeriodicOrbit:
         One entry per iteration: ``residual``, ``step`` (damping factor), ...
     info : dict
         Method-specific extras (tolerances, harmonic growth history, wall time).
+    stability : str
+        ``"asymptotically_stable"``, ``"neutral"`` (a multiplier on the unit circle
+        within the monodromy's error) or ``"unstable"`` (the rule of
+        :mod:`gearsym.analysis.stability`); ``"unknown"`` without a monodromy.
+    trivial_multipliers : ndarray (complex)
+        The multipliers of the rigid-body modes (two at +1 per mode), reported apart.
+    multiplier_tolerances : ndarray
+        Tolerance of each non-trivial multiplier (the neutral band around the circle).
+    rattle_states : dict
+        Rattle state of every mesh with contact surfaces (``rattle_state`` is the worst).
     """
 
     x0: np.ndarray
@@ -114,6 +127,10 @@ class PeriodicOrbit:
     info: dict[str, Any] = field(default_factory=dict)
     system: System | None = field(default=None, repr=False, compare=False)
     _traj: Trajectory | None = field(default=None, repr=False, compare=False)
+    stability: str = ""
+    trivial_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
+    multiplier_tolerances: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rattle_states: dict[str, int] = field(default_factory=dict)
 
     # ------------------------------------------------------------ derived
     @property
@@ -205,7 +222,7 @@ class PeriodicOrbit:
         ax2.set_ylabel(names[0])
         ax2.set_title(f"period {self.period:.6g} ({self.periods:g} forcing period(s))")
         fig.suptitle(title or f"periodic orbit ({self.method}), "
-                     f"{'stable' if self.stable else 'unstable'}, max|mu| = {self.max_multiplier:.6g}")
+                     f"{(self.stability or '').replace('_', ' ')}, max|mu| = {self.max_multiplier:.6g}")
         fig.tight_layout()
         f1 = out / "orbit_phase.png"
         save_figure(fig, f1, dpi=120)
@@ -215,9 +232,13 @@ class PeriodicOrbit:
         th = np.linspace(0, 2 * np.pi, 400)
         ax.plot(np.cos(th), np.sin(th), "k-", lw=0.8)
         mu = self.multipliers
-        inside = np.abs(mu) < 1
-        ax.plot(mu.real[inside], mu.imag[inside], "bo", label="|mu| < 1")
-        ax.plot(mu.real[~inside], mu.imag[~inside], "rx", ms=9, mew=2, label="|mu| >= 1")
+        tol = self.multiplier_tolerances if len(self.multiplier_tolerances) == len(mu) else np.zeros(len(mu))
+        inside = np.abs(mu) <= 1 + tol
+        ax.plot(mu.real[inside], mu.imag[inside], "bo", label="|mu| <= 1 (within tolerance)")
+        ax.plot(mu.real[~inside], mu.imag[~inside], "rx", ms=9, mew=2, label="|mu| > 1")
+        triv = self.trivial_multipliers
+        if len(triv):
+            ax.plot(triv.real, triv.imag, "s", mfc="none", color="0.4", ms=9, label="trivial (rigid-body)")
         r = max(1.1, float(np.max(np.abs(mu))) * 1.1 if len(mu) else 1.1)
         ax.set_xlim(-r, r)
         ax.set_ylim(-r, r)
@@ -235,6 +256,24 @@ class PeriodicOrbit:
         files.append(f2)
         return files
 
+    def meshes(self) -> dict[str, dict[str, Any]]:
+        """Per mesh: rattle state and the extrema / peak-to-peak of its dynamic deflection
+        over the orbit (``{}`` for a model without meshes or an orbit without a system)."""
+        if self.system is None:
+            return {}
+        from .meshes import mesh_names, mesh_report
+
+        if not mesh_names(self.system):
+            return {}
+        if self.method == "hbm" and self.coefficients is not None:
+            n = 8192
+            t = self.t0 + self.period * np.arange(n) / n
+            Y = np.array([_series(self.coefficients[:, i], n) for i in range(len(self.state_names))]).T
+        else:
+            tr = self.trajectory()
+            t, Y = tr.t, tr.y
+        return mesh_report(self.system, t, Y, self.params, self.rattle_states)
+
     def to_dict(self, extrema: bool = True) -> dict[str, Any]:
         """JSON-ready summary (multipliers as ``[re, im]`` pairs)."""
         d: dict[str, Any] = {
@@ -248,6 +287,9 @@ class PeriodicOrbit:
             "max_multiplier": self.max_multiplier,
             "monodromy": None if self.monodromy is None else self.monodromy.tolist(),
             "stable": bool(self.stable),
+            "stability": self.stability,
+            "trivial_multipliers": [[float(m.real), float(m.imag)] for m in self.trivial_multipliers],
+            "multiplier_tolerances": [float(v) for v in self.multiplier_tolerances],
             "converged": bool(self.converged),
             "iterations": int(self.iterations),
             "residual": float(self.residual),
@@ -259,9 +301,11 @@ class PeriodicOrbit:
             "n_events": len(self.events),
             "params": dict(self.params),
         }
+        d["rattle_states"] = dict(self.rattle_states)
         if extrema:
             lo, hi = self.extrema(0)
             d["min"], d["max"] = lo, hi
+            d["meshes"] = self.meshes()
         for k in ("wall_s", "harmonic_growth", "rtol", "atol", "tol"):
             if k in self.info:
                 d[k] = self.info[k]
@@ -298,9 +342,28 @@ def rattle_state(system: System, x0: Sequence[float], t0: float, events: Sequenc
                  samples: tuple[np.ndarray, np.ndarray] | None = None) -> int | None:
     """Classify the contact regime of a periodic orbit of a backlash model.
 
+    The worst mesh of :func:`rattle_states` (``None`` if the model has no contact
+    surfaces).
+
+    Returns
+    -------
+    int or None
+        0: the drive side is in contact all the time (no contact loss); 1: the
+        drive-side contact is lost (single-sided impacts, or no contact at all);
+        2: back-side contact occurs (double-sided impacts).
+    """
+    states = rattle_states(system, x0, t0, events, params, samples)
+    return max(states.values()) if states else None
+
+
+def rattle_states(system: System, x0: Sequence[float], t0: float, events: Sequence[Event],
+                  params: Mapping[str, float] | None = None,
+                  samples: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, int]:
+    """Rattle state of every backlash mesh along a periodic orbit.
+
     Uses the contact surfaces of the compiled model (``kind`` drive/back, as the
-    symbolic layer names them) and is exact in the events: the side of every
-    surface at ``t0`` plus every crossing along the period.
+    symbolic layer names them, ``MESH.drive`` / ``MESH.back``) and is exact in the
+    events: the side of every surface at ``t0`` plus every crossing along the period.
 
     With ``samples = (t, Y)`` (states ``Y[k]`` at times ``t[k]`` along the orbit, e.g.
     from a harmonic series) the sides are taken at the samples instead of from the
@@ -308,16 +371,14 @@ def rattle_state(system: System, x0: Sequence[float], t0: float, events: Sequenc
 
     Returns
     -------
-    int or None
-        0: the drive side is in contact all the time (no contact loss); 1: the
-        drive-side contact is lost (single-sided impacts, or no contact at all);
-        2: back-side contact occurs (double-sided impacts).  ``None`` if the model
-        has no contact surfaces.  With several meshes, the worst one counts.
+    dict
+        Mesh name -> 0 (no contact loss), 1 (contact loss only) or 2 (back-side
+        contact); empty if the model has no contact surfaces.
     """
     surfaces = system.generated.surfaces
     kinds = {s["name"]: (s.get("kind"), int(s.get("contact_sign", 0))) for s in surfaces}
     if not any(k in ("drive", "back") for k, _ in kinds.values()):
-        return None
+        return {}
     p = system.param_vector(params)
     g = np.asarray(system.generated.casadi_function("gs_sw")(t0, np.asarray(x0, float), p)).ravel()
     G = None
@@ -343,26 +404,32 @@ def rattle_state(system: System, x0: Sequence[float], t0: float, events: Sequenc
             st["drive_always"] &= bool(in_contact and not crossed)
         else:
             st["back_ever"] |= bool(in_contact or crossed)
-    worst = 0
-    for st in meshes.values():
-        code = 2 if st["back_ever"] else (0 if st["drive_always"] else 1)
-        worst = max(worst, code)
-    return worst
+    return {mesh: 2 if st["back_ever"] else (0 if st["drive_always"] else 1) for mesh, st in meshes.items()}
 
 
 def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: float, t0: float,
                  monodromy: np.ndarray | None, iterations: int, residual: float, converged: bool,
                  method: str, params: Mapping[str, float], events: Sequence[Event],
                  samples: tuple[np.ndarray, np.ndarray] | None = None, **extra: Any) -> PeriodicOrbit:
-    """Assemble a :class:`PeriodicOrbit` (multipliers, verdict, rattle state)."""
-    mults = floquet_multipliers(monodromy) if monodromy is not None else np.zeros(0, complex)
-    stable = bool(len(mults) and np.max(np.abs(mults)) < 1.0)
-    rs = rattle_state(system, x0, t0, events, params, samples=samples)
+    """Assemble a :class:`PeriodicOrbit` (multipliers, verdict, rattle state).
+
+    The multipliers are judged by :func:`gearsym.analysis.stability.floquet` with the
+    integration tolerance ``extra["info"]["monodromy_rtol"]`` (else ``["rtol"]``) and the
+    model's rigid-body subspace.
+    """
+    info = extra.get("info") or {}
+    rtol = float(info.get("monodromy_rtol", info.get("rtol", 1e-10)))
+    fq = floquet(monodromy, rtol, rigid_state_basis(system, params))
+    info.update({"monodromy_error": fq.monodromy_error, "rigid_split": fq.info.get("rigid_split"),
+                 "invariance_defect": fq.invariance_defect})
+    rss = rattle_states(system, x0, t0, events, params, samples=samples)
     return PeriodicOrbit(x0=np.asarray(x0, float), period=float(period), periods=float(periods),
-                         t0=float(t0), monodromy=monodromy, multipliers=mults, stable=stable,
+                         t0=float(t0), monodromy=monodromy, multipliers=fq.multipliers, stable=fq.stable,
                          iterations=int(iterations), residual=float(residual), converged=bool(converged),
                          method=method, state_names=system.state_names, params=dict(params),
-                         rattle_state=rs, events=list(events), system=system, **extra)
+                         rattle_state=max(rss.values()) if rss else None, events=list(events), system=system,
+                         stability=fq.stability, trivial_multipliers=fq.trivial,
+                         multiplier_tolerances=fq.tolerances, rattle_states=rss, **extra)
 
 
 def periodic_orbit(system: System, period: float | None = None, periods: float = 1,

@@ -237,6 +237,7 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
                              t_out=s, params=params, method=method)
         return np.array(tr.y[:-1], float)
 
+    anchor = _anchor_rows(system, params, segments)
     relaxed = 0
     relax_block = max(1, int(math.ceil(10 * max(1.0, float(periods)))))
     history: list[dict[str, Any]] = []
@@ -255,9 +256,16 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
             k = (i + 1) % segments
             J[i * nx:(i + 1) * nx, k * nx:(k + 1) * nx] -= np.eye(nx)
         rhs = -R.ravel()
-        # minimum-norm step without the directions the monodromy cannot resolve: never move
-        # the state by noise divided by noise (a multiplier at +1 to working precision)
-        dz, n_drop = truncated_solve(J, rhs, np.tile(scales(), segments), rtol)
+        if anchor is not None:
+            # a rigid-body mode makes J singular (a Jordan block of M at +1): keep the rigid
+            # coordinates of the first segment where they are (anchor rows), least squares
+            dz = np.linalg.lstsq(np.vstack([J, anchor]), np.concatenate([rhs, np.zeros(len(anchor))]),
+                                 rcond=None)[0]
+            n_drop = 0
+        else:
+            # minimum-norm step without the directions the monodromy cannot resolve: never move
+            # the state by noise divided by noise (a multiplier at +1 to working precision)
+            dz, n_drop = truncated_solve(J, rhs, np.tile(scales(), segments), rtol)
         if not np.all(np.isfinite(dz)):
             failure = "the Newton matrix is not finite"
             break
@@ -321,6 +329,10 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     mono = monodromy_product(Ms) if all(M is not None for M in Ms) else None
     iso: Isolation | None = None
     if mono is not None and np.all(np.isfinite(mono)):
+        if trivial is None:  # the model's rigid-body subspace, found by the symbolic layer
+            from .stability import rigid_state_basis
+
+            trivial = rigid_state_basis(system, params)
         iso = isolation(mono, scales(), rtol, trivial)
     wall = time.perf_counter() - wall
     if not converged and raise_on_failure:
@@ -345,9 +357,27 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         events=evs, segments=segments, segment_states=X.copy(),
         segment_monodromies=[np.asarray(M) for M in Ms if M is not None], history=history,
         info={"rtol": rtol, "atol": atol, "tol": tol, "wall_s": wall, "failure": failure or None,
+              "monodromy_rtol": max(rtol / 1e-6, 1e-12) if system.generated.implicit else rtol,
+              "rigid_anchor": anchor is not None,
               "relative_residual": rel(R), "state_scales": scales().tolist(),
               "isolation": iso.to_dict() if iso is not None else None})
     return orbit
+
+
+def _anchor_rows(system: System, params: Mapping[str, float] | None, segments: int) -> np.ndarray | None:
+    """Rows ``[R^T 0 ... 0]`` that pin the rigid-body coordinates of the first segment's
+    state in a Newton step (``None`` without rigid-body modes)."""
+    from .stability import rigid_state_basis
+
+    V = rigid_state_basis(system, params)
+    if V is None:
+        return None
+    k = V.shape[1] // 2
+    Pq = V[:, :k]
+    Pq = Pq / np.linalg.norm(Pq, axis=0)
+    out = np.zeros((k, segments * Pq.shape[0]))
+    out[:, : Pq.shape[0]] = Pq.T
+    return out
 
 
 def _check_tolerances(**tols: float) -> None:

@@ -26,6 +26,8 @@ import sympy as sp
 from ..errors import CompileError
 from ..symbolic.model import SymbolicModel
 from .cache import KEY_MARKER
+from .extras import DOCS as _EXTRA_DOCS
+from .extras import analysis_functions, analysis_meta
 from .sx import SXTranslator
 
 #: Bump when the generated code's layout changes (invalidates caches).
@@ -76,6 +78,10 @@ class GeneratedModel:
     #: names of the model's [outputs] (evaluated by ``gs_out``), with their units
     outputs: list[str] = field(default_factory=list)
     output_units: dict[str, str] = field(default_factory=dict)
+    #: mesh elements (``gs_mesh`` gives their dynamic deflections) and rigid-body modes
+    #: (``gs_rigid``; coefficients as text), see :mod:`gearsym.codegen.extras`
+    meshes: list[str] = field(default_factory=list)
+    rigid_modes: list[dict] = field(default_factory=list)
     #: the full build key (64 hex digits; ``key`` is its first 16), compiled into the
     #: object as ``gs_build_key()`` (:func:`gearsym.codegen.cache.build_key`)
     build_key: str = ""
@@ -198,13 +204,13 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
         tr.symbols.update({s: xd[i] for i, s in enumerate(xd_syms)})
         r = tr.matrix(model.residual(xd_syms))
         fns["gs_res"] = ca.Function("gs_res", [t, x, xd, p, m], [r], ["t", "x", "xd", "p", "m"], ["r"])
-        jr = ca.densify(ca.jacobian(r, x) + cj * ca.jacobian(r, xd))
+        jr = ca.jacobian(r, x) + cj * ca.jacobian(r, xd)  # sparse: the driver densifies
         fns["gs_resjac"] = ca.Function("gs_resjac", [t, x, xd, p, m, cj], [jr],
                                        ["t", "x", "xd", "p", "m", "cj"], ["Jr"])
         # the explicit right-hand side is still useful from Python (plots, checks)
     g = ca.vertcat(*[tr(s.expr) for s in model.switching]) if nsw else ca.SX(0, 1)
     fns["gs_sw"] = ca.Function("gs_sw", [t, x, p], [g], ["t", "x", "p"], ["g"])
-    fns["gs_swx"] = ca.Function("gs_swx", [t, x, p], [ca.densify(ca.jacobian(g, x))], ["t", "x", "p"], ["G"])
+    fns["gs_swx"] = ca.Function("gs_swx", [t, x, p], [ca.jacobian(g, x)], ["t", "x", "p"], ["G"])  # sparse
     fns["gs_swt"] = ca.Function("gs_swt", [t, x, p], [ca.densify(ca.jacobian(g, t))], ["t", "x", "p"], ["gt"])
     sched = []
     for s in model.schedules:
@@ -221,6 +227,7 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     if outputs:
         o = ca.vertcat(*[tr(e) for e in outputs.values()])
         fns["gs_out"] = ca.Function("gs_out", [t, x, p, m], [o], ["t", "x", "p", "m"], ["y"])
+    fns.update(analysis_functions(model, tr, t, x, p, m))
     return fns
 
 
@@ -239,7 +246,7 @@ _DOCS = {
     "gs_rhs": "first-order right-hand side xdot = f(t, x, p, m) in the mode m",
     "gs_jac": "Jacobian d f / d x (sparse, CasADi compressed-column)",
     "gs_res": "implicit residual r = [q' - v; M(q) v' - F(t, q, v, p, m)]",
-    "gs_resjac": "dr/dx + cj * dr/dxd (dense, column-major), for IDA's Newton iteration",
+    "gs_resjac": "dr/dx + cj * dr/dxd (sparse), for IDA's Newton iteration",
     "gs_sw": "switching functions g(t, x, p) (events at their zeros)",
     "gs_swx": "d g / d x, for saltation matrices",
     "gs_swt": "d g / d t, for saltation matrices",
@@ -247,6 +254,7 @@ _DOCS = {
     "gs_period": "the scene's forcing period T(p)",
     "gs_out": "the model's [outputs] along a trajectory (post-processing, not used by the driver)",
     "gs_scales": "reference scales [T, s_1, ..., s_n] of the dimensionless variables (t = T*tau, q = s*Q)",
+    **_EXTRA_DOCS,
 }
 
 
@@ -331,8 +339,9 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], staging
     (staging / "gs_model.h").write_text(h_text)
     built = staging / "gs_model.so"
     try:
-        engine_build.build_shared_object([Path("gs_model.c"), ENGINE_DIR / "gs_driver.c"],
-                                         [Path("."), ENGINE_DIR], built, cwd=staging)
+        driver = engine_build.driver_object(engine_build.driver_cache_dir(staging.parent / ".driver"))
+        engine_build.build_shared_object([Path("gs_model.c"), driver], [Path("."), ENGINE_DIR], built, cwd=staging,
+                                         extra_cflags=engine_build.model_cflags(len(c_text)))
         digest = engine_build.file_sha256(built)
         so = staging / f"gs_{digest[:16]}.so"
         built.rename(so)
@@ -354,6 +363,7 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], staging
         bound={k: [f, list(a)] for k, (f, a) in getattr(model, "bound_parameters", {}).items()},
         outputs=list(getattr(model, "outputs", {})),
         output_units={k: (o.unit or "") for k, o in model.spec.outputs.items()},
+        **analysis_meta(model),
         build_key=build_key, so_sha256=digest, key_parts=dict(key_parts or {}), model=model.name,
         built=time.time(), dimensionless=getattr(model, "scales", None) is not None,
     )

@@ -10,6 +10,7 @@ from __future__ import annotations
 import ctypes as C
 import math
 import os
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,13 +20,16 @@ import numpy as np
 from gearsym.engine import interrupt as _interrupt
 from gearsym.engine.errors import EngineABIError, EngineInputError, error_for_status
 
-__all__ = ["Engine", "GsSimArgs", "LINEAR_SOLVERS", "METHODS", "NONLINEAR", "RunResult", "load_engine"]
+__all__ = ["EVAL_FUNCTIONS", "Engine", "GsSimArgs", "LINEAR_SOLVERS", "METHODS", "NONLINEAR", "RunResult",
+           "load_engine"]
 
 #: Status of a run stopped by SIGINT (gs_driver.h).
 GS_ERR_INTERRUPTED = -8
 
 #: Integration methods: name -> GS_METHOD_* code.
 METHODS: dict[str, int] = {"bdf": 0, "adams": 1, "ida": 2}
+#: Functions of :meth:`Engine.evaluate`: name -> GS_EVAL_* code.
+EVAL_FUNCTIONS: dict[str, int] = {"sw": 0, "out": 1, "rhs": 2, "jac": 3, "mode": 4}
 #: CVODE nonlinear solvers: name -> GS_NONLIN_* code.
 NONLINEAR: dict[str, int] = {"auto": 0, "newton": 1, "fixedpoint": 2}
 #: Newton's linear solvers: name -> GS_LINSOL_* code.
@@ -64,6 +68,7 @@ class GsSimArgs(C.Structure):
         ("interrupt_fd", C.c_int),
         ("nonlinear", C.c_int),
         ("linear_solver", C.c_int),
+        ("atol_vec", _PD),
         # outputs
         ("y_out", _PD),
         ("x_final", _PD),
@@ -176,6 +181,11 @@ class Engine:
         self._lib = lib
         self.path = path
         self.sundials_version = version
+        # one C workspace per thread (work buffers, SUNDIALS context, integrator
+        # memory reused across calls: gs_simulate_ws), freed with the engine
+        self._tls = threading.local()
+        self._workspaces: list[int] = []
+        self._ws_lock = threading.Lock()
         info = (C.c_int * 64)()
         n = lib.gs_model_info(info, 64)
         if n < 6:
@@ -183,6 +193,98 @@ class Engine:
         self.nx, self.np, self.nm, self.nsw, self.nsched = (int(info[i]) for i in range(5))
         self.implicit = bool(info[5])
         self.nb = tuple(int(info[6 + k]) for k in range(self.nsched))
+
+    def _ws(self) -> int:
+        """This thread's workspace (created on first use)."""
+        ws = getattr(self._tls, "ws", None)
+        if ws is None:
+            ws = self._lib.gs_ws_new()
+            if not ws:
+                raise MemoryError("gs_ws_new: out of memory")
+            with self._ws_lock:
+                self._workspaces.append(ws)
+            self._tls.ws = ws
+        return ws
+
+    def __del__(self) -> None:
+        lib = getattr(self, "_lib", None)
+        for ws in getattr(self, "_workspaces", ()):
+            if lib is not None:
+                lib.gs_ws_free(ws)
+        self._workspaces = []
+
+    def __getstate__(self) -> dict[str, Any]:
+        raise TypeError("an Engine holds a loaded shared object and C workspaces; pickle the System "
+                        "(or its generated model) instead")
+
+    def period(self, p: np.ndarray) -> float:
+        """The forcing period ``T(p)`` from the generated ``gs_period`` (NaN if none).
+
+        Parameters
+        ----------
+        p
+            Parameter vector, shape (np,), C-contiguous float64.
+
+        Returns
+        -------
+        float
+        """
+        out = C.c_double(math.nan)
+        msg = C.create_string_buffer(256)
+        pa = p if p.shape[0] else None
+        if self._lib.gs_eval_period(self._ws(), _ptr(pa), C.byref(out), msg, 256) != 0:
+            raise EngineInputError(msg.value.decode(errors="replace"))
+        return float(out.value)
+
+    def n_outputs(self) -> int:
+        """Number of model outputs (``gs_out``)."""
+        return int(self._lib.gs_n_outputs(self._ws()))
+
+    def evaluate(self, function: str, t: Any, x: Any, p: Any, sigma: Any = None) -> np.ndarray:
+        """Evaluate a generated function at many points, in the driver's mode there.
+
+        Parameters
+        ----------
+        function
+            ``"sw"`` (switching functions), ``"out"`` (the model's outputs),
+            ``"rhs"``, ``"jac"`` (dense ``d xdot / d x``) or ``"mode"`` (the mode
+            vector: surface sides, schedule cycle and segment).
+        t
+            Times, shape (n,).
+        x
+            States, shape (n, nx).
+        p
+            Parameter vector, shape (np,).
+        sigma
+            Sides (+1/-1) of the switching surfaces at each point, shape (n, nsw);
+            default: from the signs of the switching functions (``g >= 0`` -> +1).
+
+        Returns
+        -------
+        ndarray
+            Shape (n, k) with ``k`` = nsw, number of outputs, nx or nm; for
+            ``"jac"`` shape (n, nx, nx).
+        """
+        code = EVAL_FUNCTIONS[function]
+        ta = np.ascontiguousarray(np.asarray(t, dtype=float).reshape(-1))
+        n = ta.shape[0]
+        xa = np.ascontiguousarray(np.asarray(x, dtype=float).reshape(n, self.nx))
+        pa = np.ascontiguousarray(np.asarray(p, dtype=float).reshape(-1))
+        sg = None
+        if sigma is not None:
+            sg = np.ascontiguousarray(np.asarray(sigma, dtype=float).reshape(n, self.nsw))
+        k = {"sw": self.nsw, "out": max(self.n_outputs(), 0), "rhs": self.nx, "jac": self.nx * self.nx,
+             "mode": self.nm}[function]
+        out = np.empty((n, max(k, 1)))
+        msg = C.create_string_buffer(256)
+        rc = self._lib.gs_eval(self._ws(), code, n, _ptr(ta), _ptr(xa), _ptr(pa) if pa.shape[0] else None,
+                               _ptr(sg), _ptr(out), msg, 256)
+        if rc != 0:
+            raise EngineInputError(msg.value.decode(errors="replace"))
+        out = out[:, :k]
+        if function == "jac":
+            return out.reshape(n, self.nx, self.nx).transpose(0, 2, 1)  # column-major -> [i, row, col]
+        return out
 
     def __repr__(self) -> str:
         return (
@@ -211,6 +313,7 @@ class Engine:
         max_events_out: int = 4096,
         nonlinear: str = "auto",
         linear_solver: str = "auto",
+        atol_vec: Any = None,
     ) -> RunResult:
         """Integrate the model from ``t0`` to ``t_end`` in one C call.
 
@@ -252,6 +355,11 @@ class Engine:
             analytic Jacobian), ``"fixedpoint"`` (functional iteration: no
             Jacobian and no linear algebra, for non-stiff models; cheapest for
             large models) or ``"auto"`` (Newton).
+        atol_vec
+            One absolute tolerance per solver component instead of ``atol``: ``nx``
+            entries, or ``nx*(nx+1)`` with ``want_monodromy`` (the state, then the
+            variational matrix column by column), so that its entries, whose scale
+            is that of ``x_i / x0_j``, get a tolerance of their own.
         linear_solver
             Newton's linear solver: ``"dense"`` (SUNDIALS' dense LU of the whole
             system; with the monodromy that is an (n + n^2)^2 matrix),
@@ -293,6 +401,12 @@ class Engine:
             sig = np.ascontiguousarray(np.asarray(sigma0, dtype=float).reshape(-1))
             if sig.shape[0] != self.nsw:
                 raise EngineInputError(f"sigma0 has {sig.shape[0]} entries, the model has nsw={self.nsw}")
+        av = None
+        if atol_vec is not None:
+            av = np.ascontiguousarray(np.asarray(atol_vec, dtype=float).reshape(-1))
+            want = self.nx * (self.nx + 1) if want_monodromy else self.nx
+            if av.shape[0] != want:
+                raise EngineInputError(f"atol_vec has {av.shape[0]} entries, need {want}")
         cap = max(int(max_events_out), 1)
         while True:
             res = self._run_once(
@@ -315,6 +429,7 @@ class Engine:
                 cap,
                 NONLINEAR[nonlinear],
                 LINEAR_SOLVERS[linear_solver],
+                av,
             )
             if isinstance(res, int):  # event log too small: rerun with the exact size
                 cap = res
@@ -342,13 +457,15 @@ class Engine:
         cap,
         nonlin=0,
         linsol=0,
+        av=None,
     ) -> RunResult | int:
         nx, nsw = self.nx, self.nsw
         n_out = int(tout.shape[0])
-        y = np.full((n_out, nx), np.nan)
-        x_final = np.full(nx, np.nan)
+        # the driver writes every entry before it returns success (and a failure raises)
+        y = np.empty((n_out, nx))
+        x_final = np.empty(nx)
         sigma_final = np.zeros(max(nsw, 1))
-        mono_arr = np.full((nx, nx), np.nan) if mono else None
+        mono_arr = np.empty((nx, nx)) if mono else None
         ev_t = np.empty(cap)
         ev_s = np.empty(cap, dtype=np.intc)
         ev_d = np.empty(cap, dtype=np.intc)
@@ -367,6 +484,7 @@ class Engine:
         a.want_monodromy = 1 if mono else 0
         a.max_events_out = cap
         a.nonlinear, a.linear_solver = nonlin, linsol
+        a.atol_vec = _ptr(av)
         a.y_out = _ptr(y) if n_out else None
         a.x_final = _ptr(x_final)
         a.sigma_final = _ptr(sigma_final)
@@ -380,7 +498,7 @@ class Engine:
         a.interrupt_fd, previous = _interrupt.arm()
         a.check_interrupt = 1 if a.interrupt_fd >= 0 else 0
         try:
-            status = self._lib.gs_simulate(C.byref(a))
+            status = self._lib.gs_simulate_ws(self._ws(), C.byref(a))
         finally:
             _interrupt.disarm(previous)
         if status == GS_ERR_INTERRUPTED:
@@ -468,7 +586,8 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
         lib = C.CDLL(str(path))
     except OSError as exc:
         raise EngineABIError(f"cannot load the compiled model {path}: {exc}") from exc
-    for name in ("gs_simulate", "gs_check_abi", "gs_sizeof_args", "gs_model_info"):
+    for name in ("gs_simulate", "gs_simulate_ws", "gs_ws_new", "gs_ws_free", "gs_eval", "gs_eval_period",
+                 "gs_check_abi", "gs_sizeof_args", "gs_model_info"):
         if not hasattr(lib, name):
             raise EngineABIError(f"{path} does not export {name}; was it built with gs_driver.c?")
     if build_key is not None:
@@ -488,6 +607,19 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
     lib.gs_simulate.argtypes = [C.POINTER(GsSimArgs)]
     lib.gs_model_info.restype = C.c_int
     lib.gs_model_info.argtypes = [C.POINTER(C.c_int), C.c_int]
+    lib.gs_ws_new.restype = C.c_void_p
+    lib.gs_ws_new.argtypes = []
+    lib.gs_ws_free.restype = None
+    lib.gs_ws_free.argtypes = [C.c_void_p]
+    lib.gs_simulate_ws.restype = C.c_int
+    lib.gs_simulate_ws.argtypes = [C.c_void_p, C.POINTER(GsSimArgs)]
+    lib.gs_eval_period.restype = C.c_int
+    lib.gs_eval_period.argtypes = [C.c_void_p, C.c_void_p, C.POINTER(C.c_double), C.c_char_p, C.c_int]
+    lib.gs_n_outputs.restype = C.c_int
+    lib.gs_n_outputs.argtypes = [C.c_void_p]
+    lib.gs_eval.restype = C.c_int
+    lib.gs_eval.argtypes = [C.c_void_p, C.c_int, C.c_int, C.c_void_p, C.c_void_p, C.c_void_p, C.c_void_p,
+                            C.c_void_p, C.c_char_p, C.c_int]
     size_c = lib.gs_sizeof_args()
     if size_c != C.sizeof(GsSimArgs):
         raise EngineABIError(

@@ -65,6 +65,10 @@ typedef struct gs_sim_args {
                            /* stop with GS_ERR_INTERRUPTED if it holds SIGINT       */
   int     nonlinear;       /* GS_NONLIN_*: CVODE's nonlinear solver (0 = auto)      */
   int     linear_solver;   /* GS_LINSOL_*: Newton's linear solver (0 = auto)        */
+  const double* atol_vec;  /* NULL: the scalar atol for every component; else one   */
+                           /* absolute tolerance per solver component: nx, or       */
+                           /* nx*(nx+1) with the monodromy (state, then Phi column- */
+                           /* major): the variational entries have their own scale  */
   /* ---- outputs ---- */
   double* y_out;           /* [n_out*nx] row-major states at t_out                  */
   double* x_final;         /* [nx] state at the time reached                        */
@@ -85,6 +89,39 @@ typedef struct gs_sim_args {
 
 /* Integrate.  Returns args->status. */
 int gs_simulate(gs_sim_args* args);
+
+/* A workspace keeps what a model needs across calls (work buffers, the SUNDIALS
+ * context, vectors, solvers and integrator memory): calls with the same method,
+ * monodromy and solver options reuse them (CVodeReInit/IDAReInit), so a short
+ * integration costs the integration only.  One thread at a time per workspace. */
+typedef struct gs_workspace gs_workspace;
+gs_workspace* gs_ws_new(void);
+void gs_ws_free(gs_workspace* ws);
+int gs_simulate_ws(gs_workspace* ws, gs_sim_args* args);
+
+/* The forcing period T(p) (gs_period; NaN if the model has none).  Returns 0, or
+ * -1 with a message. */
+int gs_eval_period(gs_workspace* ws, const double* p, double* T, char* msg, int len);
+
+/* Number of model outputs (gs_out), or -1. */
+int gs_n_outputs(gs_workspace* ws);
+
+/* Evaluate a generated function at n points (t[i], x[i*nx..]) with parameters p:
+ * GS_EVAL_SW   g(t, x, p)                          -> out[i*nsw + j]
+ * GS_EVAL_OUT  the model's outputs                 -> out[i*nout + j]
+ * GS_EVAL_RHS  xdot (explicit models)              -> out[i*nx + j]
+ * GS_EVAL_JAC  d xdot / d x, dense column-major    -> out[i*nx*nx + c*nx + r]
+ * GS_EVAL_MODE the mode vector m (sides, schedule) -> out[i*nm + j]
+ * in the mode the driver would use there: the side of each switching surface
+ * from sigma[i*nsw + j] (or, with sigma NULL, +1 where g >= 0), the schedule
+ * cycle and segment from t.  Returns 0, or -1 with a message. */
+#define GS_EVAL_SW   0
+#define GS_EVAL_OUT  1
+#define GS_EVAL_RHS  2
+#define GS_EVAL_JAC  3
+#define GS_EVAL_MODE 4
+int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p, const double* sigma,
+            double* out, char* msg, int len);
 
 /* Check the SUNDIALS runtime: version >= 7 and 32-bit sunindextype.  Writes the
  * version string (e.g. "7.9.0") or the problem into msg.  Returns 0 if OK. */

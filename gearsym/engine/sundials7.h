@@ -194,6 +194,7 @@ void* CVodeCreate(int lmm, SUNContext sunctx);
 int   CVodeInit(void* cvode_mem, CVRhsFn f, sunrealtype t0, N_Vector y0);
 int   CVodeReInit(void* cvode_mem, sunrealtype t0, N_Vector y0);
 int   CVodeSStolerances(void* cvode_mem, sunrealtype reltol, sunrealtype abstol);
+int   CVodeSVtolerances(void* cvode_mem, sunrealtype reltol, N_Vector abstol);
 int   CVodeSetUserData(void* cvode_mem, void* user_data);
 int   CVodeSetMaxNumSteps(void* cvode_mem, long int mxsteps);
 int   CVodeSetMaxStep(void* cvode_mem, sunrealtype hmax);
@@ -265,6 +266,7 @@ int   IDAInit(void* ida_mem, IDAResFn res, sunrealtype t0, N_Vector yy0,
               N_Vector yp0);
 int   IDAReInit(void* ida_mem, sunrealtype t0, N_Vector yy0, N_Vector yp0);
 int   IDASStolerances(void* ida_mem, sunrealtype reltol, sunrealtype abstol);
+int   IDASVtolerances(void* ida_mem, sunrealtype reltol, N_Vector abstol);
 int   IDACalcIC(void* ida_mem, int icopt, sunrealtype tout1);
 int   IDASetUserData(void* ida_mem, void* user_data);
 int   IDASetMaxNumSteps(void* ida_mem, long int mxsteps);

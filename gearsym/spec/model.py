@@ -37,6 +37,7 @@ from typing import Any
 
 from ..errors import SpecError
 from . import expressions as ex
+from .elements import ELEMENT_SCHEMAS
 from .fields import (
     Ctx,
     Term,
@@ -51,8 +52,9 @@ from .fields import (
     unit_of,
 )
 from .files import read_toml
+from .initial import read_initial
 from .names import check_label, check_symbol_name
-from .elements import ELEMENT_SCHEMAS
+from .reduction import Reduction, parse_reduction
 from .units import Unit
 from .validate import validate_model
 
@@ -153,21 +155,6 @@ class Equation:
 
 
 @dataclass(frozen=True)
-class Reduction:
-    """Reduce the coordinates to one relative coordinate (e.g. the DTE)."""
-
-    coordinate: str
-    velocity: str
-    definition: tuple[Term, ...]
-    unit: str
-    meaning: str
-    dims: Unit
-    #: coordinates kept as states beside the reduced one (the definition may depend on them
-    #: in any smooth way, e.g. through a pressure angle that varies with the centre distance)
-    keep: tuple[str, ...] = ()
-
-
-@dataclass(frozen=True)
 class Group:
     """A dimensionless group: its definition and the parameter it eliminates."""
 
@@ -211,18 +198,19 @@ class ModelSpec:
     equations: dict[str, Equation]
     reduction: Reduction | None
     forcing_period: str | None
-    initial: dict[str, float]
+    initial: dict[str, float | str]
     dimensionless: Dimensionless | None
     notes: str = ""
     units: dict[str, Unit] = field(default_factory=dict, repr=False)
     outputs: dict[str, Derived] = field(default_factory=dict)
+    #: ``[initial] static``: start from the static equilibrium (``None``: not given)
+    static: bool | None = None
 
     def state_names(self) -> list[str]:
         """Names of the first-order states: coordinates then velocities."""
         if self.reduction is not None:
-            kept = [self.coordinates[k] for k in self.reduction.keep]
-            return [self.reduction.coordinate, *(c.name for c in kept),
-                    self.reduction.velocity, *(c.velocity for c in kept)]
+            kept = [(self.coordinates[k].name, self.coordinates[k].velocity) for k in self.reduction.keep]
+            return self.reduction.state_names(kept=kept)
         coords = list(self.coordinates.values())
         return [c.name for c in coords] + [c.velocity for c in coords]
 
@@ -441,35 +429,22 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
             read_terms(ctx, f"{where}.force", eq["force"], schedules) if "force" in eq else (),
         )
 
-    # reduction
+    # reduction (gearsym/spec/reduction.py)
     reduction = None
     if "reduction" in data:
-        r = table(ctx, data, "reduction")
-        only_keys(ctx, "reduction", r, {"coordinate", "velocity", "definition", "unit", "meaning", "keep"})
-        rc = string(ctx, r, "reduction.coordinate", required=True)
-        rv = string(ctx, r, "reduction.velocity") or f"{rc}_dot"
-        declare(rc, "reduction.coordinate")
-        declare(rv, "reduction.velocity")
-        if "definition" not in r:
-            raise ctx.error("reduction.definition", "missing definition of the reduced coordinate")
-        runit = string(ctx, r, "reduction.unit") or "1"
-        rdims = unit_of(ctx, "reduction.unit", runit)
-        keep = tuple(string_list(ctx, r, "reduction.keep"))
-        for i, k in enumerate(keep):
+        reduction = parse_reduction(
+            ctx, table(ctx, data, "reduction"), declare, elements,
+            lambda where, value: read_terms(ctx, where, value, schedules),
+            lambda tbl, where: string(ctx, tbl, where), lambda where, text: unit_of(ctx, where, text))
+        for i, k in enumerate(reduction.keep):
             if k not in coordinates:
                 raise ctx.error(f"reduction.keep[{i}]", f"unknown coordinate '{k}'")
-        if len(set(keep)) != len(keep):
-            raise ctx.error("reduction.keep", "a coordinate is listed twice")
-        reduction = Reduction(rc, rv, read_terms(ctx, "reduction.definition", r["definition"], schedules),
-                              runit, string(ctx, r, "reduction.meaning") or "", rdims, keep)
 
     forcing = table(ctx, data, "forcing")
     only_keys(ctx, "forcing", forcing, {"period"})
     period = expr_str(ctx, "forcing.period", forcing["period"]) if "period" in forcing else None
 
-    initial: dict[str, float] = {}
-    for k, v in table(ctx, data, "initial").items():
-        initial[k] = number(ctx, f"initial.{k}", v)
+    initial, static = read_initial(table(ctx, data, "initial"), ctx.error)
 
     dimless = None
     if "dimensionless" in data:
@@ -504,7 +479,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         time_dims=time_dims, coordinates=coordinates, parameters=parameters, derived=derived,
         effects=effects, schedules=schedules, elements=elements, equations=equations,
         reduction=reduction, forcing_period=period, initial=initial, dimensionless=dimless,
-        notes=string(ctx, meta, "model.notes") or "", outputs=outputs,
+        notes=string(ctx, meta, "model.notes") or "", outputs=outputs, static=static,
     )
     validate_model(ctx, spec)
     return spec

@@ -14,8 +14,8 @@ A scene file (``scenes/*.toml``)::
     [parameters]         # run-time, in the units the model declares
     Omega = 0.9
 
-    [initial]            # initial state (state names)
-    x = 1.1
+    [initial]            # initial state (state names): numbers (SI) or expressions
+    x = "F/k + b"        # of the parameters; static = true: the static equilibrium
 
     [simulate]           # defaults of `gearsym simulate`
     periods = 200
@@ -37,6 +37,7 @@ from typing import Any
 from ..errors import ParameterError, SpecError
 from . import expressions as ex
 from .files import read_toml
+from .initial import evaluate_initial, read_initial
 from .model import ModelSpec, Term, load_model
 from .names import check_label, sanitize_label
 
@@ -55,9 +56,11 @@ class SceneSpec:
     model_path: str
     effects: dict[str, bool | str]
     parameters: dict[str, float]
-    initial: dict[str, float]
+    initial: dict[str, float | str]
     simulate: dict[str, Any]
     extra: dict[str, Any] = field(default_factory=dict)
+    #: ``[initial] static``: start from the static equilibrium (``None``: the model's choice)
+    static: bool | None = None
 
 
 @dataclass(frozen=True)
@@ -79,7 +82,10 @@ class ResolvedScene:
         Names of the parameters that active terms use (the others belong only to
         switched-off effects and are not inputs of the compiled system).
     initial
-        Initial state by state name (SI units), unspecified states are 0.
+        Initial state by state name (SI units), unspecified states are 0; with ``static``
+        the coordinates' values are the starting guess of the static solve.
+    static
+        Whether the scene starts from the static equilibrium (``[initial] static``).
     """
 
     model: ModelSpec
@@ -88,6 +94,7 @@ class ResolvedScene:
     values: dict[str, float]
     active_parameters: tuple[str, ...]
     initial: dict[str, float]
+    static: bool = False
 
     def effect_active(self, effect: str | None, variant: str | None = None) -> bool:
         """Whether an effect (and variant, if given) is on; ``None`` means always on."""
@@ -113,10 +120,23 @@ class ResolvedScene:
         effects removed)."""
         red = self.model.reduction
         if red is not None:
-            kept = [self.model.coordinates[k] for k in red.keep if self.coordinate_active(k)]
-            return [red.coordinate, *(c.name for c in kept), red.velocity, *(c.velocity for c in kept)]
+            kept = [(self.model.coordinates[k].name, self.model.coordinates[k].velocity)
+                    for k in red.keep if self.coordinate_active(k)]
+            return red.state_names(lambda c: self.effect_active(c.effect, c.variant), kept)
         coords = [c for c in self.model.coordinates.values() if self.coordinate_active(c.name)]
         return [c.name for c in coords] + [c.velocity for c in coords]
+
+    def coordinate_states(self) -> tuple[list[str], list[str]]:
+        """The states that are coordinates, and their velocities (same order).
+
+        Returns
+        -------
+        coordinates, velocities : list of str
+        """
+        if self.model.reduction is not None:
+            return [self.model.reduction.coordinate], [self.model.reduction.velocity]
+        coords = [c for c in self.model.coordinates.values() if self.coordinate_active(c.name)]
+        return [c.name for c in coords], [c.velocity for c in coords]
 
     @property
     def on_effects(self) -> dict[str, bool | str]:
@@ -186,11 +206,7 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
         if not math.isfinite(v):
             raise err(f"parameters.{k}", f"non-finite value {v}")
         params[k] = float(v)
-    initial: dict[str, float] = {}
-    for k, v in data.get("initial", {}).items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise err(f"initial.{k}", f"expected a finite number, got {v!r}")
-        initial[k] = float(v)
+    initial, static = read_initial(data.get("initial", {}), err)
     sim = data.get("simulate", {})
     for k, v in sim.items():
         if k not in _SIM_KEYS:
@@ -202,7 +218,7 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
             raise err(f"simulate.{k}", f"must be positive, got {sim[k]}")
     extra = {k: data[k] for k in ("orbit", "map", "continue", "figures") if k in data}
     return SceneSpec(where_file, name, description, str(model_path), dict(effects), params, initial,
-                     dict(sim), extra)
+                     dict(sim), extra, static)
 
 
 def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
@@ -333,13 +349,23 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
             values[name] = v * model.parameters[name].si_scale
 
     initial = {s: 0.0 for s in model.state_names()}
-    for src, file, label in ((model.initial, model.path, "initial"), (scene.initial, scene.path, "initial")):
+    params = {p: values[p] for p in model.parameters}
+    for src, file in ((model.initial, model.path), (scene.initial, scene.path)):
         for k, v in src.items():
             if k not in initial:
                 raise SpecError(f"'{k}' is not a state (states: {', '.join(initial)})", file=file,
-                                field=f"{label}.{k}")
-            initial[k] = v
-    rs = ResolvedScene(model, scene, state, values, active_params, initial)
+                                field=f"initial.{k}")
+            initial[k] = evaluate_initial(k, v, params, model.units, model.units.get(k),
+                                          lambda fld, msg, f=file: SpecError(msg, file=f, field=fld))
+    static = bool(scene.static if scene.static is not None else model.static)
+    if static:  # the static equilibrium is at rest
+        velocities = ([model.reduction.velocity] if model.reduction is not None
+                      else [c.velocity for c in model.coordinates.values()])
+        for k in velocities:
+            if initial.get(k, 0.0) != 0.0:
+                raise SpecError(f"static = true starts at rest: the velocity '{k}' must be 0 (or left out)",
+                                file=scene.path if k in scene.initial else model.path, field=f"initial.{k}")
+    rs = ResolvedScene(model, scene, state, values, active_params, initial, static)
     _check_inertias(rs)
     return rs
 
@@ -431,8 +457,9 @@ def _terms_with_owner(model: ModelSpec):
         for t in (*eq.mass, *eq.force):
             yield t, model.coordinates[eq.coordinate].effect, None
     if model.reduction is not None:
-        for t in model.reduction.definition:
-            yield t, None, None
+        for rc in model.reduction.coordinates:
+            for t in rc.definition:
+                yield t, rc.effect, rc.variant
     for o in model.outputs.values():
         for t in o.terms:
             yield t, None, None

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 from . import expressions as ex
 from .elements import ELEMENT_SCHEMAS, validate_element
 from .fields import Ctx, Term, unit_of
+from .reduction import reduction_units
 from .units import ONE, Unit
 
 if TYPE_CHECKING:
@@ -25,8 +26,10 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
         units[f"{s.name}_phase"] = ONE
         units[f"{s.name}_segment"] = ONE
     if spec.reduction is not None:
-        units[spec.reduction.coordinate] = spec.reduction.dims
-        units[spec.reduction.velocity] = spec.reduction.dims / spec.time_dims
+        for rc in spec.reduction.coordinates:
+            if rc.dims is not None:
+                units[rc.name] = rc.dims
+                units[rc.velocity] = rc.dims / spec.time_dims
 
     # every term: effects exist, variants valid
     for where, term in _all_terms(spec):
@@ -74,7 +77,7 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
         _expect(ctx, "forcing.period", spec.forcing_period, units, spec.time_dims, "a time")
     dynamic = {"t"} | set(spec.coordinates) | {c.velocity for c in spec.coordinates.values()}
     if spec.reduction is not None:
-        dynamic |= {spec.reduction.coordinate, spec.reduction.velocity}
+        dynamic |= set(spec.reduction.state_names())
     checks = [("forcing.period", spec.forcing_period)] if spec.forcing_period else []
     for s in spec.schedules.values():
         checks.append((f"schedules.{s.name}.period", s.period))
@@ -140,10 +143,10 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
             if u is not None:
                 energy_of(f"equations.{eq.coordinate}.mass", u * (c.dims / tt) ** 2)
     if spec.reduction is not None:
-        u = _terms_unit(ctx, spec.reduction.definition, units)
-        if u is not None and not u.same_dimension(spec.reduction.dims):
-            raise ctx.error("reduction.definition", f"unit mismatch: [{u.si_string()}] but "
-                                                    f"reduction.unit is [{spec.reduction.dims.si_string()}]")
+        red_units = reduction_units(ctx, spec.reduction, spec.elements, lambda terms: _terms_unit(ctx, terms, units))
+        for rc in spec.reduction.coordinates:
+            units[rc.name] = Unit(1.0, red_units[rc.name].dims)
+            units[rc.velocity] = units[rc.name] / spec.time_dims
     has_mass = {el.coordinate for el in spec.elements.values() if el.type == "inertia"}
     has_mass |= {q for q, eq in spec.equations.items() if eq.mass}
     for q in spec.coordinates:
@@ -198,8 +201,10 @@ def _all_terms(spec: ModelSpec):
         for t in (*eq.mass, *eq.force):
             yield t.field, t
     if spec.reduction is not None:
-        for t in spec.reduction.definition:
-            yield t.field, t
+        for rc in spec.reduction.coordinates:
+            if rc.element is None:
+                for t in rc.definition:
+                    yield t.field, t
 
 
 def _derived_order(ctx: Ctx, spec: ModelSpec) -> list[str]:

@@ -22,6 +22,8 @@ from ..errors import SpecError
 from ..spec.scene import ResolvedScene
 from .elements import ASSEMBLERS, Assembly
 from .parsing import Namespace, internal_symbol
+from .reduction import reduce_model
+from .rigid import mode_dicts, rigid_body_modes, transform_modes
 from .switching import ModalForm, make_modal
 
 
@@ -175,13 +177,45 @@ class SymbolicModel:
         self._surface_hints: list[SwitchingFunction] = []
         q = list(ns.coords.values())
         v = list(ns.vels.values())
+        self._deflections: list[sp.Expr] = []    # geometric deflections of springs, dampers, meshes
+        self._force_exprs: list[sp.Expr] = []    # other expressions that enter forces
+        self._meshes: dict[str, sp.Expr] = {}    # mesh element -> dynamic deflection (deflection - error)
         M, Q = self._assemble(ns, q, v)
         self.unreduced_mass_matrix = M
         self.unreduced_forces = Q
+        self.unreduced_coordinates = list(q)
+        R = rigid_body_modes(q, v, self._deflections, self._force_exprs, [M[i, i] for i in range(len(q))],
+                             ns.t)
+        #: rigid-body modes of the model's own coordinates (columns; before any reduction)
+        self.unreduced_rigid_modes = R
+        self.reduction_result = None
         if self.spec.reduction is not None and self.spec.reduction.keep:
             q, v, M, Q = self._reduce_keeping(ns, q, v, M, Q)
+            # the modes of the kept coordinates and the reduced one: none remain (the pair
+            # with its centres kept is definite in them); rigid modes are those of the rest
+            R = sp.zeros(len(q), 0)
         elif self.spec.reduction is not None:
-            q, v, M, Q = self._reduce(ns, q, v, M, Q)
+            rr = reduce_model(self, ns, q, v, M, Q)
+            self.reduction_result = rr
+            self._reduction_sub = rr.sub
+            self.reduced_mass = rr.masses[0] if len(rr.masses) == 1 else sp.diag(*rr.masses)
+            q, v, M, Q = rr.coordinates, rr.velocities, rr.mass, rr.forces
+            states = tuple(q + v)
+            others = set(rr.kept) | {v_ for q_, v_ in zip(self.unreduced_coordinates, ns.vels.values())
+                                     if q_ in rr.kept}
+            hints = []
+            for h in self._surface_hints:
+                g = _expand_in_states(h.expr.subs(rr.sub), states, ns.t)
+                if g.free_symbols & others:
+                    raise SpecError(f"the reduced model is not closed: the switching function of {h.name} "
+                                    f"still depends on {', '.join(sorted(map(str, g.free_symbols & others)))}",
+                                    file=self.spec.path, field="reduction")
+                hints.append(SwitchingFunction(h.name, g, h.meaning, h.contact_sign, h.kind))
+            self._surface_hints = hints
+            self._meshes = {k: _expand_in_states(d.subs(rr.sub), states, ns.t) for k, d in self._meshes.items()}
+            R = transform_modes(R, rr.A)
+        #: rigid-body modes of the final coordinates (columns of coefficients)
+        self.rigid_modes = R
         self.coordinates = q
         self.velocities = v
         self.states = q + v
@@ -204,6 +238,8 @@ class SymbolicModel:
         self.forcing_period = ns.parse(self.spec.forcing_period, "forcing.period") \
             if self.spec.forcing_period else None
         self.outputs = self._outputs(ns)
+        #: dynamic deflection (deflection - error) of every active mesh element, in the final states
+        self.mesh_deflections: dict[str, sp.Expr] = dict(self._meshes)
         self.parameters = self._parameter_list()
 
     # ----------------------------------------------------------------- assembly
@@ -234,10 +270,12 @@ class SymbolicModel:
                 M[i, i] += field("value")
             elif el.type == "force":
                 Q[index[el.coordinate], 0] += field("value")  # type: ignore[index]
+                self._force_exprs.append(field("value"))
             elif el.type in ASSEMBLERS:  # element types with a module of their own
                 asm = Assembly(ns, q, v, M, Q)
                 ASSEMBLERS[el.type](asm, el)
                 self._surface_hints += asm.hints
+                self._force_exprs += asm.forces
             else:
                 geom = field("deflection")
                 delta = geom - field("error") if el.type == "mesh" else geom
@@ -249,6 +287,11 @@ class SymbolicModel:
                         continue  # acts only on coordinates of switched-off effects
                     raise SpecError("the deflection does not depend on any coordinate",
                                     file=spec.path, field=f"{w}.deflection")
+                self._deflections.append(geom)
+                self._force_exprs += [field(k) for k in ("error", "stiffness", "damping", "backlash",
+                                                         "coefficient") if k in el.fields]
+                if el.type == "mesh":
+                    self._meshes[el.name] = delta
                 if el.type == "spring":
                     W = field("stiffness") * delta
                 elif el.type == "damper":
@@ -285,70 +328,12 @@ class SymbolicModel:
             i = index[eq.coordinate]
             M[i, i] += ns.sum_terms(eq.mass)
             Q[i, 0] += ns.sum_terms(eq.force)
+            self._force_exprs.append(ns.sum_terms(eq.force))
         for i, qi in enumerate(q):
             if M[i, i] == 0:
                 raise SpecError(f"coordinate '{qi}' has no active inertia in this scene",
                                 file=spec.path, field=f"coordinates.{qi}")
         return M, Q
-
-    def _reduce(self, ns: Namespace, q, v, M, Q):
-        """Reduce a semi-definite system to one relative coordinate (e.g. the DTE)."""
-        red = self.spec.reduction
-        assert red is not None
-        where = "reduction.definition"
-        definition = ns.sum_terms(red.definition)
-        a = [sp.diff(definition, qi) for qi in q]
-        if any(ai.has(*q, *v) for ai in a):
-            raise SpecError("the reduced coordinate must be linear in the coordinates",
-                            file=self.spec.path, field=where)
-        if any(ai.has(ns.t) for ai in a):
-            raise SpecError("the coefficients of the coordinates in the reduced coordinate must not "
-                            "depend on time (write the equations in [equations] instead)",
-                            file=self.spec.path, field=where)
-        s = definition - sum(ai * qi for ai, qi in zip(a, q))
-        if s.has(*q, *v):  # keep the structure of s when it is already state-free
-            s = sp.simplify(s)
-        if s.has(*q, *v):
-            raise SpecError("cannot separate the definition into coordinates and time",
-                            file=self.spec.path, field=where)
-        if not M.is_diagonal():
-            raise SpecError("reduction needs a diagonal mass matrix", file=self.spec.path, field=where)
-        k = max(range(len(q)), key=lambda i: 0 if a[i] == 0 else 1)
-        if a[k] == 0:
-            raise SpecError("the reduced coordinate does not depend on any coordinate",
-                            file=self.spec.path, field=where)
-        x = sp.Symbol(red.coordinate, real=True)
-        xd = sp.Symbol(red.velocity, real=True)
-        sdot = sp.diff(s, ns.t)
-        qk = (x - s - sum(a[i] * q[i] for i in range(len(q)) if i != k)) / a[k]
-        vk = (xd - sdot - sum(a[i] * v[i] for i in range(len(q)) if i != k)) / a[k]
-        sub = {q[k]: qk, v[k]: vk}
-        self._reduction_sub = sub
-        acc = sum(a[i] * Q[i, 0] / M[i, i] for i in range(len(q)) if a[i] != 0) + sp.diff(s, ns.t, 2)
-        # expanded in the states only, state-free blocks kept whole: a full expansion multiplies
-        # every inlined derived quantity out (a switched-off effect then made the code bigger:
-        # vaishya_singh with every effect off had 787 operations against 122 with the stiffness
-        # variation on, whose schedule already kept the blocks)
-        acc = _expand_in_states(acc.subs(sub), (x, xd), ns.t, blocks=True)
-        acc = _fold_segments(acc, {ns.sched_seg[sn]: len(b) + 1 for sn, b in ns.schedule_breaks.items()})
-        others = [q[i] for i in range(len(q)) if i != k] + [v[i] for i in range(len(q)) if i != k]
-        if acc.has(*others):
-            leftover = sorted(str(o) for o in others if acc.has(o))
-            raise SpecError(f"cannot reduce to '{red.coordinate}': the forces still depend on "
-                            f"{', '.join(leftover)} (the system is not semi-definite in this "
-                            f"coordinate)", file=self.spec.path, field=where)
-        m_eq = 1 / sum(a[i] ** 2 / M[i, i] for i in range(len(q)) if a[i] != 0)
-        if not self.structured:  # structured: keep the form of a derived m_e = 1/(sum ...)
-            m_eq = sp.simplify(m_eq)
-        self.reduced_mass = m_eq
-        self._surface_hints = [
-            SwitchingFunction(h.name, _expand_in_states(h.expr.subs(sub), (x, xd), ns.t), h.meaning,
-                              h.contact_sign, h.kind)
-            for h in self._surface_hints
-        ]
-        acc = self._collect(acc)
-        return [x], [xd], sp.Matrix([[m_eq]]), sp.Matrix([_expand_in_states(m_eq * acc, (x, xd), ns.t,
-                                                                            blocks=True)])
 
     @staticmethod
     def _collect(expr: sp.Expr) -> sp.Expr:
@@ -385,6 +370,7 @@ class SymbolicModel:
     def _parameter_list(self) -> list[sp.Symbol]:
         exprs = list(self.modal.rhs) + list(self.modal.forces) + [g.expr for g in self.switching]
         exprs += list(getattr(self, "outputs", {}).values())
+        exprs += list(getattr(self, "mesh_deflections", {}).values()) + list(self.rigid_modes)
         if self.form == "implicit":
             exprs += list(self.mass_matrix) + list(self.forces)
         for s in self.schedules:
@@ -405,6 +391,22 @@ class SymbolicModel:
     def state_names(self) -> list[str]:
         """Names of the first-order states."""
         return [str(s) for s in self.states]
+
+    @property
+    def rigid_body_modes(self) -> list[dict[str, sp.Expr]]:
+        """Rigid-body modes of the final coordinates: ``[{coordinate: coefficient}, ...]``.
+
+        Coordinate combinations that no spring, damper, mesh or force sees (see
+        :mod:`gearsym.symbolic.rigid`); each is normalised so that its first non-zero
+        coefficient is 1.  Empty for a model tied to the ground or reduced to relative
+        coordinates.
+        """
+        return mode_dicts(self.rigid_modes, [str(c) for c in self.coordinates])
+
+    @property
+    def unreduced_rigid_body_modes(self) -> list[dict[str, sp.Expr]]:
+        """Rigid-body modes of the model's own coordinates (before a reduction eliminates them)."""
+        return mode_dicts(self.unreduced_rigid_modes, [str(c) for c in self.unreduced_coordinates])
 
     @property
     def parameter_names(self) -> list[str]:

@@ -26,6 +26,8 @@ class Assembly:
         Mass matrix and generalised forces (sympy matrices, changed in place).
     hints
         Switching functions the elements declare (contact surfaces), in order.
+    forces
+        Every generalised force added (read by the rigid-body-mode test).
     is_active
         ``is_active(effect, variant)``: whether an effect is on.
     """
@@ -37,6 +39,8 @@ class Assembly:
     Q: sp.Matrix
     hints: list[Any] = field(default_factory=list)
     is_active: Any = None
+    #: every generalised force added (for the rigid-body-mode test of :mod:`..rigid`)
+    forces: list[sp.Expr] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self.index = {s.name: i for i, s in enumerate(self.q)}
@@ -59,6 +63,7 @@ class Assembly:
         """``Q[coordinate] += value`` (nothing for a coordinate of a switched-off effect)."""
         if isinstance(coordinate, sp.Symbol) and coordinate.name in self.index:
             self.Q[self.index[coordinate.name], 0] += value
+            self.forces.append(value)
 
 
 def dead_zone(a: Assembly, el: Element, delta: sp.Expr, b: sp.Expr) -> sp.Expr:

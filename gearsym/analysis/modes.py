@@ -1,0 +1,479 @@
+"""Modal analysis: natural frequencies and mode shapes about the static equilibrium.
+
+What gear researchers run before anything else: the linear model with the **mean**
+mesh stiffness, linearised about the **static equilibrium** under the mean loads.
+Everything is computed from the compiled system (the generated right-hand side and
+Jacobian; no sympy), for explicit models ``x = [q, v]``, ``v = q'``,
+``v' = a(t, q, v)``:
+
+1. *Averaging.*  With a forcing period ``T`` the time average of a quantity over one
+   period is the mean of ``samples`` equally spaced values (exact for trigonometric
+   polynomials of degree below ``samples``, e.g. ``k (1 + eps cos(2 pi f t - phi))``).
+2. *Static equilibrium.*  Newton on the averaged acceleration at rest,
+   ``abar(q) = <a(t, q, 0)> = 0``, with the averaged Jacobian ``<da/dq>``; the contact
+   state of every backlash mesh follows the iterate (a dead zone is piecewise linear,
+   so Newton ends once the contact pattern is right).  A singular stiffness (a
+   rigid-body mode) takes the least-squares step.
+3. *Linearisation.*  ``A = -<da/dq>`` and ``D = -<da/dv>`` at ``(q_eq, 0)``: for
+   ``M q'' + C q' + K q = F`` these are ``M^-1 K`` and ``M^-1 C``.
+4. *Eigenproblem* ``K phi = w^2 M phi``.  ``M`` is not an output of the generated
+   code, but for a lumped model it is diagonal (inertia elements act on single
+   coordinates) and ``K = M A`` is symmetric, which fixes ``M`` up to one scale per
+   coupled group of coordinates: ``m_i / m_j = A_ji / A_ij``.  These ratios are taken
+   along the strongest couplings and checked on every coupling; when they hold the
+   problem is solved as the symmetric pencil ``(M A, M)`` (``scipy.linalg.eigh``:
+   real frequencies, ``M``-orthogonal shapes, kinetic-energy fractions per
+   coordinate, modal damping ratios ``phi^T C phi / (2 w phi^T M phi)``).  Otherwise
+   (gyroscopic or non-conservative couplings, non-diagonal mass) the eigenvalues of
+   ``A`` are used and ``symmetric`` is false.
+
+Repeated frequencies (to ``cluster_tol``, relative) are grouped: ``multiplicities``
+gives the size of each mode's group, and
+:func:`gearsym.analysis.planetary.classify_planetary` classifies planetary gear modes
+(Lin & Parker) by group.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..errors import ConvergenceError, ParameterError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..system import System
+
+__all__ = ["ModalAnalysis", "averaged_linearization", "diagonal_mass", "modal_analysis", "static_equilibrium"]
+
+
+@dataclass(frozen=True)
+class ModalAnalysis:
+    """Natural frequencies and mode shapes of a linearised model.
+
+    Attributes
+    ----------
+    coordinate_names : list of str
+        The coordinates ``q`` (the first half of the states).
+    equilibrium : ndarray
+        ``q`` at the static equilibrium (SI units).
+    frequencies_hz : ndarray
+        Undamped natural frequencies ``w / (2 pi)``, ascending (Hz; cycles per unit time
+        for models in dimensionless time); a negative value ``-sqrt(-w^2)/(2 pi)`` marks a
+        statically unstable direction.
+    shapes : ndarray, shape (n_modes, n_coordinates)
+        Mode shapes, each scaled so that its largest component is ``+1``.
+    multiplicities : ndarray of int
+        Number of modes in each mode's group of equal frequencies.
+    groups : list of list of int
+        The groups of equal frequencies (mode indices).
+    damping_ratios : ndarray
+        Modal damping ratios (``nan`` for a zero frequency or without ``symmetric``).
+    symmetric : bool
+        Whether ``K = M A`` was symmetric with a diagonal ``M`` (see the module notes).
+    mass : ndarray or None
+        The recovered diagonal of ``M``, up to one scale per coupled group.
+    stiffness : ndarray
+        ``A = M^-1 K`` (averaged over the forcing period).
+    damping : ndarray
+        ``D = M^-1 C``.
+    contact : dict
+        Contact state of every backlash mesh at the equilibrium: ``"drive"``,
+        ``"back"`` or ``"separated"``.
+    params : dict
+        Parameter values (SI) of the analysis.
+    info : dict
+        ``samples``, ``period``, Newton ``iterations`` and ``residual`` of the equilibrium,
+        ``symmetry_error``, ``cluster_tol``.
+    classification : list of str or None
+        A type per mode where a classifier applies (planetary sets:
+        ``"rotational"``, ``"translational"``, ``"planet"``, ``"mixed"``).
+    """
+
+    coordinate_names: list[str]
+    equilibrium: np.ndarray
+    frequencies_hz: np.ndarray
+    shapes: np.ndarray
+    multiplicities: np.ndarray
+    groups: list[list[int]]
+    damping_ratios: np.ndarray
+    symmetric: bool
+    mass: np.ndarray | None
+    stiffness: np.ndarray
+    damping: np.ndarray
+    contact: dict[str, str]
+    params: dict[str, float]
+    info: dict[str, Any] = field(default_factory=dict)
+    classification: list[str] | None = None
+    _vectors: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def n_modes(self) -> int:
+        """Number of modes (= number of coordinates)."""
+        return len(self.frequencies_hz)
+
+    def mass_normalized(self) -> np.ndarray:
+        """Shapes as columns, ``M``-orthonormal in the recovered mass (symmetric case only)."""
+        if self._vectors is None:
+            raise ParameterError("mass-normalised shapes need the symmetric (diagonal-mass) case")
+        return self._vectors
+
+    def energy_fractions(self, group: Sequence[int]) -> np.ndarray:
+        """Kinetic-energy fraction of every coordinate in a group of modes (summed over the
+        group: independent of the basis chosen inside a repeated frequency).
+
+        Returns
+        -------
+        ndarray, shape (n_coordinates,)
+            Sums to 1.  Without ``symmetric`` the squared amplitudes are used.
+        """
+        idx = list(group)
+        if self._vectors is not None and self.mass is not None:
+            V = self._vectors[:, idx]
+            e = self.mass[:, None] * V ** 2
+        else:
+            e = self.shapes[idx].T ** 2
+        tot = e.sum(axis=1)
+        return tot / tot.sum()
+
+    def table(self, title: str = "", frequency_unit: str = "Hz") -> str:
+        """The text report of ``gearsym modes``: one row per mode (frequency, multiplicity,
+        damping ratio, type, largest components), the contact state and the structure verdict.
+
+        ``frequency_unit``: the label of the frequency column (``"1/time"`` for models in
+        dimensionless time, whose ``frequencies_hz`` are cycles per unit time)."""
+        names = self.coordinate_names
+        lines = [f"{title + ': ' if title else ''}{self.n_modes} modes of the linearisation about the static "
+                 f"equilibrium (mean stiffness over {self.info.get('samples')} samples per forcing period)"]
+        if self.contact:
+            lost = {k: v for k, v in self.contact.items() if v != "drive"}
+            lines.append("  contact at equilibrium: " + ("all meshes in drive-side contact" if not lost else
+                                                         ", ".join(f"{k} {v}" for k, v in self.contact.items())))
+        if not self.symmetric:
+            lines.append("  (no diagonal mass symmetrises the stiffness: eigenvalues of M^-1 K, no damping ratios)")
+        head = f"  {'mode':>4s} {'f [' + frequency_unit + ']':>12s} {'mult':>4s} {'damping':>8s}"
+        if self.classification:
+            head += f"  {'type':13s}"
+        lines.append(head + "  largest components")
+        for k in range(self.n_modes):
+            shape = self.shapes[k]
+            big = np.argsort(-np.abs(shape))[:3]
+            z = self.damping_ratios[k]
+            row = f"  {k + 1:4d} {self.frequencies_hz[k]:12.2f} {self.multiplicities[k]:4d} "
+            row += f"{z:8.4f}" if math.isfinite(z) else f"{'-':>8s}"
+            if self.classification:
+                row += f"  {self.classification[k]:13s}"
+            lines.append(row + "  " + ", ".join(f"{names[i]} {shape[i]:+.3f}" for i in big))
+        st = self.info.get("structure")
+        if st:
+            g = st["groups"]
+            lines.append(f"  Lin & Parker structure ({st['n_planets']} planets): {g['rotational']} rotational, "
+                         f"{g['translational']} translational, {g['planet']} planet, {g['mixed']} mixed groups: "
+                         + ("holds" if st["lin_parker"] else "does NOT hold"))
+        return "\n".join(lines)
+
+    def to_dict(self, shapes: bool = True) -> dict[str, Any]:
+        """JSON-ready summary (``mode_shapes``: one mapping coordinate -> amplitude per mode)."""
+        d: dict[str, Any] = {
+            "coordinate_names": list(self.coordinate_names),
+            "frequencies_hz": [float(f) for f in self.frequencies_hz],
+            "multiplicities": [int(m) for m in self.multiplicities],
+            "damping_ratios": [None if not math.isfinite(z) else float(z) for z in self.damping_ratios],
+            "classification": self.classification,
+            "symmetric": bool(self.symmetric),
+            "equilibrium": {n: float(v) for n, v in zip(self.coordinate_names, self.equilibrium)},
+            "contact": dict(self.contact),
+            "params": dict(self.params),
+            **{k: v for k, v in self.info.items() if k not in ("structure",)},
+        }
+        if "structure" in self.info:
+            d["structure"] = self.info["structure"]
+        if shapes:
+            d["mode_shapes"] = [{n: float(v) for n, v in zip(self.coordinate_names, s)} for s in self.shapes]
+        return d
+
+
+# ------------------------------------------------------------------------ evaluation
+def _sample_times(system: System, params: Mapping[str, float] | None, samples: int, t0: float
+                  ) -> tuple[np.ndarray, float | None]:
+    T = system.period(params)
+    if not T:
+        return np.array([t0]), None
+    return t0 + T * np.arange(samples) / samples, T
+
+
+def _averaged(system: System, x: np.ndarray, times: np.ndarray, params: Mapping[str, float] | None,
+              jac: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """Period averages of the right-hand side and of its Jacobian at the state ``x``
+    (the mode -- side of every switching surface -- taken at ``(t, x)``)."""
+    f = np.zeros(len(x))
+    J = np.zeros((len(x), len(x))) if jac else None
+    for t in times:
+        f += system.rhs(float(t), x, params=params)
+        if J is not None:
+            J += system.jacobian(float(t), x, params=params)
+    f /= len(times)
+    if J is not None:
+        J /= len(times)
+    return f, J
+
+
+def _check_explicit(system: System) -> int:
+    gen = system.generated
+    if gen.implicit:
+        raise ParameterError("modal analysis needs an explicit model (model.form = 'explicit')")
+    if gen.nx % 2:
+        raise ParameterError(f"modal analysis needs states [q, q'] (got {gen.nx} states)")
+    return gen.nx // 2
+
+
+def static_equilibrium(system: System, params: Mapping[str, float] | None = None, *,
+                       x0: Sequence[float] | None = None, samples: int = 32, t0: float = 0.0,
+                       tol: float = 1e-12, max_iter: int = 50) -> tuple[np.ndarray, dict[str, Any]]:
+    """The static equilibrium ``<a(t, q, 0)> = 0`` under the period-averaged loads.
+
+    Parameters
+    ----------
+    system
+        A compiled explicit system.
+    params
+        Parameter overrides (SI).
+    x0
+        Starting state (default: the scene's initial state); only its coordinates are used.
+    samples
+        Samples per forcing period for the averages.
+    t0
+        Start of the averaging period.
+    tol
+        Convergence: the Newton step below ``tol`` times the largest ``|q_i|``.
+    max_iter
+        Newton iteration limit.
+
+    Returns
+    -------
+    q : ndarray
+        The coordinates at equilibrium.
+    info : dict
+        ``iterations``, ``residual`` (largest averaged acceleration left), ``singular``
+        (a least-squares step was needed: rigid-body mode).
+
+    Raises
+    ------
+    ConvergenceError
+        No equilibrium found (e.g. an unbalanced load on a rigid-body mode).
+    """
+    nq = _check_explicit(system)
+    times, _ = _sample_times(system, params, samples, t0)
+    x = np.array(system.x0 if x0 is None else x0, dtype=float)
+    if x.shape != (2 * nq,):
+        raise ParameterError(f"x0 must have {2 * nq} entries, got shape {x.shape}")
+    x[nq:] = 0.0
+    singular = False
+    a_scale = 0.0
+    history = []
+    for it in range(1, max_iter + 1):
+        f, J = _averaged(system, x, times, params)
+        assert J is not None
+        a, Aq = f[nq:], J[nq:, :nq]
+        a_scale = max(a_scale, float(np.max(np.abs(Aq))) * max(float(np.max(np.abs(x[:nq]))), 1e-300))
+        try:
+            dq = np.linalg.solve(Aq, -a)
+            if not np.all(np.isfinite(dq)) or np.linalg.cond(Aq) > 1e13:
+                raise np.linalg.LinAlgError
+        except np.linalg.LinAlgError:
+            singular = True
+            dq = np.linalg.lstsq(Aq, -a, rcond=1e-12)[0]
+        x[:nq] += dq
+        step = float(np.max(np.abs(dq)))
+        history.append(step)
+        if step <= tol * max(float(np.max(np.abs(x[:nq]))), 1e-300):
+            f, _ = _averaged(system, x, times, params, jac=False)
+            res = float(np.max(np.abs(f[nq:])))
+            if res <= 1e-8 * max(a_scale, 1e-300):
+                return x[:nq].copy(), {"iterations": it, "residual": res, "singular": singular}
+            raise ConvergenceError(
+                f"no static equilibrium: Newton stopped with mean accelerations up to {res:.3g} left "
+                f"(a rigid-body mode with an unbalanced mean load?)")
+    raise ConvergenceError(f"static equilibrium: Newton did not converge in {max_iter} iterations "
+                           f"(last steps {', '.join(f'{s:.3g}' for s in history[-5:])}); the contact "
+                           f"pattern of the backlash meshes may alternate")
+
+
+def averaged_linearization(system: System, q: Sequence[float], params: Mapping[str, float] | None = None,
+                           *, samples: int = 32, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """``A = -<da/dq>`` and ``D = -<da/dv>`` at ``(q, v = 0)``, averaged over the forcing period.
+
+    For ``M q'' + C q' + K q = F(t)`` these are ``M^-1 K`` and ``M^-1 C`` with the mean
+    stiffness and damping in the contact state at ``q``.
+    """
+    nq = _check_explicit(system)
+    times, _ = _sample_times(system, params, samples, t0)
+    x = np.concatenate([np.asarray(q, float), np.zeros(nq)])
+    _, J = _averaged(system, x, times, params)
+    assert J is not None
+    return -J[nq:, :nq], -J[nq:, nq:]
+
+
+def diagonal_mass(A: np.ndarray, rtol: float = 1e-9) -> tuple[np.ndarray | None, float]:
+    """A diagonal ``M`` with ``M A`` symmetric, if there is one.
+
+    ``m_i A_ij = m_j A_ji`` for every coupling: the ratios are taken along a maximum
+    spanning tree of the couplings (strongest ``|A_ij A_ji|`` first, so round-off
+    entries never set a ratio), one scale per connected group, and checked on all.
+
+    Returns
+    -------
+    m : ndarray or None
+        The diagonal (positive), or None if no diagonal ``M`` symmetrises ``A``.
+    error : float
+        ``max |m_i A_ij - m_j A_ji| / max |m_i A_ij|`` (inf when None).
+    """
+    n = A.shape[0]
+    scale = float(np.max(np.abs(A))) if A.size else 0.0
+    if scale == 0.0:
+        return np.ones(n), 0.0
+    tiny = 1e-12 * scale
+    W = np.abs(A) * np.abs(A.T)
+    W[np.abs(A) <= tiny] = 0.0
+    W[np.abs(A.T) <= tiny] = 0.0
+    np.fill_diagonal(W, 0.0)
+    m = np.full(n, np.nan)
+    # Prim's algorithm from every unvisited node (one tree per coupled group)
+    for root in range(n):
+        if not math.isnan(m[root]):
+            continue
+        m[root] = 1.0
+        best = W[root].copy()
+        parent = np.full(n, root)
+        best[~np.isnan(m)] = -1.0
+        while True:
+            j = int(np.argmax(best))
+            if best[j] <= 0.0:
+                break
+            i = parent[j]
+            ratio = A[i, j] / A[j, i]  # m_j = m_i A_ij / A_ji
+            if not ratio > 0:
+                return None, math.inf
+            m[j] = m[i] * ratio
+            best[j] = -1.0
+            upd = (W[j] > best) & np.isnan(m)
+            best[upd] = W[j][upd]
+            parent[upd] = j
+    K = m[:, None] * A
+    err = float(np.max(np.abs(K - K.T)) / np.max(np.abs(K)))
+    return (m, err) if err <= rtol else (None, err)
+
+
+def _groups(f: np.ndarray, cluster_tol: float) -> list[list[int]]:
+    top = float(np.max(np.abs(f))) if f.size else 0.0
+    out: list[list[int]] = []
+    for i in range(len(f)):
+        if out and abs(f[i] - f[out[-1][-1]]) <= cluster_tol * max(abs(f[i]), abs(f[out[-1][-1]])) \
+                + 1e-9 * top:
+            out[-1].append(i)
+        else:
+            out.append([i])
+    return out
+
+
+def _contact(system: System, q: np.ndarray, params: Mapping[str, float] | None, t0: float) -> dict[str, str]:
+    surfaces = system.generated.surfaces
+    if not any(s.get("kind") in ("drive", "back") for s in surfaces):
+        return {}
+    x = np.concatenate([q, np.zeros_like(q)])
+    g = np.asarray(system.generated.casadi_function("gs_sw")(t0, x, system.param_vector(params))).ravel()
+    state: dict[str, str] = {}
+    for j, s in enumerate(surfaces):
+        kind = s.get("kind")
+        if kind not in ("drive", "back"):
+            continue
+        mesh = s["name"].rsplit(".", 1)[0]
+        sign = int(s.get("contact_sign", 0))
+        touching = g[j] > 0 if sign > 0 else g[j] < 0
+        state.setdefault(mesh, "separated")
+        if touching:
+            state[mesh] = str(kind)
+    return state
+
+
+def modal_analysis(system: System, params: Mapping[str, float] | None = None, *, samples: int = 32,
+                   t0: float = 0.0, x0: Sequence[float] | None = None, cluster_tol: float = 1e-6
+                   ) -> ModalAnalysis:
+    """Natural frequencies and mode shapes about the static equilibrium (mean stiffness).
+
+    Parameters
+    ----------
+    system
+        A compiled explicit system.
+    params
+        Parameter overrides (SI).
+    samples
+        Samples per forcing period for the averages (mean stiffness, mean loads).
+    t0
+        Start of the averaging period.
+    x0
+        Starting guess of the equilibrium (default: the scene's initial state).
+    cluster_tol
+        Relative tolerance under which frequencies count as equal (multiplicities).
+
+    Returns
+    -------
+    ModalAnalysis
+
+    Raises
+    ------
+    ParameterError
+        Implicit model, bad options.
+    ConvergenceError
+        No static equilibrium.
+    """
+    if samples < 1 or not (0 < cluster_tol < 1):
+        raise ParameterError("need samples >= 1 and 0 < cluster_tol < 1")
+    q, eq_info = static_equilibrium(system, params, x0=x0, samples=samples, t0=t0)
+    A, D = averaged_linearization(system, q, params, samples=samples, t0=t0)
+    n = len(q)
+    m, sym_err = diagonal_mass(A)
+    vectors = None
+    if m is not None:
+        K = m[:, None] * A
+        K = 0.5 * (K + K.T)
+        w2, V = sla.eigh(K, np.diag(m))
+        C = m[:, None] * D
+        C = 0.5 * (C + C.T)
+        vectors = V
+        denom = 2.0 * np.sqrt(np.abs(w2)) * np.einsum("ik,i,ik->k", V, m, V)
+        zeta = np.einsum("ik,ij,jk->k", V, C, V) / np.where(denom > 0, denom, np.nan)
+        shapes = V.T.copy()
+    else:
+        w2c, Vc = np.linalg.eig(A)
+        order = np.argsort(w2c.real)
+        w2, shapes = w2c.real[order], Vc[:, order].real.T.copy()
+        zeta = np.full(n, np.nan)
+    top = float(np.max(np.abs(w2))) if n else 0.0
+    w2 = np.where(np.abs(w2) <= 1e-12 * top, 0.0, w2)
+    f = np.sign(w2) * np.sqrt(np.abs(w2)) / (2 * math.pi)
+    zeta = np.where(f > 0, zeta, np.nan)
+    for k in range(n):
+        i = int(np.argmax(np.abs(shapes[k])))
+        if shapes[k, i] != 0:
+            shapes[k] /= shapes[k, i]
+    groups = _groups(f, cluster_tol)
+    mult = np.zeros(n, dtype=int)
+    for g in groups:
+        mult[g] = len(g)
+    names = system.state_names[:n]
+    times, T = _sample_times(system, params, samples, t0)
+    p_used = {k: float(v) for k, v in zip(system.param_names, system.param_vector(params)) if k in system.params}
+    return ModalAnalysis(
+        coordinate_names=names, equilibrium=q, frequencies_hz=f, shapes=shapes, multiplicities=mult,
+        groups=groups, damping_ratios=zeta, symmetric=m is not None, mass=m, stiffness=A, damping=D,
+        contact=_contact(system, q, params, t0), params=p_used,
+        info={"samples": len(times), "period": T, "equilibrium_iterations": eq_info["iterations"],
+              "equilibrium_residual": eq_info["residual"], "rigid_body": eq_info["singular"] or bool(
+                  np.any(f == 0.0)), "symmetry_error": sym_err if math.isfinite(sym_err) else None,
+              "cluster_tol": cluster_tol},
+        _vectors=vectors)

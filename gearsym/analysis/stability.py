@@ -1,0 +1,284 @@
+"""One stability rule for periodic orbits: trivial multipliers, tolerance, verdict.
+
+Every analysis that judges an orbit (``orbit``, ``continue``, ``map`` and the Python
+API) calls :func:`floquet`:
+
+1. **Trivial multipliers.**  A model that keeps rigid-body modes (a free gear train
+   in absolute rotations; :mod:`gearsym.symbolic.rigid`) has, for each mode ``r``, the
+   invariant state subspace ``V = span{[r; 0], [0; r]}`` on which the monodromy is the
+   Jordan block ``[[1, T], [0, 1]]`` (a shift of the rigid coordinate stays a shift; a
+   rigid velocity adds ``T`` times itself).  ``numpy.linalg.eigvals`` smears such a
+   block into ``1 +- 3.5e-7j`` (the square root of the rounding error), which a plain
+   ``max |mu| < 1`` calls unstable.  Instead, with ``Q = [Q_V, Q_W]`` an orthonormal
+   basis whose first columns span ``V``, ``Q^T M Q`` is block upper triangular (its
+   lower-left block is the *invariance defect*, zero up to the integration error);
+   the eigenvalues of the ``V`` block are the **trivial multipliers** (reported apart),
+   those of the ``W`` block -- the monodromy of the quotient by the rigid-body motion,
+   i.e. of the relative coordinates -- are the **multipliers** the verdict is based on.
+   They equal the multipliers of the same model reduced to its deflections.
+
+2. **Tolerance.**  The monodromy comes from an integration with relative tolerance
+   ``rtol``.  It is first balanced (``scipy.linalg.matrix_balance``: a diagonal
+   similarity, so that the rule does not depend on the units of the states: m, rad,
+   m/s); the absolute error of the balanced ``M`` is estimated as
+
+       delta = C * max(rtol, eps) * max(1, ||M||_2),      C = 100
+
+   (the global error of the variational equations is one to two orders above the
+   local tolerance; measured on the Mathieu equation, tests/test_stability.py).  A
+   simple multiplier ``mu_i`` with eigenvalue condition number
+   ``kappa_i = |y_i| |x_i| / |y_i^H x_i|`` (left / right eigenvectors) moves by at most
+   about ``kappa_i * delta``; a multiple, defective one by about
+   ``sqrt(delta * max(1, ||M||_2))``.  Its tolerance is
+
+       tol_i = max(min(kappa_i * delta, sqrt(delta * max(1, ||M||_2))), 16 eps).
+
+3. **Verdict.**  ``"unstable"`` if some ``|mu_i| > 1 + tol_i``; else ``"neutral"`` if
+   some ``|mu_i| >= 1 - tol_i`` (on the unit circle within the monodromy's error:
+   conservative systems, the stable intervals of the Mathieu equation); else
+   ``"asymptotically_stable"``.  ``stable`` is ``stability != "unstable"``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..system import System
+
+__all__ = ["ERROR_FACTOR", "STABILITY", "FloquetResult", "complex_sides", "floquet", "multiplier_tolerances",
+           "neutral_step_limit", "rigid_state_basis", "split_trivial"]
+
+#: The three verdicts.
+STABILITY = ("asymptotically_stable", "neutral", "unstable")
+#: ``C`` of the monodromy error estimate ``delta = C * rtol * max(1, ||M||)``.
+ERROR_FACTOR = 100.0
+_EPS = float(np.finfo(float).eps)
+
+
+@dataclass(frozen=True)
+class FloquetResult:
+    """Multipliers of a monodromy, split and judged by the stability rule.
+
+    Attributes
+    ----------
+    multipliers : ndarray (complex)
+        The non-trivial multipliers, by decreasing modulus.
+    trivial : ndarray (complex)
+        The multipliers of the rigid-body subspace (two per rigid-body mode, at +1).
+    tolerances : ndarray
+        Tolerance of each non-trivial multiplier (same order).
+    stability : str
+        ``"asymptotically_stable"``, ``"neutral"`` or ``"unstable"``.
+    stable : bool
+        ``stability != "unstable"``.
+    n_unstable : int
+        Multipliers outside the circle beyond their tolerance.
+    n_neutral : int
+        Multipliers on the circle within their tolerance.
+    monodromy_error : float
+        ``delta``, the estimated absolute error of the monodromy.
+    invariance_defect : float
+        ``||Q_W^T M Q_V|| / max(1, ||M||)`` (0 without rigid-body modes).
+    info : dict
+        ``"rigid_split"``: ``"ok"``, ``"none"`` (no rigid-body modes) or why it was not done.
+    """
+
+    multipliers: np.ndarray
+    trivial: np.ndarray
+    tolerances: np.ndarray
+    stability: str
+    stable: bool
+    n_unstable: int
+    n_neutral: int
+    monodromy_error: float
+    invariance_defect: float = 0.0
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def max_multiplier(self) -> float:
+        """``max |mu|`` of the non-trivial multipliers (NaN if there are none)."""
+        return float(np.max(np.abs(self.multipliers))) if len(self.multipliers) else math.nan
+
+    def status(self) -> np.ndarray:
+        """Per multiplier: -1 inside the circle, 0 neutral, +1 outside (beyond the tolerances)."""
+        a = np.abs(self.multipliers)
+        return np.where(a > 1 + self.tolerances, 1, np.where(a >= 1 - self.tolerances, 0, -1))
+
+
+def _sort(mu: np.ndarray, *others: np.ndarray) -> tuple[np.ndarray, ...]:
+    order = np.lexsort((-mu.imag, -np.abs(mu)))
+    return (mu[order],) + tuple(o[order] for o in others)
+
+
+def rigid_state_basis(system: System, params: Mapping[str, float] | None = None) -> np.ndarray | None:
+    """``[[R, 0], [0, R]]``: the rigid-body subspace of the state at these parameters.
+
+    ``None`` when the compiled model has no rigid-body modes (``gs_rigid`` absent) or its
+    states are not ``coordinates + velocities``.
+    """
+    gen = system.generated
+    if not getattr(gen, "rigid_modes", None) or "gs_rigid" not in gen.functions:
+        return None
+    R = np.asarray(gen.casadi_function("gs_rigid")(system.param_vector(params)), float)
+    nq, k = R.shape
+    if 2 * nq != gen.nx or k == 0 or not np.all(np.isfinite(R)):
+        return None
+    V = np.zeros((gen.nx, 2 * k))
+    V[:nq, :k] = R
+    V[nq:, k:] = R
+    return V
+
+
+def split_trivial(M: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Split a monodromy along its invariant rigid-body subspace ``span(V)``.
+
+    Returns
+    -------
+    quotient : ndarray
+        The monodromy on the complement (``Q_W^T M Q_W``): its eigenvalues are the
+        non-trivial multipliers.
+    trivial : ndarray (complex)
+        Eigenvalues of the ``V`` block.
+    defect : float
+        ``||Q_W^T M Q_V||_2 / max(1, ||M||_2)`` (0 for an exactly invariant ``V``).
+    """
+    M = np.asarray(M, float)
+    Q, _ = np.linalg.qr(np.asarray(V, float), mode="complete")
+    r = int(np.linalg.matrix_rank(V))
+    B = Q.T @ M @ Q
+    defect = float(np.linalg.norm(B[r:, :r], 2)) / max(1.0, float(np.linalg.norm(M, 2))) if r else 0.0
+    return B[r:, r:], np.linalg.eigvals(B[:r, :r]).astype(complex), defect
+
+
+def multiplier_tolerances(M: np.ndarray, rtol: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """Eigenvalues of ``M`` and their tolerances (module docstring, rule 2).
+
+    Returns
+    -------
+    mu : ndarray (complex)
+        Eigenvalues (unsorted, as ``scipy.linalg.eig`` returns them).
+    tol : ndarray
+        Tolerance of each.
+    delta : float
+        The estimated absolute error of ``M``.
+    """
+    import scipy.linalg
+
+    M = np.asarray(M, float)
+    if M.size == 0:
+        return np.zeros(0, complex), np.zeros(0), ERROR_FACTOR * max(float(rtol), _EPS)
+    # states in different units (m, rad, m/s) make the norm and the eigenvector angles
+    # depend on the units: balance first (a diagonal similarity, same eigenvalues)
+    M = scipy.linalg.matrix_balance(M, permute=False)[0]
+    nM = float(np.linalg.norm(M, 2))
+    delta = ERROR_FACTOR * max(float(rtol), _EPS) * max(1.0, nM)
+    mu, vl, vr = scipy.linalg.eig(M, left=True, right=True)
+    den = np.abs(np.sum(np.conj(vl) * vr, axis=0))
+    num = np.linalg.norm(vl, axis=0) * np.linalg.norm(vr, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        kappa = np.where(den > 0, num / den, np.inf)
+    cap = math.sqrt(delta * max(1.0, nM))
+    tol = np.maximum(np.minimum(kappa * delta, cap), 16 * _EPS)
+    return mu.astype(complex), tol, delta
+
+
+def floquet(monodromy: np.ndarray | None, rtol: float, basis: np.ndarray | None = None) -> FloquetResult:
+    """The stability rule (module docstring): split, tolerances, verdict.
+
+    Parameters
+    ----------
+    monodromy
+        The monodromy matrix.
+    rtol
+        Relative tolerance of the integration it came from (the error estimate).
+    basis
+        The rigid-body subspace of the state (:func:`rigid_state_basis`), or ``None``.
+
+    Returns
+    -------
+    FloquetResult
+        Without a (finite) monodromy: no verdict, ``stability = "unknown"``, ``stable`` False.
+    """
+    if monodromy is None or np.asarray(monodromy).size == 0:
+        return FloquetResult(np.zeros(0, complex), np.zeros(0, complex), np.zeros(0), "unknown", False, 0, 0,
+                             math.nan, 0.0, {"rigid_split": "none"})
+    M = np.asarray(monodromy, float)
+    if not np.all(np.isfinite(M)):
+        nan = np.full(M.shape[0], complex(math.nan, math.nan))
+        return FloquetResult(nan, np.zeros(0, complex), np.full(M.shape[0], math.nan), "unknown", False, 0, 0,
+                             math.nan, math.nan, {"rigid_split": "non-finite monodromy"})
+    trivial = np.zeros(0, complex)
+    defect = 0.0
+    info: dict[str, Any] = {"rigid_split": "none"}
+    Mq = M
+    if basis is not None and basis.shape[0] == M.shape[0] and basis.shape[1]:
+        import scipy.linalg
+
+        # in balanced variables (x = D y), where the subspace is span(D^-1 V)
+        Mb, (scale, _) = scipy.linalg.matrix_balance(M, permute=False, separate=True)
+        quot, triv, defect = split_trivial(Mb, np.asarray(basis, float) / scale[:, None])
+        limit = max(1e-6, 1e3 * ERROR_FACTOR * max(float(rtol), _EPS))
+        if defect <= limit:
+            Mq, trivial = quot, triv
+            info["rigid_split"] = "ok"
+        else:
+            info["rigid_split"] = (f"not done: the rigid-body subspace is not invariant under the monodromy "
+                                   f"(defect {defect:.3g} > {limit:.3g})")
+    mu, tol, delta = multiplier_tolerances(Mq, rtol)
+    mu, tol = _sort(mu, tol)
+    a = np.abs(mu)
+    n_unst = int(np.sum(a > 1 + tol))
+    n_neut = int(np.sum((a <= 1 + tol) & (a >= 1 - tol)))
+    stability = "unstable" if n_unst else ("neutral" if n_neut else "asymptotically_stable")
+    trivial = _sort(trivial)[0] if len(trivial) else trivial
+    return FloquetResult(mu, trivial, tol, stability, stability != "unstable", n_unst, n_neut, delta, defect,
+                         info)
+
+
+# ------------------------------------------------ continuation along neutral branches
+def complex_sides(point: Any) -> tuple[int, int]:
+    """Complex (non-real) multipliers of a branch point inside / outside the circle beyond their
+    tolerances: a Neimark-Sacker point is only where these counts change (pairs sitting on
+    the circle of a conservative branch flip the sign of its test function by noise)."""
+    mu = np.asarray(point.multipliers, complex)
+    tol = np.asarray(point.multiplier_tolerances, float)
+    if len(tol) != len(mu):
+        tol = np.zeros(len(mu))
+    cplx = np.abs(mu.imag) > 1e-9 * np.maximum(1.0, np.abs(mu))
+    a = np.abs(mu)
+    return int(np.sum(cplx & (a < 1 - tol))), int(np.sum(cplx & (a > 1 + tol)))
+
+
+def neutral_step_limit(A: Any, B: Any, h: float, h_used: float, ds_min: float) -> float:
+    """Limit the next step where multipliers sit on the unit circle (a conservative branch).
+
+    There a whole instability tongue (a pair meeting at +1 or -1, leaving the circle as
+    a real pair and coming back) can hide inside one step, with the same multipliers at
+    both ends.  For every neutral multiplier of ``B`` that moved in the last step (more
+    than a thousand times its tolerance), the next step is at most half of what its last
+    rate predicts for reaching +1 or -1: far from a tongue that halves the distance to
+    it per step, and near its edge, where the pair moves like the square root of the
+    distance, the step overshoots the edge by a fraction of the distance left and lands
+    inside the tongue (measured on the Mathieu equation: tongues 0.03 wide are found).
+    """
+    if B.stability != "neutral":
+        return h
+    ma, mb = np.asarray(A.multipliers, complex), np.asarray(B.multipliers, complex)
+    tol = np.asarray(B.multiplier_tolerances, float)
+    if not len(ma) or len(tol) != len(mb) or h_used <= 0:
+        return h
+    for i, m in enumerate(mb):
+        if abs(abs(m) - 1.0) > tol[i]:
+            continue
+        moved = float(np.min(np.abs(ma - m)))
+        if not math.isfinite(moved) or moved <= 1e3 * tol[i]:
+            continue
+        dist = min(abs(m - 1.0), abs(m + 1.0))
+        h = min(h, 0.5 * dist * h_used / moved)
+    return max(h, ds_min)

@@ -1,0 +1,78 @@
+"""Every public name has a numpydoc docstring with Parameters and Returns where they apply.
+
+Public names are ``gearsym.__all__`` and the public methods and properties of its classes.
+Functions and methods are checked with numpydoc's own validator (``numpydoc.validate``):
+no docstring (GL08), parameters not documented (PR01) or documented but absent (PR02),
+a function that returns something without a Returns section (RT01).  A class must describe
+every argument of its constructor under Parameters or, for result objects that users
+receive rather than build, Attributes.
+
+Exempt while the analysis-layer refactor (issue 14: problem objects, one Newton, frozen
+options and results dataclasses) is pending, because it rewrites these classes and their
+docstrings: the names in :data:`PENDING_ANALYSIS_REFACTOR`.  The test also fails when an
+exempt name has become complete, so that the list shrinks with the refactor.
+"""
+
+from __future__ import annotations
+
+import inspect
+
+import pytest
+from numpydoc.docscrape import NumpyDocString
+from numpydoc.validate import validate
+
+import gearsym
+
+CHECKS = {"GL08", "PR01", "PR02", "RT01"}
+PENDING_ANALYSIS_REFACTOR = {"Bifurcation", "Branch", "BranchPoint", "PeriodicOrbit"}
+
+
+def _problems(name: str) -> list[str]:
+    obj = getattr(gearsym, name)
+    out = []
+    if not inspect.getdoc(obj):
+        return [f"{name}: no docstring"]
+    if inspect.isclass(obj):
+        doc = NumpyDocString(inspect.getdoc(obj))
+        documented = {p.name.split(":")[0].strip().lstrip("*") for p in doc["Parameters"] + doc["Attributes"]}
+        documented = {n for item in documented for n in item.replace(" ", "").split(",")}
+        try:
+            sig = inspect.signature(obj)
+        except (TypeError, ValueError):
+            sig = None
+        for p in (sig.parameters.values() if sig else []):
+            if p.name.lstrip("_") not in documented and p.name not in documented:
+                out.append(f"{name}: constructor argument '{p.name}' is in neither Parameters nor Attributes")
+        for attr, value in vars(obj).items():
+            if attr.startswith("_"):
+                continue
+            if isinstance(value, (property, staticmethod, classmethod)) or inspect.isfunction(value):
+                qual = f"{obj.__module__}.{obj.__qualname__}.{attr}"
+                if isinstance(value, property):
+                    if not (value.__doc__ or "").strip():
+                        out.append(f"{qual}: property without a docstring")
+                    continue
+                out += [f"{qual}: {code} {msg}" for code, msg in validate(qual)["errors"] if code in CHECKS]
+    elif callable(obj):
+        qual = f"{obj.__module__}.{obj.__qualname__}"
+        out += [f"{qual}: {code} {msg}" for code, msg in validate(qual)["errors"] if code in CHECKS]
+    return out
+
+
+PUBLIC = [n for n in gearsym.__all__ if n != "__version__"]
+
+
+def test_all_lists_every_export():
+    assert set(gearsym.__all__) == set(gearsym._EXPORTS) | {"__version__"}
+    assert PENDING_ANALYSIS_REFACTOR <= set(PUBLIC)
+
+
+@pytest.mark.parametrize("name", [n for n in PUBLIC if n not in PENDING_ANALYSIS_REFACTOR])
+def test_public_name_has_a_complete_docstring(name):
+    assert _problems(name) == []
+
+
+@pytest.mark.parametrize("name", sorted(PENDING_ANALYSIS_REFACTOR))
+def test_exempt_names_are_still_incomplete(name):
+    # when this fails, the name's docstrings are complete: take it out of PENDING_ANALYSIS_REFACTOR
+    assert _problems(name) != []
