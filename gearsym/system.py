@@ -83,9 +83,21 @@ class System:
         return [s["name"] for s in self.generated.surfaces]
 
     def state_scales(self, params: Mapping[str, float] | None = None) -> np.ndarray:
-        """Reference of each state: ``x_dimensional = state_scales() * x`` (ones unless the
-        system simulates in dimensionless variables; then time is ``t_ref * tau``, see
-        :meth:`time_scale`)."""
+        """Reference of each state: ``x_dimensional = state_scales() * x``.
+
+        Ones unless the system simulates in dimensionless variables; then time is
+        ``t_ref * tau``, see :meth:`time_scale`.
+
+        Parameters
+        ----------
+        params
+            Parameter overrides (SI units).
+
+        Returns
+        -------
+        ndarray
+            One scale per state (coordinates, then velocities: coordinate scale / ``t_ref``).
+        """
         if not self.generated.dimensionless:
             return np.ones(self.generated.nx)
         s = np.asarray(self.generated.casadi_function("gs_scales")(self.param_vector(params))).ravel()
@@ -93,7 +105,18 @@ class System:
         return np.concatenate([q, q / T])
 
     def time_scale(self, params: Mapping[str, float] | None = None) -> float:
-        """``t_ref``: dimensional time per unit of this system's time (1 unless dimensionless)."""
+        """``t_ref``: dimensional time per unit of this system's time.
+
+        Parameters
+        ----------
+        params
+            Parameter overrides (SI units).
+
+        Returns
+        -------
+        float
+            1 unless the system simulates in dimensionless variables.
+        """
         if not self.generated.dimensionless:
             return 1.0
         return float(np.asarray(self.generated.casadi_function("gs_scales")(self.param_vector(params))).ravel()[0])
