@@ -351,7 +351,9 @@ def _values(sm: SymbolicModel) -> dict[sp.Symbol, float]:
 
 def _number(e: sp.Expr, values: dict[sp.Symbol, float]) -> float:
     try:
-        v = complex(sp.sympify(sp.sympify(e).xreplace(values)).evalf())
+        expr = e if isinstance(e, sp.Basic) else sp.Float(float(e))
+        r = expr.xreplace(values)  # a plain float when expr is one of the symbols
+        v = complex(r.evalf() if isinstance(r, sp.Basic) else r)
     except (TypeError, ValueError, ZeroDivisionError):
         return math.nan
     return v.real if abs(v.imag) <= 1e-12 * max(1.0, abs(v.real)) else math.nan

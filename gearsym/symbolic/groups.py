@@ -3,7 +3,7 @@
 Two steps, both local (no global ``simplify``):
 
 * :class:`Normalizer` rewrites an expression ``e`` of dimension ``d`` as
-  ``e / S(d)`` (``S(d) = M**d_M * L**d_L * T**d_T``, the reference scales), node by node:
+  ``e / scale(d)`` (``scale(d) = M**d_M * L**d_L * T**d_T``, the reference scales), node by node:
   every maximal sub-expression free of the dynamic symbols (states, time, surface
   sides) becomes one *block*, divided by the scale of its own dimension, so every block
   is a dimensionless combination of parameters, and like terms of a sum have their
@@ -32,7 +32,7 @@ Vector = dict[sp.Basic, Fraction]
 
 
 class Normalizer:
-    """Rewrite expressions as ``e / S(dim e)`` with dimensionless parameter blocks.
+    """Rewrite expressions as ``e / scale(dim e)`` with dimensionless parameter blocks.
 
     Parameters
     ----------
@@ -68,7 +68,7 @@ class Normalizer:
         return not (e.free_symbols & self.dynamic)
 
     def __call__(self, e: sp.Basic) -> sp.Basic:
-        """``e / S(dim e)`` with blocks, like terms collected."""
+        """``e / scale(dim e)`` with blocks, like terms collected."""
         return self._collect(self._norm(e))
 
     def _norm(self, e: sp.Basic) -> sp.Basic:  # noqa: C901 - a flat dispatch
