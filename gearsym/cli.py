@@ -98,6 +98,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     import sympy as sp
 
     from .catalog import find_spec_file
+    from .cli_inspect import inspect_details, print_details
     from .facade import Scene
     from .spec.files import read_toml
     from .spec.model import load_model
@@ -142,15 +143,9 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         ],
         "forcing_period": sp.sstr(m.forcing_period) if m.forcing_period is not None else None,
         "equations": [sp.sstr(e.lhs) + " = " + sp.sstr(e.rhs) for e in m.equations()],
-        "dimensionless_groups": {},
         **inspect_structure(m),
     }
-    if ms.dimensionless is not None and m.form == "explicit":
-        d = m.dimensionless()
-        info["dimensionless_groups"] = {k: sp.sstr(v) for k, v in d.groups.items()}
-        info["dimensionless_equations"] = [
-            f"{d.states[i]}'' = {sp.sstr(d.accelerations[i])}" for i in range(len(d.states) // 2)]
-        info["dimensionless_scales"] = {k: sp.sstr(v) for k, v in d.scales.items()}
+    info.update(inspect_details(m, jacobian=args.jacobian))
     if args.latex:
         info["latex"] = m.latex()
     if args.json:
@@ -183,15 +178,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         print(f"breakpoints: schedule {b['schedule']}, period {b['period']}, breaks at {b['breaks']}")
     if info["forcing_period"]:
         print(f"forcing period: {info['forcing_period']}")
-    if info["dimensionless_groups"]:
-        print("dimensionless form:")
-        for eq in info["dimensionless_equations"]:
-            print(f"  {eq}")
-        print("  with")
-        for k, v in info["dimensionless_groups"].items():
-            print(f"    {k} = {v}")
-        for k, v in info["dimensionless_scales"].items():
-            print(f"    reference {k}: {v}")
+    print_details(info, [s.name for s in m.switching])
     if args.latex:
         print(info["latex"])
     return 0
@@ -585,6 +572,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("inspect", help="show derived equations, states, parameters, effects, modes")
     p.add_argument("path", help="scene or model file, or the name of a shipped scene or model")
     p.add_argument("--latex", action="store_true", help="also print the equations as LaTeX")
+    p.add_argument("--jacobian", action="store_true", help="also print the symbolic Jacobian")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter")
     p.add_argument("--effect", action="append", metavar="NAME[=VARIANT]", help="switch an effect on")

@@ -90,7 +90,13 @@ class Scene:
         """
         return [self.resolved.initial[s] for s in self.resolved.state_names()]
 
-    def compile(self, generated_dir: str | Path | None = None, force: bool = False) -> System:  # noqa: F821
+    @property
+    def dimensionless(self) -> bool:
+        """Whether the scene simulates in dimensionless variables (``[simulate] dimensionless``)."""
+        return bool(self.spec.simulate.get("dimensionless", False))
+
+    def compile(self, generated_dir: str | Path | None = None, force: bool = False,
+                dimensionless: bool | None = None) -> System:  # noqa: F821
         """Generate C, compile it (or reuse the cached build) and bind it to the engine.
 
         Parameters
@@ -99,6 +105,10 @@ class Scene:
             Root folder of the builds (default: :func:`default_generated_dir`).
         force
             Rebuild even if a cached build exists.
+        dimensionless
+            Simulate in the dimensionless variables of :meth:`SymbolicModel.dimensionless`
+            (time ``tau``, states scaled by their references; the scene's initial state is
+            converted); default: the scene's ``[simulate] dimensionless``.
 
         Returns
         -------
@@ -108,7 +118,7 @@ class Scene:
         """
         from .system import System
 
-        gen = self.generate(generated_dir, force)
+        gen = self.generate(generated_dir, force, dimensionless)
         values = {k: self.resolved.values[k] for k in gen.input_names}
         system = System(gen, values, self.initial_state(), self.spec.simulate, self.name)
         if self.resolved.static:  # [initial] static = true: start from the static equilibrium
@@ -118,7 +128,8 @@ class Scene:
                                      where=(self.spec.path, "initial.static"))
         return system
 
-    def generate(self, generated_dir: str | Path | None = None, force: bool = False) -> GeneratedModel:
+    def generate(self, generated_dir: str | Path | None = None, force: bool = False,
+                 dimensionless: bool | None = None) -> GeneratedModel:
         """Generate and compile, returning the :class:`GeneratedModel` (cache-aware).
 
         The build is looked up by its key (:func:`gearsym.codegen.cache.build_key`) and
@@ -132,6 +143,8 @@ class Scene:
             Root folder of the builds (default: :func:`default_generated_dir`).
         force
             Rebuild even if a verified build exists.
+        dimensionless
+            Generate the dimensionless form (default: the scene's ``[simulate] dimensionless``).
 
         Returns
         -------
@@ -148,7 +161,10 @@ class Scene:
             model_text = Path(self.model_spec.path).read_text(encoding="utf-8")
         except OSError as exc:
             raise GearsymError(f"cannot read the model file {self.model_spec.path}: {exc.strerror}") from None
-        key, parts = build_key(model_text, self.resolved.effects, self.model_spec.form)
+        if dimensionless is None:
+            dimensionless = self.dimensionless
+        form = self.model_spec.form + ("+dimensionless" if dimensionless else "")
+        key, parts = build_key(model_text, self.resolved.effects, form)
         cache = BuildCache(root)
         entry = cache.entry(self.name, key)
         if not force:
@@ -165,9 +181,10 @@ class Scene:
                     gen = cache.lookup(entry, key)
                     if gen is not None:
                         return self._reused(gen)
-                fns = build_functions(self.model)
+                model = self.model.dimensionless_system() if dimensionless else self.model
+                fns = build_functions(model)
                 with cache.staging(entry) as staging:
-                    gen = write_and_compile(self.model, fns, staging, entry.directory, self.name, key,
+                    gen = write_and_compile(model, fns, staging, entry.directory, self.name, key,
                                             self.resolved.effects, parts)
                     cache.install(staging, entry)
                 return gen

@@ -60,6 +60,8 @@ class System:
         # functions of other parameters), which param_vector() evaluates from theirs
         self.params = {name: float(params[name]) for name in generated.input_names}
         self.x0 = np.asarray(x0, dtype=float)
+        if generated.dimensionless:  # the scene's initial state is dimensional: scale it
+            self.x0 = self.x0 / self.state_scales()
         self.defaults = dict(defaults or {})
         self.name = scene_name or generated.scene
 
@@ -79,6 +81,45 @@ class System:
     def surface_names(self) -> list[str]:
         """Names of the switching functions."""
         return [s["name"] for s in self.generated.surfaces]
+
+    def state_scales(self, params: Mapping[str, float] | None = None) -> np.ndarray:
+        """Reference of each state: ``x_dimensional = state_scales() * x``.
+
+        Ones unless the system simulates in dimensionless variables; then time is
+        ``t_ref * tau``, see :meth:`time_scale`.
+
+        Parameters
+        ----------
+        params
+            Parameter overrides (SI units).
+
+        Returns
+        -------
+        ndarray
+            One scale per state (coordinates, then velocities: coordinate scale / ``t_ref``).
+        """
+        if not self.generated.dimensionless:
+            return np.ones(self.generated.nx)
+        s = np.asarray(self.generated.casadi_function("gs_scales")(self.param_vector(params))).ravel()
+        T, q = s[0], s[1:]
+        return np.concatenate([q, q / T])
+
+    def time_scale(self, params: Mapping[str, float] | None = None) -> float:
+        """``t_ref``: dimensional time per unit of this system's time.
+
+        Parameters
+        ----------
+        params
+            Parameter overrides (SI units).
+
+        Returns
+        -------
+        float
+            1 unless the system simulates in dimensionless variables.
+        """
+        if not self.generated.dimensionless:
+            return 1.0
+        return float(np.asarray(self.generated.casadi_function("gs_scales")(self.param_vector(params))).ravel()[0])
 
     def param_vector(self, params: Mapping[str, float] | None = None) -> np.ndarray:
         """Parameter vector with ``params`` overriding the current values (SI units).

@@ -37,6 +37,7 @@ from typing import Any
 
 from ..errors import SpecError
 from . import expressions as ex
+from .elements import ELEMENT_SCHEMAS
 from .fields import (
     Ctx,
     Term,
@@ -140,6 +141,8 @@ class Element:
     effect: str | None = None
     variant: str | None = None
     meaning: str = ""
+    #: coordinate fields of the schema types (:mod:`gearsym.spec.elements`): field -> names
+    coordinates: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -163,11 +166,16 @@ class Group:
 
 @dataclass(frozen=True)
 class Dimensionless:
-    """Reference scales for the dimensionless form, and the named groups."""
+    """Reference scales for the dimensionless form, and the named groups.
 
-    time: str
+    Every scale is optional (``None``: the default of :mod:`gearsym.symbolic.scales`).
+    """
+
+    time: str | None
     coordinates: dict[str, str]
     groups: tuple[Group, ...]
+    length: str | None = None
+    mass: str | None = None
 
 
 @dataclass(frozen=True)
@@ -201,7 +209,8 @@ class ModelSpec:
     def state_names(self) -> list[str]:
         """Names of the first-order states: coordinates then velocities."""
         if self.reduction is not None:
-            return self.reduction.state_names()
+            kept = [(self.coordinates[k].name, self.coordinates[k].velocity) for k in self.reduction.keep]
+            return self.reduction.state_names(kept=kept)
         coords = list(self.coordinates.values())
         return [c.name for c in coords] + [c.velocity for c in coords]
 
@@ -216,6 +225,7 @@ _ELEMENT_FIELDS = {
     "damper": ({"deflection", "coefficient"}, set()),
     "mesh": ({"deflection", "stiffness"}, {"error", "damping", "backlash"}),
     "force": ({"value"}, set()),
+    **{k: (set(v.required), set(v.optional)) for k, v in ELEMENT_SCHEMAS.items()},
 }
 _ELEMENT_META = {"type", "coordinate", "effect", "variant", "meaning", "drive_side"}
 
@@ -381,7 +391,13 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
             raise ctx.error(f"{where}.type", f"unknown element type '{etype}' "
                                              f"(known: {', '.join(_ELEMENT_FIELDS)})")
         required, optional = _ELEMENT_FIELDS[etype]
-        only_keys(ctx, where, el, required | optional | _ELEMENT_META)
+        schema = ELEMENT_SCHEMAS.get(etype)
+        coord_fields = set(schema.coordinates) if schema else set()
+        only_keys(ctx, where, el, required | optional | _ELEMENT_META | coord_fields)
+        if schema is not None and "coordinate" in el:
+            raise ctx.error(f"{where}.coordinate", f"a {etype} element names its coordinates in "
+                                                   f"{', '.join(sorted(coord_fields))}")
+        coord_refs = _coordinate_fields(ctx, where, el, schema, coordinates) if schema else {}
         for r in sorted(required):
             if r not in el:
                 raise ctx.error(f"{where}.{r}", f"missing field '{r}' of {etype} element")
@@ -397,7 +413,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
                   if k in el}
         elements[lname] = Element(lname, etype, fields, coord, drive,
                                   string(ctx, el, f"{where}.effect"), string(ctx, el, f"{where}.variant"),
-                                  string(ctx, el, f"{where}.meaning") or "")
+                                  string(ctx, el, f"{where}.meaning") or "", coord_refs)
 
     # explicit equations
     equations: dict[str, Equation] = {}
@@ -420,6 +436,9 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
             ctx, table(ctx, data, "reduction"), declare, elements,
             lambda where, value: read_terms(ctx, where, value, schedules),
             lambda tbl, where: string(ctx, tbl, where), lambda where, text: unit_of(ctx, where, text))
+        for i, k in enumerate(reduction.keep):
+            if k not in coordinates:
+                raise ctx.error(f"reduction.keep[{i}]", f"unknown coordinate '{k}'")
 
     forcing = table(ctx, data, "forcing")
     only_keys(ctx, "forcing", forcing, {"period"})
@@ -430,7 +449,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     dimless = None
     if "dimensionless" in data:
         dl = table(ctx, data, "dimensionless")
-        only_keys(ctx, "dimensionless", dl, {"time", "coordinates", "groups"})
+        only_keys(ctx, "dimensionless", dl, {"time", "length", "mass", "coordinates", "groups"})
         groups = []
         for gname, g in as_table(ctx, "dimensionless.groups", dl.get("groups", {})).items():
             gw = f"dimensionless.groups.{gname}"
@@ -441,10 +460,12 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
                                 string(ctx, g, f"{gw}.eliminates", required=True),
                                 string(ctx, g, f"{gw}.meaning") or ""))
         dimless = Dimensionless(
-            expr_str(ctx, "dimensionless.time", dl.get("time", "1")),
+            expr_str(ctx, "dimensionless.time", dl["time"]) if "time" in dl else None,
             {k: expr_str(ctx, f"dimensionless.coordinates.{k}", v)
              for k, v in as_table(ctx, "dimensionless.coordinates", dl.get("coordinates", {})).items()},
             tuple(groups),
+            expr_str(ctx, "dimensionless.length", dl["length"]) if "length" in dl else None,
+            expr_str(ctx, "dimensionless.mass", dl["mass"]) if "mass" in dl else None,
         )
 
     # outputs: quantities evaluated along trajectories (e.g. the dynamic backlash B(t))
@@ -462,6 +483,28 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     )
     validate_model(ctx, spec)
     return spec
+
+
+def _coordinate_fields(ctx: Ctx, where: str, el: dict[str, Any], schema, coordinates: dict[str, Coordinate]
+                       ) -> dict[str, tuple[str, ...]]:
+    """The coordinate fields of a schema element (names checked against the coordinates)."""
+    out: dict[str, tuple[str, ...]] = {}
+    for key, count in schema.coordinates.items():
+        fw = f"{where}.{key}"
+        if key not in el:
+            if key in schema.required_coordinates:
+                raise ctx.error(fw, f"missing field '{key}' of {el.get('type')} element")
+            continue
+        value = el[key]
+        names = [value] if count == 1 and isinstance(value, str) else value
+        if not isinstance(names, list) or len(names) != count or not all(isinstance(n, str) for n in names):
+            what = "a coordinate name" if count == 1 else f"an array of {count} coordinate names"
+            raise ctx.error(fw, f"wrong type: expected {what}")
+        for i, n in enumerate(names):
+            if n not in coordinates:
+                raise ctx.error(fw if count == 1 else f"{fw}[{i}]", f"unknown coordinate '{n}'")
+        out[key] = tuple(names)
+    return out
 
 
 def _quantities(ctx: Ctx, data: dict[str, Any], section: str, declare: Any,

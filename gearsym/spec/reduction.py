@@ -47,7 +47,7 @@ are passed in (no import cycle).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -106,6 +106,10 @@ class Reduction:
 
     coordinates: tuple[ReducedCoordinate, ...]
     mode: str = "explicit"
+    #: coordinates kept as states beside the (single) reduced one: its definition may depend
+    #: on them in any smooth way, e.g. through a pressure angle that varies with the centre
+    #: distance (``[reduction] keep``, :mod:`gearsym.symbolic.reduction_keep`)
+    keep: tuple[str, ...] = ()
 
     @property
     def coordinate(self) -> str:
@@ -137,10 +141,12 @@ class Reduction:
         """Dimensions of the (first) reduced coordinate."""
         return self.coordinates[0].dims
 
-    def state_names(self, active: Callable[[ReducedCoordinate], bool] | None = None) -> list[str]:
-        """Reduced coordinates then their velocities (those ``active`` accepts)."""
+    def state_names(self, active: Callable[[ReducedCoordinate], bool] | None = None,
+                    kept: Sequence[tuple[str, str]] = ()) -> list[str]:
+        """Reduced coordinates (those ``active`` accepts), then the ``kept`` coordinates
+        (``(name, velocity)`` pairs), then the velocities in the same order."""
         cs = [c for c in self.coordinates if active is None or active(c)]
-        return [c.name for c in cs] + [c.velocity for c in cs]
+        return [c.name for c in cs] + [k for k, _ in kept] + [c.velocity for c in cs] + [v for _, v in kept]
 
 
 def deflection_coordinate_names(element: str) -> tuple[str, str]:
@@ -194,11 +200,17 @@ def parse_reduction(ctx: Any, r: dict[str, Any], declare: Callable[[str, str], N
             _only(ctx, where, c, {"definition", "unit", "velocity", "meaning"})
             out.append(_one(ctx, c, where, name, declare, terms, text, unit))
         return Reduction(tuple(out), "explicit")
-    _only(ctx, "reduction", r, {"mode", "coordinate", "velocity", "definition", "unit", "meaning"})
+    _only(ctx, "reduction", r, {"mode", "coordinate", "velocity", "definition", "unit", "meaning", "keep"})
     name = text(r, "reduction.coordinate")
     if name is None:
         raise ctx.error("reduction.coordinate", "missing field 'coordinate'")
-    return Reduction((_one(ctx, r, "reduction", name, declare, terms, text, unit, single=True),), "explicit")
+    keep = r.get("keep", [])
+    if not isinstance(keep, list) or not all(isinstance(k, str) for k in keep):
+        raise ctx.error("reduction.keep", "expected an array of coordinate names")
+    if len(set(keep)) != len(keep):
+        raise ctx.error("reduction.keep", "a coordinate is listed twice")
+    return Reduction((_one(ctx, r, "reduction", name, declare, terms, text, unit, single=True),), "explicit",
+                     tuple(keep))
 
 
 def _one(ctx: Any, c: dict[str, Any], where: str, name: str, declare: Callable[[str, str], None],

@@ -43,7 +43,7 @@ from .names import check_label, sanitize_label
 
 _SIM_KEYS = {"periods": (int, float), "t_end": (int, float), "rtol": (float, int), "atol": (float, int),
              "points_per_period": (int,), "method": (str,), "transient_periods": (int, float),
-             "max_steps": (int,)}
+             "max_steps": (int,), "dimensionless": (bool,)}
 
 
 @dataclass(frozen=True)
@@ -118,8 +118,11 @@ class ResolvedScene:
     def state_names(self) -> list[str]:
         """Names of the first-order states of this scene (coordinates of switched-off
         effects removed)."""
-        if self.model.reduction is not None:
-            return self.model.reduction.state_names(lambda c: self.effect_active(c.effect, c.variant))
+        red = self.model.reduction
+        if red is not None:
+            kept = [(self.model.coordinates[k].name, self.model.coordinates[k].velocity)
+                    for k in red.keep if self.coordinate_active(k)]
+            return red.state_names(lambda c: self.effect_active(c.effect, c.variant), kept)
         coords = [c for c in self.model.coordinates.values() if self.coordinate_active(c.name)]
         return [c.name for c in coords] + [c.velocity for c in coords]
 
@@ -208,7 +211,7 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
     for k, v in sim.items():
         if k not in _SIM_KEYS:
             raise err(f"simulate.{k}", f"unknown field '{k}' (allowed: {', '.join(sorted(_SIM_KEYS))})")
-        if isinstance(v, bool) or not isinstance(v, _SIM_KEYS[k]):
+        if (isinstance(v, bool) and bool not in _SIM_KEYS[k]) or not isinstance(v, _SIM_KEYS[k]):
             raise err(f"simulate.{k}", f"wrong type {type(v).__name__}")
     for k in ("rtol", "atol", "periods", "t_end"):
         if k in sim and not (math.isfinite(sim[k]) and sim[k] > 0):
@@ -438,6 +441,10 @@ def _terms_with_owner(model: ModelSpec):
         owner, variant = el.effect, el.variant
         if owner is None and el.coordinate is not None:
             owner = model.coordinates[el.coordinate].effect  # element on a gated coordinate
+        elif owner is None and el.coordinates:  # schema element: all its coordinates gated alike
+            effs = {model.coordinates[n].effect for names in el.coordinates.values() for n in names}
+            if len(effs) == 1 and None not in effs:
+                owner = effs.pop()
         elif owner is None:  # spring/damper/mesh whose deflection uses only gated coordinates
             names = set().union(*(ex.names_in(t.expr) for t in el.fields.get("deflection", ())))
             effs = {model.coordinates[n].effect for n in names if n in model.coordinates}

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from . import expressions as ex
+from .elements import ELEMENT_SCHEMAS, validate_element
 from .fields import Ctx, Term, unit_of
 from .reduction import reduction_units
 from .units import ONE, Unit
@@ -110,6 +111,8 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
             u = _terms_unit(ctx, f["value"], units)
             if u is not None:
                 energy_of(f"{w}.value", u * c.dims)
+        elif el.type in ELEMENT_SCHEMAS:
+            validate_element(ctx, spec, el, lambda terms: _terms_unit(ctx, terms, units), energy_of)
         else:
             d = _terms_unit(ctx, f["deflection"], units)
             if d is None:
@@ -162,7 +165,15 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
             _expect(ctx, f"{gw}.definition", g.definition, units, ONE, "dimensionless")
             if g.eliminates not in ex.names_in(g.definition):
                 raise ctx.error(f"{gw}.eliminates", f"'{g.eliminates}' does not appear in the definition")
-        _expect(ctx, "dimensionless.time", spec.dimensionless.time, units, spec.time_dims, "a time")
+        dl = spec.dimensionless
+        if dl.time is not None:
+            _expect(ctx, "dimensionless.time", dl.time, units, spec.time_dims, "a time")
+        if dl.length is not None:
+            _expect(ctx, "dimensionless.length", dl.length, units, Unit(1.0, (0, 1, 0)), "a length")
+        if dl.mass is not None:
+            _expect(ctx, "dimensionless.mass", dl.mass, units, Unit(1.0, (1, 0, 0)), "a mass")
+        for q, text in dl.coordinates.items():
+            _expect(ctx, f"dimensionless.coordinates.{q}", text, units, units[q], "the coordinate's unit")
     for k in spec.initial:
         if k not in spec.state_names():
             raise ctx.error(f"initial.{k}", f"'{k}' is not a state (states: {', '.join(spec.state_names())})")

@@ -20,6 +20,7 @@ import sympy as sp
 
 from ..errors import SpecError
 from ..spec.scene import ResolvedScene
+from .elements import ASSEMBLERS, Assembly
 from .parsing import Namespace, internal_symbol
 from .reduction import reduce_model
 from .rigid import mode_dicts, rigid_body_modes, transform_modes
@@ -165,11 +166,12 @@ class SymbolicModel:
     forcing_period : sympy.Expr or None
     """
 
-    def __init__(self, rs: ResolvedScene):
+    def __init__(self, rs: ResolvedScene, structured: bool = False):
         self.resolved = rs
         self.spec = rs.model
         self.name = rs.model.name
-        ns = Namespace(rs)
+        self.structured = structured
+        ns = Namespace(rs, structured=structured)
         self.ns = ns
         self.t = ns.t
         self._surface_hints: list[SwitchingFunction] = []
@@ -187,7 +189,12 @@ class SymbolicModel:
         #: rigid-body modes of the model's own coordinates (columns; before any reduction)
         self.unreduced_rigid_modes = R
         self.reduction_result = None
-        if self.spec.reduction is not None:
+        if self.spec.reduction is not None and self.spec.reduction.keep:
+            q, v, M, Q = self._reduce_keeping(ns, q, v, M, Q)
+            # the modes of the kept coordinates and the reduced one: none remain (the pair
+            # with its centres kept is definite in them); rigid modes are those of the rest
+            R = sp.zeros(len(q), 0)
+        elif self.spec.reduction is not None:
             rr = reduce_model(self, ns, q, v, M, Q)
             self.reduction_result = rr
             self._reduction_sub = rr.sub
@@ -264,6 +271,11 @@ class SymbolicModel:
             elif el.type == "force":
                 Q[index[el.coordinate], 0] += field("value")  # type: ignore[index]
                 self._force_exprs.append(field("value"))
+            elif el.type in ASSEMBLERS:  # element types with a module of their own
+                asm = Assembly(ns, q, v, M, Q)
+                ASSEMBLERS[el.type](asm, el)
+                self._surface_hints += asm.hints
+                self._force_exprs += asm.forces
             else:
                 geom = field("deflection")
                 delta = geom - field("error") if el.type == "mesh" else geom
@@ -322,6 +334,22 @@ class SymbolicModel:
                 raise SpecError(f"coordinate '{qi}' has no active inertia in this scene",
                                 file=spec.path, field=f"coordinates.{qi}")
         return M, Q
+
+    @staticmethod
+    def _collect(expr: sp.Expr) -> sp.Expr:
+        return expr
+
+    def _reduce_keeping(self, ns: Namespace, q, v, M, Q):
+        """Reduce to one relative coordinate, keeping ``reduction.keep`` as states
+        (:mod:`gearsym.symbolic.reduction_keep`)."""
+        from .reduction_keep import reduce_keeping
+
+        q2, v2, M2, Q2, sub, m_eq, g = reduce_keeping(self, ns, q, v, M, Q, [h.expr for h in self._surface_hints])
+        self._reduction_sub = sub
+        self.reduced_mass = m_eq if self.structured else sp.simplify(m_eq)
+        self._surface_hints = [SwitchingFunction(h.name, gh, h.meaning, h.contact_sign, h.kind)
+                               for h, gh in zip(self._surface_hints, g)]
+        return q2, v2, M2, Q2
 
     def _outputs(self, ns: Namespace) -> dict[str, sp.Expr]:
         """The model's [outputs], in terms of the final states (after reduction)."""
@@ -451,8 +479,31 @@ class SymbolicModel:
             lines.append(f"g_{{\\mathrm{{{g.name}}}}} = {sp.latex(g.expr)}")
         return "\\begin{aligned}\n" + " \\\\\n".join(lines) + "\n\\end{aligned}"
 
+    @property
+    def structured_model(self) -> SymbolicModel:
+        """The same model with parameter-only derived quantities kept as symbols
+        (``m_e``, ``omega_n``; see :class:`~gearsym.symbolic.parsing.Namespace`)."""
+        if self.structured:
+            return self
+        cached = self.__dict__.get("_structured")
+        if cached is None:
+            cached = SymbolicModel(self.resolved, structured=True)
+            self.__dict__["_structured"] = cached
+        return cached
+
+    def dimensionless_system(self):
+        """The model in dimensionless variables, for code generation
+        (:class:`~gearsym.symbolic.dimensionless.DimensionlessSystem`)."""
+        from .dimensionless import DimensionlessSystem
+
+        return DimensionlessSystem(self)
+
     def dimensionless(self):
-        """The dimensionless form (see :mod:`gearsym.symbolic.dimensionless`)."""
+        """The dimensionless form (see :mod:`gearsym.symbolic.dimensionless`), computed once."""
         from .dimensionless import dimensionless_form
 
-        return dimensionless_form(self)
+        cached = self.__dict__.get("_dimensionless")
+        if cached is None:
+            cached = dimensionless_form(self)
+            self.__dict__["_dimensionless"] = cached
+        return cached

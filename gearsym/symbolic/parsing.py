@@ -145,10 +145,26 @@ class Namespace:
         parameters are bound and passes it as a parameter.
     sched_n, sched_seg
         Cycle-index and segment-index symbols of each schedule.
+    derived
+        With ``structured=True``: the symbol of every derived quantity that depends on
+        parameters only (no time, state or schedule), mapped to its definition (in
+        parameters and the symbols of earlier such quantities).  Expressions then keep
+        these names (``m_e``, ``omega_n``) instead of their inlined definitions; see
+        :meth:`inline`.  Empty otherwise.
+
+    Parameters
+    ----------
+    rs
+        The resolved scene.
+    structured
+        Keep parameter-only derived quantities as symbols (see ``derived``); ``"all"``:
+        every derived quantity, also those of time and states (for differentiating by
+        the chain rule through named intermediate quantities).
     """
 
-    def __init__(self, rs: ResolvedScene):
+    def __init__(self, rs: ResolvedScene, structured: bool | str = False):
         self.rs = rs
+        self.derived: dict[sp.Symbol, sp.Expr] = {}
         m = rs.model
         self.t = sp.Symbol("t", real=True)
         self.params = {p: sp.Symbol(p, real=True) for p in m.parameters}
@@ -162,6 +178,9 @@ class Namespace:
         self._local.update(self.params)
         self._local.update(self.coords)
         self._local.update(self.vels)
+        if m.reduction is not None:  # the reduced states, for [outputs] (never before the reduction)
+            self._local[m.reduction.coordinate] = sp.Symbol(m.reduction.coordinate, real=True)
+            self._local[m.reduction.velocity] = sp.Symbol(m.reduction.velocity, real=True)
         for c in m.coordinates.values():
             if c.name not in self.coords:  # gated coordinate of a switched-off effect
                 self._local[c.name] = sp.Integer(0)
@@ -184,7 +203,12 @@ class Namespace:
                 deps = set().union(*[names_in(t.expr) for t in d.terms]) if d.terms else set()
                 if deps & set(pending):
                     continue
-                self._local[name] = self.sum_terms(d.terms)
+                value = self.sum_terms(d.terms)
+                if structured and not value.is_Atom and (structured == "all" or self._parameter_only(value)):
+                    sym = sp.Symbol(name, real=True)
+                    self.derived[sym] = value
+                    value = sym
+                self._local[name] = value
                 del pending[name]
                 progressed = True
             if not progressed:  # pragma: no cover - the spec layer rejects cycles
@@ -201,6 +225,27 @@ class Namespace:
                 self._local[f"{s}_phase"] = self.t / self.schedule_period[s] - self.sched_n[s]
             for name in m.derived:
                 self._local[name] = self._local[name].xreplace(fill)
+
+    def _parameter_only(self, expr: sp.Basic) -> bool:
+        """Whether ``expr`` depends on parameters (and parameter-only derived quantities) only."""
+        allowed = set(self.params.values()) | set(self.bound) | set(self.derived)
+        return expr.free_symbols <= allowed
+
+    def inline(self, expr: sp.Basic) -> sp.Basic:
+        """``expr`` with every derived symbol replaced by its (fully inlined) definition."""
+        if not self.derived or not (expr.free_symbols & self.derived.keys()):
+            return expr
+        return expr.xreplace(self.inlined_definitions())
+
+    def inlined_definitions(self) -> dict[sp.Symbol, sp.Expr]:
+        """Every derived symbol mapped to its definition in parameters alone."""
+        cached = self.__dict__.get("_inlined")
+        if cached is None:
+            cached = {}
+            for sym, value in self.derived.items():  # dependency order: earlier ones are done
+                cached[sym] = value.xreplace(cached) if value.free_symbols & cached.keys() else value
+            self.__dict__["_inlined"] = cached
+        return cached
 
     def _bound_call(self, fname: str, names: list[str]) -> sp.Symbol:
         """The parameter-like symbol standing for ``fname(p1, p2, ...)``."""

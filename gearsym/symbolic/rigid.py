@@ -116,15 +116,31 @@ def rigid_body_modes(q: Sequence[sp.Symbol], v: Sequence[sp.Symbol], deflections
     k = n - int(np.sum(sv > tol))
     if k <= 0:
         return sp.zeros(n, 0)
-    # a row basis (numerically independent rows), then the exact null space
+    # the exact null space on the support of the numerical one (the coordinates a mode moves),
+    # from the simplest independent rows: a mesh row of a transverse-torsional pair is long in
+    # the translations, but the rotations' null space needs only its rotation entries
+    _, _, vt = np.linalg.svd(num)
+    N = vt[n - k:].T
+    big = np.max(np.abs(N))
+    support = [j for j in range(n) if np.max(np.abs(N[j])) > 1e-9 * big]
+    DS = D.extract(list(range(D.rows)), support)
+    numS = num[:, support]
+    order = sorted((i for i in range(D.rows) if np.any(np.abs(numS[i]) > 0)),
+                   key=lambda i: sum(sp.count_ops(x) for x in DS.row(i)))
     basis: list[int] = []
-    for i in range(D.rows):
-        if np.linalg.matrix_rank(num[basis + [i]], tol) > len(basis):
-            basis.append(i)
-        if len(basis) == n - k:
+    for i in order:
+        if len(basis) == len(support) - k:
             break
-    Db = D.extract(basis, list(range(n))) if basis else sp.zeros(0, n)
-    null = Db.nullspace(simplify=True) if basis else [sp.eye(n)[:, j] for j in range(n)]
+        if np.linalg.matrix_rank(numS[basis + [i]], tol) > len(basis):
+            basis.append(i)
+    Db = DS.extract(basis, list(range(len(support)))) if basis else sp.zeros(0, len(support))
+    nullS = Db.nullspace(simplify=True) if basis else [sp.eye(len(support))[:, j] for j in range(len(support))]
+    null = []
+    for vec in nullS:
+        full = sp.zeros(n, 1)
+        for a, j in enumerate(support):
+            full[j] = vec[a]
+        null.append(full)
     if len(null) != k:
         return sp.zeros(n, 0)
     cols = []

@@ -69,13 +69,49 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
     # difference with every registered surface (quadratic in the number of surfaces)
     known: dict[sp.Expr, tuple[int, int]] = {}
     hint_keys: dict[sp.Expr, tuple[SwitchingFunction, int]] = {}
+    # canonical form of a switching function: expanded in the states only, every
+    # parameter block and every nonsmooth function (the Max of a dynamic backlash) held as
+    # one symbol (sign normalised), so that equal surfaces meet without a full expansion
+    blocks: dict[sp.Expr, sp.Dummy] = {}
+    nonsmooth: dict[tuple, tuple[sp.Dummy, sp.Expr]] = {}
+
+    def canon(g: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
+        def block(e: sp.Expr) -> sp.Expr:
+            if e.is_Number:
+                return e
+            neg = e.could_extract_minus_sign()
+            key = -e if neg else e
+            if key not in blocks:
+                blocks[key] = sp.Dummy(f"c{len(blocks)}")
+            return -blocks[key] if neg else blocks[key]
+
+        def atom(e: sp.Basic) -> sp.Basic:
+            if isinstance(e, sp.Expr) and not (e.free_symbols & states):
+                return block(e)
+            if e.is_Atom:
+                return e
+            if isinstance(e, (sp.Add, sp.Mul)):  # the parameter terms/factors together: one block
+                static = [a for a in e.args if not (a.free_symbols & states)]
+                rest = [atom(a) for a in e.args if a.free_symbols & states]
+                return e.func(*rest, *([block(e.func(*static))] if static else []))
+            if isinstance(e, _NONSMOOTH):  # keyed by its canonical arguments
+                key = (e.func, tuple(sp.expand(atom(a)) for a in e.args))  # no Max(...) rebuilt: costly
+                if key not in nonsmooth:
+                    nonsmooth[key] = (sp.Dummy(f"n{len(nonsmooth)}"), e)
+                return nonsmooth[key][0]
+            return e.func(*[atom(a) for a in e.args])
+        ge = sp.expand(atom(g))
+        back = {d: e for e, d in blocks.items()}
+        back.update({d: e for d, e in nonsmooth.values()})
+        return ge, ge.xreplace(back)
+
     for h in hints:
-        key, sgn = _canonical(sp.expand(h.expr))
+        key, sgn = _canonical(canon(h.expr)[0])
         hint_keys.setdefault(key, (h, sgn))
 
     def register(g: sp.Expr) -> tuple[int, int]:
-        ge = sp.expand(g)
-        key, sgn = _canonical(ge)
+        gk, ge = canon(g)
+        key, sgn = _canonical(gk)
         if key in known:  # ge = sgn*key, surface j = sj*key
             j, sj = known[key]
             return j, sgn * sj
