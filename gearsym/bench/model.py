@@ -27,7 +27,7 @@ class PythonModel:
     system
         The compiled system (parameter values, schedules).
     params
-        Parameter overrides (SI).
+        Parameter overrides (declared units).
     """
 
     def __init__(self, model, system, params: Mapping[str, float] | None = None):

@@ -67,7 +67,7 @@ def run_work_precision(scene, *, label: str | None = None, rtols: Sequence[float
     max_seconds
         A method slower than this at one tolerance is skipped at the tighter ones.
     x0, params
-        Initial state (default: the scene's) and parameter overrides (SI).
+        Initial state (default: the scene's) and parameter overrides (declared units).
     progress
         Called with one-line progress messages.
     system

@@ -81,8 +81,7 @@ def cmd_continue(args: argparse.Namespace) -> int:
     if spec_p is None:
         raise ParameterError(f"--param {name}: not a parameter of model '{scene.model_spec.name}' (have: "
                              f"{', '.join(scene.model_spec.parameters)})")
-    si = float(spec_p.si_scale)
-    unit = unit_suffix(spec_p.unit)
+    unit = unit_suffix(spec_p.unit)  # --from, --to and every value of the branch: in the declared unit
     system = scene.compile()
     kw: dict[str, Any] = {}
     if args.x0:
@@ -94,26 +93,17 @@ def cmd_continue(args: argparse.Namespace) -> int:
         kw["ds_max"] = args.ds_max
         kw["ds"] = min(0.005, args.ds_max)
         kw["ds_min"] = min(1e-7, kw["ds"])
-    branch = continuation(system, name, args.start * si, args.stop * si, periods=args.periods,
+    branch = continuation(system, name, args.start, args.stop, periods=args.periods,
                           method=args.method, segments=args.segments, max_points=args.max_points,
-                          switch=args.switch, progress=False if args.no_progress else None,
-                          display=(si, spec_p.unit), **kw)
+                          switch=args.switch, progress=False if args.no_progress else None, **kw)
     data = branch.to_dict()
 
-    def to_declared(d: dict[str, Any]) -> None:
-        if si != 1.0:
-            for item in d["points"] + d["bifurcations"]:
-                item["value"] = item["value"] / si
-            for k in ("start", "stop", "stop_value", "switched_at"):
-                if isinstance(d.get(k), (int, float)):
-                    d[k] = d[k] / si
-            if isinstance(d.get("switched_at"), dict):
-                d["switched_at"]["value"] = d["switched_at"]["value"] / si
+    def with_unit(d: dict[str, Any]) -> None:
         d["unit"] = spec_p.unit
         for c in d.get("children", []):
-            to_declared(c)
+            with_unit(c)
 
-    to_declared(data)
+    with_unit(data)
     data["scene"] = scene.name
     if args.out:
         from ..files import save_figure
@@ -128,9 +118,8 @@ def cmd_continue(args: argparse.Namespace) -> int:
         import matplotlib.pyplot as plt
 
         label = f"{name} [{spec_p.unit}]" if spec_p.unit not in ("", "1") else name
-        for fname, draw in (("response.png", lambda ax: branch.plot(ax, quantity=["max", "min"], xscale=1 / si)),
-                            ("multipliers.png", lambda ax: branch.plot_multipliers(ax, children=True,
-                                                                                    xscale=1 / si))):
+        for fname, draw in (("response.png", lambda ax: branch.plot(ax, quantity=["max", "min"])),
+                            ("multipliers.png", lambda ax: branch.plot_multipliers(ax, children=True))):
             fig, ax = plt.subplots(figsize=(7, 4.2))
             draw(ax)
             ax.set_xlabel(label)
@@ -139,20 +128,20 @@ def cmd_continue(args: argparse.Namespace) -> int:
             save_figure(fig, out / fname, dpi=110)
             plt.close(fig)
             files.append(out / fname)
-        files += branch_mesh_figure(branch, out, si, label, f"{scene.name}: mesh deflections against {name}")
+        files += branch_mesh_figure(branch, out, 1.0, label, f"{scene.name}: mesh deflections against {name}")
         data["files"] = [str(f) for f in files]
     if args.json:
         emit(data)
     else:
         for br in branch.all_branches():
             print(f"{scene.name}: period-{br.periods:g} branch in {name}, {len(br.points)} points, "
-                  f"{br.values.min() / si:.6g} .. {br.values.max() / si:.6g}{unit}, "
+                  f"{br.values.min():.6g} .. {br.values.max():.6g}{unit}, "
                   f"{int(np.sum(br.stable))} stable; {br.stop_reason}")
             for b in br.bifurcations:
                 mu = b.point.multipliers
                 big = mu[np.argsort(-np.abs(mu))][:2]
                 extra = f" ({b.info['surface']}, {b.info['side']} g)" if b.type == "grazing" else ""
-                print(f"  {b.type:16s} {name} = {b.value / si:.8g}{unit}{extra}  multipliers "
+                print(f"  {b.type:16s} {name} = {b.value:.8g}{unit}{extra}  multipliers "
                       + ", ".join(f"{m.real:.4f}{m.imag:+.4f}j" for m in big))
             print_branch_meshes(br)
         for f in data.get("files", []):
