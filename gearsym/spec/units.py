@@ -227,8 +227,24 @@ class ParameterUnits:
         return {k: _scaled(v, self.scales.get(k, 1.0)) for k, v in (values or {}).items()}
 
     def to_declared(self, values: Mapping[str, float] | None) -> dict[str, float]:
-        """SI values -> declared values (the inverse of :meth:`to_si`)."""
-        return {k: _scaled(v, 1.0 / self.scales.get(k, 1.0)) for k, v in (values or {}).items()}
+        """SI values -> declared values (the inverse of :meth:`to_si`: ``to_si`` of the result gives
+        the SI values back exactly, and a value set as ``50`` um reads back as ``50.0``, not
+        ``49.99999999999999``)."""
+        return {k: _declared(v, self.scales.get(k, 1.0)) for k, v in (values or {}).items()}
+
+
+def _declared(v, scale: float):
+    """The shortest decimal ``d`` with ``d * scale == v`` (else ``v / scale``); arrays divided."""
+    if scale == 1.0:
+        return _scaled(v, 1.0)
+    if hasattr(v, "shape") and getattr(v, "ndim", 0):
+        return v / scale
+    x = float(v) / scale
+    for digits in (15, 16, 17):
+        d = float(f"{x:.{digits}g}")
+        if d * scale == float(v):
+            return d
+    return x
 
 
 def _scaled(v, factor: float):
