@@ -6,6 +6,7 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -76,7 +77,7 @@ class System:
         # run-time inputs: the generated parameters, except the bound ones (numeric
         # functions of other parameters), which param_vector() evaluates from theirs
         self._si = {name: float(params[name]) for name in generated.input_names}
-        self._declared = self.units.to_declared(self._si)
+        self._params_view = MappingProxyType(self.units.to_declared(self._si))
         self.x0 = np.asarray(x0, dtype=float)
         self.defaults = dict(defaults or {})
         self.name = scene_name or generated.scene
@@ -106,9 +107,9 @@ class System:
     # ------------------------------------------------------------------ info
 
     @property
-    def params(self) -> dict[str, float]:
-        """Current values of the run-time parameters, in the model's declared units (a copy)."""
-        return dict(self._declared)
+    def params(self) -> Mapping[str, float]:
+        """Current values of the run-time parameters, in the model's declared units (read-only)."""
+        return self._params_view
 
     def param_dict(self, p: Sequence[float]) -> dict[str, float]:
         """A parameter vector as a mapping in declared units (bound parameters: SI).
