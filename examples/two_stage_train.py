@@ -54,7 +54,7 @@ RANGE = (2000.0, 6500.0)  # rpm
 
 def free_state(free: gearsym.system.System, x: np.ndarray) -> np.ndarray:
     """A state of the free train with the deflections ``x`` of the reduced one at t = 0 (th4 = 0)."""
-    p = free.params
+    p = free.units.to_si(free.params)  # SI: the kinematics below are written in SI
     rb = [p["m_n"] * p[z] * np.cos(p["alpha"]) / 2 for z in ("z1", "z2", "z3", "z4")]
     x1, xs, x2, v1, vs, v2 = x
     w2 = p["z3"] * p["n_in"] * p["z1"] / p["z2"]
@@ -67,11 +67,11 @@ def free_state(free: gearsym.system.System, x: np.ndarray) -> np.ndarray:
     return np.array([th1, th2, th3, 0.0, w1, dw2, w3, 0.0])
 
 
-def brute_force(free, speeds_rpm, x, rpm, periods=60, keep=4):
+def brute_force(free, speeds_rpm, x, periods=60, keep=4):
     """Steady mesh-deflection extrema of the free train, sweeping up from the previous state."""
     out = []
     for n in speeds_rpm:
-        p = {"n_in": n * rpm}
+        p = {"n_in": n}  # rpm, the declared unit
         x = free.simulate(periods=periods, x0=x, params=p, rtol=1e-9, atol=1e-14, n_out=2).x_final
         tr = free.simulate(periods=keep, x0=x, params=p, rtol=1e-9, atol=1e-14, n_out=keep * 2048 + 1)
         x = tr.x_final
@@ -89,7 +89,6 @@ def main() -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     scene = gearsym.load_scene(REDUCED)
-    rpm = scene.model_spec.parameters["n_in"].si_scale  # declared unit -> rad/s
     reduced = scene.compile()
     free = gearsym.load_scene(FREE).compile()
 
@@ -108,23 +107,21 @@ def main() -> None:
     # tol 1e-8 at rtol 1e-10: the middle branch between the folds has a multiplier of ~120, which
     # amplifies the integration noise of the residual (rtol 1e-9 / tol 1e-9 crawls there, a looser
     # tol lets the steps jump across the folds; so do natural-parameter steps longer than ~25 rpm)
-    branch = gearsym.continuation(reduced, "n_in", RANGE[0] * rpm, RANGE[1] * rpm, x0=o_red.x0, rtol=1e-10,
+    branch = gearsym.continuation(reduced, "n_in", RANGE[0], RANGE[1], x0=o_red.x0, rtol=1e-10,
                                   tol=1e-8, ds_max=0.005)
     print(f"continuation: {len(branch.points)} orbits in {time.perf_counter() - t0:.0f} s ({branch.stop_reason})")
     for b in branch.bifurcations:
         extra = f" of {b.info['surface']}" if b.type == "grazing" else ""
-        print(f"  {b.type}{extra} at n_in = {b.value / rpm:.1f} rpm")
+        print(f"  {b.type}{extra} at n_in = {b.value:.1f} rpm")
 
     # 3. brute force on the free train
     t0 = time.perf_counter()
     speeds = np.arange(RANGE[0], RANGE[1] + 1e-9, args.step)
-    bf = brute_force(free, speeds, o_free.x0, rpm)
+    bf = brute_force(free, speeds, o_free.x0)
     print(f"brute-force steady states of the free train ({len(bf)} speeds): {time.perf_counter() - t0:.0f} s")
 
     data = branch.to_dict()
-    data["unit"] = "rpm (values divided by the declared scale)"
-    for item in data["points"] + data["bifurcations"]:
-        item["value"] /= rpm
+    data["unit"] = "rpm"
     data["orbit_3500rpm"] = {"reduced": o_red.to_dict(extrema=False), "free": o_free.to_dict(extrema=False),
                              "max_multiplier_difference": diff}
     data["brute_force"] = {"n_in_rpm": bf[:, 0].tolist(), "mesh1_min": bf[:, 1].tolist(),
@@ -133,15 +130,15 @@ def main() -> None:
     (out / "two_stage_train.json").write_text(json.dumps(data, indent=1, default=str))
 
     fig, axes = plt.subplots(3, 1, figsize=(7.4, 8.4), sharex=True, gridspec_kw={"height_ratios": [2, 2, 1.3]})
-    branch.plot_meshes(axes[:2], xscale=1 / rpm, yscale=1e6, yunit="um", xlabel="")
+    branch.plot_meshes(axes[:2], yscale=1e6, yunit="um", xlabel="")
     for k in range(2):
         axes[k].plot(bf[:, 0], bf[:, 1 + 2 * k] * 1e6, "k+", ms=5, label="brute force (free train)")
         axes[k].plot(bf[:, 0], bf[:, 2 + 2 * k] * 1e6, "k+", ms=5)
-        b = reduced.params[f"bh{k + 1}"]
-        axes[k].axhline(b * 1e6, color="0.6", lw=0.8, ls="--")
+        b = reduced.params[f"bh{k + 1}"]  # um, the declared unit
+        axes[k].axhline(b, color="0.6", lw=0.8, ls="--")
         axes[k].legend(fontsize=7, loc="upper left", ncol=2)
     axes[0].set_title("Two-stage spur gear train: dynamic transmission errors (max / min over the orbit)")
-    branch.plot_multipliers(axes[2], xscale=1 / rpm)
+    branch.plot_multipliers(axes[2])
     axes[2].set_xlabel("input speed n_in [rpm]")
     fig.tight_layout()
     fig.savefig(out / "two_stage_train.png", dpi=110)

@@ -77,7 +77,7 @@ class Pair:
         return J_p, r * J_p
 
     def monodromy(self, gamma: float, n_rpm: float, mu: float, J: tuple[float, float]) -> np.ndarray:
-        p = {"Gamma": gamma, "Omega_p": rpm(n_rpm), "mu0": mu, "zeta": 0.0, "J_p": J[0], "J_g": J[1]}
+        p = {"Gamma": gamma, "Omega_p": n_rpm, "mu0": mu, "zeta": 0.0, "J_p": J[0], "J_g": J[1]}
         T = self.system.period(p)
         return self.system.simulate(t_end=T, x0=[1e-6, 0.0], params=p, monodromy=True, rtol=1e-11,
                                     atol=1e-18, n_out=2).monodromy
@@ -125,7 +125,7 @@ def fig8(pair: Pair, J: tuple[float, float]) -> dict:
     s = pair.system
     out = {}
     for mu in (0.1, 0.0):
-        p = {"Gamma": 1.374, "Omega_p": rpm(1484.0), "mu0": mu, "zeta": 0.0, "J_p": J[0], "J_g": J[1]}
+        p = {"Gamma": 1.374, "Omega_p": 1484.0, "mu0": mu, "zeta": 0.0, "J_p": J[0], "J_g": J[1]}
         o = s.periodic_orbit(params=p, x0=list(s.x0))
         orb = s.simulate(periods=1, x0=o.x0, params=p, rtol=1e-12, atol=1e-18, n_out=4001)
         tr = s.simulate(periods=200, params=p, rtol=1e-11, atol=1e-18, n_out=200 * 200 + 1)

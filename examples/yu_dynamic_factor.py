@@ -52,7 +52,7 @@ class MeshForce:
     """``F_m(t, x)`` and ``F_s`` of models/yu_6dof.toml (fractal effects off, dynamic backlash on)."""
 
     def __init__(self, system):
-        p = system.params
+        p = system.units.to_si(system.params)  # SI: the mesh force below is written in SI
         self.p = p
         self.R_pb = p["R_p"] * math.cos(p["alpha0"])
         self.R_gb = p["R_g"] * math.cos(p["alpha0"])

@@ -116,11 +116,13 @@ class Scene:
             The compiled system; its ``x0`` is the scene's initial state, or the static
             equilibrium with ``[initial] static = true`` (:mod:`gearsym.static`).
         """
+        from .spec.units import ParameterUnits
         from .system import System
 
         gen = self.generate(generated_dir, force, dimensionless)
         values = {k: self.resolved.values[k] for k in gen.input_names}
-        system = System(gen, values, self.initial_state(), self.spec.simulate, self.name)
+        system = System(gen, values, self.initial_state(), self.spec.simulate, self.name,
+                        ParameterUnits.of_model(self.model_spec))
         if self.resolved.static:  # [initial] static = true: start from the static equilibrium
             from .static import static_state
 

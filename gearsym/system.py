@@ -5,14 +5,17 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping, Sequence
+from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
 from .bound_functions import evaluate as evaluate_bound
 from .codegen.generate import GeneratedModel
 from .engine.driver import Engine, load_engine
-from .errors import ParameterError
+from .errors import GearsymError, ParameterError
 from .results import Event, Flow, Trajectory
+from .spec.units import ParameterUnits
 
 _METHODS = ("bdf", "adams", "ida")
 
@@ -28,42 +31,102 @@ class System:
 
     Obtained from :meth:`gearsym.Scene.compile`; not constructed directly.
 
+    **Units.** Every parameter *mapping* a System takes or gives (``params=`` of every
+    method, :attr:`params`, the ``params`` of its trajectories and orbits) is in the units
+    the model declares (``b_m`` in um if the model says ``unit = "um"``), as
+    :func:`gearsym.load_scene` and ``--set`` take them; :attr:`units` converts them to SI
+    once, in :meth:`param_vector`.  Parameter *vectors* (:meth:`param_vector`,
+    ``flow(p=...)``, :meth:`period_of`) are what the engine runs on: SI.
+
+    A System pickles (for process pools and Dask): the copy reloads the same build from
+    the build cache by its key (verified, never recompiled); the build must be in that
+    cache on the machine that unpickles it.
+
     Parameters
     ----------
     generated
         The compiled model (:meth:`gearsym.Scene.generate`).
     params
-        Values of the run-time parameters (SI units).
+        Values of the run-time parameters (SI units: what the spec layer resolved).
     x0
         The initial state.
     defaults
         The scene's ``[simulate]`` table (``periods``, ``rtol``, ``method``, ...).
     scene_name
         The scene's name (default: the build's).
+    units
+        The declared units of the parameters (default: every parameter SI).
 
     Attributes
     ----------
     generated : GeneratedModel
         Sources, shared object, state and parameter names, operation counts.
-    params : dict
-        Current parameter values (SI units) of the run-time parameters.
+    units : ParameterUnits
+        Declared unit of every parameter and the conversion to and from SI.
     x0 : ndarray
         The scene's initial state.
     """
 
     def __init__(self, generated: GeneratedModel, params: Mapping[str, float], x0: Sequence[float],
-                 defaults: Mapping[str, object] | None = None, scene_name: str = ""):
+                 defaults: Mapping[str, object] | None = None, scene_name: str = "",
+                 units: ParameterUnits | None = None):
         self.generated = generated
         self.engine: Engine = load_engine(generated.so_path, sha256=generated.so_sha256 or None,
                                           build_key=generated.build_key or None)
+        self.units = units if units is not None else ParameterUnits()
         # run-time inputs: the generated parameters, except the bound ones (numeric
         # functions of other parameters), which param_vector() evaluates from theirs
-        self.params = {name: float(params[name]) for name in generated.input_names}
+        self._si = {name: float(params[name]) for name in generated.input_names}
+        self._params_view = MappingProxyType(self.units.to_declared(self._si))
         self.x0 = np.asarray(x0, dtype=float)
         if generated.dimensionless:  # the scene's initial state is dimensional: scale it
             self.x0 = self.x0 / self.state_scales()
         self.defaults = dict(defaults or {})
         self.name = scene_name or generated.scene
+
+    # ------------------------------------------------------------ pickling
+
+    def __getstate__(self) -> dict[str, object]:
+        gen = self.generated
+        if not gen.build_key:
+            raise GearsymError(f"system '{self.name}' has no build key: it cannot be reloaded from a build cache")
+        return {"cache": str(Path(gen.directory).parent), "scene": gen.scene, "build_key": gen.build_key,
+                "params": dict(self._si), "x0": self.x0.tolist(), "defaults": dict(self.defaults),
+                "name": self.name, "units": self.units}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        from .codegen.cache import BuildCache
+
+        cache = BuildCache(str(state["cache"]))
+        key = str(state["build_key"])
+        gen = cache.lookup(cache.entry(str(state["scene"]), key), key)
+        if gen is None:
+            raise GearsymError(f"the build {key[:16]} of scene '{state['scene']}' is not in the build cache "
+                               f"{cache.root} on this machine (compile the scene here first)")
+        self.__init__(gen, state["params"], state["x0"], state["defaults"], str(state["name"]),  # type: ignore[misc]
+                      state["units"])
+
+    # ------------------------------------------------------------------ info
+
+    @property
+    def params(self) -> Mapping[str, float]:
+        """Current values of the run-time parameters, in the model's declared units (read-only)."""
+        return self._params_view
+
+    def param_dict(self, p: Sequence[float]) -> dict[str, float]:
+        """A parameter vector as a mapping in declared units (bound parameters: SI).
+
+        Parameters
+        ----------
+        p
+            Parameter vector (as :meth:`param_vector` returns).
+
+        Returns
+        -------
+        dict
+            Name -> value for every entry of :attr:`param_names`.
+        """
+        return self.units.to_declared(dict(zip(self.param_names, (float(v) for v in p), strict=True)))
 
     # ------------------------------------------------------------------ info
 
@@ -122,34 +185,35 @@ class System:
         return float(np.asarray(self.generated.casadi_function("gs_scales")(self.param_vector(params))).ravel()[0])
 
     def param_vector(self, params: Mapping[str, float] | None = None) -> np.ndarray:
-        """Parameter vector with ``params`` overriding the current values (SI units).
+        """The engine's parameter vector (SI), with ``params`` overriding the current values.
+
+        The one place a System converts parameter values from declared units to SI.
 
         Parameters
         ----------
         params
-            Overrides by name (SI units).
+            Overrides by name (declared units).
 
         Returns
         -------
         ndarray
-            Values in the order of :attr:`param_names`, bound parameters evaluated.
+            SI values in the order of :attr:`param_names`, bound parameters evaluated.
 
         Raises
         ------
         ParameterError
             An unknown or non-finite override.
         """
-        values = dict(self.params)
+        values = dict(self._si)
         for k, v in (params or {}).items():
             if k not in values:
                 raise ParameterError(
                     f"'{k}' is not a run-time parameter of this system (have: "
                     f"{', '.join(values) or 'none'}); parameters of switched-off effects are "
                     f"not inputs")
-            v = float(v)
-            if not math.isfinite(v):
+            if not math.isfinite(float(v)):
                 raise ParameterError(f"parameter '{k}': non-finite value {v}")
-            values[k] = v
+        values.update(self.units.to_si(params))
         for name, (fn, args) in self.generated.bound.items():
             values[name] = evaluate_bound(fn, [values[a] for a in args])
         return np.array([values[k] for k in self.generated.param_names], dtype=float)
@@ -162,7 +226,7 @@ class System:
         Parameters
         ----------
         params
-            Parameter overrides (SI units).
+            Parameter overrides (declared units).
 
         Returns
         -------
@@ -200,7 +264,7 @@ class System:
         Parameters
         ----------
         params
-            Parameter overrides (SI).
+            Parameter overrides (declared units).
         what
             What needs the period (for the message), e.g. ``"periods="``.
 
@@ -241,7 +305,7 @@ class System:
         sigma
             Side (+1/-1) of each switching surface; by default the sides at ``(t, x)``.
         params
-            Parameter overrides (SI units).
+            Parameter overrides (declared units).
 
         Returns
         -------
@@ -263,7 +327,7 @@ class System:
         sigma
             Side (+1/-1) of each switching surface; by default the sides at ``(t, x)``.
         params
-            Parameter overrides (SI units).
+            Parameter overrides (declared units).
 
         Returns
         -------
@@ -291,7 +355,7 @@ class System:
         x
             State(s), shape (nx,) or (n, nx).
         params
-            Parameter overrides (SI units).
+            Parameter overrides (declared units).
         p
             The parameter vector itself (from :meth:`param_vector`); when given,
             ``params`` is ignored.
@@ -362,7 +426,7 @@ class System:
             Number of evenly spaced output points from ``t0`` to ``t_end`` (both
             included); by default 64 per forcing period (or 1001).
         params
-            Parameter overrides for this call only (SI units).
+            Parameter overrides for this call only (declared units).
         t0
             Start time.
         method
@@ -487,7 +551,7 @@ class System:
         stats["n_events"] = int(stats.get("n_events", len(events)))
         stats["wall_s"] = time.perf_counter() - wall
         return Trajectory(t=grid, y=res.y, state_names=self.state_names, events=events, stats=stats,
-                          period=T, params={k: float(v) for k, v in zip(self.param_names, p)},
+                          period=T, params=self.param_dict(p),
                           x_final=res.x_final, monodromy=res.monodromy,
                           event_speed=np.asarray(res.events.speed))
 
@@ -587,7 +651,7 @@ class System:
         method
             ``"shooting"`` or ``"hbm"``.
         params
-            Parameter overrides (SI units).
+            Parameter overrides (declared units).
         **options
             Solver options (``tol``, ``rtol``, ``atol``, ``segments``, ``transient``,
             ``harmonics``, ...).

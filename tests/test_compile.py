@@ -78,9 +78,10 @@ def test_explicit_and_implicit_forms_give_the_same_trajectory(tmp_path):
     ex = gearsym.load_scene(_two_dof_model(tmp_path, "explicit")).compile(generated_dir=tmp_path / "g")
     im = gearsym.load_scene(_two_dof_model(tmp_path, "implicit")).compile(generated_dir=tmp_path / "g")
     assert im.generated.implicit and not ex.generated.implicit
-    b_m = ex.params["b_m"]
+    si = ex.units.to_si(ex.params)  # SI: the states are in SI (b_m is declared in um)
+    b_m = si["b_m"]
     # start in drive-side contact with a pinion velocity kick: impacts follow
-    x0 = np.array([1.2 * b_m / ex.params["rb1"], 0.0, 0.3, 0.0])
+    x0 = np.array([1.2 * b_m / si["rb1"], 0.0, 0.3, 0.0])
     kw = dict(periods=30, x0=x0, rtol=1e-10, atol=1e-13)
     a = ex.simulate(**kw)
     b = im.simulate(**kw)
@@ -88,8 +89,8 @@ def test_explicit_and_implicit_forms_give_the_same_trajectory(tmp_path):
     assert [e.surface for e in a.events] == [e.surface for e in b.events]
     np.testing.assert_allclose([e.t for e in a.events], [e.t for e in b.events], rtol=0, atol=1e-9)
     # compare the mesh deflection (the rotations themselves drift as a rigid body)
-    d_a = a.y[:, 0] * ex.params["rb1"] - a.y[:, 1] * ex.params["rb2"]
-    d_b = b.y[:, 0] * ex.params["rb1"] - b.y[:, 1] * ex.params["rb2"]
+    d_a = a.y[:, 0] * si["rb1"] - a.y[:, 1] * si["rb2"]
+    d_b = b.y[:, 0] * si["rb1"] - b.y[:, 1] * si["rb2"]
     assert np.max(np.abs(d_a - d_b)) < 1e-6 * b_m
     np.testing.assert_allclose(a.y[:, 2:], b.y[:, 2:], rtol=0, atol=1e-6 * np.max(np.abs(a.y[:, 2:])))
 

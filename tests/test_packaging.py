@@ -8,6 +8,7 @@ test, ``tests/test_wheel.py``, checks the same messages with the packages really
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import tomllib
@@ -143,6 +144,20 @@ def test_version_imports_no_numerical_library():
             "if m in sys.modules))")
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert res.stdout.splitlines() == [f"gearsym {gearsym.__version__}", "[]"]
+
+
+def test_simulate_does_not_import_the_benchmark_harness(tmp_path):
+    """Issue 14: the CLI imports :mod:`gearsym.bench` (scipy peers, lambdify, timing) only for
+    ``gearsym bench``; ``simulate`` runs without it (and ``bench --help`` still lists it)."""
+    code = ("import sys\nfrom gearsym.cli import main\ncode = main(['simulate', 'kahraman_singh', '--periods', "
+            "'1', '--json'])\nprint(code, sorted(m for m in sys.modules if m == 'gearsym.bench' or "
+            "m.startswith('gearsym.bench.')))")
+    env = dict(os.environ, GEARSYM_GENERATED=str(tmp_path))
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+    assert res.stdout.splitlines()[-1] == "0 []"
+    code_b = "import sys\nimport gearsym.cli.benchmark\nprint('gearsym.bench' in sys.modules)"
+    res = subprocess.run([sys.executable, "-c", code_b], capture_output=True, text=True, check=True)
+    assert res.stdout.strip() == "False"   # registering the command does not import the harness either
 
 
 def test_time_history_shows_every_state_or_the_chosen_ones(tmp_path, capsys, monkeypatch):

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import gearsym
-from gearsym.cli_catalog import init_files
+from gearsym.cli.catalog import init_files
 from gearsym.errors import SpecError
 
 REPO = Path(__file__).resolve().parents[1]

@@ -278,7 +278,7 @@ def _rho(Phi: np.ndarray) -> float:
 def test_stability_frictionless_undamped(parametric, gamma, n_rpm, verdict_b, verdict):
     """Figs. 5/6 without friction: exact expm monodromy vs gearsym's variational monodromy."""
     exact = monodromy_frictionless(gamma, n_rpm)
-    pr = {"Gamma": gamma, "Omega_p": rpm(n_rpm), "zeta": 0.0}
+    pr = {"Gamma": gamma, "Omega_p": n_rpm, "zeta": 0.0}
     T = parametric.period(pr)
     assert T == pytest.approx(mesh_period(n_rpm), rel=1e-14)
     tr = parametric.simulate(t_end=T, x0=[1e-6, 0.0], params=pr, monodromy=True, rtol=1e-12, atol=1e-18)
@@ -300,7 +300,7 @@ def test_stability_formulation_b_undamped(fig6, gamma, n_rpm, verdict, verdict_f
     unstable at 1484 rpm), formulation B, mu0 = 0.1, no damping: scipy variational
     equations vs gearsym's monodromy."""
     ref = monodromy_b(gamma, n_rpm)
-    pr = {"Gamma": gamma, "Omega_p": rpm(n_rpm), "zeta": 0.0, "mu0": MU0}
+    pr = {"Gamma": gamma, "Omega_p": n_rpm, "zeta": 0.0, "mu0": MU0}
     T = fig6.period(pr)
     tr = fig6.simulate(t_end=T, x0=[1e-6, 0.0], params=pr, monodromy=True, rtol=1e-12, atol=1e-18)
     np.testing.assert_allclose(tr.monodromy, ref, rtol=0, atol=1e-7 * np.max(np.abs(ref)))
@@ -323,7 +323,7 @@ def _zone_edge(system, gamma: float, mu: float, J: tuple[float, float] | None, s
     pr = {"Gamma": gamma, "zeta": 0.0, "mu0": mu} | ({"J_p": J[0], "J_g": J[1]} if J else {})
 
     def unstable_at(n_rpm: float) -> bool:
-        p = pr | {"Omega_p": rpm(n_rpm)}
+        p = pr | {"Omega_p": n_rpm}
         M = system.simulate(t_end=system.period(p), x0=[1e-6, 0.0], params=p, monodromy=True, rtol=1e-11,
                             atol=1e-18, n_out=2).monodromy
         return abs(M[0, 0] + M[1, 1]) > 2

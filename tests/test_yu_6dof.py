@@ -479,7 +479,8 @@ def dyn_system(tmp_path_factory):
 def test_bound_fractal_height_is_recomputed_at_bind_time(dyn_system):
     s = dyn_system
     assert WM in s.param_names and WM not in s.params and "D" in s.params
-    args = [s.params[n] for n in ("G", "lam", "L_c", "l_a")]
+    si = s.units.to_si(s.params)  # L_c, l_a are declared in um; the bound function takes SI
+    args = [si[n] for n in ("G", "lam", "L_c", "l_a")]
     assert args == pytest.approx([1e-11, 1.5, 150e-6, 100e-6], rel=1e-15)
     p = dict(zip(s.param_names, s.param_vector()))
     assert p[WM] == wm_mean_height(1.4, *args)
@@ -595,8 +596,8 @@ def test_simulation_vs_unreduced_scipy_reference(dyn_system):
     t_out = np.linspace(0.0, t_end, 161)
     tr = s.simulate(t_end=t_end, params={"Omega": Om}, rtol=1e-11, atol=1e-18, t_out=t_out)
     assert abs(tr.period - T) < 1e-12 * T
-    p = dict(s.params)     # all inputs (D, G, ... of the bound function included)
-    p.update(tr.params)    # the values of this run (Omega)
+    # all inputs (D, G, ... of the bound function included) and the values of this run (Omega), in SI
+    p = s.units.to_si({**s.params, **tr.params})
     b_i = tr.params[WM]
     dte, trans, events = _reference(p, b_i, s.x0, t_end, t_out)
     err = np.max(np.abs(tr["x"] - dte))

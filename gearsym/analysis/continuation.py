@@ -773,8 +773,9 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
         smallest spread over 50 points through the resonance peak is 1.9e-4 of the range;
         undamped, the parameter converges to the resonance and the branch stalls.
     display
-        ``(SI value of one display unit, unit name)`` for the parameter values in
-        ``stop_reason`` (the CLI passes the model's declared unit); default SI.
+        ``(value of one display unit, unit name)`` for the parameter values in
+        ``stop_reason``; default: the parameter's declared unit (the unit of ``start``,
+        ``stop`` and every value of the branch, as for ``params``).
 
     Returns
     -------
@@ -830,7 +831,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     p_start = dict(base)
     p_start[param] = start
     system.require_period(p_start, "continuation of periodic orbits")
-    fmt = _formatter(display)
+    fmt = _formatter(display or (1.0, system.units.unit(param)))  # values in the declared unit
 
     # ------------------------------------------------------------- first orbit
     if n_dense is None:

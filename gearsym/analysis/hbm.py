@@ -537,8 +537,8 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
         samples = (t0 + period * np.arange(n_s) / n_s, _dense(C, n_s))
     return finish_orbit(
         system, x0=x_start, period=period, periods=periods, t0=t0, monodromy=mono, iterations=total_it,
-        residual=r, converged=conv, method="hbm", params={k: float(v) for k, v in zip(system.param_names, p, strict=True)
-                if k in system.params},
+        residual=r, converged=conv, method="hbm", params={k: v for k, v in system.param_dict(p).items()
+                                                                        if k in system.params},
         events=events, samples=samples, harmonics=H, coefficients=C, history=history,
         info={"harmonic_growth": growth, "harmonics_converged": harmonics_converged, "defect": defect,
               "initial_guess": used, "quadrature": hb.quadrature, "failure": failure or None,

@@ -23,8 +23,13 @@ solve from the previous point's orbit) and run on all local cores by default
 (a process pool) or on a Dask cluster when a scheduler address (or a
 ``distributed.Client``) is passed: both go through the same
 ``concurrent.futures.Executor.map`` call with the same task function, and the
-workers rebuild the compiled system from its picklable recipe (the build meta
-data; the scene is recompiled if the shared object is not on the worker).
+workers get the compiled system itself (a :class:`~gearsym.system.System` pickles: it
+reloads its build from the build cache by key, never recompiles; the build must be in
+that cache on the worker's machine).
+
+Grid values, ``params`` and the coordinates of the result are in the model's declared
+units (as ``--set``; :class:`~gearsym.spec.units.ParameterUnits`), with the SI values as
+``<name>_si`` coordinates.
 """
 
 from __future__ import annotations
@@ -60,50 +65,10 @@ QUANTITIES: dict[str, str] = {
 #: Largest map (grid points): every point keeps its orbit summary, about 1 kB.
 MAX_POINTS = 1_000_000
 
-_SYSTEMS: dict[str, System] = {}
 #: Smallest relative error assigned to an exact (matrix-exponential) monodromy in the stability
 #: rule; the estimate is :meth:`~gearsym.analysis.floquet.PiecewiseLTV.rounding_error`.
 EXACT_RTOL = 1e-14
 _STABILITY_CODE = {"asymptotically_stable": 0, "neutral": 1, "unstable": 2}
-
-
-# ------------------------------------------------------------------ recipes
-def _recipe(system: System, scene: Scene | None) -> dict[str, Any]:
-    rec: dict[str, Any] = {
-        "meta": system.generated.to_json(),
-        "params": dict(system.params),
-        "x0": [float(v) for v in system.x0],
-        "defaults": dict(system.defaults),
-        "name": system.name,
-        "scene": None,
-    }
-    if scene is not None:
-        rec["scene"] = {"path": str(Path(scene.path).resolve()),
-                        "effects": {k: v for k, v in scene.resolved.effects.items()},
-                        "values": dict(scene.resolved.values)}
-    return rec
-
-
-def _system_from(rec: Mapping[str, Any]) -> System:
-    from ..codegen.generate import GeneratedModel
-    from ..system import System
-
-    gen = GeneratedModel.from_json(rec["meta"])
-    key = f"{gen.so_path}|{json.dumps(rec['params'], sort_keys=True)}"
-    if key in _SYSTEMS:
-        return _SYSTEMS[key]
-    if not Path(gen.so_path).exists():
-        if rec.get("scene") is None:
-            raise GearsymError(f"the compiled model {gen.so_path} is not on this worker and no scene "
-                               f"is known to rebuild it")
-        from ..facade import load_scene
-
-        sc = rec["scene"]
-        scene = load_scene(sc["path"], effects=sc["effects"])
-        gen = scene.generate()
-    system = System(gen, rec["params"], rec["x0"], rec["defaults"], rec["name"])
-    _SYSTEMS[key] = system
-    return system
 
 
 # ----------------------------------------------------------------- one point
@@ -164,10 +129,9 @@ def _point(system: System, params: dict[str, float], method: str, periods: float
     return out
 
 
-def _run_chunk(recipe: Mapping[str, Any], task: Mapping[str, Any]) -> list[dict[str, Any]]:
+def _run_chunk(system: System, task: Mapping[str, Any]) -> list[dict[str, Any]]:
     """Task function (module level, picklable): one run of grid points in x."""
-    system = _system_from(recipe)
-    base = dict(recipe["params"])
+    base = dict(task["params"])
     guess = None
     res = []
     for (xv, yv) in task["points"]:
@@ -181,7 +145,7 @@ def _run_chunk(recipe: Mapping[str, Any], task: Mapping[str, Any]) -> list[dict[
     return res
 
 
-def _apply_chunk(args: tuple[Mapping[str, Any], Mapping[str, Any]]) -> list[dict[str, Any]]:
+def _apply_chunk(args: tuple[System, Mapping[str, Any]]) -> list[dict[str, Any]]:
     return _run_chunk(*args)
 
 
@@ -192,8 +156,8 @@ class _SerialExecutor(Executor):
         return [fn(*a) for a in zip(*iterables, strict=True)]
 
 
-def _run_tasks(system: System, recipe: dict[str, Any], tasks: list[dict[str, Any]], dask: Any,
-               n_workers: int, base: Mapping[str, float]) -> tuple[list[dict[str, Any]], str]:
+def _run_tasks(system: System, tasks: list[dict[str, Any]], dask: Any,
+               n_workers: int) -> tuple[list[dict[str, Any]], str]:
     """Run the row tasks through one ``Executor.map`` (serial, process pool or Dask)."""
     own = None
     if dask is not None:
@@ -206,15 +170,14 @@ def _run_tasks(system: System, recipe: dict[str, Any], tasks: list[dict[str, Any
         runner = "dask"
     elif n_workers <= 1 or len(tasks) <= 1:
         executor = _SerialExecutor()
-        _SYSTEMS[f"{system.generated.so_path}|{json.dumps(base, sort_keys=True)}"] = system
         runner = "serial"
     else:
         import multiprocessing as mp
 
         # forkserver, not fork: forking a parent that runs threads (a Dask client, BLAS,
         # tqdm's monitor, user threads) can deadlock the children.  The workers load the
-        # compiled model themselves from the recipe (ctypes handles are not inherited
-        # state); scripts that build maps in parallel need an ``if __name__ == "__main__"``
+        # compiled model themselves when they unpickle the system (ctypes handles are not
+        # inherited state); scripts that build maps in parallel need an ``if __name__ == "__main__"``
         # guard, as with any multiprocessing code.
         methods = mp.get_all_start_methods()
         ctx = mp.get_context("forkserver" if "forkserver" in methods else "spawn")
@@ -222,7 +185,7 @@ def _run_tasks(system: System, recipe: dict[str, Any], tasks: list[dict[str, Any
         own = executor
         runner = f"processes({min(n_workers, len(tasks))})"
     try:
-        chunks = list(executor.map(_apply_chunk, [(recipe, t) for t in tasks]))
+        chunks = list(executor.map(_apply_chunk, [(system, t) for t in tasks]))
     finally:
         if isinstance(own, ProcessPoolExecutor):
             own.shutdown()
@@ -246,17 +209,16 @@ def _axis(spec: Sequence[Any], what: str) -> tuple[str, np.ndarray]:
 def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
                   quantity: str = "max_multiplier", *, method: str = "auto", periods: float = 1,
                   params: Mapping[str, float] | None = None, dask: Any = None, workers: int | None = None,
-                  rows_per_task: int | None = None, orbit_options: Mapping[str, Any] | None = None,
-                  units: str | None = None) -> xr.Dataset:
+                  rows_per_task: int | None = None, orbit_options: Mapping[str, Any] | None = None
+                  ) -> xr.Dataset:
     """Evaluate a stability / response map over two parameters.
 
     Parameters
     ----------
     target
-        A scene (grid values in the model's declared units, as ``--set``) or a
-        compiled system (grid values in SI units).
+        A scene or its compiled system.
     x, y
-        ``(NAME, LO, HI, N)``: parameter and grid of each axis.
+        ``(NAME, LO, HI, N)``: parameter and grid of each axis (declared units, as ``--set``).
     quantity
         One of :data:`QUANTITIES` (the one plotted; ``max_multiplier`` and
         ``rattle_state`` are always stored, ``peak_to_peak`` when asked for).
@@ -265,7 +227,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     periods
         Orbit period in forcing periods.
     params
-        Further parameter overrides (SI) for every point.
+        Further parameter overrides (declared units) for every point.
     dask
         Scheduler address (``"tcp://host:8786"``) or a ``distributed.Client``: run
         the tasks on that cluster.  Default: a process pool on all local cores.
@@ -275,9 +237,6 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         Grid rows per task (default: enough tasks for 4 per worker).
     orbit_options
         Passed to the orbit solver (e.g. ``{"rtol": 1e-9}``, ``{"harmonics": 32}``).
-    units
-        ``"declared"`` or ``"si"``: the units of the grid values (default:
-        declared for a scene, SI for a system).
 
     Returns
     -------
@@ -287,8 +246,8 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         which treats multipliers on the unit circle within the monodromy's error as
         neutral, e.g. undamped systems), ``rattle_state``,
         ``converged``, ``iterations`` (and ``peak_to_peak``) on dims ``(y, x)`` named by
-        the parameters, with the grid in the chosen units as coordinates and the
-        SI values as ``<name>_si`` coordinates.
+        the parameters, with the grid (declared units) as coordinates and the SI values as
+        ``<name>_si`` coordinates.
     """
     import xarray as xr
 
@@ -309,23 +268,10 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         raise ParameterError("the two axes must be different parameters")
     scene = target if isinstance(target, Scene) else None
     system = scene.compile() if scene is not None else target
-    if units is None:
-        units = "declared" if scene is not None else "si"
-    scale = {xname: 1.0, yname: 1.0}
-    unit_names = {xname: "SI", yname: "SI"}
-    if units == "declared":
-        if scene is None:
-            raise ParameterError("units='declared' needs a scene (a compiled system knows only SI values)")
-        for nm in (xname, yname):
-            if nm not in scene.model_spec.parameters:
-                raise ParameterError(f"'{nm}' is not a parameter of model {scene.model_spec.name} "
-                                     f"(have: {', '.join(scene.model_spec.parameters)})")
-            par = scene.model_spec.parameters[nm]
-            scale[nm] = par.si_scale
-            unit_names[nm] = par.unit
-    elif units != "si":
-        raise ParameterError(f"units must be 'declared' or 'si', got '{units}'")
     for nm in (xname, yname):
+        if scene is not None and nm not in scene.model_spec.parameters:
+            raise ParameterError(f"'{nm}' is not a parameter of model {scene.model_spec.name} "
+                                 f"(have: {', '.join(scene.model_spec.parameters)})")
         if nm not in system.param_names:
             raise ParameterError(f"'{nm}' is not a run-time parameter of this system (have: "
                                  f"{', '.join(system.param_names)}); parameters of switched-off effects "
@@ -333,8 +279,6 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     base = dict(system.params)
     base.update({k: float(v) for k, v in (params or {}).items()})
     system.param_vector(base)  # validates
-    recipe = _recipe(system, scene)
-    recipe["params"] = base
     want_ptp = quantity == "peak_to_peak"
     ny, nx = len(ys), len(xs)
     n_workers = int(workers or os.cpu_count() or 1)
@@ -342,10 +286,9 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         rows_per_task = max(1, int(math.ceil(ny / max(1, 4 * n_workers))))
     tasks = []
     for j0 in range(0, ny, rows_per_task):
-        pts = [(xv * scale[xname], ys[j] * scale[yname]) for j in range(j0, min(ny, j0 + rows_per_task))
-               for xv in xs]
+        pts = [(float(xv), float(ys[j])) for j in range(j0, min(ny, j0 + rows_per_task)) for xv in xs]
         tasks.append({"points": pts, "xname": xname, "yname": yname, "method": method, "periods": periods,
-                      "want_ptp": want_ptp, "options": dict(orbit_options or {})})
+                      "want_ptp": want_ptp, "options": dict(orbit_options or {}), "params": base})
 
     flat: list[dict[str, Any]] | None = None
     runner = ""
@@ -353,8 +296,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         # the fast path: all points at once (one mapped Jacobian call, batched expm)
         from .floquet import NotPiecewiseConstantError, exact_multipliers
 
-        pts = [dict(base, **{xname: float(xv * scale[xname]), yname: float(yv * scale[yname])})
-               for yv in ys for xv in xs]
+        pts = [dict(base, **{xname: float(xv), yname: float(yv)}) for yv in ys for xv in xs]
         try:
             _, monos, errs = exact_multipliers(system, pts, periods=periods, monodromies=True)
             from .stability import floquet, rigid_state_basis
@@ -370,7 +312,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
             if method == "exact":
                 raise
     if flat is None:
-        flat, runner = _run_tasks(system, recipe, tasks, dask, n_workers, base)
+        flat, runner = _run_tasks(system, tasks, dask, n_workers)
     arr = {k: np.full((ny, nx), np.nan) for k in ("max_multiplier", "peak_to_peak")}
     rattle = np.full((ny, nx), -1, dtype=np.int8)
     stab = np.full((ny, nx), -1, dtype=np.int8)
@@ -403,11 +345,13 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     }
     if want_ptp:
         data["peak_to_peak"] = (dims, arr["peak_to_peak"], {"long_name": QUANTITIES["peak_to_peak"]})
+    units = system.units
+    si = units.to_si({xname: xs, yname: ys})
     coords = {
-        xname: (xname, xs, {"units": unit_names[xname]}),
-        yname: (yname, ys, {"units": unit_names[yname]}),
-        f"{xname}_si": (xname, xs * scale[xname]),
-        f"{yname}_si": (yname, ys * scale[yname]),
+        xname: (xname, xs, {"units": units.unit(xname) or "SI"}),
+        yname: (yname, ys, {"units": units.unit(yname) or "SI"}),
+        f"{xname}_si": (xname, si[xname]),
+        f"{yname}_si": (yname, si[yname]),
     }
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update({

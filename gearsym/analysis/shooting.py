@@ -394,6 +394,6 @@ def _check_tolerances(**tols: float) -> None:
 
 
 def _params_used(system: System, params: Mapping[str, float] | None) -> dict[str, float]:
-    """Parameter values of a run, keyed like ``system.params`` (bound values excluded)."""
-    p = system.param_vector(params)
-    return {k: float(v) for k, v in zip(system.param_names, p, strict=True) if k in system.params}
+    """Parameter values of a run, keyed like ``system.params`` (declared units, bound values excluded)."""
+    used, inputs = system.param_dict(system.param_vector(params)), system.params
+    return {k: v for k, v in used.items() if k in inputs}

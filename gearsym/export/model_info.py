@@ -191,6 +191,7 @@ def collect(scene, generated_dir: str | Path | None = None) -> ExportModel:
     gen = system.generated
     ms = scene.model_spec
     pvec = system.param_vector()
+    si_params = system.units.to_si(system.params)  # the C program and the FMU take SI values
     period = system.period()
     bound_names = {name: (fn, list(args)) for name, (fn, args) in gen.bound.items()}
     bound_args = {a for _, args in bound_names.values() for a in args}
@@ -203,7 +204,7 @@ def collect(scene, generated_dir: str | Path | None = None) -> ExportModel:
         return Quantity(name, float(value), si, base, _describe(meaning, declared, si), locked)
 
     def arg_text(args: list[str]) -> str:
-        return ", ".join(f"{a} = {system.params[a]!r}" for a in args)
+        return ", ".join(f"{a} = {si_params[a]!r}" for a in args)
 
     params: list[Quantity] = []
     notes: list[str] = []
@@ -232,7 +233,7 @@ def collect(scene, generated_dir: str | Path | None = None) -> ExportModel:
     for a in sorted(bound_args - set(gen.param_names), key=lambda s: list(ms.parameters).index(s)
                     if s in ms.parameters else 0):
         fns = sorted(f for f, args in bound_names.values() if a in args)
-        extras.append(param_quantity(a, system.params[a],
+        extras.append(param_quantity(a, si_params[a],
                                      f"argument of {', '.join(fns)}, evaluated at export time; "
                                      f"re-export to change it"))
     outputs = []

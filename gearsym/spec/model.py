@@ -66,7 +66,8 @@ __all__ = ["Coordinate", "Derived", "Dimensionless", "Effect", "Element", "Equat
 
 @dataclass(frozen=True)
 class Parameter:
-    """A run-time parameter: ``value`` in ``unit`` (converted to SI as ``si_value``)."""
+    """A run-time parameter: ``value`` in ``unit``, ``si_scale`` the SI value of one ``unit``
+    (:class:`~gearsym.spec.units.ParameterUnits` converts)."""
 
     name: str
     value: float
@@ -74,11 +75,6 @@ class Parameter:
     meaning: str
     si_scale: float
     dims: Unit
-
-    @property
-    def si_value(self) -> float:
-        """The value in SI units."""
-        return self.value * self.si_scale
 
 
 @dataclass(frozen=True)

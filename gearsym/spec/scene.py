@@ -40,6 +40,7 @@ from .files import read_toml
 from .initial import evaluate_initial, read_initial
 from .model import ModelSpec, Term, load_model
 from .names import check_label, sanitize_label
+from .units import ParameterUnits
 
 _SIM_KEYS = {"periods": (int, float), "t_end": (int, float), "rtol": (float, int), "atol": (float, int),
              "points_per_period": (int,), "method": (str,), "transient_periods": (int, float),
@@ -326,7 +327,8 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
                         changed = True
     active_params = tuple(p for p in model.parameters if p in used_active)
 
-    values = {p.name: p.si_value for p in model.parameters.values()}
+    units = ParameterUnits.of_model(model)
+    values = units.to_si({p.name: p.value for p in model.parameters.values()})
     for source, file in ((scene.parameters, scene.path), (overrides or {}, None)):
         for name, v in source.items():
             fld = f"parameters.{name}" if file else None
@@ -346,7 +348,7 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
                 raise ParameterError(f"parameter '{name}' is used only by switched-off effect(s) "
                                      f"{offs or ', '.join(sorted(used_inactive[name]))}; switch the "
                                      f"effect on to set it")
-            values[name] = v * model.parameters[name].si_scale
+            values.update(units.to_si({name: v}))  # the one conversion: declared -> SI
 
     initial = {s: 0.0 for s in model.state_names()}
     params = {p: values[p] for p in model.parameters}

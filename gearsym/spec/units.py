@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -167,3 +168,85 @@ def _number(node: ast.AST) -> Fraction | None:
         if a is not None and b is not None and b != 0:
             return a / b
     return None
+
+
+# ------------------------------------------------- the one unit conversion of the public API
+class ParameterUnits:
+    """The declared unit of every model parameter, and the one conversion to and from SI.
+
+    Every parameter value that crosses gearsym's public API is in the unit the model
+    declares for it (``b_m = { value = 50.0, unit = "um" }`` -> ``b_m=50`` means 50 um):
+    :func:`gearsym.load_scene` overrides, ``params=`` of every
+    :class:`~gearsym.system.System` method, ``System.params``, the ``params`` of
+    trajectories and orbits, continuation ranges and branch values, map grids, and the
+    command line.  Inside (generated C, the engine, the parameter vectors of
+    :meth:`~gearsym.system.System.param_vector`) everything is SI; the conversion happens
+    here, once, where a value enters or leaves.
+
+    Parameters
+    ----------
+    units
+        Parameter name -> declared unit text.
+    scales
+        Parameter name -> SI value of one declared unit (``1e-6`` for ``um``).  A name
+        without an entry (a bound parameter, a model without declared units) is SI.
+    """
+
+    __slots__ = ("scales", "units")
+
+    def __init__(self, units: Mapping[str, str] | None = None, scales: Mapping[str, float] | None = None):
+        self.units: dict[str, str] = dict(units or {})
+        self.scales: dict[str, float] = {k: float(v) for k, v in (scales or {}).items()}
+
+    @classmethod
+    def of_model(cls, model) -> ParameterUnits:
+        """The declared units of a :class:`~gearsym.spec.model.ModelSpec`'s parameters."""
+        return cls({n: p.unit for n, p in model.parameters.items()},
+                   {n: p.si_scale for n, p in model.parameters.items()})
+
+    def __getstate__(self) -> tuple[dict[str, str], dict[str, float]]:
+        return self.units, self.scales
+
+    def __setstate__(self, state: tuple[dict[str, str], dict[str, float]]) -> None:
+        self.units, self.scales = state
+
+    def __repr__(self) -> str:
+        scaled = {n: self.units[n] for n, s in self.scales.items() if s != 1.0}
+        return f"ParameterUnits({len(self.units)} parameters, not SI: {scaled})"
+
+    def scale(self, name: str) -> float:
+        """SI value of one declared unit of ``name`` (1 for SI and unknown names)."""
+        return self.scales.get(name, 1.0)
+
+    def unit(self, name: str) -> str:
+        """The declared unit of ``name`` (``""`` if none is declared)."""
+        return self.units.get(name, "")
+
+    def to_si(self, values: Mapping[str, float] | None) -> dict[str, float]:
+        """Declared values -> SI values (names without a declared unit unchanged; numbers or arrays)."""
+        return {k: _scaled(v, self.scales.get(k, 1.0)) for k, v in (values or {}).items()}
+
+    def to_declared(self, values: Mapping[str, float] | None) -> dict[str, float]:
+        """SI values -> declared values (the inverse of :meth:`to_si`: ``to_si`` of the result gives
+        the SI values back exactly, and a value set as ``50`` um reads back as ``50.0``, not
+        ``49.99999999999999``)."""
+        return {k: _declared(v, self.scales.get(k, 1.0)) for k, v in (values or {}).items()}
+
+
+def _declared(v, scale: float):
+    """The shortest decimal ``d`` with ``d * scale == v`` (else ``v / scale``); arrays divided."""
+    if scale == 1.0:
+        return _scaled(v, 1.0)
+    if hasattr(v, "shape") and getattr(v, "ndim", 0):
+        return v / scale
+    x = float(v) / scale
+    for digits in (15, 16, 17):
+        d = float(f"{x:.{digits}g}")
+        if d * scale == float(v):
+            return d
+    return x
+
+
+def _scaled(v, factor: float):
+    """``v * factor``: a float for a number, an array for an array."""
+    return v * factor if hasattr(v, "shape") and getattr(v, "ndim", 0) else float(v) * factor

@@ -104,8 +104,9 @@ def test_implicit_model_fmu_refused_c_program_uses_ida(tmp_path, capsys, monkeyp
     assert main(["export", str(scene), "--c", str(tmp_path / "pair_c")]) == 0
     assert make(tmp_path / "pair_c").returncode == 0
     system = gearsym.load_scene(scene).compile(generated_dir=gen)
-    b_m = system.params["b_m"]
-    x0 = [1.2 * b_m / system.params["rb1"], 0.0, 0.3, 0.0]
+    p = system.units.to_si(system.params)  # the C program takes SI
+    b_m = p["b_m"]
+    x0 = [1.2 * b_m / p["rb1"], 0.0, 0.3, 0.0]
     proc = subprocess.run([str(tmp_path / "pair_c" / "pair_implicit"), "periods=5", "n_out=51", "rtol=1e-10",
                            "atol=1e-13", *(f"{s}={v!r}" for s, v in zip(system.state_names, x0)),
                            "--out", str(tmp_path / "pair.csv")], capture_output=True, text=True)

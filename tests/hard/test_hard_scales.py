@@ -57,7 +57,8 @@ def test_si_units_unreduced_pair_matches_the_dimensionless_reference(spur, k_m, 
     t = np.linspace(0.0, periods * T, periods * 16 + 1)
     # start at DTE x = 1.1 b_m (th2 = 0), at rest
     x0 = [(1.1 * v["b_m"] + v["e_a"]) / v["rb1"], 0.0, 0.0, 0.0]
-    tr = spur.simulate(t_end=t[-1], t_out=t, x0=x0, params=v, rtol=1e-10, atol=1e-16, method=method)
+    tr = spur.simulate(t_end=t[-1], t_out=t, x0=x0, params=spur.units.to_declared(v),  # v is SI; params= declared
+                       rtol=1e-10, atol=1e-16, method=method)
     assert np.all(np.isfinite(tr.y))
     th1, th2 = tr.y[:, 0], tr.y[:, 1]
     dte = (v["rb1"] * th1 - v["rb2"] * th2 - v["e_a"] * np.cos(v["omega"] * t)) / v["b_m"]

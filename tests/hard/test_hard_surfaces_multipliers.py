@@ -207,9 +207,10 @@ def test_six_dof_pressure_angle_and_dynamic_backlash_against_a_python_reference(
     """Yu et al.'s 6-DOF pair (scene yu_dynamic_D14, time-varying pressure angle and dynamic
     backlash on, load lowered to 20 N m so that the teeth rattle): the contact surfaces move
     with the bearing coordinates.  Checked against the same equations integrated in
-    Python (sympy.lambdify + event-located scipy DOP853 at rtol 1e-12, gearsym.bench), which
-    shares only the symbolic derivation with the generated C and the engine."""
-    from gearsym.bench import PythonModel, solve_with_events
+    Python (sympy.lambdify + the event-located scipy DOP853 of tests/hard/_ref.py at rtol 1e-12,
+    tests/hard/_lambdified.py), which shares only the symbolic derivation with the generated C
+    and the engine."""
+    from ._lambdified import lambdified_solve
 
     scene = gearsym.load_scene(ROOT / "scenes" / "yu_dynamic_D14.toml", T_p=20.0, T_g=20.0)
     eff = scene.resolved.effects
@@ -222,7 +223,7 @@ def test_six_dof_pressure_angle_and_dynamic_backlash_against_a_python_reference(
     t = np.linspace(0, 8 * T, 8 * 32 + 1)
     tr = system.simulate(t_end=t[-1], t_out=t, rtol=1e-11, atol=1e-17)
     scale = np.max(np.abs(tr.y), axis=0)
-    ref = solve_with_events(PythonModel(scene.model, system), system.x0, t, rtol=1e-12, atol=1e-14 * scale)
+    ref = lambdified_solve(scene.model, system.param_vector(), system.x0, t, rtol=1e-12, atol=1e-14 * scale)
     assert len(ref.event_t) > 20 and len(tr.events) == len(ref.event_t)
     assert [system.surface_names.index(e.surface) for e in tr.events] == list(ref.event_surface)
     np.testing.assert_allclose([e.t for e in tr.events], ref.event_t, rtol=0, atol=1e-8 * T)

@@ -1,7 +1,6 @@
 """``gearsym models`` (the shipped models, their papers and scenes) and ``gearsym init NAME``.
 
-Kept apart from :mod:`gearsym.cli` (which only registers them) so that neither module
-grows past the size limit.  Neither command imports numpy, sympy or CasADi.
+Registered by :mod:`gearsym.cli.parser`.  Neither command imports numpy, sympy or CasADi.
 """
 
 from __future__ import annotations
@@ -10,11 +9,11 @@ import argparse
 import re
 from pathlib import Path
 
-from .errors import ParameterError, SpecError
+from ..errors import ParameterError, SpecError
 
 __all__ = ["add_catalog_parsers", "cmd_init", "cmd_models", "init_files"]
 
-_TEMPLATES = Path(__file__).resolve().parent / "templates"
+_TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 
 
 def add_catalog_parsers(sub: argparse._SubParsersAction) -> None:
@@ -59,7 +58,7 @@ def cmd_models(args: argparse.Namespace) -> int:
     """
     import json
 
-    from .catalog import data_root, shipped_models, shipped_scenes
+    from ..catalog import data_root, shipped_models, shipped_scenes
 
     models, scenes = shipped_models(), shipped_scenes()
     if args.json:
@@ -123,7 +122,7 @@ def init_files(name: str, source: str | None = None) -> tuple[str, str]:
     SpecError
         ``source`` is not a shipped scene.
     """
-    from .spec.names import check_label
+    from ..spec.names import check_label
 
     problem = check_label(name, "model name")
     if problem:
@@ -132,7 +131,7 @@ def init_files(name: str, source: str | None = None) -> tuple[str, str]:
         model = (_TEMPLATES / "model.toml").read_text(encoding="utf-8").replace("{{NAME}}", name)
         scene = (_TEMPLATES / "scene.toml").read_text(encoding="utf-8").replace("{{NAME}}", name)
         return model, scene
-    from .catalog import shipped_scenes
+    from ..catalog import shipped_scenes
 
     scenes = shipped_scenes()
     if source not in scenes:

@@ -1,7 +1,6 @@
 """``gearsym cache path|list|clear``: where builds go, what is there, and removing them.
 
-Kept apart from :mod:`gearsym.cli` (which only registers it) so that neither module
-grows past the size limit.
+Registered by :mod:`gearsym.cli.parser`.
 """
 
 from __future__ import annotations
@@ -12,11 +11,11 @@ import os
 import time
 from pathlib import Path
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
 if TYPE_CHECKING:  # pragma: no cover
-    from .codegen.cache import BuildCache  # imports CasADi: only when the command runs
+    from ..codegen.cache import BuildCache  # imports CasADi: only when the command runs
 
 __all__ = ["add_cache_parser", "cmd_cache"]
 
@@ -42,9 +41,9 @@ def add_cache_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _root_and_scene(args: argparse.Namespace):
-    from .catalog import find_scene, shipped_scenes
-    from .codegen.cache import BuildCache
-    from .facade import default_generated_dir, load_scene
+    from ..catalog import find_scene, shipped_scenes
+    from ..codegen.cache import BuildCache
+    from ..facade import default_generated_dir, load_scene
 
     scene = None
     name = None
@@ -109,7 +108,7 @@ def _path(cache: BuildCache, scene, as_json: bool) -> int:
     info: dict[str, object] = {"root": str(cache.root),
                                "GEARSYM_GENERATED": os.environ.get("GEARSYM_GENERATED") or None}
     if scene is not None:
-        from .codegen.cache import build_key
+        from ..codegen.cache import build_key
 
         model_text = Path(scene.model_spec.path).read_text(encoding="utf-8")
         key, _ = build_key(model_text, scene.resolved.effects, scene.model_spec.form)

@@ -23,14 +23,15 @@ import argparse
 import math
 import re
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
 if TYPE_CHECKING:  # pragma: no cover
     from typing import Any
 
 __all__ = ["LIMITS", "UsageError", "GearsymArgumentParser", "check_bench", "check_continue", "check_map",
-           "check_orbit", "check_simulate", "float_list", "state_list"]
+           "check_orbit", "check_simulate", "emit", "float_list", "load", "parse_effects", "parse_set", "scene_args",
+           "state_list", "unit_suffix"]
 
 #: Upper limits of counts on the command line.
 LIMITS: dict[str, int] = {
@@ -108,7 +109,7 @@ def float_list(text: str, flag: str) -> list[float]:
 
 def _out(args: argparse.Namespace) -> None:
     if getattr(args, "out", None):
-        from .files import check_out_dir
+        from ..files import check_out_dir
 
         check_out_dir(args.out)
 
@@ -234,3 +235,66 @@ def state_list(text: str | None, names: list[str], flag: str) -> list[str] | Non
         if s not in names:
             raise ParameterError(f"{flag}: '{s}' is not a state (states: {', '.join(names)})")
     return out
+
+
+# --------------------------------------------------- arguments every scene command shares
+def parse_set(items: list[str] | None) -> dict[str, float]:
+    """``--set NAME=VALUE`` items -> ``{name: value}`` (values in the declared units, checked finite)."""
+    out: dict[str, float] = {}
+    for item in items or []:
+        if "=" not in item:
+            raise ParameterError(f"--set expects NAME=VALUE, got '{item}'")
+        name, value = item.split("=", 1)
+        try:
+            v = float(value)
+        except ValueError:
+            raise ParameterError(f"--set {name}: '{value}' is not a number") from None
+        if not math.isfinite(v):
+            raise ParameterError(f"--set {name}: non-finite value {value}")
+        out[name.strip()] = v
+    return out
+
+
+def parse_effects(on: list[str] | None, off: list[str] | None) -> dict[str, bool | str]:
+    """``--effect NAME[=VARIANT]`` and ``--no-effect NAME`` -> effect choices."""
+    eff: dict[str, bool | str] = {}
+    for item in on or []:
+        if "=" in item:
+            name, variant = item.split("=", 1)
+            eff[name.strip()] = variant.strip()
+        else:
+            eff[item.strip()] = True
+    for item in off or []:
+        eff[item.strip()] = False
+    return eff
+
+
+def scene_args(p: argparse.ArgumentParser) -> None:
+    """The arguments of every command that takes a scene."""
+    p.add_argument("scene", help="scene file, or the name of a shipped scene (gearsym models lists them)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="override a parameter (in the model's declared unit); repeatable")
+    p.add_argument("--effect", action="append", metavar="NAME[=VARIANT]",
+                   help="switch an effect on (optionally choosing a variant); repeatable")
+    p.add_argument("--no-effect", action="append", metavar="NAME", help="switch an effect off; repeatable")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+
+
+def load(args: argparse.Namespace):
+    """The scene of a parsed command line (``scene``, ``--set``, ``--effect``, ``--no-effect``)."""
+    from ..facade import load_scene
+
+    return load_scene(args.scene, effects=parse_effects(args.effect, args.no_effect) or None,
+                      **parse_set(args.set))
+
+
+def emit(obj: dict[str, Any]) -> None:
+    """Print one strict-JSON object on stdout."""
+    from ..files import to_json
+
+    print(to_json(obj))
+
+
+def unit_suffix(unit: str) -> str:
+    """`` [unit]``-less suffix for printing a value: omitted for dimensionless ``1``."""
+    return "" if unit in ("", "1") else f" {unit}"

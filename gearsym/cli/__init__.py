@@ -1,0 +1,64 @@
+"""Command-line interface: ``gearsym inspect|compile|simulate ...``.
+
+Exit codes: 0 success, 2 bad input (message on stderr, no traceback), 1 internal
+or numerical failure, or a command that did not do what was asked (an orbit that
+does not converge, a continuation that stops before the end of its range, a map
+whose every point failed).  ``--json`` prints one JSON object on stdout (strict
+JSON: non-finite numbers are ``null``).  Every numeric option is checked before any
+work (:mod:`gearsym.cli.checks`); every output file is written atomically
+(:mod:`gearsym.files`).
+
+One module per command or command group (:mod:`~gearsym.cli.inspect_model`,
+:mod:`~gearsym.cli.simulate`, :mod:`~gearsym.cli.orbits`, :mod:`~gearsym.cli.maps`,
+:mod:`~gearsym.cli.modes`, :mod:`~gearsym.cli.benchmark`, :mod:`~gearsym.cli.cache`,
+:mod:`~gearsym.cli.catalog`), the shared argument checks in :mod:`~gearsym.cli.checks` and the
+parser in :mod:`~gearsym.cli.parser`.  Importing the package imports none of numpy, sympy,
+CasADi or the benchmark harness: each command imports what it needs when it runs.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from ..errors import GearsymError
+from .checks import UsageError
+from .parser import build_parser
+
+__all__ = ["build_parser", "main"]
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``gearsym`` console script."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except UsageError as exc:  # one line, exit 2 (argparse would print the usage and exit)
+        print(f"gearsym: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        from ..extras import require_for_command
+
+        require_for_command(args)  # a missing optional dependency: exit 2, naming the extra
+        return int(args.func(args) or 0)
+    except GearsymError as exc:
+        print(f"gearsym: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print("gearsym: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`): no traceback, no message
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except Exception as exc:  # internal error: short message, traceback on request
+        if args.debug:
+            import traceback
+
+            traceback.print_exc()
+        print(f"gearsym: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the "
+              f"traceback)", file=sys.stderr)
+        return 1

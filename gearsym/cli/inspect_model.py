@@ -1,0 +1,121 @@
+"""``gearsym inspect``: a model's derived equations, states, parameters, effects, modes."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..errors import SpecError
+from ..inspection import inspect_structure, print_structure
+from .checks import emit, parse_effects, parse_set
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
+if TYPE_CHECKING:  # pragma: no cover
+    from typing import Any
+
+__all__ = ["cmd_inspect"]
+
+
+def cmd_inspect(args: argparse.Namespace) -> int:
+    """Show a model's derived equations, states, parameters, effects, modes."""
+    import sympy as sp
+
+    from ..catalog import find_spec_file
+    from ..facade import Scene
+    from ..spec.files import read_toml
+    from ..spec.model import load_model
+    from .details import inspect_details, print_details
+
+    path = find_spec_file(args.path)
+    head = read_toml(path, "file")  # regular file, size limit, before reading
+    if "scene" in head:
+        scene = Scene(path, parse_effects(args.effect, args.no_effect) or None, parse_set(args.set))
+    elif "model" in head:
+        model_spec = load_model(path)
+        scene = _model_scene(path, model_spec, args)
+    else:
+        raise SpecError("neither a scene ([scene]) nor a model ([model]) file", file=str(path))
+    m = scene.model
+    ms = scene.model_spec
+    info: dict[str, Any] = {
+        "model": ms.name,
+        "scene": scene.name if "scene" in head else None,
+        "description": ms.description,
+        "states": m.state_names,
+        "parameters": {
+            name: {"value": p.value, "unit": p.unit, "meaning": p.meaning,
+                   "active": name in m.parameter_names
+                   or any(name in args for _, args in m.bound_parameters.values())}
+            for name, p in ms.parameters.items()
+        },
+        "effects": {
+            name: {"on": scene.resolved.effects[name] is not False,
+                   "variant": scene.resolved.effects[name] if isinstance(scene.resolved.effects[name], str)
+                   else None,
+                   "variants": list(e.variants), "requires": list(e.requires), "meaning": e.meaning}
+            for name, e in ms.effects.items()
+        },
+        "modes": [{"name": mo.name, "condition": mo.condition} for mo in m.modes],
+        "switching_functions": [
+            {"name": s.name, "expr": sp.sstr(s.expr), "meaning": s.meaning, "kind": s.kind}
+            for s in m.switching
+        ],
+        "breakpoints": [
+            {"schedule": s.name, "period": sp.sstr(s.period), "breaks": [sp.sstr(b) for b in s.breaks]}
+            for s in m.schedules
+        ],
+        "forcing_period": sp.sstr(m.forcing_period) if m.forcing_period is not None else None,
+        "equations": [sp.sstr(e.lhs) + " = " + sp.sstr(e.rhs) for e in m.equations()],
+        **inspect_structure(m),
+    }
+    info.update(inspect_details(m, jacobian=args.jacobian))
+    if args.latex:
+        info["latex"] = m.latex()
+    if args.json:
+        emit(info)
+        return 0
+    print(f"model {ms.name}: {ms.description}")
+    if ms.reference:
+        print(f"  reference: {ms.reference}")
+    print(f"states: {', '.join(info['states'])}")
+    print("parameters:")
+    for name, p in info["parameters"].items():
+        mark = "" if p["active"] else "   (not used: effect off)"
+        print(f"  {name:10s} = {p['value']:<12g} [{p['unit']}]  {p['meaning']}{mark}")
+    print("effects:")
+    for name, e in info["effects"].items():
+        state = ("on" + (f" ({e['variant']})" if e["variant"] else "")) if e["on"] else "off"
+        print(f"  {name:28s} {state:10s} {e['meaning']}")
+    print_structure(info)
+    print("equations of motion:")
+    for eq in info["equations"]:
+        print(f"  {eq}")
+    if info["switching_functions"]:
+        print("switching functions:")
+        for s in info["switching_functions"]:
+            print(f"  g[{s['name']}] = {s['expr']}   ({s['meaning']})")
+        print("modes:")
+        for mo in info["modes"]:
+            print(f"  {mo['name']}: {mo['condition']}")
+    for b in info["breakpoints"]:
+        print(f"breakpoints: schedule {b['schedule']}, period {b['period']}, breaks at {b['breaks']}")
+    if info["forcing_period"]:
+        print(f"forcing period: {info['forcing_period']}")
+    print_details(info, [s.name for s in m.switching])
+    if args.latex:
+        print(info["latex"])
+    return 0
+
+
+def _model_scene(path: Path, model_spec, args):
+    """A scene with the model's defaults, for ``inspect MODEL``."""
+    import tempfile
+
+    from ..facade import Scene
+
+    tmp = Path(tempfile.mkdtemp(prefix="gearsym-")) / f"{model_spec.name}.toml"
+    import json
+
+    tmp.write_text(f'[scene]\nname = "{model_spec.name}"\nmodel = {json.dumps(str(path.resolve()))}\n')
+    return Scene(tmp, parse_effects(args.effect, args.no_effect) or None, parse_set(args.set),
+                 model_spec=model_spec)

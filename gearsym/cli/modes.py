@@ -1,0 +1,30 @@
+"""``gearsym modes``: natural frequencies and mode shapes about the static equilibrium."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..errors import ParameterError
+from .checks import emit, load
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
+if TYPE_CHECKING:  # pragma: no cover
+    pass
+
+__all__ = ["cmd_modes"]
+
+
+def cmd_modes(args: argparse.Namespace) -> int:
+    """Natural frequencies and mode shapes about the static equilibrium (mean mesh stiffness)."""
+    from ..analysis.modes import modal_analysis
+    from ..analysis.planetary import classify_planetary
+
+    if args.samples < 1:
+        raise ParameterError(f"--samples must be >= 1, got {args.samples}")
+    scene = load(args)
+    res = classify_planetary(modal_analysis(scene.compile(), samples=args.samples))
+    if args.json:
+        emit({"scene": scene.name, **res.to_dict()})
+    else:
+        print(res.table(scene.name, "Hz" if scene.model_spec.time_unit == "s" else "1/time"))
+    return 0

@@ -1,0 +1,151 @@
+"""The argument parser of the ``gearsym`` command: every subcommand, its options and help."""
+
+from __future__ import annotations
+
+import argparse
+
+from .benchmark import cmd_bench
+from .cache import add_cache_parser
+from .catalog import add_catalog_parsers
+from .checks import GearsymArgumentParser, scene_args
+from .inspect_model import cmd_inspect
+from .maps import cmd_map
+from .modes import cmd_modes
+from .orbits import cmd_continue, cmd_orbit
+from .simulate import cmd_compile, cmd_export, cmd_simulate
+
+__all__ = ["build_parser"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``gearsym`` command."""
+    parser = GearsymArgumentParser(
+        prog="gearsym",
+        description="Symbolic model compiler for gear-transmission dynamics.",
+        epilog="Exit codes: 0 success, 2 bad input, 1 internal or numerical failure.",
+    )
+    parser.add_argument("--version", action="version", version=f"gearsym {_version()}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=GearsymArgumentParser)
+
+    p = sub.add_parser("inspect", help="show derived equations, states, parameters, effects, modes")
+    p.add_argument("path", help="scene or model file, or the name of a shipped scene or model")
+    p.add_argument("--latex", action="store_true", help="also print the equations as LaTeX")
+    p.add_argument("--jacobian", action="store_true", help="also print the symbolic Jacobian")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override a parameter")
+    p.add_argument("--effect", action="append", metavar="NAME[=VARIANT]", help="switch an effect on")
+    p.add_argument("--no-effect", action="append", metavar="NAME", help="switch an effect off")
+    p.set_defaults(func=cmd_inspect)
+
+    p = sub.add_parser("compile", help="generate C and compile it (cached by content)")
+    scene_args(p)
+    p.add_argument("--force", action="store_true", help="rebuild even if cached")
+    p.set_defaults(func=cmd_compile)
+
+    p = sub.add_parser("simulate", help="simulate a scene with the C engine")
+    scene_args(p)
+    p.add_argument("--periods", type=float, help="number of forcing periods")
+    p.add_argument("--t-end", type=float, help="final time (instead of --periods)")
+    p.add_argument("--rtol", type=float, help="relative tolerance (default: scene, else 1e-8)")
+    p.add_argument("--atol", type=float, help="absolute tolerance (default: scene, else 1e-10)")
+    p.add_argument("--method", choices=["bdf", "adams", "ida"], help="integrator")
+    p.add_argument("--x0", help="initial state, comma-separated")
+    p.add_argument("--max-steps", type=int, help="limit on internal integrator steps (default: the scene's, "
+                   "else 10,000,000)")
+    p.add_argument("--out", help="folder for trajectory.npz and PNG plots")
+    p.add_argument("--plot-states", metavar="NAMES", help="comma-separated states the time-history figure "
+                   "shows (default: every state)")
+    p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("bench", help="work-precision benchmark: error vs wall time, gearsym vs peer integrators")
+    scene_args(p)
+    p.add_argument("--out", help="folder for work_precision_<scene>.json and .png (written at the end)")
+    p.add_argument("--rtols", help="comma-separated relative tolerances (default 1e-3 .. 1e-10, and 1e-11, "
+                   "1e-12 where the reference allows)")
+    p.add_argument("--periods", type=float, help="horizon in forcing periods (default: the scene's)")
+    p.add_argument("--points-per-period", type=int, default=32, help="output grid density (default 32)")
+    p.add_argument("--methods", help="comma-separated subset of the methods (default: all)")
+    p.add_argument("--rounds", type=int, default=3, help="interleaved timing rounds (default 3)")
+    p.add_argument("--no-compile-times", action="store_true", help="skip the cold/cached compile timing")
+    p.add_argument("--no-analyses", action="store_true", help="skip the shooting / continuation costs")
+    p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("continue", help="continue periodic orbits in one parameter (branch, folds, period "
+                       "doubling, Neimark-Sacker, grazing)")
+    scene_args(p)
+    p.add_argument("--param", required=True, help="the parameter to vary")
+    p.add_argument("--from", dest="start", type=float, required=True,
+                   help="start value (in the model's declared unit)")
+    p.add_argument("--to", dest="stop", type=float, required=True, help="end value")
+    p.add_argument("--periods", type=float, default=1, help="forcing periods per orbit (default 1)")
+    p.add_argument("--method", choices=["shooting", "hbm"], default="shooting", help="periodic-orbit residual")
+    p.add_argument("--segments", type=int, default=1, help="shooting segments (default 1)")
+    p.add_argument("--harmonics", type=int, help="harmonics (hbm)")
+    p.add_argument("--switch", type=int, default=0,
+                   help="branch switching depth at period doublings (default 0: none)")
+    p.add_argument("--ds-max", type=float, help="largest step in scaled arclength (default 0.02)")
+    p.add_argument("--max-points", type=int, default=5000, help="limit on branch points (default 5000)")
+    p.add_argument("--rtol", type=float, help="integrator relative tolerance (default 1e-10)")
+    p.add_argument("--atol", type=float, help="integrator absolute tolerance (default: rtol * 1e-2 * the smallest "
+                   "state magnitude on the first orbit; for the orbit x = 0 the scene's scale)")
+    p.add_argument("--x0", help="initial guess of the orbit's state at t = 0, comma-separated")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--out", help="folder for branch.json, response.png, multipliers.png")
+    p.set_defaults(func=cmd_continue)
+
+    p = sub.add_parser("orbit", help="periodic orbit by shooting or harmonic balance, Floquet multipliers")
+    scene_args(p)
+    p.add_argument("--periods", type=float, default=1, help="forcing periods per orbit (default 1)")
+    p.add_argument("--method", choices=["shooting", "hbm"], default="shooting", help="periodic solver")
+    p.add_argument("--segments", type=int, default=1, help="shooting segments (default 1: single shooting)")
+    p.add_argument("--harmonics", type=int, help="harmonics (hbm; default: grown until converged)")
+    p.add_argument("--x0", help="initial guess of the state at t = 0, comma-separated")
+    p.add_argument("--transient", type=float, help="forcing periods integrated before Newton (shooting)")
+    p.add_argument("--tol", type=float, help="residual tolerance (default 1e-10)")
+    p.add_argument("--rtol", type=float, help="integrator relative tolerance (default 1e-11)")
+    p.add_argument("--atol", type=float, help="integrator absolute tolerance (default 1e-13)")
+    p.add_argument("--out", help="folder for orbit.json, orbit_phase.png, orbit_multipliers.png")
+    p.set_defaults(func=cmd_orbit)
+
+    p = sub.add_parser("export", help="standalone C project (--c DIR) and/or FMI 2.0 Model Exchange FMU "
+                       "(--fmu FILE.fmu) of a scene")
+    scene_args(p)
+    p.add_argument("--c", metavar="DIR", help="folder for the C project (main.c, driver, Makefile, README)")
+    p.add_argument("--fmu", metavar="FILE", help="FMU file to write (.fmu)")
+    p.add_argument("--force", action="store_true", help="write into an existing non-empty folder / over a file")
+    p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser("modes", help="natural frequencies and mode shapes about the static equilibrium "
+                       "(mean mesh stiffness)")
+    scene_args(p)
+    p.add_argument("--samples", type=int, default=32,
+                   help="samples per forcing period for the mean stiffness and loads (default 32)")
+    p.set_defaults(func=cmd_modes)
+
+    p = sub.add_parser("map", help="two-parameter stability / response map (netCDF + heat map)")
+    scene_args(p)
+    p.add_argument("--x", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"),
+                   help="horizontal axis: parameter (declared unit), range and number of points")
+    p.add_argument("--y", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"), help="vertical axis")
+    p.add_argument("--quantity", choices=["max_multiplier", "peak_to_peak", "rattle_state"],
+                   default="max_multiplier", help="what the heat map shows (default max_multiplier)")
+    p.add_argument("--method", choices=["auto", "exact", "shooting", "hbm"], default="auto",
+                   help="auto: exact matrix exponentials for piecewise-constant LTV models, else shooting")
+    p.add_argument("--periods", type=float, default=1, help="forcing periods per orbit (default 1)")
+    p.add_argument("--harmonics", type=int, help="harmonics (hbm)")
+    p.add_argument("--rtol", type=float, help="integrator relative tolerance")
+    p.add_argument("--dask", metavar="ADDRESS", help="run on this Dask scheduler (default: local processes)")
+    p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
+    p.add_argument("--out", required=True, help="folder for map.nc and map.png")
+    p.set_defaults(func=cmd_map)
+
+    add_cache_parser(sub)
+    add_catalog_parsers(sub)
+    return parser
+
+
+def _version() -> str:
+    from .. import __version__
+
+    return __version__
