@@ -15,7 +15,7 @@ from pathlib import Path
 from .catalog import find_scene
 from .codegen.cache import BuildCache, build_key
 from .codegen.generate import GeneratedModel, build_functions, write_and_compile
-from .errors import GearsymError
+from .errors import GearsymError, SpecError
 from .spec.model import ModelSpec, load_model
 from .spec.scene import ResolvedScene, SceneSpec, load_scene_spec, resolve_scene
 from .symbolic.model import SymbolicModel
@@ -113,6 +113,10 @@ class Scene:
         system = System(gen, values, self.initial_state(), self.spec.simulate, self.name)
         if self.resolved.static:  # [initial] static = true: start from the static equilibrium
             from .static import static_state
+
+            if gen.algebraic:
+                raise SpecError("the static start does not handle algebraic variables ([constraints]): give "
+                                "the initial state", file=self.spec.path, field="initial.static")
 
             system.x0 = static_state(system, *self.resolved.coordinate_states(),
                                      where=(self.spec.path, "initial.static"))
