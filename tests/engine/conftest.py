@@ -138,19 +138,30 @@ def backlash_ida_engine(tmp_path_factory) -> Engine:
     )
 
 
-@pytest.fixture(scope="session")
-def backlash_dae_engine(tmp_path_factory) -> Engine:
-    """The backlash oscillator as a DAE: the restoring force is an algebraic variable z,
-    x = [x, v, z], r = [x' - v, v' - z, z - F(t, x, v)] (nalg = 1, the last state)."""
-    t, x, p, m, g, F = backlash_exprs()
+def _backlash_dae(tmp_path_factory, jump_damping: bool) -> Engine:
+    t, x, p, m, g, F = backlash_exprs(jump_damping=jump_damping)
     x3 = ca.SX.sym("x", 3)
     F = ca.substitute(F, x, x3[:2])
     g = ca.substitute(g, x, x3[:2])
     xd = ca.SX.sym("xd", 3)
     res = ca.vertcat(xd[0] - x3[1], xd[1] - x3[2], x3[2] - F)
     return compile_model(
-        _cache_dir(tmp_path_factory, "backlash_dae"), t=t, x=x3, p=p, m=m, g=g, res=res, xd=xd, nalg=1
+        _cache_dir(tmp_path_factory, f"backlash_dae{jump_damping}"), t=t, x=x3, p=p, m=m, g=g, res=res, xd=xd,
+        nalg=1,
     )
+
+
+@pytest.fixture(scope="session")
+def backlash_dae_engine(tmp_path_factory) -> Engine:
+    """The backlash oscillator as a DAE: the restoring force is an algebraic variable z,
+    x = [x, v, z], r = [x' - v, v' - z, z - F(t, x, v)] (nalg = 1, the last state)."""
+    return _backlash_dae(tmp_path_factory, False)
+
+
+@pytest.fixture(scope="session")
+def backlash_dae_jump_engine(tmp_path_factory) -> Engine:
+    """The DAE with damping in contact only: the vector field jumps at the surfaces."""
+    return _backlash_dae(tmp_path_factory, True)
 
 
 # ----------------------------------------------------------------------------

@@ -52,3 +52,17 @@ def test_dae_monodromy_from_inside_the_gap(backlash_engine, backlash_dae_engine)
     da = backlash_dae_engine.run([*x0, 0.0], P, 0.0, 2 * T, method="ida", rtol=1e-11, atol=1e-13,
                                  want_monodromy=True)
     assert np.max(np.abs(da.monodromy[:2, :2] - cv.monodromy)) / np.max(np.abs(cv.monodromy)) < 1e-6
+
+
+def test_dae_monodromy_with_saltation(backlash_jump_engine, backlash_dae_jump_engine):
+    """Damping only in contact: the vector field jumps at the surfaces, the saltation matrices
+    (from consistent derivatives of both modes, algebraic variable solved for) are not the identity."""
+    p = [0.1, 0.2, 0.8, 0.1, 1.0, 1.0]
+    x0 = np.array([0.3, 0.9])
+    T = 2 * np.pi / p[2]
+    cv = backlash_jump_engine.run(x0, p, 0.0, 2 * T, method="bdf", rtol=1e-11, atol=1e-13, want_monodromy=True)
+    da = backlash_dae_jump_engine.run([*x0, 0.0], p, 0.0, 2 * T, method="ida", rtol=1e-11, atol=1e-13,
+                                      want_monodromy=True)
+    assert len(da.events) == len(cv.events) >= 2
+    scale = np.max(np.abs(cv.monodromy))
+    assert np.max(np.abs(da.monodromy[:2, :2] - cv.monodromy)) / scale < 1e-6, (da.monodromy, cv.monodromy)

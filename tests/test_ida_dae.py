@@ -1,0 +1,158 @@
+"""IDA for real: a shipped DAE scene (scenes/spur_pair_coupled_load.toml, the coupling's reaction
+torque an algebraic variable) against CVODE on its explicit reduction, written independently by
+hand (tests/data/spur_pair_lumped_load.toml: the load inertia lumped into the gear, hand-written
+equations, no mesh element).  References: the lumped model's trajectory and events at tight
+tolerance, the reaction torque J_L*w2' + T_L computed from the lumped model's right-hand side,
+and its Floquet multipliers from CVODE's variational equations."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gearsym
+from gearsym.errors import ParameterError, SpecError
+from gearsym.spec.model import parse_model
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = ROOT / "scenes" / "spur_pair_coupled_load.toml"
+MODEL = ROOT / "models" / "spur_pair_coupled_load.toml"
+LUMPED = Path(__file__).resolve().parent / "data" / "spur_pair_lumped_load_scene.toml"
+PERIODS = 60
+
+
+@pytest.fixture(scope="module")
+def pair():
+    dae = gearsym.load_scene(SCENE).compile()
+    ode = gearsym.load_scene(LUMPED).compile()
+    return dae, ode
+
+
+@pytest.fixture(scope="module")
+def runs(pair):
+    dae, ode = pair
+    tr = dae.simulate(periods=PERIODS)  # the scene's defaults: IDA, rtol 1e-8
+    ref = ode.simulate(periods=PERIODS, rtol=1e-12, atol=1e-16, method="bdf", t_out=tr.t)
+    return tr, ref
+
+
+def reaction_torque(ode, ref) -> np.ndarray:
+    """tau_c = J_L*w2' + T_L from the explicit reduction (the load's equation of motion)."""
+    acc = ode.engine.evaluate("rhs", ref.t, ref.y, ode.param_vector())[:, 3]
+    return ode.params["J_L"] * acc + ode.params["T_L"]
+
+
+def test_scene_is_a_dae_on_ida_by_default(pair, runs):
+    dae, _ = pair
+    tr, _ = runs
+    assert dae.generated.implicit and dae.generated.algebraic == ["tau_c"]
+    assert dae.state_names == ["th1", "th2", "w1", "w2", "tau_c"] and dae.differential_states == 4
+    assert dae.defaults["method"] == "ida"
+    assert tr.stats["n_steps"] > 0 and tr.stats["n_reinit"] == len(tr.events)
+    with pytest.raises(ParameterError, match="ida"):
+        dae.simulate(periods=1, method="bdf")
+
+
+def test_ida_matches_cvode_on_the_explicit_reduction(runs):
+    tr, ref = runs
+    # contact loss and re-contact every mesh period, the same events at the same times
+    assert len(tr.events) == len(ref.events) >= 2 * PERIODS - 2
+    # (the hand-written model's surfaces may be oriented the other way: g and -g)
+    same = np.array([e.direction for e in tr.events]) * np.array([e.direction for e in ref.events])
+    assert abs(same.sum()) == len(same)
+    np.testing.assert_allclose([e.t for e in tr.events], [e.t for e in ref.events], rtol=0, atol=1e-9)
+    scale = np.max(np.abs(ref.y), axis=0)
+    err = np.max(np.abs(tr.y[:, :4] - ref.y), axis=0) / scale
+    assert np.all(err < 1e-6), err  # rtol 1e-8 over 60 periods, 120 events (measured 2.5e-7)
+
+
+def test_algebraic_variable_is_the_reaction_torque(pair, runs):
+    _, ode = pair
+    tr, ref = runs
+    tau = reaction_torque(ode, ref)
+    assert np.ptp(tau) > 10.0  # the reaction torque varies (N*m), contact loss included
+    assert np.max(np.abs(tr.y[:, 4] - tau)) / np.max(np.abs(tau)) < 1e-6  # measured 1.9e-7
+    out = pair[0].outputs(tr)["coupling_torque"]
+    np.testing.assert_array_equal(out, tr.y[:, 4])
+
+
+@pytest.mark.parametrize("guess", [0.0, -1.0e4])
+def test_consistent_initial_conditions_from_an_inconsistent_guess(pair, guess):
+    dae, ode = pair
+    x0 = dae.x0.copy()
+    assert x0[4] == 0.0  # the scene does not give tau_c
+    x0[4] = guess
+    T = dae.period()
+    tr = dae.simulate(t_end=2 * T, x0=x0, rtol=1e-10, atol=1e-14, n_out=9)
+    ref = ode.simulate(t_end=2 * T, x0=x0[:4], rtol=1e-12, atol=1e-16, method="bdf", t_out=tr.t)
+    tau = reaction_torque(ode, ref)
+    assert abs(tr.y[0, 4] - tau[0]) < 1e-8 * abs(tau[0])  # reported at t0: the consistent value
+    assert np.max(np.abs(tr.y[:, 4] - tau)) < 1e-6 * np.max(np.abs(tau))
+    assert tr.y[0, 4] != guess
+
+
+def test_floquet_multipliers_ida_vs_cvode(pair):
+    dae, ode = pair
+    oi = dae.periodic_orbit(transient=40, rtol=1e-11, atol=1e-14)
+    oc = ode.periodic_orbit(transient=40, rtol=1e-11, atol=1e-14)
+    assert oi.converged and oc.converged and len(oi.events) == len(oc.events) == 2
+    np.testing.assert_allclose(oi.x0[:4], oc.x0, rtol=1e-7, atol=1e-12)
+    assert oi.monodromy.shape == (5, 5) and np.all(oi.monodromy[:, 4] == 0.0)
+    mi = np.sort_complex(oi.multipliers)
+    mc = np.sort_complex(oc.multipliers)
+    assert len(mi) == len(mc) == 4  # over the differential states: no multiplier for tau_c
+    assert np.max(np.abs(mi - mc)) < 1e-8, (mi, mc)  # measured 3e-11
+    assert oi.stability == oc.stability == "asymptotically_stable"
+    # the DAE's monodromy is the explicit reduction's, entry by entry
+    np.testing.assert_allclose(oi.monodromy[:4, :4], oc.monodromy, rtol=0,
+                               atol=1e-6 * np.max(np.abs(oc.monodromy)))
+
+
+# ------------------------------------------------------------------ bad input
+
+def _model(edit) -> dict:
+    data = tomllib.loads(MODEL.read_text())
+    edit(data)
+    return data
+
+
+def _expect(edit, field: str, *words: str) -> None:
+    with pytest.raises(SpecError) as info:
+        parse_model(_model(edit), str(MODEL))
+    msg = str(info.value)
+    assert f"'{field}'" in msg and str(MODEL) in msg, msg
+    for w in words:
+        assert w in msg, msg
+
+
+def test_algebraic_variable_without_constraint():
+    def edit(d):
+        d["algebraic"]["tau_x"] = {"unit": "N*m"}
+    _expect(edit, "algebraic.tau_x", "tau_x", "not the multiplier")
+
+
+def test_constraint_with_unknown_names():
+    _expect(lambda d: d["constraints"]["coupling"].update(equals="th3"), "constraints.coupling.equals",
+            "th3")
+    _expect(lambda d: d["constraints"]["coupling"].update(coordinate="th9"),
+            "constraints.coupling.coordinate", "th9")
+    _expect(lambda d: d["constraints"]["coupling"].update(multiplier="tau_q"),
+            "constraints.coupling.multiplier", "tau_q")
+    _expect(lambda d: d["constraints"]["coupling"].update(equals="w2"), "constraints.coupling.equals", "w2")
+
+
+def test_constraint_misuse():
+    _expect(lambda d: d["model"].update(form="explicit"), "constraints.coupling", "implicit")
+    _expect(lambda d: d["constraints"]["coupling"].update(equals="rb2*th2"), "constraints.coupling.equals",
+            "unit mismatch")
+    def wrong_unit(d):
+        d["algebraic"]["tau_c"]["unit"] = "N"
+        del d["outputs"]["coupling_torque"]
+    _expect(wrong_unit, "algebraic.tau_c.unit", "unit mismatch")
+    _expect(lambda d: d["elements"]["load"].update(value="-T_L - tau_c"), "elements.load.value",
+            "tau_c", "only in [outputs]")
+    _expect(lambda d: d["constraints"]["coupling"].update(stiffness="k_s"), "constraints.coupling.stiffness",
+            "unknown field")
