@@ -37,6 +37,7 @@ from typing import Any
 
 from ..errors import SpecError
 from . import expressions as ex
+from .constraints import Algebraic, Constraint, parse_algebraic, parse_constraints
 from .fields import (
     Ctx,
     Term,
@@ -50,7 +51,6 @@ from .fields import (
     table,
     unit_of,
 )
-from .constraints import Algebraic, Constraint, parse_algebraic, parse_constraints
 from .files import read_toml
 from .initial import read_initial
 from .names import check_label, check_symbol_name
