@@ -1785,9 +1785,7 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
     else if (eval_xdot(ud, t, yv, ud->m, ypv, ud->f3) == 0)
       memcpy(ypv, ud->f3, sizeof(double) * (size_t)nx);
     /* id: 1 differential, 0 algebraic (the last nalg entries of the state and of every
-     * variational block).  The algebraic variables stay in the local error test (no
-     * IDASetSuppressAlg): the DAEs gearsym generates have index 1, for which SUNDIALS
-     * advises against suppressing them, and they are results users read. */
+     * variational block); the error test: see IDASetSuppressAlg below */
     N_VConst(1.0, S->id);
     {
       double* idv = N_VGetArrayPointer(S->id);
