@@ -254,3 +254,18 @@ def test_time_dependent_ratio_constraint_vs_scipy(tmp_path, monkeypatch):
     wb = r * ref.y[1] + A * w * np.cos(w * ref.t)
     lam = Jb * (r * acc - A * w**2 * np.sin(w * ref.t)) + Tb + cb * wb
     assert np.max(np.abs(tr.y[:, 2] - lam)) < 1e-6 * np.max(np.abs(lam))
+
+
+def test_cli_bad_constraint_exits_2_with_one_line(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    text = MODEL.read_text().replace('equals = "th2"', 'equals = "th2 + th_unknown"')
+    (tmp_path / "bad.toml").write_text(text)
+    env = dict(os.environ, GEARSYM_GENERATED=str(tmp_path / "gen"))
+    res = subprocess.run([sys.executable, "-m", "gearsym", "inspect", str(tmp_path / "bad.toml")],
+                         capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
+    assert res.returncode == 2 and res.stdout == ""
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "constraints.coupling.equals" in lines[0] and "th_unknown" in lines[0], lines
