@@ -108,15 +108,14 @@ class Scene:
         """
         from .system import System
 
+        if self.resolved.static and self.model_spec.algebraic:
+            raise SpecError("the static start does not handle algebraic variables ([constraints]): give "
+                            "the initial state", file=self.spec.path, field="initial.static")
         gen = self.generate(generated_dir, force)
         values = {k: self.resolved.values[k] for k in gen.input_names}
         system = System(gen, values, self.initial_state(), self.spec.simulate, self.name)
         if self.resolved.static:  # [initial] static = true: start from the static equilibrium
             from .static import static_state
-
-            if gen.algebraic:
-                raise SpecError("the static start does not handle algebraic variables ([constraints]): give "
-                                "the initial state", file=self.spec.path, field="initial.static")
 
             system.x0 = static_state(system, *self.resolved.coordinate_states(),
                                      where=(self.spec.path, "initial.static"))

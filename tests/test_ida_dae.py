@@ -269,3 +269,12 @@ def test_cli_bad_constraint_exits_2_with_one_line(tmp_path):
     assert res.returncode == 2 and res.stdout == ""
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and "constraints.coupling.equals" in lines[0] and "th_unknown" in lines[0], lines
+
+
+def test_static_start_is_refused_with_algebraic_variables(tmp_path, monkeypatch):
+    monkeypatch.setenv("GEARSYM_GENERATED", str(tmp_path / "gen"))
+    scene = tmp_path / "s.toml"
+    scene.write_text(f'[scene]\nname = "static_dae"\nmodel = "{MODEL}"\n[initial]\nstatic = true\n')
+    with pytest.raises(SpecError, match="initial.static"):
+        gearsym.load_scene(scene).compile()
+    assert not (tmp_path / "gen").exists() or not any((tmp_path / "gen").iterdir())  # refused before building
