@@ -155,7 +155,7 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
                                                 f"equations.{q}.mass")
     if spec.dimensionless is not None:
         for q in spec.dimensionless.coordinates:
-            if q not in spec.state_names()[: len(spec.state_names()) // 2]:
+            if q not in spec.state_names()[: (len(spec.state_names()) - len(spec.algebraic)) // 2]:
                 raise ctx.error(f"dimensionless.coordinates.{q}", f"'{q}' is not a coordinate of the "
                                                                   f"(reduced) model")
         for g in spec.dimensionless.groups:
