@@ -488,6 +488,10 @@ class SymbolicModel:
                 lhs = sp.latex(sum(self.mass_matrix[i, j] * sp.Symbol(f"\\ddot{{{sp.latex(qj)}}}")
                                    for j, qj in enumerate(self.coordinates)))
             lines.append(f"{lhs} = {sp.latex(rhs)}")
+        if self.constraint_rows is not None:  # the algebraic equations, in the accelerations
+            put = {a: sp.Symbol(f"\\dot{{{sp.latex(v_)}}}")
+                   for a, v_ in zip(self.constrained.accelerations, self.velocities)}
+            lines += [f"0 = {sp.latex(r.xreplace(put))}" for r in self.constraint_rows]
         for g in self.switching:
             lines.append(f"g_{{\\mathrm{{{g.name}}}}} = {sp.latex(g.expr)}")
         return "\\begin{aligned}\n" + " \\\\\n".join(lines) + "\n\\end{aligned}"
