@@ -15,7 +15,7 @@ from pathlib import Path
 from .catalog import find_scene
 from .codegen.cache import BuildCache, build_key
 from .codegen.generate import GeneratedModel, build_functions, write_and_compile
-from .errors import GearsymError
+from .errors import GearsymError, SpecError
 from .spec.model import ModelSpec, load_model
 from .spec.scene import ResolvedScene, SceneSpec, load_scene_spec, resolve_scene
 from .symbolic.model import SymbolicModel
@@ -119,6 +119,9 @@ class Scene:
         from .spec.units import ParameterUnits
         from .system import System
 
+        if self.resolved.static and self.model_spec.algebraic:
+            raise SpecError("the static start does not handle algebraic variables ([constraints]): give "
+                            "the initial state", file=self.spec.path, field="initial.static")
         gen = self.generate(generated_dir, force, dimensionless)
         values = {k: self.resolved.values[k] for k in gen.input_names}
         system = System(gen, values, self.initial_state(), self.spec.simulate, self.name,

@@ -24,7 +24,9 @@ def inspect_structure(m) -> dict[str, Any]:
         coordinates; ``meshes``: the mesh elements; with a reduction, ``reduction``:
         ``mode``, the reduced ``coordinates`` (name, velocity, definition, meaning,
         equivalent mass), the ``eliminated_rigid_body_modes`` of the model's own
-        coordinates and the ``rigid_coordinates_left_out``.
+        coordinates and the ``rigid_coordinates_left_out``; with ``[constraints]``,
+        ``algebraic``: one entry per algebraic variable (``name``, ``unit``, ``meaning``,
+        ``constraint`` and the relation it ``ties``).
     """
     import sympy as sp
 
@@ -44,6 +46,11 @@ def inspect_structure(m) -> dict[str, Any]:
             "eliminated_rigid_body_modes": modes(m.unreduced_rigid_body_modes),
             "rigid_coordinates_left_out": [str(q) for q in rr.kept],
         }
+    if m.spec.constraints:
+        alg = m.spec.algebraic
+        out["algebraic"] = [{"name": c.multiplier, "unit": alg[c.multiplier].unit, "meaning": alg[c.multiplier].meaning,
+                             "constraint": c.name, "ties": f"{c.coordinate} = {c.equals}"}
+                            for c in m.spec.constraints.values()]
     return out
 
 
@@ -56,6 +63,9 @@ def print_structure(info: dict[str, Any]) -> None:
             print(f"  {c['name']} = {c['definition']}   (velocity {c['velocity']}; {c['meaning']})")
         for mode in red["eliminated_rigid_body_modes"]:
             print("  eliminates the rigid-body mode " + ", ".join(f"{k}: {v}" for k, v in mode.items()))
+    for a in info.get("algebraic", []):
+        print(f"algebraic variable {a['name']} [{a['unit']}]: reaction of constraint {a['constraint']} "
+              f"({a['ties']}); {a['meaning']}")
     if info["rigid_body_modes"]:
         print("rigid-body modes (coordinate combinations no element sees; trivial Floquet multipliers):")
         for mode in info["rigid_body_modes"]:

@@ -136,6 +136,11 @@ class System:
         return list(self.generated.state_names)
 
     @property
+    def differential_states(self) -> int:
+        """Number of differential states: all but the algebraic variables (the last states)."""
+        return self.generated.nx - len(self.generated.algebraic)
+
+    @property
     def param_names(self) -> list[str]:
         """Names of the run-time parameters, in the order of ``p``."""
         return list(self.generated.param_names)
@@ -438,7 +443,12 @@ class System:
             no pair of surface crossings hides inside one step.
         monodromy
             Also integrate the variational equations and return ``d x(t_end)/d x0``
-            (with saltation matrices at the events).
+            (with saltation matrices at the events).  On IDA with algebraic variables
+            (the last states) the monodromy is over the differential states: the columns
+            of the algebraic variables are 0 (their initial values follow from the
+            differential states) and the top-left block of the differential states is
+            the monodromy of the underlying ODE, whose eigenvalues are the Floquet
+            multipliers (:attr:`differential_states`).
         sigma0
             Side (+1/-1) of each switching surface at ``t0``; from the state if ``None``.
         max_steps
@@ -576,7 +586,8 @@ class System:
         rtol, atol
             Tolerances; ``atol`` a number or one per state.
         monodromy
-            Integrate the variational equations (explicit models).
+            Integrate the variational equations (CVODE, or IDA for implicit models; with
+            algebraic variables their columns are 0, see :meth:`simulate`).
         method
             ``"adams"`` / ``"bdf"`` (default: the scene's, else Adams), ``"ida"`` for
             implicit models.
@@ -608,15 +619,16 @@ class System:
             max_step = T / 8 if math.isfinite(T) and T > 0 else 0.0
         grid = np.linspace(t0, t1, max(int(n_samples), 2))
         grid[-1] = t1
-        mono = bool(monodromy and not self.generated.implicit)
+        mono = bool(monodromy)
         nx = self.generated.nx
+        nd = nx - len(self.generated.algebraic)  # variational columns: the differential states
         atol_vec = None
         if np.ndim(atol) or scales is not None:
             ax = np.broadcast_to(np.asarray(atol, float), (nx,))
             if mono:
                 sc = np.ones(nx) if scales is None else np.maximum(np.asarray(scales, float),
                                                                     np.finfo(float).tiny)
-                atol_vec = np.concatenate([ax, (ax[:, None] / sc[None, :]).T.ravel()])  # Phi column-major
+                atol_vec = np.concatenate([ax, (ax[:, None] / sc[None, :nd]).T.ravel()])  # Phi column-major
             else:
                 atol_vec = np.array(ax)
             atol = float(np.min(ax))

@@ -419,7 +419,9 @@ def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: floa
     """
     info = extra.get("info") or {}
     rtol = float(info.get("monodromy_rtol", info.get("rtol", 1e-10)))
-    fq = floquet(monodromy, rtol, rigid_state_basis(system, params))
+    nd = getattr(system, "differential_states", None)  # DAE: the multipliers of the differential states
+    fq = floquet(None if monodromy is None else np.asarray(monodromy)[:nd, :nd], rtol,
+                 rigid_state_basis(system, params))
     info.update({"monodromy_error": fq.monodromy_error, "rigid_split": fq.info.get("rigid_split"),
                  "invariance_defect": fq.invariance_defect})
     rss = rattle_states(system, x0, t0, events, params, samples=samples)

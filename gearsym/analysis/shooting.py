@@ -18,7 +18,9 @@ The Newton step is damped (halved until the residual norm decreases; a failed
 integration also halves it); when no step helps or the iteration budget is spent
 a :class:`~gearsym.errors.ConvergenceError` reports the residual history, the
 last iterate and what to try.  For implicit (IDA) models the monodromy comes from
-central finite differences of the flow.
+IDA's variational equations; with algebraic variables the unknowns include them (their
+columns of the monodromy are 0, so ``M - I`` stays regular) and the Floquet multipliers
+are those of the differential block (:func:`~gearsym.analysis.orbit.finish_orbit`).
 
 Honest results: the Newton step is the minimum-norm solution with the directions
 that the monodromy cannot resolve dropped (:func:`~gearsym.analysis.isolation.truncated_solve`:
@@ -62,9 +64,9 @@ def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mappi
     x = np.asarray(x, float)
     implicit = system.generated.implicit
     tr = system.simulate(t_end=t1, t0=t0, x0=x, rtol=rtol, atol=atol, n_out=n_out, params=params,
-                         monodromy=bool(jacobian and not implicit), method=method)
-    M = tr.monodromy
-    if jacobian and implicit:
+                         monodromy=bool(jacobian), method=method)
+    M = tr.monodromy  # IDA too: the DAE's variational equations
+    if jacobian and implicit and M is None:
         n = len(x)
         M = np.empty((n, n))
         for j in range(n):

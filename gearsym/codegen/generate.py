@@ -93,6 +93,8 @@ class GeneratedModel:
     built: float = 0.0
     #: the generated functions are in dimensionless variables (``gs_scales`` converts)
     dimensionless: bool = False
+    #: algebraic variables of a DAE model (the last states; IDA's id vector is 0 there)
+    algebraic: list[str] = field(default_factory=list)
 
     @property
     def input_names(self) -> list[str]:
@@ -245,7 +247,7 @@ _HEADER = """/*
 _DOCS = {
     "gs_rhs": "first-order right-hand side xdot = f(t, x, p, m) in the mode m",
     "gs_jac": "Jacobian d f / d x (sparse, CasADi compressed-column)",
-    "gs_res": "implicit residual r = [q' - v; M(q) v' - F(t, q, v, p, m)]",
+    "gs_res": "implicit residual r = [q' - v; M(q) v' - F(t, q, v, p, m); constraint rows]",
     "gs_resjac": "dr/dx + cj * dr/dxd (sparse), for IDA's Newton iteration",
     "gs_sw": "switching functions g(t, x, p) (events at their zeros)",
     "gs_swx": "d g / d x, for saltation matrices",
@@ -290,6 +292,7 @@ def model_c_sources(model: SymbolicModel, fns: dict[str, ca.Function], scene: st
     info = [len(model.states), len(model.parameters), nsw + 2 * len(model.schedules), nsw,
             len(model.schedules), 1 if model.form == "implicit" else 0]
     info += [len(s.breaks) for s in model.schedules]
+    info.append(len(getattr(model, "algebraic", [])))  # algebraic variables: the last states (IDA id = 0)
     info_c = (
         "/* Model metadata for the gearsym driver (see gs_model_abi.h). */\n"
         "int gs_model_info(int* out, int len) {\n"
@@ -366,6 +369,7 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], staging
         **analysis_meta(model),
         build_key=build_key, so_sha256=digest, key_parts=dict(key_parts or {}), model=model.name,
         built=time.time(), dimensionless=getattr(model, "scales", None) is not None,
+        algebraic=[str(a) for a in getattr(model, "algebraic", [])],
     )
     (staging / "meta.json").write_text(gen.to_json())
     return gen

@@ -171,6 +171,10 @@ class Engine:
         schedules.
     implicit
         True for residual-form models (IDA only).
+    nalg
+        Number of algebraic variables (the last ``nalg`` states of a DAE model; IDA's
+        id vector is 0 there).  With the monodromy, ``d x(t_end) / d x0`` has zero
+        columns for them: their initial values follow from the differential states.
     nb
         Number of breaks of each schedule.
     sundials_version
@@ -193,6 +197,8 @@ class Engine:
         self.nx, self.np, self.nm, self.nsw, self.nsched = (int(info[i]) for i in range(5))
         self.implicit = bool(info[5])
         self.nb = tuple(int(info[6 + k]) for k in range(self.nsched))
+        #: algebraic variables (the last states; models built before they existed have none)
+        self.nalg = int(info[6 + self.nsched]) if n > 6 + self.nsched else 0
 
     def _ws(self) -> int:
         """This thread's workspace (created on first use)."""
@@ -336,8 +342,10 @@ class Engine:
             Initial side (+1/-1) of each switching surface; default: from the
             sign of g(t0, x0) (g >= 0 -> +1).
         want_monodromy
-            Integrate the variational equations (explicit models, CVODE) and
-            return d x(t_end) / d x0 with saltation matrices at events.
+            Integrate the variational equations (CVODE, or IDA: the DAE's variational
+            equations ``F_y S + F_y' S' = 0``) and return d x(t_end) / d x0 with
+            saltation matrices at events; with algebraic variables the columns of
+            those are 0 (see :attr:`nalg`).
         max_steps
             Total internal step budget (0: 10,000,000).
         max_step, init_step
@@ -357,7 +365,7 @@ class Engine:
             large models) or ``"auto"`` (Newton).
         atol_vec
             One absolute tolerance per solver component instead of ``atol``: ``nx``
-            entries, or ``nx*(nx+1)`` with ``want_monodromy`` (the state, then the
+            entries, or ``nx*(nx-nalg+1)`` with ``want_monodromy`` (the state, then the
             variational matrix column by column), so that its entries, whose scale
             is that of ``x_i / x0_j``, get a tolerance of their own.
         linear_solver
@@ -404,7 +412,7 @@ class Engine:
         av = None
         if atol_vec is not None:
             av = np.ascontiguousarray(np.asarray(atol_vec, dtype=float).reshape(-1))
-            want = self.nx * (self.nx + 1) if want_monodromy else self.nx
+            want = self.nx * (self.nx - self.nalg + 1) if want_monodromy else self.nx
             if av.shape[0] != want:
                 raise EngineInputError(f"atol_vec has {av.shape[0]} entries, need {want}")
         cap = max(int(max_events_out), 1)

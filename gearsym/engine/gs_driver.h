@@ -57,7 +57,8 @@ typedef struct gs_sim_args {
   double  storm_window;    /* (0 -> 1e-9 * max(1, |t|))                             */
   double  max_step;        /* max internal step, 0 = unlimited                      */
   double  init_step;       /* initial step, 0 = solver chooses                      */
-  int     want_monodromy;  /* 1: integrate variational eqs (explicit models only)   */
+  int     want_monodromy;  /* 1: integrate variational eqs (CVODE; IDA: F_y S + F_y' S' = 0, */
+                           /* one block per differential state)                      */
   int     max_events_out;  /* capacity of the ev_* arrays                           */
   int     check_interrupt; /* 1: every GS_POLL_EVERY right-hand side evaluations,   */
   int     interrupt_fd;    /* read the non-blocking pipe interrupt_fd (Python's     */
@@ -67,13 +68,15 @@ typedef struct gs_sim_args {
   int     linear_solver;   /* GS_LINSOL_*: Newton's linear solver (0 = auto)        */
   const double* atol_vec;  /* NULL: the scalar atol for every component; else one   */
                            /* absolute tolerance per solver component: nx, or       */
-                           /* nx*(nx+1) with the monodromy (state, then Phi column- */
+                           /* nx*(nd+1) with the monodromy, nd = nx - nalg the      */
+                           /* differential states (state, then Phi column-          */
                            /* major): the variational entries have their own scale  */
   /* ---- outputs ---- */
   double* y_out;           /* [n_out*nx] row-major states at t_out                  */
   double* x_final;         /* [nx] state at the time reached                        */
   double* sigma_final;     /* [nsw] side of each surface at the end (may be NULL)   */
-  double* monodromy;       /* [nx*nx] row-major d x(t_end) / d x0 (if requested)    */
+  double* monodromy;       /* [nx*nx] row-major d x(t_end) / d x0 (if requested);   */
+                           /* the columns of algebraic variables (IDA) are 0        */
   double* ev_t;            /* [max_events_out] event times                          */
   int*    ev_surface;      /* [max_events_out] index j of the switching function    */
   int*    ev_dir;          /* [max_events_out] +1: g went - to +, -1: + to -         */

@@ -42,8 +42,11 @@
  * Model metadata, also defined by the model translation unit:
  *   int gs_model_info(int* out, int len);
  *     writes out[0]=nx, out[1]=np, out[2]=nm, out[3]=nsw, out[4]=nsched,
- *     out[5]=implicit (0/1), out[6+k]=nb_k for k < nsched; returns the count written
- *     (6+nsched) or -1 if len is too small.
+ *     out[5]=implicit (0/1), out[6+k]=nb_k for k < nsched, out[6+nsched]=nalg (the
+ *     number of algebraic variables: the last nalg states of an implicit model, whose
+ *     derivatives do not appear in gs_res; IDA's id vector is 0 there; a model that
+ *     does not write this entry has none); returns the count written (7+nsched, or
+ *     6+nsched without nalg) or -1 if len is too small.
  */
 #ifndef GS_MODEL_ABI_H
 #define GS_MODEL_ABI_H

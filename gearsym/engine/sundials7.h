@@ -276,6 +276,7 @@ int   IDASetMinStep(void* ida_mem, sunrealtype hmin);
 int   IDASetStopTime(void* ida_mem, sunrealtype tstop);
 int   IDAClearStopTime(void* ida_mem);
 int   IDASetId(void* ida_mem, N_Vector id);
+int   IDASetSuppressAlg(void* ida_mem, sunbooleantype suppressalg);
 int   IDARootInit(void* ida_mem, int nrtfn, IDARootFn g);
 int   IDASetRootDirection(void* ida_mem, int* rootdir);
 int   IDASetNoInactiveRootWarn(void* ida_mem);

@@ -37,6 +37,7 @@ from typing import Any
 
 from ..errors import SpecError
 from . import expressions as ex
+from .constraints import Algebraic, Constraint, parse_algebraic, parse_constraints
 from .elements import ELEMENT_SCHEMAS
 from .fields import (
     Ctx,
@@ -201,20 +202,27 @@ class ModelSpec:
     outputs: dict[str, Derived] = field(default_factory=dict)
     #: ``[initial] static``: start from the static equilibrium (``None``: not given)
     static: bool | None = None
+    #: ``[algebraic]`` variables and ``[constraints]`` (gearsym/spec/constraints.py)
+    algebraic: dict[str, Algebraic] = field(default_factory=dict)
+    constraints: dict[str, Constraint] = field(default_factory=dict)
 
     def state_names(self) -> list[str]:
-        """Names of the first-order states: coordinates then velocities."""
+        """Names of the states: coordinates, velocities, then algebraic variables.
+
+        A coordinate that a constraint ties to the others is not a state (nor its velocity).
+        """
         if self.reduction is not None:
             kept = [(self.coordinates[k].name, self.coordinates[k].velocity) for k in self.reduction.keep]
             return self.reduction.state_names(kept=kept)
-        coords = list(self.coordinates.values())
-        return [c.name for c in coords] + [c.velocity for c in coords]
+        tied = {c.coordinate for c in self.constraints.values()}
+        coords = [c for c in self.coordinates.values() if c.name not in tied]
+        return [c.name for c in coords] + [c.velocity for c in coords] + list(self.algebraic)
 
 
 # ------------------------------------------------------------------------ parsing
 
 _TOP = {"model", "coordinates", "parameters", "derived", "effects", "schedules", "elements",
-        "equations", "reduction", "forcing", "initial", "dimensionless", "outputs"}
+        "equations", "reduction", "forcing", "initial", "dimensionless", "outputs", "algebraic", "constraints"}
 _ELEMENT_FIELDS = {
     "inertia": ({"value"}, set()),
     "spring": ({"deflection", "stiffness"}, set()),
@@ -425,6 +433,10 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
             read_terms(ctx, f"{where}.force", eq["force"], schedules) if "force" in eq else (),
         )
 
+    # algebraic variables and constraints (gearsym/spec/constraints.py)
+    algebraic = parse_algebraic(ctx, data, declare)
+    constraints = parse_constraints(ctx, data)
+
     # reduction (gearsym/spec/reduction.py)
     reduction = None
     if "reduction" in data:
@@ -476,6 +488,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         effects=effects, schedules=schedules, elements=elements, equations=equations,
         reduction=reduction, forcing_period=period, initial=initial, dimensionless=dimless,
         notes=string(ctx, meta, "model.notes") or "", outputs=outputs, static=static,
+        algebraic=algebraic, constraints=constraints,
     )
     validate_model(ctx, spec)
     return spec

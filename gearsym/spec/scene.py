@@ -124,8 +124,9 @@ class ResolvedScene:
             kept = [(self.model.coordinates[k].name, self.model.coordinates[k].velocity)
                     for k in red.keep if self.coordinate_active(k)]
             return red.state_names(lambda c: self.effect_active(c.effect, c.variant), kept)
-        coords = [c for c in self.model.coordinates.values() if self.coordinate_active(c.name)]
-        return [c.name for c in coords] + [c.velocity for c in coords]
+        tied = {c.coordinate for c in self.model.constraints.values()}  # not states: [constraints]
+        coords = [c for c in self.model.coordinates.values() if self.coordinate_active(c.name) and c.name not in tied]
+        return [c.name for c in coords] + [c.velocity for c in coords] + list(self.model.algebraic)
 
     def coordinate_states(self) -> tuple[list[str], list[str]]:
         """The states that are coordinates, and their velocities (same order).
@@ -136,7 +137,8 @@ class ResolvedScene:
         """
         if self.model.reduction is not None:
             return [self.model.reduction.coordinate], [self.model.reduction.velocity]
-        coords = [c for c in self.model.coordinates.values() if self.coordinate_active(c.name)]
+        tied = {c.coordinate for c in self.model.constraints.values()}
+        coords = [c for c in self.model.coordinates.values() if self.coordinate_active(c.name) and c.name not in tied]
         return [c.name for c in coords], [c.velocity for c in coords]
 
     @property

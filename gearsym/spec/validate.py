@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from . import expressions as ex
+from .constraints import validate_constraints
 from .elements import ELEMENT_SCHEMAS, validate_element
 from .fields import Ctx, Term, unit_of
 from .reduction import reduction_units
@@ -22,6 +23,8 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
         units[c.velocity] = c.dims / spec.time_dims
     for p in spec.parameters.values():
         units[p.name] = Unit(1.0, p.dims.dims)
+    for a in spec.algebraic.values():
+        units[a.name] = Unit(1.0, a.dims.dims)
     for s in spec.schedules.values():
         units[f"{s.name}_phase"] = ONE
         units[f"{s.name}_segment"] = ONE
@@ -155,7 +158,7 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
                                                 f"equations.{q}.mass")
     if spec.dimensionless is not None:
         for q in spec.dimensionless.coordinates:
-            if q not in spec.state_names()[: len(spec.state_names()) // 2]:
+            if q not in spec.state_names()[: (len(spec.state_names()) - len(spec.algebraic)) // 2]:
                 raise ctx.error(f"dimensionless.coordinates.{q}", f"'{q}' is not a coordinate of the "
                                                                   f"(reduced) model")
         for g in spec.dimensionless.groups:
@@ -184,6 +187,7 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
             if not u.same_dimension(declared):
                 raise ctx.error(f"outputs.{o.name}.value", f"unit mismatch: value is [{u.si_string()}] "
                                                            f"but unit says [{declared.si_string()}]")
+    validate_constraints(ctx, spec, units, energy[0], [(t.field, t.expr) for _, t in _all_terms(spec)])
     spec.units.update(units)
 
 

@@ -181,6 +181,12 @@ class SymbolicModel:
         self._force_exprs: list[sp.Expr] = []    # other expressions that enter forces
         self._meshes: dict[str, sp.Expr] = {}    # mesh element -> dynamic deflection (deflection - error)
         M, Q = self._assemble(ns, q, v)
+        #: algebraic variables (constraint multipliers; states after the velocities) and the
+        #: constraint rows ``= 0`` in terms of the accelerations (gearsym/symbolic/constraints.py)
+        self.algebraic: list[sp.Symbol] = []
+        self.constraint_rows: sp.Matrix | None = None
+        if self.spec.constraints:
+            q, v, M, Q = self._constrain(ns, q, v, M, Q)
         self.unreduced_mass_matrix = M
         self.unreduced_forces = Q
         self.unreduced_coordinates = list(q)
@@ -218,7 +224,7 @@ class SymbolicModel:
         self.rigid_modes = R
         self.coordinates = q
         self.velocities = v
-        self.states = q + v
+        self.states = q + v + self.algebraic
         self.mass_matrix = M
         self.forces = Q
         self.form = self.spec.form
@@ -243,6 +249,23 @@ class SymbolicModel:
         self.parameters = self._parameter_list()
 
     # ----------------------------------------------------------------- assembly
+
+    def _constrain(self, ns: Namespace, q, v, M, Q):
+        """Tie the constrained coordinates to the others (:mod:`gearsym.symbolic.constraints`)."""
+        from .constraints import apply_constraints
+
+        cs = apply_constraints(self.spec, ns, q, v, M, Q)
+        self.constrained = cs
+        self.algebraic = cs.algebraic
+        self.constraint_rows = cs.rows
+        self._constraint_sub = cs.sub
+        states = tuple(cs.coordinates + cs.velocities)
+        self._deflections = [d.xreplace(cs.sub) for d in self._deflections]
+        self._force_exprs = [f.xreplace(cs.sub) for f in self._force_exprs]
+        self._meshes = {k: d.xreplace(cs.sub) for k, d in self._meshes.items()}
+        self._surface_hints = [SwitchingFunction(h.name, _expand_in_states(h.expr.xreplace(cs.sub), states, ns.t),
+                                                 h.meaning, h.contact_sign, h.kind) for h in self._surface_hints]
+        return cs.coordinates, cs.velocities, cs.mass, cs.forces
 
     def _assemble(self, ns: Namespace, q: list[sp.Symbol], v: list[sp.Symbol]):
         spec = self.spec
@@ -360,6 +383,8 @@ class SymbolicModel:
             expr = ns.sum_terms(o.terms)
             if self.spec.reduction is not None and hasattr(self, "_reduction_sub"):
                 expr = expr.xreplace(self._reduction_sub)
+            if self.constraint_rows is not None:
+                expr = expr.xreplace(self._constraint_sub)
             bad = sorted(str(s) for s in (expr.free_symbols & dynamic) - allowed)
             if bad:
                 raise SpecError(f"output '{name}' uses {', '.join(bad)}, which are not states of the "
@@ -372,7 +397,7 @@ class SymbolicModel:
         exprs += list(getattr(self, "outputs", {}).values())
         exprs += list(getattr(self, "mesh_deflections", {}).values()) + list(self.rigid_modes)
         if self.form == "implicit":
-            exprs += list(self.mass_matrix) + list(self.forces)
+            exprs += list(self.mass_matrix) + list(self.forces) + list(self.modal.algebraic)
         for s in self.schedules:
             exprs += [s.period, *s.breaks]
         if self.forcing_period is not None:
@@ -445,6 +470,9 @@ class SymbolicModel:
                 out.append(sp.Eq(acc, self.accelerations[i]))
             else:
                 out.append(sp.Eq(lhs, self.forces[i]))
+        if self.constraint_rows is not None:  # q_d'' from the accelerations of the kept coordinates
+            put = {a: sp.Symbol(f"{v_}'") for a, v_ in zip(self.constrained.accelerations, self.velocities)}
+            out += [sp.Eq(r.xreplace(put), 0) for r in self.constraint_rows]
         return out
 
     def jacobian(self) -> sp.Matrix:
@@ -458,12 +486,25 @@ class SymbolicModel:
         return self.jacobian() * phi
 
     def residual(self, xdot: list[sp.Symbol]) -> sp.Matrix:
-        """Implicit residual ``[q' - v; M v' - F]`` (modal), for IDA."""
+        """Implicit residual ``[q' - v; M v' - F; constraint rows]`` (modal), for IDA.
+
+        ``xdot`` has one entry per state; those of the algebraic variables (last) do not
+        appear (their derivatives are not part of the DAE).
+        """
         n = len(self.coordinates)
         r_kin = [xdot[i] - self.velocities[i] for i in range(n)]
-        acc = sp.Matrix(xdot[n:])
+        acc = sp.Matrix(xdot[n:2 * n])
         r_dyn = self.mass_matrix * acc - self.modal.forces
-        return sp.Matrix(r_kin + list(r_dyn))
+        rows = []
+        if self.constraint_rows is not None:
+            put = dict(zip(self.constrained.accelerations, acc))
+            rows = [r.xreplace(put) for r in self.modal.algebraic]
+        return sp.Matrix(r_kin + list(r_dyn) + rows)
+
+    @property
+    def algebraic_names(self) -> list[str]:
+        """Names of the algebraic variables (the last states; IDA's id vector is 0 there)."""
+        return [str(a) for a in self.algebraic]
 
     def latex(self) -> str:
         """LaTeX of the equations of motion and switching functions."""
@@ -475,6 +516,10 @@ class SymbolicModel:
                 lhs = sp.latex(sum(self.mass_matrix[i, j] * sp.Symbol(f"\\ddot{{{sp.latex(qj)}}}")
                                    for j, qj in enumerate(self.coordinates)))
             lines.append(f"{lhs} = {sp.latex(rhs)}")
+        if self.constraint_rows is not None:  # the algebraic equations, in the accelerations
+            put = {a: sp.Symbol(f"\\dot{{{sp.latex(v_)}}}")
+                   for a, v_ in zip(self.constrained.accelerations, self.velocities)}
+            lines += [f"0 = {sp.latex(r.xreplace(put))}" for r in self.constraint_rows]
         for g in self.switching:
             lines.append(f"g_{{\\mathrm{{{g.name}}}}} = {sp.latex(g.expr)}")
         return "\\begin{aligned}\n" + " \\\\\n".join(lines) + "\n\\end{aligned}"

@@ -171,6 +171,8 @@ class Namespace:
         on = [c for c in m.coordinates.values() if rs.effect_active(c.effect)]
         self.coords = {c.name: sp.Symbol(c.name, real=True) for c in on}
         self.vels = {c.velocity: sp.Symbol(c.velocity, real=True) for c in on}
+        #: algebraic variables (constraint multipliers) by name
+        self.alg = {a: sp.Symbol(a, real=True) for a in getattr(m, "algebraic", {})}
         self.bound: dict[sp.Symbol, tuple[str, tuple[str, ...]]] = {}
         self.sched_n = {s: internal_symbol(f"n_{s}") for s in m.schedules}
         self.sched_seg = {s: internal_symbol(f"seg_{s}") for s in m.schedules}
@@ -181,6 +183,7 @@ class Namespace:
         if m.reduction is not None:  # the reduced states, for [outputs] (never before the reduction)
             self._local[m.reduction.coordinate] = sp.Symbol(m.reduction.coordinate, real=True)
             self._local[m.reduction.velocity] = sp.Symbol(m.reduction.velocity, real=True)
+        self._local.update(self.alg)
         for c in m.coordinates.values():
             if c.name not in self.coords:  # gated coordinate of a switched-off effect
                 self._local[c.name] = sp.Integer(0)

@@ -12,7 +12,7 @@ the engine sets the segment index between scheduled breakpoints.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import sympy as sp
@@ -44,6 +44,9 @@ class ModalForm:
         One symbol per surface: +1 on its ``g > 0`` side, -1 on the other.
     used_schedules
         Names of the schedules the equations use.
+    algebraic
+        The constraint rows of a model with algebraic variables
+        (:mod:`gearsym.symbolic.constraints`), in terms of ``sigma``.
     """
 
     rhs: sp.Matrix
@@ -51,6 +54,7 @@ class ModalForm:
     surfaces: list[SwitchingFunction]
     sigma: list[sp.Symbol]
     used_schedules: set[str]
+    algebraic: sp.Matrix = field(default_factory=lambda: sp.Matrix([]))
 
 
 def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalForm:
@@ -170,6 +174,7 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
             return e
         return _bottom_up(expr, fix)
 
+    algebraic = sp.Matrix([])
     if model.form == "explicit":
         rhs = model.rhs.applyfunc(modalise)
         forces = sp.Matrix([])
@@ -178,6 +183,10 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
         forces = model.forces.applyfunc(modalise)
         rhs = sp.Matrix([])
         exprs = list(forces) + list(model.mass_matrix)
+        rows = getattr(model, "constraint_rows", None)
+        if rows is not None and len(rows):
+            algebraic = rows.applyfunc(modalise)
+            exprs += list(algebraic)
     used: set[str] = set()
     for e in exprs:
         for s in e.free_symbols:
@@ -185,7 +194,7 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
                 used.add(seg_syms[s])
             if s in n_syms:
                 used.add(n_syms[s])
-    return ModalForm(rhs, forces, surfaces, sigma, used)
+    return ModalForm(rhs, forces, surfaces, sigma, used, algebraic)
 
 
 def _canonical(e: sp.Expr) -> tuple[sp.Expr, int]:

@@ -39,6 +39,7 @@ def compile_model(
     sched: ca.SX | list[float] | None = None,
     nb: list[int] | None = None,
     omit: tuple[str, ...] = (),
+    nalg: int | None = None,
 ) -> Engine:
     """Generate gs_model.c/.h + gs_info.c for the given expressions, build with
     the driver and load.  Explicit if ``rhs`` is given, implicit if ``res``."""
@@ -75,7 +76,7 @@ def compile_model(
         if f.name() not in omit:
             cg.add(f)
     cg.generate(f"{out_dir}/")  # prefix: writes out_dir/gs_model.c and .h
-    vals = [nx, np_, nm, nsw, nsched, implicit, *nb]
+    vals = [nx, np_, nm, nsw, nsched, implicit, *nb] + ([] if nalg is None else [nalg])
     (out_dir / "gs_info.c").write_text(INFO_C.format(vals=", ".join(str(v) for v in vals)))
     dsrc, dinc = driver_sources()
     srcs = [out_dir / "gs_model.c", out_dir / "gs_info.c", *dsrc]
@@ -135,6 +136,32 @@ def backlash_ida_engine(tmp_path_factory) -> Engine:
     return compile_model(
         _cache_dir(tmp_path_factory, "backlash_ida"), t=t, x=x, p=p, m=m, g=g, res=res, xd=xd
     )
+
+
+def _backlash_dae(tmp_path_factory, jump_damping: bool) -> Engine:
+    t, x, p, m, g, F = backlash_exprs(jump_damping=jump_damping)
+    x3 = ca.SX.sym("x", 3)
+    F = ca.substitute(F, x, x3[:2])
+    g = ca.substitute(g, x, x3[:2])
+    xd = ca.SX.sym("xd", 3)
+    res = ca.vertcat(xd[0] - x3[1], xd[1] - x3[2], x3[2] - F)
+    return compile_model(
+        _cache_dir(tmp_path_factory, f"backlash_dae{jump_damping}"), t=t, x=x3, p=p, m=m, g=g, res=res, xd=xd,
+        nalg=1,
+    )
+
+
+@pytest.fixture(scope="session")
+def backlash_dae_engine(tmp_path_factory) -> Engine:
+    """The backlash oscillator as a DAE: the restoring force is an algebraic variable z,
+    x = [x, v, z], r = [x' - v, v' - z, z - F(t, x, v)] (nalg = 1, the last state)."""
+    return _backlash_dae(tmp_path_factory, False)
+
+
+@pytest.fixture(scope="session")
+def backlash_dae_jump_engine(tmp_path_factory) -> Engine:
+    """The DAE with damping in contact only: the vector field jumps at the surfaces."""
+    return _backlash_dae(tmp_path_factory, True)
 
 
 # ----------------------------------------------------------------------------

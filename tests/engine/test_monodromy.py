@@ -72,6 +72,24 @@ def test_monodromy_continuous_field_and_state_unchanged(backlash_engine, backlas
     assert np.max(np.abs(c.monodromy - M_fd)) / np.max(np.abs(M_fd)) < 1e-5
 
 
-def test_monodromy_not_with_ida(backlash_engine):
-    with pytest.raises(EngineInputError, match="monodromy"):
-        backlash_engine.run(X0, P_JUMP, 0.0, 1.0, method="ida", want_monodromy=True)
+@pytest.mark.parametrize("linear_solver", ["blockdiag", "dense"])
+def test_monodromy_on_ida_vs_fd(backlash_jump_engine, backlash_engine, backlash_ida_engine, linear_solver):
+    """IDA integrates the DAE's variational equations F_y S + F_y' S' = 0 with the
+    saltation matrices: the explicit model run through IDA (jumping vector field) and the
+    implicit residual model agree with finite differences of the flow."""
+    T = 2 * np.pi / P_JUMP[2]
+    t_end = 2 * T
+    r = backlash_jump_engine.run(X0, P_JUMP, 0.0, t_end, rtol=1e-10, atol=1e-12, want_monodromy=True,
+                                 method="ida", linear_solver=linear_solver)
+    M_fd, n_ev = fd_monodromy(backlash_jump_engine, X0, t_end)
+    assert len(r.events) == n_ev >= 2
+    assert np.max(np.abs(r.monodromy - M_fd)) / np.max(np.abs(M_fd)) < 1e-5
+    M_fd2, _ = fd_monodromy(backlash_engine, X0, t_end)
+    s = backlash_ida_engine.run(X0, P_JUMP, 0.0, t_end, rtol=1e-10, atol=1e-12, want_monodromy=True,
+                                method="ida", linear_solver=linear_solver)
+    assert np.max(np.abs(s.monodromy - M_fd2)) / np.max(np.abs(M_fd2)) < 1e-5
+
+
+def test_monodromy_atol_vec_size_on_ida(backlash_ida_engine):
+    with pytest.raises(EngineInputError, match="atol_vec"):
+        backlash_ida_engine.run(X0, P_JUMP, 0.0, 1.0, method="ida", want_monodromy=True, atol_vec=np.ones(3))
