@@ -530,7 +530,7 @@ class System:
                        params: Mapping[str, float] | None = None, **options):
         """Find a periodic orbit and its Floquet multipliers.
 
-        Delegates to :func:`gearsym.analysis.orbit.periodic_orbit`: ``method="shooting"``
+        Delegates to :func:`gearsym.analysis.periodic.periodic_orbit`: ``method="shooting"``
         (Newton on ``phi(T, x0) - x0`` with the engine's variational equations and
         saltation matrices; ``segments=N`` for multiple shooting) or ``"hbm"``
         (harmonic balance with alternating frequency/time; ``harmonics=H`` or grown).
@@ -562,7 +562,7 @@ class System:
         ConvergenceError
             The solver did not converge (with its residual history).
         """
-        from .analysis.orbit import periodic_orbit
+        from .analysis.periodic import periodic_orbit
 
         return periodic_orbit(self, period=period, periods=periods, x0=x0, method=method, params=params,
                               **options)

@@ -24,7 +24,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from ..system import System
 
-__all__ = ["BIFURCATION_TYPES", "Bifurcation", "Branch", "BranchPoint", "add_legend"]
+__all__ = ["BIFURCATION_TYPES", "Bifurcation", "Branch", "BranchPoint", "ContinuationSetup", "add_legend"]
 
 #: Types of located special points and what they mean.
 BIFURCATION_TYPES: dict[str, str] = {
@@ -36,7 +36,7 @@ BIFURCATION_TYPES: dict[str, str] = {
 }
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class BranchPoint:
     """One periodic orbit on a branch.
 
@@ -138,7 +138,7 @@ class BranchPoint:
         }
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class Bifurcation:
     """A located special point of a branch.
 
@@ -198,7 +198,67 @@ def _jsonable(v: Any) -> Any:
     return v
 
 
-@dataclass
+@dataclass(frozen=True)
+class ContinuationSetup:
+    """How a branch was computed: the recipe branch switching continues from.
+
+    Plain settings, no solver state: :func:`gearsym.analysis.branch_switching.switch_period_doubling`
+    builds a new periodic-orbit problem from them.
+
+    Attributes
+    ----------
+    param : str
+        The continuation parameter.
+    periods : float
+        Forcing periods per orbit.
+    params : dict
+        The other parameter overrides (SI).
+    segments : int
+        Shooting segments (``None`` for harmonic balance).
+    harmonics : int or None
+        Harmonics (harmonic balance).
+    t0 : float
+        Phase of the orbits' reference state.
+    rtol, atol : float
+        Integrator tolerances.
+    fd_step : float
+        Step of the finite-difference parameter derivative.
+    integrator : str or None
+        Integrator of the engine (``None``: its default).
+    state_scale : tuple of float
+        The state magnitudes of the scaled variables at the end of the branch.
+    state_weight : float
+        Weight of the states against the parameter in the arclength.
+    state : int
+        Index of the observed state.
+    n_dense : int
+        Samples per forcing period for extrema and grazing tests.
+    tol : float
+        Corrector tolerance.
+    start, stop : float
+        The parameter range.
+    """
+
+    param: str
+    periods: float
+    params: dict[str, float]
+    segments: int | None
+    harmonics: int | None
+    t0: float
+    rtol: float
+    atol: float
+    fd_step: float
+    integrator: str | None
+    state_scale: tuple[float, ...]
+    state_weight: float
+    state: int
+    n_dense: int
+    tol: float
+    start: float
+    stop: float
+
+
+@dataclass(frozen=True, eq=False)
 class Branch:
     """A continued branch of periodic orbits.
 
@@ -246,6 +306,7 @@ class Branch:
     parent: Bifurcation | None = field(default=None, repr=False)
     info: dict[str, Any] = field(default_factory=dict)
     system: System | None = field(default=None, repr=False, compare=False)
+    setup: ContinuationSetup | None = field(default=None, repr=False, compare=False)
 
     # ------------------------------------------------------------- arrays
     def __len__(self) -> int:
@@ -352,13 +413,6 @@ class Branch:
                                           t_out=t0 + T * np.arange(k), params=self.params_at(p.value))
                 pts[j] = tr.y[:, i]
         return self.values, pts
-
-    def switch(self, bifurcation: Bifurcation | int | None = None, **options: Any) -> Branch:
-        """Continue the period-doubled branch born at a located period doubling
-        (:func:`gearsym.analysis.continuation.switch_period_doubling`); appended to ``children``."""
-        from .continuation import switch_period_doubling
-
-        return switch_period_doubling(self, bifurcation, **options)
 
     def all_branches(self) -> list[Branch]:
         """This branch and, recursively, its children."""

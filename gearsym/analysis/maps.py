@@ -110,7 +110,7 @@ def _system_from(rec: Mapping[str, Any]) -> System:
 def _point(system: System, params: dict[str, float], method: str, periods: float, guess: np.ndarray | None,
            want_ptp: bool, options: Mapping[str, Any]) -> dict[str, Any]:
     from .floquet import NotPiecewiseConstantError, PiecewiseLTV
-    from .orbit import periodic_orbit
+    from .periodic import periodic_orbit
     from .stability import floquet, rigid_state_basis
 
     out: dict[str, Any] = {"max_multiplier": math.nan, "peak_to_peak": math.nan, "rattle_state": -1,

@@ -89,7 +89,7 @@ def mesh_extrema(deflections: Mapping[str, np.ndarray]) -> dict[str, dict[str, f
 def mesh_report(system: System, t: np.ndarray, Y: np.ndarray, params: Mapping[str, float] | None,
                 rattle: Mapping[str, int | None]) -> dict[str, dict[str, Any]]:
     """Per-mesh summary of one orbit: rattle state and deflection extrema, JSON-ready."""
-    from .orbit import RATTLE_STATES
+    from .rattle import RATTLE_STATES
 
     ext = mesh_extrema(mesh_deflections(system, t, Y, params))
     out: dict[str, dict[str, Any]] = {}
@@ -123,7 +123,7 @@ def trajectory_meshes(system: System, traj: Trajectory, steady_fraction: float =
     for name in names:
         rattle[name] = (rattle_summary(traj, system=system, element=name, steady_fraction=steady_fraction).state
                         if name in surfaces else None)
-    from .orbit import RATTLE_STATES
+    from .rattle import RATTLE_STATES
 
     out: dict[str, dict[str, Any]] = {}
     for name in names:

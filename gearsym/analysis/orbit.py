@@ -1,10 +1,9 @@
-"""Periodic orbits: the result object and the entry point ``periodic_orbit``.
+"""Periodic orbits: the result object :class:`PeriodicOrbit`.
 
-:func:`periodic_orbit` is what :meth:`gearsym.system.System.periodic_orbit` calls;
-it dispatches to :mod:`gearsym.analysis.shooting` (single / multiple shooting with
-the engine's variational equations) or :mod:`gearsym.analysis.hbm` (harmonic
-balance with alternating frequency/time), and both return a
-:class:`PeriodicOrbit`.
+Shooting (:mod:`gearsym.analysis.shooting`) and harmonic balance
+(:mod:`gearsym.analysis.hbm`) both return one, assembled by :func:`finish_orbit`
+(multipliers, stability verdict, rattle states); the entry point that dispatches
+between them is :func:`gearsym.analysis.periodic.periodic_orbit`.
 """
 
 from __future__ import annotations
@@ -18,23 +17,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ParameterError
+from .rattle import RATTLE_STATES, mesh_rattle_states
 from .stability import floquet, rigid_state_basis
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..results import Event, Trajectory
     from ..system import System
 
-__all__ = ["PeriodicOrbit", "periodic_orbit", "rattle_state", "rattle_states", "RATTLE_STATES"]
+__all__ = ["PeriodicOrbit", "finish_orbit"]
 
-#: Meaning of the rattle-state codes of :func:`rattle_state`.
-RATTLE_STATES: dict[int, str] = {
-    0: "no contact loss (permanent drive-side contact)",
-    1: "contact loss only (single-sided impacts / free flight)",
-    2: "back-side contact (double-sided impacts)",
-}
-
-
-@dataclass
+@dataclass(frozen=True, eq=False)
 class PeriodicOrbit:
     """A periodic orbit of a compiled system and its Floquet multipliers.
 
@@ -159,7 +151,7 @@ class PeriodicOrbit:
                                   atol=atol or self.info.get("atol", 1e-12),
                                   n_out=n, params=self.params)
         if n_out is None and rtol is None and atol is None:
-            self._traj = tr
+            object.__setattr__(self, "_traj", tr)  # a cache of the result, not state
         return tr
 
     def extrema(self, state: int | str = 0) -> tuple[float, float]:
@@ -337,76 +329,6 @@ def _refined_min(y: np.ndarray) -> float:
     return -_refined_max(-np.asarray(y))
 
 
-def rattle_state(system: System, x0: Sequence[float], t0: float, events: Sequence[Event],
-                 params: Mapping[str, float] | None = None,
-                 samples: tuple[np.ndarray, np.ndarray] | None = None) -> int | None:
-    """Classify the contact regime of a periodic orbit of a backlash model.
-
-    The worst mesh of :func:`rattle_states` (``None`` if the model has no contact
-    surfaces).
-
-    Returns
-    -------
-    int or None
-        0: the drive side is in contact all the time (no contact loss); 1: the
-        drive-side contact is lost (single-sided impacts, or no contact at all);
-        2: back-side contact occurs (double-sided impacts).
-    """
-    states = rattle_states(system, x0, t0, events, params, samples)
-    return max(states.values()) if states else None
-
-
-def rattle_states(system: System, x0: Sequence[float], t0: float, events: Sequence[Event],
-                  params: Mapping[str, float] | None = None,
-                  samples: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, int]:
-    """Rattle state of every backlash mesh along a periodic orbit.
-
-    Uses the contact surfaces of the compiled model (``kind`` drive/back, as the
-    symbolic layer names them, ``MESH.drive`` / ``MESH.back``) and is exact in the
-    events: the side of every surface at ``t0`` plus every crossing along the period.
-
-    With ``samples = (t, Y)`` (states ``Y[k]`` at times ``t[k]`` along the orbit, e.g.
-    from a harmonic series) the sides are taken at the samples instead of from the
-    events (approximate: a contact shorter than the sampling step can be missed).
-
-    Returns
-    -------
-    dict
-        Mesh name -> 0 (no contact loss), 1 (contact loss only) or 2 (back-side
-        contact); empty if the model has no contact surfaces.
-    """
-    surfaces = system.generated.surfaces
-    kinds = {s["name"]: (s.get("kind"), int(s.get("contact_sign", 0))) for s in surfaces}
-    if not any(k in ("drive", "back") for k, _ in kinds.values()):
-        return {}
-    p = system.param_vector(params)
-    g = np.asarray(system.generated.casadi_function("gs_sw")(t0, np.asarray(x0, float), p)).ravel()
-    G = None
-    if samples is not None:
-        ts, Y = np.asarray(samples[0], float), np.asarray(samples[1], float)
-        G = np.asarray(system.generated.casadi_function("gs_sw").map(len(ts))(
-            ts[None, :], Y.T, np.tile(p[:, None], (1, len(ts)))))
-    meshes: dict[str, dict[str, bool]] = {}
-    for j, s in enumerate(surfaces):
-        kind, sign = kinds[s["name"]]
-        if kind not in ("drive", "back"):
-            continue
-        mesh = s["name"].rsplit(".", 1)[0]
-        st = meshes.setdefault(mesh, {"drive_always": True, "drive_ever": False, "back_ever": False})
-        in_contact = (g[j] > 0) if sign > 0 else (g[j] < 0)
-        crossed = any(e.surface == s["name"] for e in events)
-        if G is not None:
-            side = (G[j] > 0) if sign > 0 else (G[j] < 0)
-            in_contact = bool(np.all(side)) if kind == "drive" else bool(np.any(side))
-            crossed = crossed or bool(np.any(side != side[0]))
-        if kind == "drive":
-            st["drive_ever"] |= bool(in_contact or crossed)
-            st["drive_always"] &= bool(in_contact and not crossed)
-        else:
-            st["back_ever"] |= bool(in_contact or crossed)
-    return {mesh: 2 if st["back_ever"] else (0 if st["drive_always"] else 1) for mesh, st in meshes.items()}
-
-
 def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: float, t0: float,
                  monodromy: np.ndarray | None, iterations: int, residual: float, converged: bool,
                  method: str, params: Mapping[str, float], events: Sequence[Event],
@@ -422,7 +344,7 @@ def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: floa
     fq = floquet(monodromy, rtol, rigid_state_basis(system, params))
     info.update({"monodromy_error": fq.monodromy_error, "rigid_split": fq.info.get("rigid_split"),
                  "invariance_defect": fq.invariance_defect})
-    rss = rattle_states(system, x0, t0, events, params, samples=samples)
+    rss = mesh_rattle_states(system, x0, t0, events, params, samples=samples)
     return PeriodicOrbit(x0=np.asarray(x0, float), period=float(period), periods=float(periods),
                          t0=float(t0), monodromy=monodromy, multipliers=fq.multipliers, stable=fq.stable,
                          iterations=int(iterations), residual=float(residual), converged=bool(converged),
@@ -430,45 +352,3 @@ def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: floa
                          rattle_state=max(rss.values()) if rss else None, events=list(events), system=system,
                          stability=fq.stability, trivial_multipliers=fq.trivial,
                          multiplier_tolerances=fq.tolerances, rattle_states=rss, **extra)
-
-
-def periodic_orbit(system: System, period: float | None = None, periods: float = 1,
-                   x0: Sequence[float] | None = None, method: str = "shooting",
-                   params: Mapping[str, float] | None = None, **options: Any) -> PeriodicOrbit:
-    """Find a periodic orbit of a compiled system.
-
-    Parameters
-    ----------
-    system
-        The compiled system.
-    period
-        Period of the orbit; default ``periods`` times the forcing period.
-    periods
-        Number of forcing periods the orbit spans (``k`` for a period-``k`` orbit).
-    x0
-        Initial guess of the state at ``t0`` (shooting) or the starting point of
-        the harmonic balance's initial guess; default: the scene's initial state
-        after a transient (shooting) / a harmonic-balance continuation in the
-        number of harmonics (hbm).
-    method
-        ``"shooting"`` (single or multiple shooting, ``segments=N``) or ``"hbm"``
-        (harmonic balance, ``harmonics=H`` or grown until converged).
-    params
-        Parameter overrides (SI).
-    **options
-        Passed on to :func:`gearsym.analysis.shooting.shoot` or
-        :func:`gearsym.analysis.hbm.harmonic_balance`.
-
-    Returns
-    -------
-    PeriodicOrbit
-    """
-    if method == "shooting":
-        from .shooting import shoot
-
-        return shoot(system, period=period, periods=periods, x0=x0, params=params, **options)
-    if method == "hbm":
-        from .hbm import harmonic_balance
-
-        return harmonic_balance(system, period=period, periods=periods, x0=x0, params=params, **options)
-    raise ParameterError(f"method must be 'shooting' or 'hbm', got '{method}'")

@@ -34,7 +34,7 @@ back contact ``x < lower``; Kahraman & Singh) or ``"negative"`` (drive contact
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,6 +45,12 @@ from ..results import Trajectory
 NO_RATTLE = 0
 UNILATERAL = 1
 BILATERAL = 2
+#: Meaning of the rattle-state codes (:data:`NO_RATTLE`, :data:`UNILATERAL`, :data:`BILATERAL`).
+RATTLE_STATES: dict[int, str] = {
+    0: "no contact loss (permanent drive-side contact)",
+    1: "contact loss only (single-sided impacts / free flight)",
+    2: "back-side contact (double-sided impacts)",
+}
 
 Bound = float | np.ndarray | Callable[[np.ndarray], np.ndarray] | None
 
@@ -308,3 +314,54 @@ def _switching_values(system: Any, traj: Trajectory, t: float, x: Sequence[float
         np.array([traj.params[n] for n in gen.param_names], dtype=float)
     g = gen.casadi_function("gs_sw")(float(t), np.asarray(x, float), p)
     return np.asarray(g, dtype=float).ravel()
+
+
+def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequence[Any],
+                  params: Mapping[str, float] | None = None,
+                  samples: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, int]:
+    """Rattle state of every backlash mesh along a periodic orbit.
+
+    Uses the contact surfaces of the compiled model (``kind`` drive/back, as the
+    symbolic layer names them, ``MESH.drive`` / ``MESH.back``) and is exact in the
+    events: the side of every surface at ``t0`` plus every crossing along the period.
+
+    With ``samples = (t, Y)`` (states ``Y[k]`` at times ``t[k]`` along the orbit, e.g.
+    from a harmonic series) the sides are taken at the samples instead of from the
+    events (approximate: a contact shorter than the sampling step can be missed).
+
+    Returns
+    -------
+    dict
+        Mesh name -> 0 (no contact loss), 1 (contact loss only) or 2 (back-side
+        contact); empty if the model has no contact surfaces.
+    """
+    surfaces = system.generated.surfaces
+    kinds = {s["name"]: (s.get("kind"), int(s.get("contact_sign", 0))) for s in surfaces}
+    if not any(k in ("drive", "back") for k, _ in kinds.values()):
+        return {}
+    p = system.param_vector(params)
+    g = np.asarray(system.generated.casadi_function("gs_sw")(t0, np.asarray(x0, float), p)).ravel()
+    G = None
+    if samples is not None:
+        ts, Y = np.asarray(samples[0], float), np.asarray(samples[1], float)
+        G = np.asarray(system.generated.casadi_function("gs_sw").map(len(ts))(
+            ts[None, :], Y.T, np.tile(p[:, None], (1, len(ts)))))
+    meshes: dict[str, dict[str, bool]] = {}
+    for j, s in enumerate(surfaces):
+        kind, sign = kinds[s["name"]]
+        if kind not in ("drive", "back"):
+            continue
+        mesh = s["name"].rsplit(".", 1)[0]
+        st = meshes.setdefault(mesh, {"drive_always": True, "drive_ever": False, "back_ever": False})
+        in_contact = (g[j] > 0) if sign > 0 else (g[j] < 0)
+        crossed = any(e.surface == s["name"] for e in events)
+        if G is not None:
+            side = (G[j] > 0) if sign > 0 else (G[j] < 0)
+            in_contact = bool(np.all(side)) if kind == "drive" else bool(np.any(side))
+            crossed = crossed or bool(np.any(side != side[0]))
+        if kind == "drive":
+            st["drive_ever"] |= bool(in_contact or crossed)
+            st["drive_always"] &= bool(in_contact and not crossed)
+        else:
+            st["back_ever"] |= bool(in_contact or crossed)
+    return {mesh: 2 if st["back_ever"] else (0 if st["drive_always"] else 1) for mesh, st in meshes.items()}

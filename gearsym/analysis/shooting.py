@@ -42,6 +42,7 @@ from ..errors import ConvergenceError, GearsymError, ParameterError
 from .floquet import monodromy_product
 from .isolation import Isolation, isolation, truncated_solve
 from .orbit import PeriodicOrbit, finish_orbit
+from .problems import segment_jacobian, segment_times
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
@@ -79,12 +80,6 @@ def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mappi
     if with_amplitude:
         return np.asarray(tr.x_final, float), M, list(tr.events), np.max(np.abs(tr.y), axis=0)
     return np.asarray(tr.x_final, float), M, list(tr.events)
-
-
-def _segment_times(t0: float, P: float, segments: int) -> np.ndarray:
-    s = t0 + P * np.arange(segments + 1) / segments
-    s[-1] = t0 + P
-    return s
 
 
 def shoot(system: System, period: float | None = None, periods: float = 1,
@@ -188,7 +183,7 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         tr = system.simulate(t_end=t0, t0=t0 - n_tr * Tt, x0=guess, rtol=max(rtol, 1e-9),
                              atol=max(atol, 1e-11), n_out=2, params=params, method=method)
         guess = tr.x_final
-    s = _segment_times(t0, period, segments)
+    s = segment_times(t0, period, segments)
     if segments == 1:
         X = guess[None, :].copy()
     else:
@@ -249,12 +244,7 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     failure = ""
     while not converged and it < max_iter:
         it += 1
-        n = segments * nx
-        J = np.zeros((n, n))
-        for i in range(segments):
-            J[i * nx:(i + 1) * nx, i * nx:(i + 1) * nx] = Ms[i]
-            k = (i + 1) % segments
-            J[i * nx:(i + 1) * nx, k * nx:(k + 1) * nx] -= np.eye(nx)
+        J = segment_jacobian(Ms)
         rhs = -R.ravel()
         if anchor is not None:
             # a rigid-body mode makes J singular (a Jordan block of M at +1): keep the rigid
