@@ -10,17 +10,17 @@ with its test functions.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from ..errors import ConvergenceError, GearsymError
+from ..errors import ConvergenceError
 from .bifurcation import tau_branch_point, tau_neimark_sacker, tau_period_doubling
 from .branch import BranchPoint
 from .meshes import mesh_point
+from .newton import NewtonPolicy, damped_newton
 from .problems import Evaluation, PeriodicOrbitProblem
 from .rattle import mesh_rattle_states
 from .stability import floquet
@@ -131,24 +131,24 @@ class Continuer:
         ev = self.res.evaluate(z[:-1], z[-1], dlam=Flam is None)
         if Flam is None:
             Flam = ev.Flam
-        r = float(np.max(np.abs(self.scaled_residual(ev))))
-        c = float(row @ (z / self.S) - target)
-        it = 0
-        r_prev = math.inf
-        step = math.inf
-        while True:
-            if not math.isfinite(r):
-                raise ConvergenceError("non-finite residual in the corrector")
-            if (r <= self.tol or (step <= self.tol and r <= 100 * self.tol)) and abs(c) <= 1e-9:
-                if ev.Flam is None:
-                    ev.Flam = self.res._fd_lambda(z[:-1], float(z[-1]), ev.R)
-                return z, ev, it
-            if it >= self.max_newton:
-                raise ConvergenceError(f"corrector: no convergence in {it} Newton steps (residual {r:.3g})")
-            if it >= 2 and r > 0.9 * r_prev and r > 100 * self.tol:
-                raise ConvergenceError(f"corrector: Newton diverges (residual {r_prev:.3g} -> {r:.3g})")
+        tol, S = self.tol, self.S
+
+        def evaluate(z: np.ndarray) -> tuple[np.ndarray, Evaluation]:
+            return z, self.res.evaluate(z[:-1], z[-1], dlam=False)
+
+        def norm(rec: tuple[np.ndarray, Evaluation]) -> float:
+            return float(np.max(np.abs(self.scaled_residual(rec[1]))))
+
+        def converged(rec: tuple[np.ndarray, Evaluation], size: float, damping: float) -> str | None:
+            r = norm(rec)
+            c = float(row @ (rec[0] / S) - target)
+            return "" if (r <= tol or (size <= tol and r <= 100 * tol)) and abs(c) <= 1e-9 else None
+
+        def direction(z: np.ndarray, rec: tuple[np.ndarray, Evaluation]) -> tuple[np.ndarray, float, dict]:
+            ev = rec[1]
             if ev.Flam is None:
                 ev.Flam = Flam
+            c = float(row @ (z / S) - target)
             anchor = self.scaled_anchor(z[-1])
             if anchor is None:
                 A = np.vstack([self.scaled_jacobian(ev), row[None, :]])
@@ -163,23 +163,22 @@ class Continuer:
                 dw = np.linalg.lstsq(A, rhs, rcond=None)[0]
             if not np.all(np.isfinite(dw)):
                 raise ConvergenceError("corrector: singular Newton matrix")
-            step = float(np.max(np.abs(dw)))
-            it += 1
-            r_prev = r
-            # damped step: halve it (up to 3 times) while the residual grows
-            for k in range(4):
-                zn = z + dw * self.S * 0.5 ** k
-                try:
-                    evn = self.res.evaluate(zn[:-1], zn[-1], dlam=False)
-                    rn = float(np.max(np.abs(self.scaled_residual(evn))))
-                except GearsymError:
-                    if k == 3:
-                        raise
-                    continue
-                if rn < r or k == 3 or rn <= self.tol:
-                    break
-            z, ev, r = zn, evn, rn
-            c = float(row @ (z / self.S) - target)
+            return dw * S, float(np.max(np.abs(dw))), {}
+
+        # damped step: halve it (up to 3 times) while the residual grows, then take it anyway
+        policy = NewtonPolicy(max_iter=self.max_newton, min_damping=0.125, decrease=0.0, accept_below=tol,
+                              accept_last=True, diverge=(0.9, 100 * tol))
+        out = damped_newton(z, (z, ev), evaluate=evaluate, norm=norm, direction=direction, converged=converged,
+                            policy=policy)
+        z, ev = out.ev
+        if not out.converged:
+            if out.failure == "max_iter":
+                raise ConvergenceError(f"corrector: no convergence in {out.iterations} Newton steps "
+                                       f"(residual {norm(out.ev):.3g})")
+            raise ConvergenceError(f"corrector: {out.failure}")
+        if ev.Flam is None:
+            ev.Flam = self.res._fd_lambda(z[:-1], float(z[-1]), ev.R)
+        return z, ev, out.iterations
 
     def tangent(self, ev: Evaluation, t_ref: np.ndarray, lam: float | None = None) -> np.ndarray:
         """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0`` (and, with

@@ -41,6 +41,7 @@ import numpy as np
 from ..errors import ConvergenceError, GearsymError, ParameterError
 from .floquet import monodromy_product
 from .isolation import Isolation, isolation, truncated_solve
+from .newton import NewtonPolicy, damped_newton
 from .orbit import PeriodicOrbit, finish_orbit
 from .problems import segment_jacobian, segment_times
 
@@ -236,14 +237,21 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     relaxed = 0
     relax_block = max(1, int(math.ceil(10 * max(1.0, float(periods)))))
     history: list[dict[str, Any]] = []
-    R, Ms, evs = evaluate(X)
-    rnorm = float(np.max(np.abs(R)))
-    history.append({"iteration": 0, "residual": rnorm, "relative": rel(R), "step": None})
-    converged = rel(R) <= tol
-    it = 0
-    failure = ""
-    while not converged and it < max_iter:
-        it += 1
+
+    def norm(ev: tuple) -> float:
+        return float(np.max(np.abs(ev[0])))
+
+    def is_converged(ev: tuple, size: float, damping: float) -> str | None:
+        r = rel(ev[0])
+        if r <= tol:
+            return ""
+        if damping == 1.0 and size <= tol and r <= 100 * tol:
+            # a full Newton step below the tolerance: the residual left is integration noise
+            return "Newton step below tolerance (residual at the integration noise level)"
+        return None
+
+    def direction(X: np.ndarray, ev: tuple) -> tuple[np.ndarray, float, dict[str, Any]]:
+        R, Ms, _ = ev
         J = segment_jacobian(Ms)
         rhs = -R.ravel()
         if anchor is not None:
@@ -256,66 +264,52 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
             # minimum-norm step without the directions the monodromy cannot resolve: never move
             # the state by noise divided by noise (a multiplier at +1 to working precision)
             dz, n_drop = truncated_solve(J, rhs, np.tile(scales(), segments), rtol)
-        if not np.all(np.isfinite(dz)):
-            failure = "the Newton matrix is not finite"
-            break
         dX = dz.reshape(segments, nx)
-        lam = 1.0
-        accepted = False
-        last_err = ""
-        while lam >= min_step:
-            Xn = X + lam * dX
+        return dX, rel(dX) if np.all(np.isfinite(dX)) else math.inf, (
+            {"dropped_directions": n_drop} if n_drop else {})
+
+    def on_step(it: int, ev: tuple, damping: float, notes: dict[str, Any]) -> None:
+        history.append({"iteration": it, "residual": norm(ev), "relative": rel(ev[0]), "step": damping, **notes})
+
+    def stalled(X: np.ndarray, ev: tuple, dX: np.ndarray, last_err: str) -> tuple[str, Any]:
+        nonlocal relaxed
+        # at the integration noise floor a tiny Newton step cannot reduce the residual any more
+        if rel(dX) <= 10 * tol and rel(ev[0]) <= 100 * tol:
+            history.append({"iteration": len(history), "residual": norm(ev), "step": 0.0,
+                            "note": "noise floor: Newton step below tolerance"})
+            return "converged", "noise floor"
+        if relaxed < relax_periods:
+            # Newton is stuck in a local minimum of the residual (the flow map of a
+            # nonsmooth system is far from linear over large distances): integrate
+            # a block of forcing periods (contracts towards an attracting orbit),
+            # then resume Newton from there
+            n_blk = int(min(relax_block, relax_periods - relaxed))
             try:
-                Rn, Msn, evsn = evaluate(Xn)
-                rn = float(np.max(np.abs(Rn)))
-                ok = math.isfinite(rn) and rn < (1.0 - 1e-4 * lam) * rnorm
+                Xr = _relax(X, n_blk)
+                evr = evaluate(Xr)
             except GearsymError as exc:
-                ok = False
-                last_err = str(exc)
-            if ok:
-                accepted = True
-                break
-            lam *= 0.5
-        if not accepted:
-            # at the integration noise floor a tiny Newton step cannot reduce the residual any more
-            if rel(dX) <= 10 * tol and rel(R) <= 100 * tol:
-                converged = True
-                history.append({"iteration": it, "residual": rnorm, "step": 0.0,
-                                "note": "noise floor: Newton step below tolerance"})
-                break
-            if relaxed < relax_periods:
-                # Newton is stuck in a local minimum of the residual (the flow map of a
-                # nonsmooth system is far from linear over large distances): integrate
-                # a block of forcing periods (contracts towards an attracting orbit),
-                # then resume Newton from there
-                n_blk = int(min(relax_block, relax_periods - relaxed))
-                try:
-                    X = _relax(X, n_blk)
-                    R, Ms, evs = evaluate(X)
-                except GearsymError as exc:
-                    failure = f"relaxation by integration failed: {exc}"
-                    break
-                relaxed += n_blk
-                rnorm = float(np.max(np.abs(R)))
-                history.append({"iteration": it, "residual": rnorm, "relative": rel(R), "step": None,
-                                "note": f"Newton stalled: integrated {n_blk} forcing periods"})
-                converged = rel(R) <= tol
-                continue
-            failure = ("the damped Newton step does not reduce the residual (tried down to a factor "
-                       f"{min_step:g}, after {relaxed} forcing periods of relaxation by integration)"
-                       + (f"; last integration error: {last_err}" if last_err else ""))
-            break
-        X, R, Ms, evs, rnorm = Xn, Rn, Msn, evsn, rn
-        history.append({"iteration": it, "residual": rnorm, "relative": rel(R), "step": lam})
-        if n_drop:
-            history[-1]["dropped_directions"] = n_drop
-        converged = rel(R) <= tol
-        if not converged and lam == 1.0 and rel(dX) <= tol and rel(R) <= 100 * tol:
-            # a full Newton step below the tolerance: the residual left is integration noise
-            converged = True
-            history[-1]["note"] = "Newton step below tolerance (residual at the integration noise level)"
-    if not converged and not failure:
-        failure = f"no convergence in max_iter={max_iter} Newton iterations"
+                return "fail", f"relaxation by integration failed: {exc}"
+            relaxed += n_blk
+            history.append({"iteration": len(history), "residual": norm(evr), "relative": rel(evr[0]), "step": None,
+                            "note": f"Newton stalled: integrated {n_blk} forcing periods"})
+            return "restart", (Xr, evr)
+        return "fail", ("the damped Newton step does not reduce the residual (tried down to a factor "
+                        f"{min_step:g}, after {relaxed} forcing periods of relaxation by integration)"
+                        + (f"; last integration error: {last_err}" if last_err else ""))
+
+    ev0 = evaluate(X)
+    history.append({"iteration": 0, "residual": norm(ev0), "relative": rel(ev0[0]), "step": None})
+    out = damped_newton(X, ev0, evaluate=evaluate, norm=norm, direction=direction, converged=is_converged,
+                        policy=NewtonPolicy(max_iter=max_iter, min_damping=min_step), stalled=stalled,
+                        on_step=on_step)
+    X, (R, Ms, evs), it, converged = out.x, out.ev, out.iterations, out.converged
+    rnorm = norm(out.ev)
+    failure = ""
+    if converged and out.note and history[-1].get("note") is None and out.note != "noise floor":
+        history[-1]["note"] = out.note
+    if not converged:
+        failure = (f"no convergence in max_iter={max_iter} Newton iterations" if out.failure == "max_iter"
+                   else out.failure)
     mono = monodromy_product(Ms) if all(M is not None for M in Ms) else None
     iso: Isolation | None = None
     if mono is not None and np.all(np.isfinite(mono)):
