@@ -9,7 +9,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from .bound_functions import evaluate as evaluate_bound
-from .codegen.generate import GeneratedModel
+from .codegen.artifact import GeneratedModel, decode_schedules, generated_map
 from .engine.driver import Engine, load_engine
 from .errors import ParameterError
 from .results import Event, Flow, Trajectory
@@ -522,6 +522,68 @@ class System:
         return Flow(x_final=res.x_final, monodromy=res.monodromy, event_t=ev.t, event_surface=ev.surface,
                     event_direction=ev.direction, event_speed=ev.speed, sigma_final=res.sigma_final,
                     amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats)
+
+    # ------------------------------------------- generated functions for the analyses
+    def modes(self, t: Sequence[float] | float, x: Sequence[float], p: np.ndarray | None = None) -> np.ndarray:
+        """The mode vector (surface sides, then each schedule's cycle and segment) at many points.
+
+        Evaluated by the engine in C (the driver's own mode logic), so the analyses never
+        decode the schedules themselves.
+
+        Parameters
+        ----------
+        t
+            Times, shape (n,).
+        x
+            States, shape (n, nx).
+        p
+            Parameter vector (:meth:`param_vector`); the current values when ``None``.
+
+        Returns
+        -------
+        ndarray
+            Shape (n, nm): ``[sigma_0, ..., sigma_{nsw-1}, n_0, seg_0, n_1, seg_1, ...]``.
+        """
+        ta = np.atleast_1d(np.asarray(t, float))
+        pv = self.param_vector() if p is None else p
+        return self.engine.evaluate("mode", ta, np.asarray(x, float).reshape(ta.shape[0], self.generated.nx), pv)
+
+    def schedule_table(self, p: np.ndarray | None = None) -> list[tuple[float, np.ndarray]]:
+        """``(period, break fractions)`` of every schedule at a parameter vector.
+
+        Parameters
+        ----------
+        p
+            Parameter vector (:meth:`param_vector`); the current values when ``None``.
+
+        Returns
+        -------
+        list of (float, ndarray)
+            One entry per schedule, in model order (empty without schedules).
+        """
+        if not self.generated.schedules:
+            return []
+        pv = self.param_vector() if p is None else p
+        return decode_schedules(generated_map(self.generated, "gs_sched", 1)(pv), self.generated.schedules)
+
+    def generated_map(self, name: str, n: int):
+        """The generated CasADi function ``name`` mapped over ``n`` points (cached).
+
+        For what the engine does not evaluate in C: the analysis extras (``gs_mesh``,
+        ``gs_rigid``) and evaluations vectorised over many parameter vectors.
+
+        Parameters
+        ----------
+        name
+            ``"gs_mesh"``, ``"gs_rigid"``, ``"gs_jac"``, ...
+        n
+            Number of points (columns).
+
+        Returns
+        -------
+        casadi.Function
+        """
+        return generated_map(self.generated, name, n)
 
     # --------------------------------------------------------- periodic orbits
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 
@@ -66,8 +65,6 @@ class Continuer:
         self.detect = tuple(detect)
         gen = res.system.generated
         self.surfaces = [s["name"] for s in gen.surfaces]
-        self._sw_fn = gen.casadi_function("gs_sw") if gen.nsw else None
-        self._sw_maps: dict[int, Any] = {}
         self.state_weight = float(state_weight)
         self.state_scale = np.ones(res.nx)
         self.Rs = np.ones(res.n)
@@ -204,13 +201,6 @@ class Continuer:
         return t
 
     # ------------------------------------------------------------ points
-    def _sw_map(self, n: int):
-        f = self._sw_maps.get(n)
-        if f is None:
-            f = self._sw_fn.map(n)
-            self._sw_maps[n] = f
-        return f
-
     def make_node(self, z: np.ndarray, ev: Evaluation, t_ref: np.ndarray, iterations: int = 0,
                   ref: Node | None = None) -> Node:
         """Post-process a corrected point: multipliers, extrema, grazing tests, tangent.
@@ -232,10 +222,8 @@ class Continuer:
         i_max, i_min = int(np.argmax(y)), int(np.argmin(y))
         params = res.params(lam)
         ext: dict[str, tuple[float, float]] = {}
-        if self._sw_fn is not None:
-            p = res.system.param_vector(params)
-            G = np.asarray(self._sw_map(len(t_dense))(t_dense[None, :], Y.T,
-                                                      np.tile(p[:, None], (1, len(t_dense)))))
+        if self.surfaces:
+            G = res.system.switching(t_dense, Y, p=res.system.param_vector(params)).reshape(len(t_dense), -1).T
             for j, name in enumerate(self.surfaces):
                 g = G[j]
                 ext[name] = (_periodic_extremum(g, int(np.argmin(g)), +1.0),

@@ -11,8 +11,9 @@ run this loop; they differ only in what they pass in:
   and notes for the history;
 * ``converged(ev, size, damping)``: a note (``""`` for a plain convergence) when ``ev`` is
   converged after a step of relative ``size`` taken with ``damping`` -- also asked
-  *before* a step is taken (``damping = 1``), so that a point whose Newton step is
-  already below the tolerance is accepted without one more integration;
+  *before* a step is taken (``damping = 0``), so that a point whose Newton step is
+  already below the tolerance is accepted without one more integration (with
+  ``policy.apply_final_step`` the step is added to it);
 * ``stalled(x, ev, dx, error)``: what to do when no damped step decreases the residual
   (accept at the noise floor, restart from a relaxed point, or fail).
 
@@ -57,6 +58,10 @@ class NewtonPolicy:
     diverge : tuple of float or None
         ``(ratio, floor)``: after two steps, stop when the norm falls by less than
         ``ratio`` while above ``floor``.
+    apply_final_step : bool
+        When ``converged`` accepts a point before its step is taken, return ``x + dx``
+        (the step's effect on the residual is quadratic in its size, far below the
+        tolerance) without evaluating it.
     """
 
     max_iter: int
@@ -65,6 +70,7 @@ class NewtonPolicy:
     accept_below: float = 0.0
     accept_last: bool = False
     diverge: tuple[float, float] | None = None
+    apply_final_step: bool = False
 
 
 @dataclass(frozen=True)
@@ -138,9 +144,10 @@ def damped_newton(x: np.ndarray, ev: Any, *, evaluate: Callable[[np.ndarray], An
         dx, size, notes = direction(x, ev)
         if not np.all(np.isfinite(dx)):
             return NewtonOutcome(x, ev, it, False, "the Newton matrix is not finite")
-        note = converged(ev, size, 1.0)
-        if note is not None:  # the step is below the tolerance: no need to take (and integrate) it
-            return NewtonOutcome(x, ev, it, True, note=note or "Newton step below tolerance")
+        note = converged(ev, size, 0.0)
+        if note is not None:  # the step is below the tolerance: no need to integrate at its end
+            return NewtonOutcome(x + dx if policy.apply_final_step else x, ev, it, True,
+                                 note=note or "Newton step below tolerance")
         it += 1
         r_prev = r
         damping, last_err, evn = 1.0, "", None

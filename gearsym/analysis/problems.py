@@ -16,13 +16,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import GearsymError, ParameterError
+from ..results import Event, Flow
 from .floquet import monodromy_product
 from .stability import rigid_state_basis
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
 
-__all__ = ["Evaluation", "PeriodicOrbitProblem", "ShootingResidual", "segment_jacobian", "segment_times"]
+__all__ = ["Evaluation", "PeriodicOrbitProblem", "ShootingResidual", "flow_events", "segment_jacobian",
+           "segment_times"]
 
 
 @dataclass
@@ -76,11 +78,21 @@ class PeriodicOrbitProblem:
         p[self.param] = float(lam)
         return p
 
+    def pvec(self, lam: float) -> np.ndarray:
+        """The parameter vector at ``lambda`` (cached: the corrector asks for a few values many times)."""
+        cache = self.__dict__.setdefault("_pvec_cache", {})
+        p = cache.get(lam)
+        if p is None:
+            if len(cache) > 64:
+                cache.clear()
+            p = cache[lam] = self.system.param_vector(self.params(lam))
+        return p
+
     def period(self, lam: float) -> float:
         cache = self.__dict__.setdefault("_period_cache", {})
         T = cache.get(lam)
         if T is None:
-            T = self.system.period(self.params(lam))
+            T = self.system.period_of(self.pvec(lam))
             if not T:
                 T = self.system.require_period(self.params(lam), "continuation of periodic orbits")
             if len(cache) > 64:
@@ -204,15 +216,15 @@ class ShootingResidual(PeriodicOrbitProblem):
         N, nx = self.segments, self.nx
         X = np.asarray(u, float).reshape(N, nx)
         s = self.times(lam)
-        p = self.params(lam)
+        p = self.pvec(lam)
         xs, Ms, evs = [], [], []
         for i in range(N):
-            tr = self.system.simulate(t_end=s[i + 1], t0=s[i], x0=X[i], rtol=self.rtol, atol=self.atol,
-                                      n_out=2, params=p, monodromy=jac, method=self.method)
+            fl = self.system.flow(X[i], s[i], s[i + 1], p, rtol=self.rtol, atol=self.atol, monodromy=jac,
+                                  method=self.method)
             self.n_integrations += 1
-            xs.append(tr.x_final)
-            Ms.append(tr.monodromy)
-            evs.extend(tr.events)
+            xs.append(fl.x_final)
+            Ms.append(fl.monodromy)
+            evs.extend(flow_events(self.system, fl))
         R = np.concatenate([xs[i] - X[(i + 1) % N] for i in range(N)])
         self.n_evals += 1
         if not jac:
@@ -265,3 +277,12 @@ def segment_jacobian(Ms: list[np.ndarray]) -> np.ndarray:
         k = (i + 1) % N
         J[i * nx:(i + 1) * nx, k * nx:(k + 1) * nx] -= eye
     return J
+
+
+def flow_events(system: System, fl: Flow) -> list[Event]:
+    """The events of a :class:`~gearsym.results.Flow` as :class:`~gearsym.results.Event` objects."""
+    if not len(fl.event_t):
+        return []
+    names = system.surface_names
+    return [Event(float(t), names[int(j)], int(d)) for t, j, d in zip(fl.event_t, fl.event_surface,
+                                                                       fl.event_direction, strict=True)]

@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from ..codegen.artifact import generated_map
 from ..results import Trajectory
 
 NO_RATTLE = 0
@@ -312,13 +313,14 @@ def _switching_values(system: Any, traj: Trajectory, t: float, x: Sequence[float
     gen = getattr(system, "generated", system)
     p = system.param_vector(traj.params) if hasattr(system, "param_vector") else \
         np.array([traj.params[n] for n in gen.param_names], dtype=float)
-    g = gen.casadi_function("gs_sw")(float(t), np.asarray(x, float), p)
-    return np.asarray(g, dtype=float).ravel()
+    if hasattr(system, "switching"):
+        return np.asarray(system.switching(float(t), x, p=p), dtype=float).ravel()
+    return np.asarray(generated_map(gen, "gs_sw", 1)(float(t), np.asarray(x, float), p), dtype=float).ravel()
 
 
 def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequence[Any],
-                  params: Mapping[str, float] | None = None,
-                  samples: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, int]:
+                       params: Mapping[str, float] | None = None,
+                       samples: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, int]:
     """Rattle state of every backlash mesh along a periodic orbit.
 
     Uses the contact surfaces of the compiled model (``kind`` drive/back, as the
@@ -340,12 +342,11 @@ def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequ
     if not any(k in ("drive", "back") for k, _ in kinds.values()):
         return {}
     p = system.param_vector(params)
-    g = np.asarray(system.generated.casadi_function("gs_sw")(t0, np.asarray(x0, float), p)).ravel()
+    g = system.switching(float(t0), x0, p=p)
     G = None
     if samples is not None:
         ts, Y = np.asarray(samples[0], float), np.asarray(samples[1], float)
-        G = np.asarray(system.generated.casadi_function("gs_sw").map(len(ts))(
-            ts[None, :], Y.T, np.tile(p[:, None], (1, len(ts)))))
+        G = system.switching(ts, Y, p=p).reshape(len(ts), -1).T
     meshes: dict[str, dict[str, bool]] = {}
     for j, s in enumerate(surfaces):
         kind, sign = kinds[s["name"]]

@@ -43,7 +43,7 @@ from .floquet import monodromy_product
 from .isolation import Isolation, isolation, truncated_solve
 from .newton import NewtonPolicy, damped_newton
 from .orbit import PeriodicOrbit, finish_orbit
-from .problems import segment_jacobian, segment_times
+from .problems import flow_events, segment_jacobian, segment_times
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
@@ -51,21 +51,24 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["flow", "shoot"]
 
 
-def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mapping[str, float] | None,
+def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mapping[str, float] | np.ndarray | None,
          rtol: float, atol: float, jacobian: bool = True, fd_step: float = 1e-6,
          method: str | None = None, n_out: int = 2, with_amplitude: bool = False
          ) -> tuple[Any, ...]:
     """The flow map ``phi(t1, t0, x)``, its Jacobian and the events on the way.
 
-    The Jacobian is the engine's variational monodromy (explicit models) or
-    central finite differences with step ``fd_step * max(1, |x_j|)`` (implicit models).
-    With ``with_amplitude`` also ``max |x_i(t)|`` over ``n_out`` output points.
+    One call of :meth:`gearsym.system.System.flow` (the engine's cheap path: no output
+    grid, no trajectory object).  The Jacobian is the engine's variational monodromy
+    (explicit models) or central finite differences with step ``fd_step * max(1, |x_j|)``
+    (implicit models).  ``params`` may be the parameter vector itself.  With
+    ``with_amplitude`` also ``max |x_i(t)|`` over ``n_out`` evenly spaced points.
     """
     x = np.asarray(x, float)
+    pv = params if isinstance(params, np.ndarray) else system.param_vector(params)
     implicit = system.generated.implicit
-    tr = system.simulate(t_end=t1, t0=t0, x0=x, rtol=rtol, atol=atol, n_out=n_out, params=params,
-                         monodromy=bool(jacobian and not implicit), method=method)
-    M = tr.monodromy
+    fl = system.flow(x, t0, t1, pv, rtol=rtol, atol=atol, monodromy=bool(jacobian and not implicit),
+                     method=method, n_samples=n_out)
+    M = fl.monodromy
     if jacobian and implicit:
         n = len(x)
         M = np.empty((n, n))
@@ -73,14 +76,13 @@ def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mappi
             h = fd_step * max(1.0, abs(x[j]))
             e = np.zeros(n)
             e[j] = h
-            xp = system.simulate(t_end=t1, t0=t0, x0=x + e, rtol=rtol, atol=atol, n_out=2,
-                                 params=params, method=method).x_final
-            xm = system.simulate(t_end=t1, t0=t0, x0=x - e, rtol=rtol, atol=atol, n_out=2,
-                                 params=params, method=method).x_final
+            xp = system.flow(x + e, t0, t1, pv, rtol=rtol, atol=atol, monodromy=False, method=method).x_final
+            xm = system.flow(x - e, t0, t1, pv, rtol=rtol, atol=atol, monodromy=False, method=method).x_final
             M[:, j] = (xp - xm) / (2 * h)
+    events = flow_events(system, fl)
     if with_amplitude:
-        return np.asarray(tr.x_final, float), M, list(tr.events), np.max(np.abs(tr.y), axis=0)
-    return np.asarray(tr.x_final, float), M, list(tr.events)
+        return np.asarray(fl.x_final, float), M, events, fl.amplitude
+    return np.asarray(fl.x_final, float), M, events
 
 
 def shoot(system: System, period: float | None = None, periods: float = 1,
@@ -194,13 +196,14 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
 
     # ---------------------------------------------------------------- residual
     n_amp = max(3, int(math.ceil(16 / segments)) + 1)
+    pvec = system.param_vector(params)
     amp = np.zeros(nx)
 
     def evaluate(X: np.ndarray, jac: bool = True):
         xs, Ms, evs = [], [], []
         a = np.zeros(nx)
         for i in range(segments):
-            xe, M, ev, ai = flow(system, X[i], s[i], s[i + 1], params, rtol, atol, jacobian=jac,
+            xe, M, ev, ai = flow(system, X[i], s[i], s[i + 1], pvec, rtol, atol, jacobian=jac,
                                  method=method, n_out=n_amp, with_amplitude=True)
             xs.append(xe)
             Ms.append(M)
@@ -248,6 +251,10 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         if damping == 1.0 and size <= tol and r <= 100 * tol:
             # a full Newton step below the tolerance: the residual left is integration noise
             return "Newton step below tolerance (residual at the integration noise level)"
+        if damping == 0.0 and size <= 10 * tol and r <= 100 * tol:
+            # the next step is below 10 tol: taken without integrating again (its effect on the
+            # residual is quadratic in its size, ~1e-18 here)
+            return "Newton step below 10 tol applied without another integration"
         return None
 
     def direction(X: np.ndarray, ev: tuple) -> tuple[np.ndarray, float, dict[str, Any]]:
@@ -300,7 +307,8 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     ev0 = evaluate(X)
     history.append({"iteration": 0, "residual": norm(ev0), "relative": rel(ev0[0]), "step": None})
     out = damped_newton(X, ev0, evaluate=evaluate, norm=norm, direction=direction, converged=is_converged,
-                        policy=NewtonPolicy(max_iter=max_iter, min_damping=min_step), stalled=stalled,
+                        policy=NewtonPolicy(max_iter=max_iter, min_damping=min_step, apply_final_step=True),
+                        stalled=stalled,
                         on_step=on_step)
     X, (R, Ms, evs), it, converged = out.x, out.ev, out.iterations, out.converged
     rnorm = norm(out.ev)

@@ -125,7 +125,7 @@ def rigid_state_basis(system: System, params: Mapping[str, float] | None = None)
     gen = system.generated
     if not getattr(gen, "rigid_modes", None) or "gs_rigid" not in gen.functions:
         return None
-    R = np.asarray(gen.casadi_function("gs_rigid")(system.param_vector(params)), float)
+    R = np.asarray(system.generated_map("gs_rigid", 1)(system.param_vector(params)), float)
     nq, k = R.shape
     if 2 * nq != gen.nx or k == 0 or not np.all(np.isfinite(R)):
         return None

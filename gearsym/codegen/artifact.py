@@ -8,11 +8,13 @@ generator; :mod:`gearsym.codegen.generate` re-exports both names.
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 
 import casadi as ca
+import numpy as np
 
-__all__ = ["CODEGEN_VERSION", "GeneratedModel"]
+__all__ = ["CODEGEN_VERSION", "GeneratedModel", "decode_schedules", "generated_map"]
 
 #: Bump when the generated code's layout changes (invalidates caches).
 CODEGEN_VERSION = "3"
@@ -113,3 +115,42 @@ class GeneratedModel:
     def from_json(cls, text: str) -> GeneratedModel:
         """Load from :meth:`to_json` output."""
         return cls(**json.loads(text))
+
+
+_MAPPED: dict[tuple[str, str, int], object] = {}
+
+
+def generated_map(generated: GeneratedModel, name: str, n: int):
+    """``generated.casadi_function(name).map(n)``, cached by build, function and size."""
+    key = (generated.so_path, name, int(n))
+    f = _MAPPED.get(key)
+    if f is None:
+        if len(_MAPPED) > 256:
+            _MAPPED.clear()
+        fn = generated.casadi_function(name)
+        f = _MAPPED[key] = fn if n == 1 else fn.map(int(n))
+    return f
+
+
+def decode_schedules(s: Sequence[float] | np.ndarray, schedules: Sequence[Mapping]) -> list[tuple[float, np.ndarray]]:
+    """The one decoder of the ``gs_sched`` vector: ``[(period, break fractions), ...]`` per schedule.
+
+    Parameters
+    ----------
+    s
+        The vector ``[P_0, c_0..., P_1, c_1..., ...]`` of the generated ``gs_sched``.
+    schedules
+        The model's schedules (``GeneratedModel.schedules``: ``n_breaks`` of each).
+
+    Returns
+    -------
+    list of (float, ndarray)
+    """
+    v = np.asarray(s, float).ravel()
+    out = []
+    i = 0
+    for sch in schedules:
+        k = int(sch["n_breaks"])
+        out.append((float(v[i]), v[i + 1: i + 1 + k].copy()))
+        i += 1 + k
+    return out
