@@ -74,6 +74,7 @@ from .corrector import Continuer
 from .detection import detect_types
 from .hb_problem import HBResidual
 from .hbm import harmonic_balance
+from .options import ContinuationOptions, resolve_options
 from .orbit import PeriodicOrbit
 from .problems import PeriodicOrbitProblem, ShootingResidual
 from .shooting import _check_tolerances, shoot
@@ -82,7 +83,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..facade import Scene
     from ..system import System
 
-__all__ = ["continuation", "switch_period_doubling", "HBResidual", "ShootingResidual"]
+__all__ = ["ContinuationOptions", "continuation", "switch_period_doubling", "HBResidual", "ShootingResidual"]
 
 
 def _as_system(target: System | Scene) -> System:
@@ -102,7 +103,8 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
                  detect: Sequence[str] | bool = True, locate: bool = True, state: int | str = 0,
                  n_dense: int | None = None, switch: int = 0, progress: bool | None = None,
                  transient: float | None = None, state_weight: float = 1.0, stall_points: int = 50,
-                 stall_tol: float = 1e-5, display: tuple[float, str] | None = None) -> Branch:
+                 stall_tol: float = 1e-5, display: tuple[float, str] | None = None,
+                 options: ContinuationOptions | None = None) -> Branch:
     """Continue a periodic orbit in one parameter from ``start`` to ``stop``.
 
     Parameters
@@ -186,6 +188,9 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     display
         ``(SI value of one display unit, unit name)`` for the parameter values in
         ``stop_reason`` (the CLI passes the model's declared unit); default SI.
+    options
+        A :class:`~gearsym.analysis.options.ContinuationOptions` with the numerical settings
+        above (``ds`` .. ``display``); a keyword not at its default overrides it.
 
     Returns
     -------
@@ -204,6 +209,15 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     """
     system = _as_system(system)
     wall = time.perf_counter()
+    o = resolve_options(options, ContinuationOptions, ds=ds, ds_min=ds_min, ds_max=ds_max, max_angle=max_angle,
+                        max_points=max_points, tol=tol, rtol=rtol, atol=atol, max_newton=max_newton, detect=detect,
+                        locate=locate, state=state, n_dense=n_dense, switch=switch, progress=progress,
+                        transient=transient, state_weight=state_weight, stall_points=stall_points,
+                        stall_tol=stall_tol, display=display)
+    ds, ds_min, ds_max, max_angle, max_points, tol = o.ds, o.ds_min, o.ds_max, o.max_angle, o.max_points, o.tol
+    rtol, atol, max_newton, detect, locate, state = o.rtol, o.atol, o.max_newton, o.detect, o.locate, o.state
+    n_dense, switch, progress, transient, state_weight = o.n_dense, o.switch, o.progress, o.transient, o.state_weight
+    stall_points, stall_tol, display = o.stall_points, o.stall_tol, o.display
     if param not in system.params:
         raise ParameterError(f"'{param}' is not a run-time parameter of this system (have: "
                              f"{', '.join(system.params) or 'none'})")

@@ -93,6 +93,8 @@ class PeriodicOrbit:
         Tolerance of each non-trivial multiplier (the neutral band around the circle).
     rattle_states : dict
         Rattle state of every mesh with contact surfaces (``rattle_state`` is the worst).
+    system : System or None
+        The compiled system (for :meth:`trajectory`, :meth:`extrema`, :meth:`meshes`).
     """
 
     x0: np.ndarray
@@ -118,7 +120,7 @@ class PeriodicOrbit:
     history: list[dict[str, Any]] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
     system: System | None = field(default=None, repr=False, compare=False)
-    _traj: Trajectory | None = field(default=None, repr=False, compare=False)
+    _traj: Trajectory | None = field(default=None, init=False, repr=False, compare=False)
     stability: str = ""
     trivial_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
     multiplier_tolerances: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -140,6 +142,11 @@ class PeriodicOrbit:
             Output points (default 1024 per forcing period, at least 2048).
         rtol, atol
             Tolerances (default: those of the solve).
+
+        Returns
+        -------
+        Trajectory
+            Cached for the default arguments.
         """
         if self.system is None:
             raise ParameterError("this orbit is not attached to a system")
@@ -159,6 +166,16 @@ class PeriodicOrbit:
 
         From the harmonic series for harmonic balance, from a dense engine
         trajectory (refined by parabolic interpolation) for shooting.
+
+        Parameters
+        ----------
+        state
+            Index or name of the state.
+
+        Returns
+        -------
+        tuple of float
+            ``(min, max)``.
         """
         i = self.state_names.index(state) if isinstance(state, str) else int(state)
         if self.method == "hbm" and self.coefficients is not None:
@@ -168,14 +185,37 @@ class PeriodicOrbit:
         return _refined_min(y), _refined_max(y)
 
     def peak_to_peak(self, state: int | str = 0) -> float:
-        """``max - min`` of one state over the orbit."""
+        """``max - min`` of one state over the orbit.
+
+        Parameters
+        ----------
+        state
+            Index or name of the state.
+
+        Returns
+        -------
+        float
+        """
         lo, hi = self.extrema(state)
         return hi - lo
 
     def save_plots(self, out_dir: str | Path, title: str = "") -> list[Path]:
         """Write ``orbit_phase.png`` (phase portrait and time history over one
         period, events marked) and ``orbit_multipliers.png`` (the multipliers and
-        the unit circle) into ``out_dir``."""
+        the unit circle) into ``out_dir``.
+
+        Parameters
+        ----------
+        out_dir
+            Folder (created if missing).
+        title
+            Title of the phase-portrait figure (default: method, stability, max |mu|).
+
+        Returns
+        -------
+        list of Path
+            The two files.
+        """
         import matplotlib
 
         matplotlib.use("Agg")
@@ -250,7 +290,13 @@ class PeriodicOrbit:
 
     def meshes(self) -> dict[str, dict[str, Any]]:
         """Per mesh: rattle state and the extrema / peak-to-peak of its dynamic deflection
-        over the orbit (``{}`` for a model without meshes or an orbit without a system)."""
+        over the orbit.
+
+        Returns
+        -------
+        dict
+            Mesh name -> summary (``{}`` for a model without meshes or an orbit without a system).
+        """
         if self.system is None:
             return {}
         from .meshes import mesh_names, mesh_report
@@ -267,7 +313,18 @@ class PeriodicOrbit:
         return mesh_report(self.system, t, Y, self.params, self.rattle_states)
 
     def to_dict(self, extrema: bool = True) -> dict[str, Any]:
-        """JSON-ready summary (multipliers as ``[re, im]`` pairs)."""
+        """JSON-ready summary (multipliers as ``[re, im]`` pairs).
+
+        Parameters
+        ----------
+        extrema
+            Include ``min``, ``max`` of the first state and the per-mesh summary (one dense
+            integration).
+
+        Returns
+        -------
+        dict
+        """
         d: dict[str, Any] = {
             "method": self.method,
             "state_names": list(self.state_names),

@@ -42,6 +42,7 @@ from ..errors import ConvergenceError, GearsymError, ParameterError
 from .floquet import monodromy_product
 from .isolation import Isolation, isolation, truncated_solve
 from .newton import NewtonPolicy, damped_newton
+from .options import ShootingOptions, resolve_options
 from .orbit import PeriodicOrbit, finish_orbit
 from .problems import flow_events, segment_jacobian, segment_times
 
@@ -90,7 +91,8 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
           segments: int = 1, t0: float = 0.0, transient: float | None = None, tol: float = 1e-10,
           rtol: float = 1e-11, atol: float = 1e-13, max_iter: int = 50, min_step: float = 2.0 ** -12,
           raise_on_failure: bool = True, method: str | None = None,
-          relax_periods: float = 200, trivial: np.ndarray | None = None) -> PeriodicOrbit:
+          relax_periods: float = 200, trivial: np.ndarray | None = None,
+          options: ShootingOptions | None = None) -> PeriodicOrbit:
     """Find a periodic orbit by (multiple) shooting with damped Newton.
 
     Parameters
@@ -140,6 +142,9 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         Known trivial directions of the state space (nx x k), e.g. the rigid-body mode
         of a semi-definite model: a multiplier +1 whose eigenvector lies in their span
         does not count against the orbit's isolation.  Default: none.
+    options
+        A :class:`~gearsym.analysis.options.ShootingOptions` with all of the settings above
+        (``segments`` .. ``trivial``); a keyword not at its default overrides it.
 
     Returns
     -------
@@ -155,6 +160,13 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         The first integration already fails.
     """
     wall = time.perf_counter()
+    o = resolve_options(options, ShootingOptions, segments=segments, t0=t0, transient=transient, tol=tol,
+                        rtol=rtol, atol=atol, max_iter=max_iter, min_step=min_step,
+                        raise_on_failure=raise_on_failure, method=method, relax_periods=relax_periods,
+                        trivial=trivial)
+    segments, t0, transient, tol, rtol, atol = o.segments, o.t0, o.transient, o.tol, o.rtol, o.atol
+    max_iter, min_step, raise_on_failure, method = o.max_iter, o.min_step, o.raise_on_failure, o.method
+    relax_periods, trivial = o.relax_periods, o.trivial
     _check_tolerances(tol=tol, rtol=rtol, atol=atol)
     T = system.period(params)
     if period is None:
