@@ -70,3 +70,16 @@ def test_branch_results_are_immutable_and_carry_no_solver_state(ks_system):
     xT = ks_system.simulate(periods=1, x0=p.x0, params=br.params_at(p.value), rtol=1e-11, atol=1e-13,
                             n_out=2).x_final
     assert np.max(np.abs(xT - p.x0)) < 1e-7
+
+
+def test_fourier_series_against_the_written_out_sum():
+    from gearsym.analysis.fourier import coefficients, synthesize
+
+    rng = np.random.default_rng(3)
+    c = rng.standard_normal(5)
+    n = 32
+    th = 2 * np.pi * np.arange(n) / n
+    ref = c[0] + c[1] * np.cos(th) + c[2] * np.sin(th) + c[3] * np.cos(2 * th) + c[4] * np.sin(2 * th)
+    assert np.max(np.abs(synthesize(c, n) - ref)) < 1e-13
+    C = rng.standard_normal((9, 3))
+    assert np.max(np.abs(coefficients(synthesize(C, 64), 4) - C)) < 1e-13

@@ -76,6 +76,7 @@ from .hb_problem import HBResidual
 from .hbm import harmonic_balance
 from .options import ContinuationOptions, resolve_options
 from .orbit import PeriodicOrbit
+from .periodic import ORBIT_METHODS
 from .problems import PeriodicOrbitProblem, ShootingResidual
 from .shooting import _check_tolerances, shoot
 
@@ -224,8 +225,8 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     start, stop = float(start), float(stop)
     if not (math.isfinite(start) and math.isfinite(stop)) or start == stop:
         raise ParameterError(f"the parameter range must be two different finite values, got {start} .. {stop}")
-    if method not in ("shooting", "hbm"):
-        raise ParameterError(f"method must be 'shooting' or 'hbm', got '{method}'")
+    if method not in ORBIT_METHODS:
+        raise ParameterError(f"method must be one of {', '.join(ORBIT_METHODS)}, got '{method}'")
     if system.generated.implicit:
         raise ParameterError("continuation needs an explicit model (variational equations for the monodromy)")
     types = detect_types(detect)

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ParameterError
+from .fourier import synthesize
 from .rattle import RATTLE_STATES, mesh_rattle_states
 from .stability import floquet, rigid_state_basis
 
@@ -179,7 +180,7 @@ class PeriodicOrbit:
         """
         i = self.state_names.index(state) if isinstance(state, str) else int(state)
         if self.method == "hbm" and self.coefficients is not None:
-            y = _series(self.coefficients[:, i], 8192)
+            y = synthesize(self.coefficients[:, i], 8192)
             return _refined_min(y), _refined_max(y)
         y = self.trajectory().y[:, i]
         return _refined_min(y), _refined_max(y)
@@ -234,7 +235,7 @@ class PeriodicOrbit:
         elif self.coefficients is not None:
             n = 2048
             t = self.t0 + self.period * np.arange(n + 1) / n
-            y = np.array([_series(self.coefficients[:, i], n) for i in range(len(names))]).T
+            y = synthesize(self.coefficients, n)
             y = np.vstack([y, y[:1]])
         else:
             t, y = np.array([self.t0]), self.x0[None, :]
@@ -306,7 +307,7 @@ class PeriodicOrbit:
         if self.method == "hbm" and self.coefficients is not None:
             n = 8192
             t = self.t0 + self.period * np.arange(n) / n
-            Y = np.array([_series(self.coefficients[:, i], n) for i in range(len(self.state_names))]).T
+            Y = synthesize(self.coefficients, n)
         else:
             tr = self.trajectory()
             t, Y = tr.t, tr.y
@@ -359,16 +360,6 @@ class PeriodicOrbit:
             if k in self.info:
                 d[k] = self.info[k]
         return d
-
-
-def _series(c: np.ndarray, n: int) -> np.ndarray:
-    """Evaluate ``a0 + sum a_k cos + b_k sin`` on ``n`` points of one period."""
-    H = (len(c) - 1) // 2
-    th = 2 * np.pi * np.arange(n) / n
-    y = np.full(n, c[0])
-    for k in range(1, H + 1):
-        y += c[2 * k - 1] * np.cos(k * th) + c[2 * k] * np.sin(k * th)
-    return y
 
 
 def _refined_max(y: np.ndarray) -> float:

@@ -64,4 +64,4 @@ def periodic_orbit(system: System, period: float | None = None, periods: float =
         return shoot(system, period=period, periods=periods, x0=x0, params=params, **options)
     if method == "hbm":
         return harmonic_balance(system, period=period, periods=periods, x0=x0, params=params, **options)
-    raise ParameterError(f"method must be 'shooting' or 'hbm', got '{method}'")
+    raise ParameterError(f"method must be one of {', '.join(ORBIT_METHODS)}, got '{method}'")

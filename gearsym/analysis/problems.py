@@ -217,10 +217,11 @@ class ShootingResidual(PeriodicOrbitProblem):
         X = np.asarray(u, float).reshape(N, nx)
         s = self.times(lam)
         p = self.pvec(lam)
+        max_step = self.period(lam) / self.periods / 8  # System.flow's default (T/8), without asking the engine
         xs, Ms, evs = [], [], []
         for i in range(N):
             fl = self.system.flow(X[i], s[i], s[i + 1], p, rtol=self.rtol, atol=self.atol, monodromy=jac,
-                                  method=self.method)
+                                  method=self.method, max_step=max_step)
             self.n_integrations += 1
             xs.append(fl.x_final)
             Ms.append(fl.monodromy)
@@ -284,5 +285,5 @@ def flow_events(system: System, fl: Flow) -> list[Event]:
     if not len(fl.event_t):
         return []
     names = system.surface_names
-    return [Event(float(t), names[int(j)], int(d)) for t, j, d in zip(fl.event_t, fl.event_surface,
-                                                                       fl.event_direction, strict=True)]
+    return [Event(t, names[j], d) for t, j, d in zip(fl.event_t.tolist(), np.asarray(fl.event_surface).tolist(),
+                                                     np.asarray(fl.event_direction).tolist(), strict=True)]

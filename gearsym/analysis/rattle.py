@@ -300,12 +300,7 @@ def _from_events(traj: Trajectory, system: Any, element: str | None, steady_frac
     window = [e for e in traj.events if ts <= e.t <= te]
     n_drive = sum(1 for e in window if e.surface == names.get("drive"))
     n_back = sum(1 for e in window if e.surface == names.get("back"))
-    if start == "back" or n_back:
-        st = BILATERAL
-    elif start == "separation" or n_drive:
-        st = UNILATERAL
-    else:
-        st = NO_RATTLE
+    st = classify(start == "drive", start == "back", n_drive > 0, n_back > 0)
     return RattleSummary(st, ts, te, start, n_drive, n_back, "events")
 
 
@@ -353,16 +348,36 @@ def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequ
         if kind not in ("drive", "back"):
             continue
         mesh = s["name"].rsplit(".", 1)[0]
-        st = meshes.setdefault(mesh, {"drive_always": True, "drive_ever": False, "back_ever": False})
+        st = meshes.setdefault(mesh, {"drive_in": False, "drive_crossed": False, "back_in": False,
+                                      "back_crossed": False})
         in_contact = (g[j] > 0) if sign > 0 else (g[j] < 0)
         crossed = any(e.surface == s["name"] for e in events)
         if G is not None:
             side = (G[j] > 0) if sign > 0 else (G[j] < 0)
             in_contact = bool(np.all(side)) if kind == "drive" else bool(np.any(side))
             crossed = crossed or bool(np.any(side != side[0]))
-        if kind == "drive":
-            st["drive_ever"] |= bool(in_contact or crossed)
-            st["drive_always"] &= bool(in_contact and not crossed)
-        else:
-            st["back_ever"] |= bool(in_contact or crossed)
-    return {mesh: 2 if st["back_ever"] else (0 if st["drive_always"] else 1) for mesh, st in meshes.items()}
+        st[f"{kind}_in"] = bool(in_contact)
+        st[f"{kind}_crossed"] = bool(crossed)
+    return {mesh: classify(**st) for mesh, st in meshes.items()}
+
+
+def classify(drive_in: bool, back_in: bool, drive_crossed: bool, back_crossed: bool) -> int:
+    """The one rattle classifier: the state of a mesh from its contact at the start of a window
+    and the crossings of its drive and back surfaces in it (module docstring).
+
+    Parameters
+    ----------
+    drive_in, back_in
+        Drive-side / back-side contact at the start of the window.
+    drive_crossed, back_crossed
+        Whether the drive / back surface is crossed in the window.
+
+    Returns
+    -------
+    int
+        :data:`BILATERAL` with any back-side contact, else :data:`NO_RATTLE` when the drive-side
+        contact holds throughout, else :data:`UNILATERAL`.
+    """
+    if back_in or back_crossed:
+        return BILATERAL
+    return NO_RATTLE if drive_in and not drive_crossed else UNILATERAL

@@ -54,7 +54,7 @@ __all__ = ["flow", "shoot"]
 
 def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mapping[str, float] | np.ndarray | None,
          rtol: float, atol: float, jacobian: bool = True, fd_step: float = 1e-6,
-         method: str | None = None, n_out: int = 2, with_amplitude: bool = False
+         method: str | None = None, n_out: int = 2, with_amplitude: bool = False, max_step: float | None = None
          ) -> tuple[Any, ...]:
     """The flow map ``phi(t1, t0, x)``, its Jacobian and the events on the way.
 
@@ -62,13 +62,14 @@ def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mappi
     grid, no trajectory object).  The Jacobian is the engine's variational monodromy
     (explicit models) or central finite differences with step ``fd_step * max(1, |x_j|)``
     (implicit models).  ``params`` may be the parameter vector itself.  With
-    ``with_amplitude`` also ``max |x_i(t)|`` over ``n_out`` evenly spaced points.
+    ``with_amplitude`` also ``max |x_i(t)|`` over ``n_out`` evenly spaced points.  ``max_step``
+    as for :meth:`~gearsym.system.System.flow` (default an eighth of the forcing period).
     """
     x = np.asarray(x, float)
     pv = params if isinstance(params, np.ndarray) else system.param_vector(params)
     implicit = system.generated.implicit
     fl = system.flow(x, t0, t1, pv, rtol=rtol, atol=atol, monodromy=bool(jacobian and not implicit),
-                     method=method, n_samples=n_out)
+                     method=method, n_samples=n_out, max_step=max_step)
     M = fl.monodromy
     if jacobian and implicit:
         n = len(x)
@@ -209,34 +210,36 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     # ---------------------------------------------------------------- residual
     n_amp = max(3, int(math.ceil(16 / segments)) + 1)
     pvec = system.param_vector(params)
+    max_step = T / 8 if T else 0.0  # System.flow's default, computed once
     amp = np.zeros(nx)
+    scale_box = [np.ones(nx)]  # the scales of the last evaluation (see scales())
 
     def evaluate(X: np.ndarray, jac: bool = True):
         xs, Ms, evs = [], [], []
         a = np.zeros(nx)
         for i in range(segments):
             xe, M, ev, ai = flow(system, X[i], s[i], s[i + 1], pvec, rtol, atol, jacobian=jac,
-                                 method=method, n_out=n_amp, with_amplitude=True)
+                                 method=method, n_out=n_amp, with_amplitude=True, max_step=max_step)
             xs.append(xe)
             Ms.append(M)
             evs.extend(ev)
             a = np.maximum(a, ai)
         amp[:] = a
-        R = np.array([xs[i] - X[(i + 1) % segments] for i in range(segments)])
-        return R, Ms, evs
-
-    def scales() -> np.ndarray:
         # per-state scale: the largest |x_i| along the current trajectory (states in
         # different units, e.g. m and m/s, each get a relative tolerance)
         # (floor atol/tol: a residual below the integrator's atol always counts as
         # converged, e.g. for the trivial orbit x = 0 of a homogeneous linear system)
-        top = float(np.max(amp)) if amp.size else 0.0
-        if not math.isfinite(top):
-            return np.ones(nx)
-        return np.maximum(amp, max(1e-9 * top, atol / tol))
+        top = float(a.max()) if a.size else 0.0
+        scale_box[0] = np.maximum(a, max(1e-9 * top, atol / tol)) if math.isfinite(top) else np.ones(nx)
+        R = xs[0] - X[1 % segments] if segments == 1 else np.array(
+            [xs[i] - X[(i + 1) % segments] for i in range(segments)])
+        return R.reshape(segments, nx), Ms, evs
+
+    def scales() -> np.ndarray:
+        return scale_box[0]
 
     def rel(A: np.ndarray) -> float:
-        return float(np.max(np.abs(A) / scales()[None, :]))
+        return float((np.abs(A) / scale_box[0]).max())
 
     def _relax(X: np.ndarray, n_periods: int) -> np.ndarray:
         tr = system.simulate(t_end=s[0], t0=s[0] - n_periods * Tt, x0=X[0], rtol=max(rtol, 1e-9),

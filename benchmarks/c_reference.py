@@ -1,0 +1,91 @@
+"""The C reference of the analysis benchmarks: a bare C CVODE loop, and time spent in C.
+
+* :func:`bare_c_loop` times **one call of the C driver** (``gs_simulate`` through the
+  engine's ctypes binding, no output grid: the CVODE loop with root finding and mode
+  switches runs entirely in C over the same generated model) integrating 200 forcing
+  periods of the benchmark oscillator.  The Python cost of the call (one ctypes call,
+  ~50 us) is included; it is ~0.3 % of the loop.
+* :class:`CTimer` counts the wall time spent inside the driver's C entry points
+  (``gs_simulate_ws``, ``gs_eval``, ``gs_eval_period``) during a piece of Python code, by
+  wrapping them on one engine; the rest is time outside C (Python, numpy, CasADi).
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from typing import Any
+
+import numpy as np
+
+#: The C entry points of the driver that do numerical work.
+C_ENTRY_POINTS = ("gs_simulate_ws", "gs_simulate", "gs_eval", "gs_eval_period")
+
+
+def bare_c_loop(system: Any, params: dict[str, float], periods: int = 200, rtol: float = 1e-10,
+                atol: float = 1e-12, repeats: int = 5) -> dict[str, Any]:
+    """Best and median wall time of one C-driver call integrating ``periods`` forcing periods."""
+    p = system.param_vector(params)
+    T = system.period(params)
+    x0 = np.asarray(system.x0, float)
+    method = str(system.defaults.get("method", "adams"))
+    grid = np.array([0.0, periods * T])
+    times, stats = [], {}
+    for _ in range(repeats):
+        t = time.perf_counter()
+        res = system.engine.run(x0, p, 0.0, periods * T, grid, method=method, rtol=rtol, atol=atol,
+                                max_step=T / 8)
+        times.append(time.perf_counter() - t)
+        stats = res.stats
+    return {"periods": periods, "rtol": rtol, "atol": atol, "method": method, "best_s": min(times),
+            "median_s": statistics.median(times), "n_steps": stats.get("n_steps"),
+            "n_events": stats.get("n_events")}
+
+
+class _TimedLib:
+    """A proxy of the driver library that accumulates the time of its C entry points."""
+
+    def __init__(self, lib: Any, timer: CTimer):
+        self._lib = lib
+        self._timer = timer
+
+    def __getattr__(self, name: str) -> Any:
+        fn = getattr(self._lib, name)
+        if name not in C_ENTRY_POINTS:
+            return fn
+        timer = self._timer
+
+        def timed(*args: Any) -> Any:
+            t = time.perf_counter()
+            try:
+                return fn(*args)
+            finally:
+                timer.c_s += time.perf_counter() - t
+                timer.c_calls += 1
+
+        return timed
+
+
+class CTimer:
+    """``with CTimer(system) as ct: ...``: ``ct.c_s`` seconds in C, ``ct.wall_s`` in all."""
+
+    def __init__(self, system: Any):
+        self.engine = system.engine
+        self.c_s = 0.0
+        self.c_calls = 0
+        self.wall_s = 0.0
+
+    def __enter__(self) -> CTimer:
+        self._orig = self.engine._lib
+        self.engine._lib = _TimedLib(self._orig, self)
+        self._t = time.perf_counter()
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.wall_s = time.perf_counter() - self._t
+        self.engine._lib = self._orig
+
+    @property
+    def outside_c_fraction(self) -> float:
+        """Share of the wall time spent outside the C entry points."""
+        return 1.0 - self.c_s / self.wall_s if self.wall_s > 0 else float("nan")
