@@ -83,3 +83,25 @@ def test_fourier_series_against_the_written_out_sum():
     assert np.max(np.abs(synthesize(c, n) - ref)) < 1e-13
     C = rng.standard_normal((9, 3))
     assert np.max(np.abs(coefficients(synthesize(C, 64), 4) - C)) < 1e-13
+
+
+@pytest.mark.parametrize("n", [2, 6, 30])
+def test_multiplier_tolerances_match_scipy_left_right_eigenvectors(n):
+    """The small-matrix path (numpy eig, left vectors from inv(V)) against scipy's left/right
+    eigenvectors: the same eigenvalue condition numbers, hence the same tolerances."""
+    import scipy.linalg
+
+    from gearsym.analysis.stability import multiplier_tolerances
+
+    rng = np.random.default_rng(n)
+    M = rng.standard_normal((n, n)) * 10.0 ** rng.uniform(-3, 3, (n, 1))
+    mu, tol, delta = multiplier_tolerances(M, 1e-10)
+    Mb = scipy.linalg.matrix_balance(M, permute=False)[0]
+    ref, vl, vr = scipy.linalg.eig(Mb, left=True, right=True)
+    kappa = np.linalg.norm(vl, axis=0) * np.linalg.norm(vr, axis=0) / np.abs(np.sum(np.conj(vl) * vr, axis=0))
+    cap = np.sqrt(delta * max(1.0, np.linalg.norm(Mb, 2)))
+    ref_tol = np.maximum(np.minimum(kappa * delta, cap), 16 * np.finfo(float).eps)
+    for m, t in zip(mu, tol, strict=True):
+        j = int(np.argmin(np.abs(ref - m)))
+        assert abs(ref[j] - m) <= 1e-12 * np.max(np.abs(ref))
+        assert t == pytest.approx(ref_tol[j], rel=1e-9)
