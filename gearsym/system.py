@@ -430,12 +430,7 @@ class System:
             max_steps = int(self.defaults.get("max_steps", 0))
         if max_steps < 0:
             raise ParameterError(f"max_steps must be positive (0: the default), got {max_steps}")
-        budget = max_steps or DEFAULT_MAX_STEPS
-        if max_step and math.isfinite(max_step) and max_step > 0 and (t_end - t0) / max_step > budget:
-            raise ParameterError(
-                f"integrating to t_end = {t_end:g} needs at least {(t_end - t0) / max_step:.3g} steps "
-                f"(largest step {max_step:.3g}{' = T/8' if T and max_step == T / 8 else ''}), more than "
-                f"max_steps = {budget:d}: raise max_steps (--max-steps) or integrate fewer periods")
+        _check_step_budget(t0, t_end, max_step, max_steps, bool(T and max_step == T / 8))
         res = self.engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
                               sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
                               max_step=max_step, nonlinear=nonlinear, linear_solver=linear_solver)
@@ -503,6 +498,8 @@ class System:
             max_step = T / 8 if math.isfinite(T) and T > 0 else 0.0
         grid = np.linspace(t0, t1, max(int(n_samples), 2))
         grid[-1] = t1
+        max_steps = max_steps or int(self.defaults.get("max_steps", 0))
+        _check_step_budget(t0, t1, max_step, max_steps, False)
         mono = bool(monodromy and not self.generated.implicit)
         nx = self.generated.nx
         atol_vec = None
@@ -517,7 +514,7 @@ class System:
             atol = float(np.min(ax))
         res = self.engine.run(x0, pv, t0, t1, grid, method=method, rtol=rtol, atol=atol, sigma0=sigma0,
                               atol_vec=atol_vec, want_monodromy=mono,
-                              max_steps=max_steps or int(self.defaults.get("max_steps", 0)), max_step=max_step)
+                              max_steps=max_steps, max_step=max_step)
         ev = res.events
         return Flow(x_final=res.x_final, monodromy=res.monodromy, event_t=ev.t, event_surface=ev.surface,
                     event_direction=ev.direction, event_speed=ev.speed, sigma_final=res.sigma_final,
@@ -628,3 +625,13 @@ class System:
 
         return periodic_orbit(self, period=period, periods=periods, x0=x0, method=method, params=params,
                               **options)
+
+
+def _check_step_budget(t0: float, t_end: float, max_step: float, max_steps: int, t8: bool) -> None:
+    """Refuse, before any work, a horizon that needs more steps of ``max_step`` than the budget."""
+    budget = max_steps or DEFAULT_MAX_STEPS
+    if max_step and math.isfinite(max_step) and max_step > 0 and (t_end - t0) / max_step > budget:
+        raise ParameterError(
+            f"integrating to t_end = {t_end:g} needs at least {(t_end - t0) / max_step:.3g} steps "
+            f"(largest step {max_step:.3g}{' = T/8' if t8 else ''}), more than "
+            f"max_steps = {budget:d}: raise max_steps (--max-steps) or integrate fewer periods")
