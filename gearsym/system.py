@@ -11,7 +11,7 @@ from types import MappingProxyType
 import numpy as np
 
 from .bound_functions import evaluate as evaluate_bound
-from .codegen.generate import GeneratedModel
+from .codegen.artifact import GeneratedModel, decode_schedules, generated_map
 from .engine.driver import Engine, load_engine
 from .errors import GearsymError, ParameterError
 from .results import Event, Flow, Trajectory
@@ -545,12 +545,7 @@ class System:
             max_steps = int(self.defaults.get("max_steps", 0))
         if max_steps < 0:
             raise ParameterError(f"max_steps must be positive (0: the default), got {max_steps}")
-        budget = max_steps or DEFAULT_MAX_STEPS
-        if max_step and math.isfinite(max_step) and max_step > 0 and (t_end - t0) / max_step > budget:
-            raise ParameterError(
-                f"integrating to t_end = {t_end:g} needs at least {(t_end - t0) / max_step:.3g} steps "
-                f"(largest step {max_step:.3g}{' = T/8' if T and max_step == T / 8 else ''}), more than "
-                f"max_steps = {budget:d}: raise max_steps (--max-steps) or integrate fewer periods")
+        _check_step_budget(t0, t_end, max_step, max_steps, bool(T and max_step == T / 8))
         res = self.engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
                               sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
                               max_step=max_step, nonlinear=nonlinear, linear_solver=linear_solver)
@@ -619,6 +614,8 @@ class System:
             max_step = T / 8 if math.isfinite(T) and T > 0 else 0.0
         grid = np.linspace(t0, t1, max(int(n_samples), 2))
         grid[-1] = t1
+        max_steps = max_steps or int(self.defaults.get("max_steps", 0))
+        _check_step_budget(t0, t1, max_step, max_steps, False)
         mono = bool(monodromy)
         nx = self.generated.nx
         nd = nx - len(self.generated.algebraic)  # variational columns: the differential states
@@ -634,11 +631,73 @@ class System:
             atol = float(np.min(ax))
         res = self.engine.run(x0, pv, t0, t1, grid, method=method, rtol=rtol, atol=atol, sigma0=sigma0,
                               atol_vec=atol_vec, want_monodromy=mono,
-                              max_steps=max_steps or int(self.defaults.get("max_steps", 0)), max_step=max_step)
+                              max_steps=max_steps, max_step=max_step)
         ev = res.events
         return Flow(x_final=res.x_final, monodromy=res.monodromy, event_t=ev.t, event_surface=ev.surface,
                     event_direction=ev.direction, event_speed=ev.speed, sigma_final=res.sigma_final,
                     amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats)
+
+    # ------------------------------------------- generated functions for the analyses
+    def modes(self, t: Sequence[float] | float, x: Sequence[float], p: np.ndarray | None = None) -> np.ndarray:
+        """The mode vector (surface sides, then each schedule's cycle and segment) at many points.
+
+        Evaluated by the engine in C (the driver's own mode logic), so the analyses never
+        decode the schedules themselves.
+
+        Parameters
+        ----------
+        t
+            Times, shape (n,).
+        x
+            States, shape (n, nx).
+        p
+            Parameter vector (:meth:`param_vector`); the current values when ``None``.
+
+        Returns
+        -------
+        ndarray
+            Shape (n, nm): ``[sigma_0, ..., sigma_{nsw-1}, n_0, seg_0, n_1, seg_1, ...]``.
+        """
+        ta = np.atleast_1d(np.asarray(t, float))
+        pv = self.param_vector() if p is None else p
+        return self.engine.evaluate("mode", ta, np.asarray(x, float).reshape(ta.shape[0], self.generated.nx), pv)
+
+    def schedule_table(self, p: np.ndarray | None = None) -> list[tuple[float, np.ndarray]]:
+        """``(period, break fractions)`` of every schedule at a parameter vector.
+
+        Parameters
+        ----------
+        p
+            Parameter vector (:meth:`param_vector`); the current values when ``None``.
+
+        Returns
+        -------
+        list of (float, ndarray)
+            One entry per schedule, in model order (empty without schedules).
+        """
+        if not self.generated.schedules:
+            return []
+        pv = self.param_vector() if p is None else p
+        return decode_schedules(generated_map(self.generated, "gs_sched", 1)(pv), self.generated.schedules)
+
+    def generated_map(self, name: str, n: int):
+        """The generated CasADi function ``name`` mapped over ``n`` points (cached).
+
+        For what the engine does not evaluate in C: the analysis extras (``gs_mesh``,
+        ``gs_rigid``) and evaluations vectorised over many parameter vectors.
+
+        Parameters
+        ----------
+        name
+            ``"gs_mesh"``, ``"gs_rigid"``, ``"gs_jac"``, ...
+        n
+            Number of points (columns).
+
+        Returns
+        -------
+        casadi.Function
+        """
+        return generated_map(self.generated, name, n)
 
     # --------------------------------------------------------- periodic orbits
 
@@ -647,7 +706,7 @@ class System:
                        params: Mapping[str, float] | None = None, **options):
         """Find a periodic orbit and its Floquet multipliers.
 
-        Delegates to :func:`gearsym.analysis.orbit.periodic_orbit`: ``method="shooting"``
+        Delegates to :func:`gearsym.analysis.periodic.periodic_orbit`: ``method="shooting"``
         (Newton on ``phi(T, x0) - x0`` with the engine's variational equations and
         saltation matrices; ``segments=N`` for multiple shooting) or ``"hbm"``
         (harmonic balance with alternating frequency/time; ``harmonics=H`` or grown).
@@ -679,7 +738,17 @@ class System:
         ConvergenceError
             The solver did not converge (with its residual history).
         """
-        from .analysis.orbit import periodic_orbit
+        from .analysis.periodic import periodic_orbit
 
         return periodic_orbit(self, period=period, periods=periods, x0=x0, method=method, params=params,
                               **options)
+
+
+def _check_step_budget(t0: float, t_end: float, max_step: float, max_steps: int, t8: bool) -> None:
+    """Refuse, before any work, a horizon that needs more steps of ``max_step`` than the budget."""
+    budget = max_steps or DEFAULT_MAX_STEPS
+    if max_step and math.isfinite(max_step) and max_step > 0 and (t_end - t0) / max_step > budget:
+        raise ParameterError(
+            f"integrating to t_end = {t_end:g} needs at least {(t_end - t0) / max_step:.3g} steps "
+            f"(largest step {max_step:.3g}{' = T/8' if t8 else ''}), more than "
+            f"max_steps = {budget:d}: raise max_steps (--max-steps) or integrate fewer periods")

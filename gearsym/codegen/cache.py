@@ -87,9 +87,9 @@ def build_key(model_text: str, effects: dict, form: str, *, cc: str | None = Non
         in ``meta.json``; the model text enters as its SHA-256).  The scene's name is
         not part of it: it does not change the binary.
     """
-    from .. import __version__
+    from .._version import __version__
     from ..engine.build import toolchain_identity
-    from .generate import CODEGEN_VERSION
+    from .artifact import CODEGEN_VERSION
 
     parts = {
         "gearsym": __version__,
@@ -177,7 +177,7 @@ class BuildCache:
         -------
         GeneratedModel or None
         """
-        from .generate import GeneratedModel
+        from .artifact import GeneratedModel
 
         try:
             gen = GeneratedModel.from_json((entry.directory / "meta.json").read_text(encoding="utf-8"))
