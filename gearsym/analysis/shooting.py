@@ -61,9 +61,8 @@ def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mappi
     """The flow map ``phi(t1, t0, x)``, its Jacobian and the events on the way.
 
     One call of :meth:`gearsym.system.System.flow` (the engine's cheap path: no output
-    grid, no trajectory object).  The Jacobian is the engine's variational monodromy
-    (explicit models) or central finite differences with step ``fd_step * max(1, |x_j|)``
-    (implicit models).  ``params`` may be the parameter vector itself.  With
+    grid, no trajectory object).  The Jacobian is the engine's variational monodromy, or for an
+    implicit model without one, central finite differences with step ``fd_step * max(1, |x_j|)``.  ``params`` may be the parameter vector itself.  With
     ``with_amplitude`` also ``max |x_i(t)|`` over ``n_out`` evenly spaced points.  ``max_step``
     as for :meth:`~gearsym.system.System.flow` (default an eighth of the forcing period).
     """
@@ -72,8 +71,8 @@ def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mappi
     implicit = system.generated.implicit
     fl = system.flow(x, t0, t1, pv, rtol=rtol, atol=atol, monodromy=bool(jacobian),
                      method=method, n_samples=n_out, max_step=max_step)
-    M = fl.monodromy
-    if jacobian and implicit and M is None:  # IDA gives the DAE's variational equations
+    M = fl.monodromy  # the engine's variational equations, where it has them
+    if jacobian and implicit and M is None:
         n = len(x)
         M = np.empty((n, n))
         for j in range(n):
