@@ -662,6 +662,31 @@ class System:
         pv = self.param_vector() if p is None else p
         return self.engine.evaluate("mode", ta, np.asarray(x, float).reshape(ta.shape[0], self.generated.nx), pv)
 
+    def mesh_deflections(self, t: Sequence[float] | float, x: Sequence[float],
+                         p: np.ndarray | None = None) -> np.ndarray:
+        """Dynamic deflection (deflection - error) of every mesh at many points (generated C).
+
+        Parameters
+        ----------
+        t
+            Times, shape (n,).
+        x
+            States, shape (n, nx).
+        p
+            Parameter vector (:meth:`param_vector`); the current values when ``None``.
+
+        Returns
+        -------
+        ndarray
+            Shape (n, number of meshes), in the model's order (``generated.meshes``); the
+            mode at each point from the signs of the switching functions, as the driver's.
+        """
+        ta = np.atleast_1d(np.asarray(t, float))
+        if not getattr(self.generated, "meshes", None):
+            return np.empty((ta.shape[0], 0))
+        pv = self.param_vector() if p is None else p
+        return self.engine.evaluate("mesh", ta, np.asarray(x, float).reshape(ta.shape[0], self.generated.nx), pv)
+
     def schedule_table(self, p: np.ndarray | None = None) -> list[tuple[float, np.ndarray]]:
         """``(period, break fractions)`` of every schedule at a parameter vector.
 

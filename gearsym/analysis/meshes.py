@@ -28,11 +28,6 @@ def mesh_names(system: System) -> list[str]:
     return list(getattr(system.generated, "meshes", []) or [])
 
 
-def _modes(system: System, t: np.ndarray, Y: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Mode vectors at the samples, shape (nm, n): evaluated by the engine in C."""
-    return system.modes(t, Y, p).T
-
-
 def mesh_deflections(system: System, t: Sequence[float], Y: np.ndarray,
                      params: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
     """Dynamic deflection of every mesh at the states ``Y[k]`` at times ``t[k]`` (SI).
@@ -47,11 +42,7 @@ def mesh_deflections(system: System, t: Sequence[float], Y: np.ndarray,
         return {}
     t = np.asarray(t, float)
     Y = np.asarray(Y, float).reshape(len(t), -1)
-    p = system.param_vector(params)
-    n = len(t)
-    m = _modes(system, t, Y, p)
-    D = np.asarray(system.generated_map("gs_mesh", n)(t[None, :], Y.T, np.tile(p[:, None], (1, n)), m)
-                   ).reshape(len(names), n)
+    D = system.mesh_deflections(t, Y, system.param_vector(params)).T  # generated C, in the engine
     return {name: D[i] for i, name in enumerate(names)}
 
 

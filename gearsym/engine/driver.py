@@ -29,7 +29,7 @@ GS_ERR_INTERRUPTED = -8
 #: Integration methods: name -> GS_METHOD_* code.
 METHODS: dict[str, int] = {"bdf": 0, "adams": 1, "ida": 2}
 #: Functions of :meth:`Engine.evaluate`: name -> GS_EVAL_* code.
-EVAL_FUNCTIONS: dict[str, int] = {"sw": 0, "out": 1, "rhs": 2, "jac": 3, "mode": 4}
+EVAL_FUNCTIONS: dict[str, int] = {"sw": 0, "out": 1, "rhs": 2, "jac": 3, "mode": 4, "mesh": 5}
 #: CVODE nonlinear solvers: name -> GS_NONLIN_* code.
 NONLINEAR: dict[str, int] = {"auto": 0, "newton": 1, "fixedpoint": 2}
 #: Newton's linear solvers: name -> GS_LINSOL_* code.
@@ -246,6 +246,10 @@ class Engine:
         """Number of model outputs (``gs_out``)."""
         return int(self._lib.gs_n_outputs(self._ws()))
 
+    def n_meshes(self) -> int:
+        """Number of mesh deflections (``gs_mesh``; 0 for a model without meshes)."""
+        return int(self._lib.gs_n_meshes(self._ws()))
+
     def evaluate(self, function: str, t: Any, x: Any, p: Any, sigma: Any = None) -> np.ndarray:
         """Evaluate a generated function at many points, in the driver's mode there.
 
@@ -253,8 +257,9 @@ class Engine:
         ----------
         function
             ``"sw"`` (switching functions), ``"out"`` (the model's outputs),
-            ``"rhs"``, ``"jac"`` (dense ``d xdot / d x``) or ``"mode"`` (the mode
-            vector: surface sides, schedule cycle and segment).
+            ``"rhs"``, ``"jac"`` (dense ``d xdot / d x``), ``"mode"`` (the mode
+            vector: surface sides, schedule cycle and segment) or ``"mesh"`` (the
+            dynamic deflection of each mesh).
         t
             Times, shape (n,).
         x
@@ -280,7 +285,7 @@ class Engine:
         if sigma is not None:
             sg = np.ascontiguousarray(np.asarray(sigma, dtype=float).reshape(n, self.nsw))
         k = {"sw": self.nsw, "out": max(self.n_outputs(), 0), "rhs": self.nx, "jac": self.nx * self.nx,
-             "mode": self.nm}[function]
+             "mode": self.nm, "mesh": max(self.n_meshes(), 0) if function == "mesh" else 0}[function]
         out = np.empty((n, max(k, 1)))
         msg = C.create_string_buffer(256)
         rc = self._lib.gs_eval(self._ws(), code, n, _ptr(ta), _ptr(xa), _ptr(pa) if pa.shape[0] else None,
@@ -625,6 +630,8 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
     lib.gs_eval_period.argtypes = [C.c_void_p, C.c_void_p, C.POINTER(C.c_double), C.c_char_p, C.c_int]
     lib.gs_n_outputs.restype = C.c_int
     lib.gs_n_outputs.argtypes = [C.c_void_p]
+    lib.gs_n_meshes.restype = C.c_int
+    lib.gs_n_meshes.argtypes = [C.c_void_p]
     lib.gs_eval.restype = C.c_int
     lib.gs_eval.argtypes = [C.c_void_p, C.c_int, C.c_int, C.c_void_p, C.c_void_p, C.c_void_p, C.c_void_p,
                             C.c_void_p, C.c_char_p, C.c_int]

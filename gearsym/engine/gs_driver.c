@@ -80,6 +80,7 @@ GS_DECLARE_MODEL_FN(gs_swt)
 GS_DECLARE_MODEL_FN(gs_sched)
 GS_DECLARE_MODEL_FN(gs_period)
 GS_DECLARE_MODEL_FN(gs_out)
+GS_DECLARE_MODEL_FN(gs_mesh)
 extern int gs_model_info(int* out, int len) GS_WEAK;
 
 typedef int (*gs_cfun_ptr)(const casadi_real**, casadi_real**, casadi_int*, casadi_real*, int);
@@ -117,7 +118,7 @@ typedef struct {
   double* m_alt;   /* scratch mode vector [nm]                               */
   double dummy[1]; /* non-NULL pointer for empty inputs                      */
 
-  gs_fn rhs, jac, res, resjac, sw, swx, swt, sched, period, out;
+  gs_fn rhs, jac, res, resjac, sw, swx, swt, sched, period, out, mesh;
   const casadi_real** arg;
   casadi_real** resp;
   casadi_int* iw;
@@ -1352,6 +1353,7 @@ struct gs_workspace {
   char* warn_buf;
   size_t warn_len;
   int n_out_fn;             /* outputs of gs_out (0: none)                       */
+  int n_mesh_fn;            /* mesh deflections of gs_mesh (0: none)             */
   N_Vector atol;            /* absolute tolerances of the current call (atol_vec) */
 };
 
@@ -1471,6 +1473,7 @@ static int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
   GS_FN_SETUP(ud->sched, gs_sched);
   GS_FN_SETUP(ud->period, gs_period);
   GS_FN_SETUP(ud->out, gs_out);
+  GS_FN_SETUP(ud->mesh, gs_mesh);
   {
     int s4[4] = {1, nx, np, nm};
     int s5[5] = {1, nx, nx, np, nm};
@@ -1504,6 +1507,11 @@ static int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
       const casadi_int* sp = gs_out_sparsity_out(0);
       ws->n_out_fn = sp ? (int)sp[0] : 0;
       GS_CHECK(out, gs_out, s4, 4, ws->n_out_fn, 1)
+    }
+    if (ud->mesh.present) {
+      const casadi_int* sp = gs_mesh_sparsity_out(0);
+      ws->n_mesh_fn = sp ? (int)sp[0] : 0;
+      GS_CHECK(mesh, gs_mesh, s4, 4, ws->n_mesh_fn, 1)
     }
 #undef GS_CHECK
   }
@@ -2107,6 +2115,12 @@ int gs_n_outputs(gs_workspace* ws) {
   return ws->n_out_fn;
 }
 
+int gs_n_meshes(gs_workspace* ws) {
+  char msg[256];
+  if (ws_ready(ws, msg, (int)sizeof(msg))) return -1;
+  return ws->n_mesh_fn;
+}
+
 /* Schedule part of the mode at time t (n_k, seg_k) from the schedule vector s. */
 static void sched_modes_at(gs_workspace* ws, const double* s, double t, double* m) {
   gs_ud* ud = &ws->U;
@@ -2150,6 +2164,9 @@ int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, c
   } else if (fn == GS_EVAL_MODE) {
     f = NULL;
     nout = ud->nm;
+  } else if (fn == GS_EVAL_MESH) {
+    f = &ud->mesh;
+    nout = ws->n_mesh_fn;
   } else {
     snprintf(msg, (size_t)len, "unknown function code %d", fn);
     return -1;

@@ -109,12 +109,16 @@ int gs_eval_period(gs_workspace* ws, const double* p, double* T, char* msg, int 
 /* Number of model outputs (gs_out), or -1. */
 int gs_n_outputs(gs_workspace* ws);
 
+/* Number of mesh deflections (gs_mesh; 0 for a model without meshes), or -1. */
+int gs_n_meshes(gs_workspace* ws);
+
 /* Evaluate a generated function at n points (t[i], x[i*nx..]) with parameters p:
  * GS_EVAL_SW   g(t, x, p)                          -> out[i*nsw + j]
  * GS_EVAL_OUT  the model's outputs                 -> out[i*nout + j]
  * GS_EVAL_RHS  xdot (explicit models)              -> out[i*nx + j]
  * GS_EVAL_JAC  d xdot / d x, dense column-major    -> out[i*nx*nx + c*nx + r]
  * GS_EVAL_MODE the mode vector m (sides, schedule) -> out[i*nm + j]
+ * GS_EVAL_MESH dynamic deflection of each mesh      -> out[i*nmesh + j]
  * in the mode the driver would use there: the side of each switching surface
  * from sigma[i*nsw + j] (or, with sigma NULL, +1 where g >= 0), the schedule
  * cycle and segment from t.  Returns 0, or -1 with a message. */
@@ -123,6 +127,7 @@ int gs_n_outputs(gs_workspace* ws);
 #define GS_EVAL_RHS  2
 #define GS_EVAL_JAC  3
 #define GS_EVAL_MODE 4
+#define GS_EVAL_MESH 5
 int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p, const double* sigma,
             double* out, char* msg, int len);
 
