@@ -2,7 +2,8 @@
 
 The generated functions follow the contract in ``gearsym/engine/gs_model_abi.h``
 (``gs_rhs``, ``gs_jac``, ``gs_res``, ``gs_resjac``, ``gs_sw``, ``gs_swx``, ``gs_swt``,
-``gs_sched``, ``gs_period`` and ``gs_model_info``).  Parameters are inputs of every
+``gs_sched``, ``gs_period`` and ``gs_model_info``, and for the parameter sensitivities
+``gs_jacp``, ``gs_swp``, ``gs_schedp``, ``gs_periodp``).  Parameters are inputs of every
 function, so changing one never recompiles.  :func:`write_and_compile` writes the
 sources into a private staging folder and compiles them with ``gcc -O3`` together
 with the engine's C driver into ``gs_<sha256[:16]>.so`` (named by its own bytes:
@@ -31,7 +32,7 @@ from .extras import analysis_functions, analysis_meta
 from .sx import SXTranslator
 
 #: Bump when the generated code's layout changes (invalidates caches).
-CODEGEN_VERSION = "3"
+CODEGEN_VERSION = "4"
 ENGINE_DIR = Path(__file__).resolve().parent.parent / "engine"
 
 
@@ -195,6 +196,12 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
         fns["gs_rhs"] = ca.Function("gs_rhs", [t, x, p, m], [f], ["t", "x", "p", "m"], ["xdot"])
         fns["gs_jac"] = ca.Function("gs_jac", [t, x, p, m], [ca.jacobian(f, x)],
                                     ["t", "x", "p", "m"], ["J"])
+        # parameter sensitivities: d f / d p with respect to *every* parameter (sparse; the
+        # driver contracts it with the requested directions).  Measured on the shipped
+        # models, generating all columns costs < 5 % of the compile time (benchmarks/
+        # sensitivity_cost.py), and choosing parameters at run time then never recompiles.
+        fns["gs_jacp"] = ca.Function("gs_jacp", [t, x, p, m], [ca.jacobian(f, p)],
+                                     ["t", "x", "p", "m"], ["Jp"])
     else:
         xd = ca.SX.sym("xd", nx)
         cj = ca.SX.sym("cj")
@@ -210,6 +217,8 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     fns["gs_sw"] = ca.Function("gs_sw", [t, x, p], [g], ["t", "x", "p"], ["g"])
     fns["gs_swx"] = ca.Function("gs_swx", [t, x, p], [ca.jacobian(g, x)], ["t", "x", "p"], ["G"])  # sparse
     fns["gs_swt"] = ca.Function("gs_swt", [t, x, p], [ca.densify(ca.jacobian(g, t))], ["t", "x", "p"], ["gt"])
+    if model.form == "explicit":  # event-time sensitivities: d g / d p (sparse)
+        fns["gs_swp"] = ca.Function("gs_swp", [t, x, p], [ca.jacobian(g, p)], ["t", "x", "p"], ["Gp"])
     sched = []
     for s in model.schedules:
         sched.append(tr(s.period))
@@ -218,6 +227,9 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     fns["gs_sched"] = ca.Function("gs_sched", [p], [sv], ["p"], ["s"])
     period = tr(model.forcing_period) if model.forcing_period is not None else ca.SX(float("nan"))
     fns["gs_period"] = ca.Function("gs_period", [p], [period], ["p"], ["T"])
+    if model.form == "explicit":  # breakpoint-time and period sensitivities
+        fns["gs_schedp"] = ca.Function("gs_schedp", [p], [ca.densify(ca.jacobian(sv, p))], ["p"], ["sp"])
+        fns["gs_periodp"] = ca.Function("gs_periodp", [p], [ca.densify(ca.jacobian(period, p))], ["p"], ["Tp"])
     outputs = getattr(model, "outputs", {})
     if outputs:
         o = ca.vertcat(*[tr(e) for e in outputs.values()])
@@ -247,6 +259,10 @@ _DOCS = {
     "gs_swt": "d g / d t, for saltation matrices",
     "gs_sched": "schedules: [period, break fractions...] for each schedule",
     "gs_period": "the scene's forcing period T(p)",
+    "gs_jacp": "d f / d p (sparse), for the parameter sensitivities",
+    "gs_swp": "d g / d p (sparse), for the event-time sensitivities",
+    "gs_schedp": "d s / d p of the schedules (breakpoint-time sensitivities)",
+    "gs_periodp": "d T / d p of the forcing period",
     "gs_out": "the model's [outputs] along a trajectory (post-processing, not used by the driver)",
     **_EXTRA_DOCS,
 }

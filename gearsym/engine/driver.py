@@ -88,6 +88,13 @@ class GsSimArgs(C.Structure):
         ("n_reinit", C.c_long),
         ("status", C.c_int),
         ("errmsg", C.c_char * 1024),
+        # parameter sensitivities
+        ("n_sens", C.c_int),
+        ("sens_dir", _PD),
+        ("sens_dt0", _PD),
+        ("sens_dt1", _PD),
+        ("sens_final", _PD),
+        ("sens_out", _PD),
     ]
 
 
@@ -138,6 +145,12 @@ class RunResult:
         n_steps, n_rhs, n_jac, n_root_evals, n_breaks, n_reinit, n_events.
     t_reached
         Last time reached.
+    sensitivity
+        ``d x(t_end) / d lambda_s`` for the parameter directions of the run, shape
+        (nx, n_sens) (the total derivative when ``t_end`` moves with them), or None.
+    sensitivity_out
+        ``d x(t_k) / d lambda_s`` at the (fixed) output times, shape (n_out, nx, n_sens),
+        or None.
     """
 
     t: np.ndarray
@@ -148,6 +161,8 @@ class RunResult:
     events: EventLog
     stats: dict[str, int] = field(default_factory=dict)
     t_reached: float = math.nan
+    sensitivity: np.ndarray | None = None
+    sensitivity_out: np.ndarray | None = None
 
 
 def _ptr(a: np.ndarray | None) -> int | None:
@@ -314,6 +329,10 @@ class Engine:
         nonlinear: str = "auto",
         linear_solver: str = "auto",
         atol_vec: Any = None,
+        sens_dir: Any = None,
+        sens_dt0: Any = None,
+        sens_dt1: Any = None,
+        sens_out: bool = False,
     ) -> RunResult:
         """Integrate the model from ``t0`` to ``t_end`` in one C call.
 
@@ -356,10 +375,21 @@ class Engine:
             Jacobian and no linear algebra, for non-stiff models; cheapest for
             large models) or ``"auto"`` (Newton).
         atol_vec
-            One absolute tolerance per solver component instead of ``atol``: ``nx``
-            entries, or ``nx*(nx+1)`` with ``want_monodromy`` (the state, then the
-            variational matrix column by column), so that its entries, whose scale
-            is that of ``x_i / x0_j``, get a tolerance of their own.
+            One absolute tolerance per solver component instead of ``atol``:
+            ``nx * (1 + nx * want_monodromy + n_sens)`` entries (the state, then the
+            variational matrix column by column, then the sensitivities column by
+            column), so that the variational entries, whose scale is that of
+            ``x_i / x0_j`` (or ``x_i / p_k``), get a tolerance of their own.
+        sens_dir
+            Parameter directions of the sensitivities, shape (np, n_sens): column ``s``
+            is ``d p / d lambda_s`` (a unit vector for one parameter).  The run then
+            integrates ``S' = J S + (df/dp) D`` with the event-time and breakpoint-time
+            jumps (explicit models, CVODE).
+        sens_dt0, sens_dt1
+            ``d t0 / d lambda_s`` and ``d t_end / d lambda_s``, shape (n_sens,) (default
+            zero): a span that moves with the parameter, e.g. one forcing period.
+        sens_out
+            Also return the sensitivities at the output times.
         linear_solver
             Newton's linear solver: ``"dense"`` (SUNDIALS' dense LU of the whole
             system; with the monodromy that is an (n + n^2)^2 matrix),
@@ -404,9 +434,23 @@ class Engine:
         av = None
         if atol_vec is not None:
             av = np.ascontiguousarray(np.asarray(atol_vec, dtype=float).reshape(-1))
-            want = self.nx * (self.nx + 1) if want_monodromy else self.nx
+            n_s = 0 if sens_dir is None else int(np.asarray(sens_dir).reshape(self.np, -1).shape[1])
+            want = self.nx * (1 + (self.nx if want_monodromy else 0) + n_s)
             if av.shape[0] != want:
                 raise EngineInputError(f"atol_vec has {av.shape[0]} entries, need {want}")
+        sens = None
+        if sens_dir is not None:
+            D = np.asarray(sens_dir, dtype=float)
+            if D.ndim == 1:
+                D = D[:, None]
+            if D.ndim != 2 or D.shape[0] != self.np:
+                raise EngineInputError(f"sens_dir must have shape (np={self.np}, n_sens), got {D.shape}")
+            ns = D.shape[1]
+
+            def _vec(v: Any) -> np.ndarray | None:
+                return None if v is None else np.ascontiguousarray(np.broadcast_to(np.asarray(v, float), (ns,)))
+
+            sens = (np.ascontiguousarray(D.T).reshape(-1), ns, _vec(sens_dt0), _vec(sens_dt1), bool(sens_out))
         cap = max(int(max_events_out), 1)
         while True:
             res = self._run_once(
@@ -430,6 +474,7 @@ class Engine:
                 NONLINEAR[nonlinear],
                 LINEAR_SOLVERS[linear_solver],
                 av,
+                sens,
             )
             if isinstance(res, int):  # event log too small: rerun with the exact size
                 cap = res
@@ -458,6 +503,7 @@ class Engine:
         nonlin=0,
         linsol=0,
         av=None,
+        sens=None,
     ) -> RunResult | int:
         nx, nsw = self.nx, self.nsw
         n_out = int(tout.shape[0])
@@ -495,6 +541,15 @@ class Engine:
             _ptr(ev_d),
             _ptr(ev_v),
         )
+        s_final = s_out = None
+        if sens is not None:
+            sdir, ns, dt0, dt1, want_out = sens
+            s_final = np.empty((nx, ns))
+            s_out = np.empty((n_out, nx, ns)) if want_out and n_out else None
+            a.n_sens = ns
+            a.sens_dir = _ptr(sdir)
+            a.sens_dt0, a.sens_dt1 = _ptr(dt0), _ptr(dt1)
+            a.sens_final, a.sens_out = _ptr(s_final), _ptr(s_out)
         a.interrupt_fd, previous = _interrupt.arm()
         a.check_interrupt = 1 if a.interrupt_fd >= 0 else 0
         try:
@@ -535,6 +590,8 @@ class Engine:
             events=events,
             stats=stats,
             t_reached=float(a.t_reached),
+            sensitivity=s_final,
+            sensitivity_out=s_out,
         )
 
 
