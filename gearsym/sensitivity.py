@@ -100,7 +100,7 @@ def period_gradient(system: System, p: np.ndarray, D: np.ndarray) -> np.ndarray:
     gen = system.generated
     if "gs_periodp" not in gen.functions or not gen.param_names:
         return np.zeros(D.shape[1])
-    g = np.asarray(gen.casadi_function("gs_periodp")(p), float).reshape(-1)
+    g = system.engine.period_gradient(np.ascontiguousarray(p, dtype=float))
     g = np.where(np.isfinite(g), g, 0.0)
     return g @ D
 

@@ -13,7 +13,8 @@ in variables scaled by the state magnitudes and the parameter range):
   new point lies on the hyperplane through the prediction orthogonal to the
   tangent, so turning points (folds) are passed without special treatment.
   ``F_u`` is the monodromy minus the identity from the engine's variational
-  equations (with saltation matrices), ``F_lambda`` a central difference;
+  equations (with saltation matrices), ``F_lambda`` exact from the parameter
+  sensitivities (shooting; a finite difference for harmonic balance);
 * **step control**: the step grows after easy corrections (<= 3 Newton steps)
   and shrinks after hard ones; a step is rejected (and halved) when Newton
   fails, the integration fails, or the tangent turns by more than
@@ -80,6 +81,7 @@ from .branch import Bifurcation, Branch, BranchPoint
 from .floquet import monodromy_product
 from .meshes import mesh_point
 from .orbit import PeriodicOrbit, rattle_states
+from .parameter_derivative import exact_f_lambda
 from .stability import complex_sides, floquet, neutral_step_limit, rigid_state_basis
 from .stall import QUICK_STALL, stalled_branch
 
@@ -168,7 +170,12 @@ class _Residual:
         raise NotImplementedError  # pragma: no cover
 
     def _fd_lambda(self, u: np.ndarray, lam: float, R: np.ndarray | None = None) -> np.ndarray:
-        """``dF/dlambda`` by a forward difference from ``R = F(u, lambda)`` (central without it)."""
+        """``dF/dlambda``: exact from the parameter sensitivities where available
+        (:mod:`gearsym.analysis.parameter_derivative`), else a forward difference from
+        ``R = F(u, lambda)`` (central without it)."""
+        exact = exact_f_lambda(self, u, lam)
+        if exact is not None:
+            return exact
         h = self.fd_step
         Rp = self.evaluate(u, lam + h, jac=False).R
         if R is not None:

@@ -251,6 +251,26 @@ class Engine:
             raise EngineInputError(msg.value.decode(errors="replace"))
         return float(out.value)
 
+    def period_gradient(self, p: np.ndarray) -> np.ndarray:
+        """``d T / d p`` of the forcing period from the generated ``gs_periodp``.
+
+        Parameters
+        ----------
+        p
+            Parameter vector, shape (np,), C-contiguous float64.
+
+        Returns
+        -------
+        ndarray, shape (np,)
+            NaN entries where the period is not finite.
+        """
+        out = np.zeros(max(self.np, 1))
+        msg = C.create_string_buffer(256)
+        pa = p if p.shape[0] else None
+        if self._lib.gs_eval_period_grad(self._ws(), _ptr(pa), _ptr(out), msg, 256) != 0:
+            raise EngineInputError(msg.value.decode(errors="replace"))
+        return out[: self.np]
+
     def n_outputs(self) -> int:
         """Number of model outputs (``gs_out``)."""
         return int(self._lib.gs_n_outputs(self._ws()))
@@ -672,6 +692,9 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
     lib.gs_simulate_ws.argtypes = [C.c_void_p, C.POINTER(GsSimArgs)]
     lib.gs_eval_period.restype = C.c_int
     lib.gs_eval_period.argtypes = [C.c_void_p, C.c_void_p, C.POINTER(C.c_double), C.c_char_p, C.c_int]
+    if hasattr(lib, "gs_eval_period_grad"):
+        lib.gs_eval_period_grad.restype = C.c_int
+        lib.gs_eval_period_grad.argtypes = [C.c_void_p, C.c_void_p, C.c_void_p, C.c_char_p, C.c_int]
     lib.gs_n_outputs.restype = C.c_int
     lib.gs_n_outputs.argtypes = [C.c_void_p]
     lib.gs_eval.restype = C.c_int

@@ -2065,6 +2065,24 @@ int gs_eval_period(gs_workspace* ws, const double* p, double* T, char* msg, int 
   return 0;
 }
 
+int gs_eval_period_grad(gs_workspace* ws, const double* p, double* dT, char* msg, int len) {
+  gs_ud* ud;
+  const double* in[1];
+  if (ws_ready(ws, msg, len)) return -1;
+  ud = &ws->U;
+  if (!ud->periodp.present) {
+    snprintf(msg, (size_t)len, "the compiled model has no gs_periodp (built by an older gearsym; rebuild it)");
+    return -1;
+  }
+  if (ud->np == 0) return 0;
+  in[0] = p;
+  if (gs_call(ud, &ud->periodp, in, 1, dT)) {
+    snprintf(msg, (size_t)len, "gs_periodp failed");
+    return -1;
+  }
+  return 0;
+}
+
 int gs_n_outputs(gs_workspace* ws) {
   char msg[256];
   if (ws_ready(ws, msg, (int)sizeof(msg))) return -1;

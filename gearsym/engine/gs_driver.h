@@ -115,6 +115,10 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* args);
  * -1 with a message. */
 int gs_eval_period(gs_workspace* ws, const double* p, double* T, char* msg, int len);
 
+/* d T / d p of the forcing period (gs_periodp) into dT[np].  Returns 0, or -1
+ * with a message (also when the model was built without gs_periodp). */
+int gs_eval_period_grad(gs_workspace* ws, const double* p, double* dT, char* msg, int len);
+
 /* Number of model outputs (gs_out), or -1. */
 int gs_n_outputs(gs_workspace* ws);
 
