@@ -90,7 +90,8 @@ class Scene:
         """
         return [self.resolved.initial[s] for s in self.resolved.state_names()]
 
-    def compile(self, generated_dir: str | Path | None = None, force: bool = False) -> System:  # noqa: F821
+    def compile(self, generated_dir: str | Path | None = None, force: bool = False, *,
+                derivatives: bool = False) -> System:  # noqa: F821
         """Generate C, compile it (or reuse the cached build) and bind it to the engine.
 
         Parameters
@@ -99,6 +100,9 @@ class Scene:
             Root folder of the builds (default: :func:`default_generated_dir`).
         force
             Rebuild even if a cached build exists.
+        derivatives
+            Build with the parameter derivatives of the sensitivities at once (otherwise
+            the system makes that second build on its first sensitivity request).
 
         Returns
         -------
@@ -108,9 +112,10 @@ class Scene:
         """
         from .system import System
 
-        gen = self.generate(generated_dir, force)
+        gen = self.generate(generated_dir, force, derivatives=derivatives)
         values = {k: self.resolved.values[k] for k in gen.input_names}
         system = System(gen, values, self.initial_state(), self.spec.simulate, self.name)
+        system.derivative_build = _DerivativeBuild(self, generated_dir)
         if self.resolved.static:  # [initial] static = true: start from the static equilibrium
             from .static import static_state
 
@@ -118,7 +123,8 @@ class Scene:
                                      where=(self.spec.path, "initial.static"))
         return system
 
-    def generate(self, generated_dir: str | Path | None = None, force: bool = False) -> GeneratedModel:
+    def generate(self, generated_dir: str | Path | None = None, force: bool = False, *,
+                 derivatives: bool = False) -> GeneratedModel:
         """Generate and compile, returning the :class:`GeneratedModel` (cache-aware).
 
         The build is looked up by its key (:func:`gearsym.codegen.cache.build_key`) and
@@ -132,6 +138,8 @@ class Scene:
             Root folder of the builds (default: :func:`default_generated_dir`).
         force
             Rebuild even if a verified build exists.
+        derivatives
+            The build with the parameter derivatives of the sensitivities (its own key).
 
         Returns
         -------
@@ -148,7 +156,7 @@ class Scene:
             model_text = Path(self.model_spec.path).read_text(encoding="utf-8")
         except OSError as exc:
             raise GearsymError(f"cannot read the model file {self.model_spec.path}: {exc.strerror}") from None
-        key, parts = build_key(model_text, self.resolved.effects, self.model_spec.form)
+        key, parts = build_key(model_text, self.resolved.effects, self.model_spec.form, derivatives=derivatives)
         cache = BuildCache(root)
         entry = cache.entry(self.name, key)
         if not force:
@@ -165,7 +173,7 @@ class Scene:
                     gen = cache.lookup(entry, key)
                     if gen is not None:
                         return self._reused(gen)
-                fns = build_functions(self.model)
+                fns = build_functions(self.model, derivatives=derivatives)
                 with cache.staging(entry) as staging:
                     gen = write_and_compile(self.model, fns, staging, entry.directory, self.name, key,
                                             self.resolved.effects, parts)
@@ -189,6 +197,17 @@ class Scene:
         gen.compile_seconds = 0.0
         gen.scene = self.name  # builds are shared by scenes whose names map to one folder
         return gen
+
+
+class _DerivativeBuild:
+    """Makes (or finds) a scene's build with the parameter derivatives, on demand."""
+
+    def __init__(self, scene: Scene, generated_dir: str | Path | None):
+        self.scene = scene
+        self.generated_dir = generated_dir
+
+    def __call__(self) -> GeneratedModel:
+        return self.scene.generate(self.generated_dir, derivatives=True)
 
 
 def load_scene(path: str | Path, effects: Mapping[str, bool | str] | None = None,

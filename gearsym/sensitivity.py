@@ -13,7 +13,8 @@ into those directions:
   difference of the scalar function (it has no symbolic form); everything else is exact.
 
 No sympy here; the derivatives come from the generated functions (``gs_jacp``,
-``gs_swp``, ``gs_schedp``, ``gs_periodp``).
+``gs_swp``, ``gs_schedp``, ``gs_periodp``) of the scene's build with derivatives
+(:meth:`gearsym.system.System.derivative_engine`).
 """
 
 from __future__ import annotations
@@ -97,10 +98,9 @@ def period_gradient(system: System, p: np.ndarray, D: np.ndarray) -> np.ndarray:
     ndarray, shape (n_sens,)
         Zero where the period does not depend on the parameter (or there is none).
     """
-    gen = system.generated
-    if "gs_periodp" not in gen.functions or not gen.param_names:
+    if not system.generated.param_names:
         return np.zeros(D.shape[1])
-    g = system.engine.period_gradient(np.ascontiguousarray(p, dtype=float))
+    g = system.derivative_engine().period_gradient(np.ascontiguousarray(p, dtype=float))
     g = np.where(np.isfinite(g), g, 0.0)
     return g @ D
 

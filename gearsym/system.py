@@ -62,8 +62,50 @@ class System:
         self.x0 = np.asarray(x0, dtype=float)
         self.defaults = dict(defaults or {})
         self.name = scene_name or generated.scene
+        #: makes the build with the parameter derivatives of the sensitivities on the first
+        #: sensitivity request (set by :meth:`gearsym.Scene.compile`; None: not available)
+        self.derivative_build = None
+        self._derivative_engine: Engine | None = None
 
     # ------------------------------------------------------------------ info
+
+    @property
+    def has_derivatives(self) -> bool:
+        """Whether exact parameter sensitivities are available (explicit models whose build
+        has the parameter derivatives, or can make that build on demand)."""
+        if self.generated.implicit:
+            return False
+        return "gs_jacp" in self.generated.functions or self.derivative_build is not None
+
+    def derivative_engine(self) -> Engine:
+        """The engine of the build with the parameter derivatives (made on first use).
+
+        Returns
+        -------
+        Engine
+            This system's own engine if its build has them, else the one of the scene's
+            second build (same model and parameter order, ``gs_jacp`` etc. added).
+
+        Raises
+        ------
+        ParameterError
+            An implicit model, or a system without a scene to build from.
+        """
+        if self.generated.implicit:
+            raise ParameterError("parameter sensitivities need an explicit model (CVODE); this one is in "
+                                 "implicit (residual) form")
+        if "gs_jacp" in self.generated.functions:
+            return self.engine
+        if self._derivative_engine is None:
+            if self.derivative_build is None:
+                raise ParameterError("this system's build has no parameter derivatives; compile the scene "
+                                     "with Scene.compile(derivatives=True)")
+            gen = self.derivative_build()
+            if list(gen.param_names) != list(self.generated.param_names) or gen.nx != self.generated.nx:
+                raise ParameterError("the build with parameter derivatives does not match this system")
+            self._derivative_engine = load_engine(gen.so_path, sha256=gen.so_sha256 or None,
+                                                  build_key=gen.build_key or None)
+        return self._derivative_engine
 
     @property
     def state_names(self) -> list[str]:
@@ -447,7 +489,8 @@ class System:
         if sensitivities is not None:
             sens_kw = self._sensitivity_args(list(sensitivities), p, np.full(self.generated.nx, atol),
                                              monodromy, atol)
-        res = self.engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
+        engine = self.engine if sensitivities is None else self.derivative_engine()
+        res = engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
                               sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
                               max_step=max_step, nonlinear=nonlinear, linear_solver=linear_solver,
                               sens_out=sensitivities is not None, **sens_kw)
@@ -569,7 +612,8 @@ class System:
             if span_derivative is not None:
                 sens_kw["sens_dt0"], sens_kw["sens_dt1"] = span_derivative
             atol_vec = sens_kw.pop("atol_vec")
-        res = self.engine.run(x0, pv, t0, t1, grid, method=method, rtol=rtol, atol=atol, sigma0=sigma0,
+        engine = self.engine if sensitivities is None else self.derivative_engine()
+        res = engine.run(x0, pv, t0, t1, grid, method=method, rtol=rtol, atol=atol, sigma0=sigma0,
                               atol_vec=atol_vec, want_monodromy=mono,
                               max_steps=max_steps or int(self.defaults.get("max_steps", 0)), max_step=max_step,
                               **sens_kw)

@@ -158,3 +158,17 @@ def test_fold_location_unchanged_against_finite_difference_f_lambda():
         fd = [b.value for b in gearsym.continuation(ks, "Omega", 0.8, 0.95, **kw).of_type("fold")]
     assert len(exact) == 2 and len(fd) == 2
     np.testing.assert_allclose(exact, fd, atol=1e-5)
+
+
+def test_derivatives_are_a_separate_build_made_on_demand(spur):
+    """The default build carries no parameter derivatives (their compile cost is paid only by
+    users who ask for sensitivities); the first request makes or finds the second build, and
+    compiling with ``derivatives=True`` gives a system whose own build has them."""
+    assert "gs_jacp" not in spur.generated.functions and spur.has_derivatives
+    eng = spur.derivative_engine()
+    assert eng is not spur.engine and eng is spur.derivative_engine()
+    both = gearsym.load_scene(ROOT / "scenes" / "spur_pair_torsional.toml").compile(derivatives=True)
+    assert "gs_jacp" in both.generated.functions and both.derivative_engine() is both.engine
+    assert both.generated.so_path == str(eng.path) or Path(both.generated.so_path).resolve() == eng.path
+    kw = dict(t_end=1e-3, rtol=1e-10, atol=1e-16, method="bdf", sensitivities=["b_m"])
+    np.testing.assert_array_equal(spur.simulate(**kw).sensitivities["b_m"], both.simulate(**kw).sensitivities["b_m"])

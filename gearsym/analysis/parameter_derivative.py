@@ -14,9 +14,10 @@ finite difference with step ``sqrt(rtol)`` (whose truncation error moved fold lo
 
 Where the exact derivative is not available, :func:`exact_f_lambda` returns ``None`` and
 the continuation keeps its finite difference: the harmonic-balance residual, implicit
-(IDA) models, builds without the generated parameter derivatives, and integrations that
-fail for the sensitivities only (a grazing event, where the event-time derivative is
-infinite).  :func:`finite_difference_f_lambda` forces the finite difference (benchmarks).
+(IDA) models, systems whose build with the parameter derivatives cannot be made (the
+first exact ``F_lambda`` makes it: :meth:`gearsym.system.System.derivative_engine`), and
+integrations that fail for the sensitivities only (a grazing event, where the event-time
+derivative is infinite).  :func:`finite_difference_f_lambda` forces the finite difference (benchmarks).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import GearsymError
+from ..errors import CompileError, GearsymError
 
 __all__ = ["exact_f_lambda", "finite_difference_f_lambda"]
 
@@ -63,23 +64,26 @@ def exact_f_lambda(res: Any, u: np.ndarray, lam: float) -> np.ndarray | None:
         Shape ``(N * nx,)``.
     """
     system = res.system
-    gen = system.generated
-    if (_FORCE_FD[0] or gen.implicit or "gs_jacp" not in gen.functions or not hasattr(res, "segments")
-            or not hasattr(res, "times")):
+    if _FORCE_FD[0] or not system.has_derivatives or not hasattr(res, "segments") or not hasattr(res, "times"):
         return None
     N, nx = res.segments, res.nx
     X = np.asarray(u, float).reshape(N, nx)
     s = res.times(lam)
-    p = system.param_vector(res.params(lam))
-    dP = float(res.periods) * float(system.period_gradient([res.param], p)[0])
     out = np.empty(N * nx)
     try:
+        system.derivative_engine()  # the build with the derivatives, made on first use
+    except CompileError:
+        system.derivative_build = None  # not retried: the finite difference from now on
+        return None
+    try:
+        p = system.param_vector(res.params(lam))
+        dP = float(res.periods) * float(system.period_gradient([res.param], p)[0])
         for i in range(N):
             fl = system.flow(X[i], float(s[i]), float(s[i + 1]), p, rtol=res.rtol, atol=res.atol,
                              monodromy=False, method=res.method, sensitivities=[res.param],
                              span_derivative=(dP * i / N, dP * (i + 1) / N))
             res.n_integrations += 1
             out[i * nx:(i + 1) * nx] = fl.sensitivity[:, 0]
-    except GearsymError:
+    except GearsymError:  # e.g. a grazing event: the event-time derivative is infinite
         return None
     return out

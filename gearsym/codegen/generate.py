@@ -171,8 +171,19 @@ def c_comment(text: object, limit: int = 160) -> str:
     return "".join(out)
 
 
-def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
-    """Build the CasADi functions of the engine contract from a symbolic model."""
+def build_functions(model: SymbolicModel, derivatives: bool = False) -> dict[str, ca.Function]:
+    """Build the CasADi functions of the engine contract from a symbolic model.
+
+    With ``derivatives`` (explicit models) also the parameter derivatives of the
+    sensitivities: ``gs_jacp`` (d f / d p), ``gs_swp`` (d g / d p), ``gs_schedp`` and
+    ``gs_periodp``, with respect to *every* parameter (sparse), so that choosing the
+    parameters at run time never recompiles.  They are a separate build, made on the
+    first sensitivity request (:meth:`gearsym.system.System.simulate`): measured on the
+    shipped scenes they add 45-300 % to the C compile (``benchmarks/sensitivity_cost.py``:
+    ``gs_jacp`` has 1.3-4x the operations of ``gs_rhs``), which a user who never asks
+    for sensitivities should not pay.
+    """
+    derivatives = derivatives and model.form == "explicit"
     nx = len(model.states)
     params = model.parameters
     nsw = len(model.switching)
@@ -196,12 +207,9 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
         fns["gs_rhs"] = ca.Function("gs_rhs", [t, x, p, m], [f], ["t", "x", "p", "m"], ["xdot"])
         fns["gs_jac"] = ca.Function("gs_jac", [t, x, p, m], [ca.jacobian(f, x)],
                                     ["t", "x", "p", "m"], ["J"])
-        # parameter sensitivities: d f / d p with respect to *every* parameter (sparse; the
-        # driver contracts it with the requested directions).  Measured on the shipped
-        # models, generating all columns costs < 5 % of the compile time (benchmarks/
-        # sensitivity_cost.py), and choosing parameters at run time then never recompiles.
-        fns["gs_jacp"] = ca.Function("gs_jacp", [t, x, p, m], [ca.jacobian(f, p)],
-                                     ["t", "x", "p", "m"], ["Jp"])
+        if derivatives:  # d f / d p, all columns, sparse: the driver contracts it with the directions
+            fns["gs_jacp"] = ca.Function("gs_jacp", [t, x, p, m], [ca.jacobian(f, p)],
+                                         ["t", "x", "p", "m"], ["Jp"])
     else:
         xd = ca.SX.sym("xd", nx)
         cj = ca.SX.sym("cj")
@@ -217,7 +225,7 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     fns["gs_sw"] = ca.Function("gs_sw", [t, x, p], [g], ["t", "x", "p"], ["g"])
     fns["gs_swx"] = ca.Function("gs_swx", [t, x, p], [ca.jacobian(g, x)], ["t", "x", "p"], ["G"])  # sparse
     fns["gs_swt"] = ca.Function("gs_swt", [t, x, p], [ca.densify(ca.jacobian(g, t))], ["t", "x", "p"], ["gt"])
-    if model.form == "explicit":  # event-time sensitivities: d g / d p (sparse)
+    if derivatives:  # event-time sensitivities: d g / d p (sparse)
         fns["gs_swp"] = ca.Function("gs_swp", [t, x, p], [ca.jacobian(g, p)], ["t", "x", "p"], ["Gp"])
     sched = []
     for s in model.schedules:
@@ -227,7 +235,7 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     fns["gs_sched"] = ca.Function("gs_sched", [p], [sv], ["p"], ["s"])
     period = tr(model.forcing_period) if model.forcing_period is not None else ca.SX(float("nan"))
     fns["gs_period"] = ca.Function("gs_period", [p], [period], ["p"], ["T"])
-    if model.form == "explicit":  # breakpoint-time and period sensitivities
+    if derivatives:  # breakpoint-time and period sensitivities
         fns["gs_schedp"] = ca.Function("gs_schedp", [p], [ca.densify(ca.jacobian(sv, p))], ["p"], ["sp"])
         fns["gs_periodp"] = ca.Function("gs_periodp", [p], [ca.densify(ca.jacobian(period, p))], ["p"], ["Tp"])
     outputs = getattr(model, "outputs", {})
