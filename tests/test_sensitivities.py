@@ -77,6 +77,21 @@ def test_sensitivities_across_contact_events(spur, name):
     assert rel_err(tr.sensitivities[name][1:], ref[1:]) < 2e-6
 
 
+@pytest.mark.parametrize("name", ["b", "Omega", "zeta"])
+def test_sensitivities_across_events_where_the_vector_field_jumps(name):
+    """The benchmark oscillator with damping only in contact: the vector field jumps by
+    ``2 zeta x'`` at every contact event, so the sensitivities jump there by the event-time
+    term ``(f- - f+) d tau/dp`` (``d tau/dp`` involves ``dg/dp``: the backlash ``b`` moves the
+    surfaces themselves).  (The dimensional spur pair's force is continuous at contact loss:
+    there the term vanishes.)"""
+    ks = gearsym.load_scene(ROOT / "scenes" / "kahraman_singh.toml", effects={"contact_damping": True}).compile()
+    kw = dict(t_end=8.3 * ks.period(), atol=1e-14, method="bdf", n_out=5)
+    tr = ks.simulate(sensitivities=[name], rtol=1e-11, **kw)
+    assert len(tr.events) >= 4
+    ref = richardson(lambda v: ks.simulate(params={name: v}, rtol=1e-13, **kw).y, ks.params[name], 1e-4)
+    assert rel_err(tr.sensitivities[name][1:], ref[1:]) < 1e-6
+
+
 def test_period_map_sensitivity_includes_the_moving_period(spur):
     """d/domega of phi(T(omega), x0; omega): the forcing frequency moves the events and the
     end time; the f * dT/domega term is part of the derivative."""
