@@ -205,7 +205,8 @@ class ShootingResidual(_Residual):
     rtol, atol
         Integrator tolerances.
     fd_step
-        Step of the central difference ``F_lambda``.
+        Step of the finite-difference ``F_lambda``, the fallback where the exact one
+        (:mod:`gearsym.analysis.parameter_derivative`) is not available.
     method
         Integrator.
     """
