@@ -579,7 +579,7 @@ class System:
             ``(d t0 / d p_s, d t1 / d p_s)`` for each of ``sensitivities`` when the span
             moves with the parameter; :attr:`Flow.sensitivity` is then the total
             derivative, e.g. for the period map ``x0 -> phi(T(p), 0, x0; p)`` give
-            ``(0, dT/dp)`` (:meth:`period_gradient`): ``S(T) + f(T-) dT/dp``.
+            ``(0, dT/dp)`` (:meth:`period_gradient`): the sensitivity at ``T-`` plus ``f(T-) dT/dp``.
 
         Returns
         -------
