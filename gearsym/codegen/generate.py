@@ -179,7 +179,7 @@ def build_functions(model: SymbolicModel, derivatives: bool = False) -> dict[str
     ``gs_periodp``, with respect to *every* parameter (sparse), so that choosing the
     parameters at run time never recompiles.  They are a separate build, made on the
     first sensitivity request (:meth:`gearsym.system.System.simulate`): measured on the
-    shipped scenes they add 45-300 % to the C compile (``benchmarks/sensitivity_cost.py``:
+    shipped scenes they add 20-370 % to the C compile (``benchmarks/sensitivity_cost.py``:
     ``gs_jacp`` has 1.3-4x the operations of ``gs_rhs``), which a user who never asks
     for sensitivities should not pay.
     """
