@@ -19,7 +19,7 @@ No sympy here; the derivatives come from the generated functions (``gs_jacp``,
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -33,7 +33,8 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["directions", "period_gradient", "sensitivity_atol"]
 
 
-def directions(system: System, names: Sequence[str], p: np.ndarray) -> np.ndarray:
+def directions(system: System, names: Sequence[str], p: np.ndarray,
+               inputs: Mapping[str, float] | None = None) -> np.ndarray:
     """Directions ``d p / d name`` in the generated parameter vector, one column per name.
 
     Parameters
@@ -44,6 +45,9 @@ def directions(system: System, names: Sequence[str], p: np.ndarray) -> np.ndarra
         Run-time input parameters (:attr:`System.params`).
     p
         The parameter vector (:meth:`System.param_vector`) at which to differentiate.
+    inputs
+        Overrides of the run-time inputs ``p`` was made with (the arguments of bound
+        parameters are inputs that ``p`` does not hold); default: the current values.
 
     Returns
     -------
@@ -59,7 +63,8 @@ def directions(system: System, names: Sequence[str], p: np.ndarray) -> np.ndarra
     names = [str(n) for n in names]
     if len(set(names)) != len(names):
         raise ParameterError(f"sensitivities: repeated parameter in {names}")
-    values = {k: float(v) for k, v in zip(pnames, p, strict=True)}
+    values = {**system.params, **{k: float(v) for k, v in (inputs or {}).items()}}
+    values.update({k: float(v) for k, v in zip(pnames, p, strict=True)})
     D = np.zeros((len(pnames), len(names)))
     for s, name in enumerate(names):
         if name not in system.params:

@@ -488,7 +488,7 @@ class System:
         sens_kw: dict = {}
         if sensitivities is not None:
             sens_kw = self._sensitivity_args(list(sensitivities), p, np.full(self.generated.nx, atol),
-                                             monodromy, atol)
+                                             monodromy, atol, inputs=params)
         engine = self.engine if sensitivities is None else self.derivative_engine()
         res = engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
                               sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
@@ -509,7 +509,8 @@ class System:
                           event_speed=np.asarray(res.events.speed), sensitivities=sens)
 
     def _sensitivity_args(self, names: list[str], p: np.ndarray, ax: np.ndarray, mono: bool,
-                          atol_mono: np.ndarray | float, scales: np.ndarray | None = None) -> dict:
+                          atol_mono: np.ndarray | float, scales: np.ndarray | None = None,
+                          inputs: Mapping[str, float] | None = None) -> dict:
         """Engine arguments of the sensitivities ``names``: directions and a tolerance vector
         (state, monodromy as :meth:`flow` sets it, then ``atol_i / |p|`` per sensitivity)."""
         from .sensitivity import directions, sensitivity_atol
@@ -519,7 +520,7 @@ class System:
                                  "implicit (residual) form")
         if not names:
             raise ParameterError("sensitivities: give at least one parameter name")
-        D = directions(self, names, p)
+        D = directions(self, names, p, inputs)
         nx = self.generated.nx
         parts = [ax]
         if mono:
@@ -534,7 +535,8 @@ class System:
              method: str | None = None, max_step: float | None = None, n_samples: int = 2,
              sigma0: Sequence[float] | None = None, max_steps: int = 0,
              scales: np.ndarray | None = None, sensitivities: Sequence[str] | None = None,
-             span_derivative: tuple[Sequence[float] | float, Sequence[float] | float] | None = None) -> Flow:
+             span_derivative: tuple[Sequence[float] | float, Sequence[float] | float] | None = None,
+             inputs: Mapping[str, float] | None = None) -> Flow:
         """The flow map ``phi(t1, t0, x0)`` and its Jacobian: the cheap path of the orbit solvers.
 
         One C call with a reused engine workspace; no output grid beyond ``n_samples``
@@ -580,6 +582,10 @@ class System:
             moves with the parameter; :attr:`Flow.sensitivity` is then the total
             derivative, e.g. for the period map ``x0 -> phi(T(p), 0, x0; p)`` give
             ``(0, dT/dp)`` (:meth:`period_gradient`): the sensitivity at ``T-`` plus ``f(T-) dT/dp``.
+        inputs
+            The parameter overrides ``p`` was made with (:meth:`param_vector`), needed for the
+            derivative of a bound parameter whose arguments ``p`` does not hold; default: the
+            current values.
 
         Returns
         -------
@@ -608,7 +614,7 @@ class System:
         sens_kw: dict = {}
         if sensitivities is not None:
             ax = np.broadcast_to(np.asarray(atol if atol_vec is None else atol_vec[:nx], float), (nx,))
-            sens_kw = self._sensitivity_args(list(sensitivities), pv, np.array(ax), mono, ax, scales)
+            sens_kw = self._sensitivity_args(list(sensitivities), pv, np.array(ax), mono, ax, scales, inputs)
             if span_derivative is not None:
                 sens_kw["sens_dt0"], sens_kw["sens_dt1"] = span_derivative
             atol_vec = sens_kw.pop("atol_vec")
@@ -622,7 +628,8 @@ class System:
                     event_direction=ev.direction, event_speed=ev.speed, sigma_final=res.sigma_final,
                     amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats, sensitivity=res.sensitivity)
 
-    def period_gradient(self, sensitivities: Sequence[str], p: np.ndarray | None = None) -> np.ndarray:
+    def period_gradient(self, sensitivities: Sequence[str], p: np.ndarray | None = None,
+                        inputs: Mapping[str, float] | None = None) -> np.ndarray:
         """Exact derivatives ``d T / d p`` of the forcing period (generated ``gs_periodp``).
 
         Parameters
@@ -631,6 +638,8 @@ class System:
             Run-time parameter names.
         p
             Parameter vector (default: the current values).
+        inputs
+            The parameter overrides ``p`` was made with (see :meth:`flow`).
 
         Returns
         -------
@@ -640,7 +649,7 @@ class System:
         from .sensitivity import directions, period_gradient
 
         pv = self.param_vector() if p is None else p
-        return period_gradient(self, pv, directions(self, list(sensitivities), pv))
+        return period_gradient(self, pv, directions(self, list(sensitivities), pv, inputs))
 
     # --------------------------------------------------------- periodic orbits
 

@@ -187,3 +187,19 @@ def test_derivatives_are_a_separate_build_made_on_demand(spur):
     assert both.generated.so_path == str(eng.path) or Path(both.generated.so_path).resolve() == eng.path
     kw = dict(t_end=1e-3, rtol=1e-10, atol=1e-16, method="bdf", sensitivities=["b_m"])
     np.testing.assert_array_equal(spur.simulate(**kw).sensitivities["b_m"], both.simulate(**kw).sensitivities["b_m"])
+
+
+def test_parameter_entering_through_a_bound_function():
+    """Yu's fractal dimension D enters only through the numeric bound function
+    wm_mean_height(D, ...) (the fractal backlash): its direction is that function's
+    derivative (a central difference of the scalar function), everything after it exact.
+    Also at an overridden value of D (the derivative is taken at the run's inputs)."""
+    yu = gearsym.load_scene(ROOT / "scenes" / "yu_dynamic_D14.toml").compile()
+    assert "D" not in yu.param_names and "D" in yu.params
+    kw = dict(t_end=0.7 * yu.period(), atol=1e-14, method="bdf", n_out=3)
+    for ov in ({}, {"D": 1.45}):
+        tr = yu.simulate(sensitivities=["D"], rtol=1e-11, params=ov, **kw)
+        assert tr.events
+        ref = richardson(lambda v, ov=ov: yu.simulate(params={**ov, "D": v}, rtol=1e-13, **kw).y,
+                         ov.get("D", yu.params["D"]))
+        assert rel_err(tr.sensitivities["D"][1:], ref[1:]) < 1e-5

@@ -76,12 +76,13 @@ def exact_f_lambda(res: Any, u: np.ndarray, lam: float) -> np.ndarray | None:
         system.derivative_build = None  # not retried: the finite difference from now on
         return None
     try:
-        p = system.param_vector(res.params(lam))
-        dP = float(res.periods) * float(system.period_gradient([res.param], p)[0])
+        inputs = res.params(lam)
+        p = system.param_vector(inputs)
+        dP = float(res.periods) * float(system.period_gradient([res.param], p, inputs)[0])
         for i in range(N):
             fl = system.flow(X[i], float(s[i]), float(s[i + 1]), p, rtol=res.rtol, atol=res.atol,
                              monodromy=False, method=res.method, sensitivities=[res.param],
-                             span_derivative=(dP * i / N, dP * (i + 1) / N))
+                             span_derivative=(dP * i / N, dP * (i + 1) / N), inputs=inputs)
             res.n_integrations += 1
             out[i * nx:(i + 1) * nx] = fl.sensitivity[:, 0]
     except GearsymError:  # e.g. a grazing event: the event-time derivative is infinite
