@@ -111,6 +111,12 @@ def test_period_map_sensitivity_includes_the_moving_period(spur):
     assert len(fl.event_t) >= 2
     ref = richardson(period_map, p[k])
     assert rel_err(fl.sensitivity[:, 0], ref) < 1e-6
+    # with the monodromy in the same integration: the same two derivatives
+    both = spur.flow(x0, 0.0, spur.period_of(p), p, rtol=1e-12, atol=1e-17, method="bdf", monodromy=True,
+                     sensitivities=["omega"], span_derivative=(0.0, dT))
+    alone = spur.flow(x0, 0.0, spur.period_of(p), p, rtol=1e-12, atol=1e-17, method="bdf", monodromy=True)
+    np.testing.assert_allclose(both.monodromy, alone.monodromy, rtol=1e-7, atol=1e-9 * np.abs(alone.monodromy).max())
+    assert rel_err(both.sensitivity[:, 0], ref) < 1e-6
     # at a fixed end time the derivative differs (by f dT/domega)
     fixed = spur.flow(x0, 0.0, spur.period_of(p), p, rtol=1e-12, atol=1e-17, method="bdf",
                       sensitivities=["omega"])
