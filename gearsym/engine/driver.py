@@ -145,12 +145,9 @@ class RunResult:
         n_steps, n_rhs, n_jac, n_root_evals, n_breaks, n_reinit, n_events.
     t_reached
         Last time reached.
-    sensitivity
-        ``d x(t_end) / d lambda_s`` for the parameter directions of the run, shape
-        (nx, n_sens) (the total derivative when ``t_end`` moves with them), or None.
-    sensitivity_out
-        ``d x(t_k) / d lambda_s`` at the (fixed) output times, shape (n_out, nx, n_sens),
-        or None.
+    sensitivity, sensitivity_out
+        ``d x(t_end) / d lambda_s`` (nx, n_sens; total when ``t_end`` moves) and at the fixed
+        output times (n_out, nx, n_sens), or None.
     """
 
     t: np.ndarray
@@ -252,18 +249,8 @@ class Engine:
         return float(out.value)
 
     def period_gradient(self, p: np.ndarray) -> np.ndarray:
-        """``d T / d p`` of the forcing period from the generated ``gs_periodp``.
-
-        Parameters
-        ----------
-        p
-            Parameter vector, shape (np,), C-contiguous float64.
-
-        Returns
-        -------
-        ndarray, shape (np,)
-            NaN entries where the period is not finite.
-        """
+        """``d T / d p`` (shape (np,)) of the forcing period at the parameter vector ``p``
+        (C-contiguous float64) from the generated ``gs_periodp``."""
         out = np.zeros(max(self.np, 1))
         msg = C.create_string_buffer(256)
         pa = p if p.shape[0] else None
@@ -400,16 +387,11 @@ class Engine:
             variational matrix column by column, then the sensitivities column by
             column), so that the variational entries, whose scale is that of
             ``x_i / x0_j`` (or ``x_i / p_k``), get a tolerance of their own.
-        sens_dir
-            Parameter directions of the sensitivities, shape (np, n_sens): column ``s``
-            is ``d p / d lambda_s`` (a unit vector for one parameter).  The run then
-            integrates ``S' = J S + (df/dp) D`` with the event-time and breakpoint-time
-            jumps (explicit models, CVODE).
-        sens_dt0, sens_dt1
-            ``d t0 / d lambda_s`` and ``d t_end / d lambda_s``, shape (n_sens,) (default
-            zero): a span that moves with the parameter, e.g. one forcing period.
-        sens_out
-            Also return the sensitivities at the output times.
+        sens_dir, sens_dt0, sens_dt1, sens_out
+            Parameter sensitivities (explicit models, CVODE): directions ``D = d p / d
+            lambda`` (np, n_sens); ``d t0 / d lambda`` and ``d t_end / d lambda`` (n_sens,;
+            default 0) of a span that moves with them; whether to return them at the
+            output times too (see ``gs_driver.c`` for the equations and jumps).
         linear_solver
             Newton's linear solver: ``"dense"`` (SUNDIALS' dense LU of the whole
             system; with the monodromy that is an (n + n^2)^2 matrix),
@@ -460,17 +442,10 @@ class Engine:
                 raise EngineInputError(f"atol_vec has {av.shape[0]} entries, need {want}")
         sens = None
         if sens_dir is not None:
-            D = np.asarray(sens_dir, dtype=float)
-            if D.ndim == 1:
-                D = D[:, None]
-            if D.ndim != 2 or D.shape[0] != self.np:
-                raise EngineInputError(f"sens_dir must have shape (np={self.np}, n_sens), got {D.shape}")
-            ns = D.shape[1]
-
-            def _vec(v: Any) -> np.ndarray | None:
-                return None if v is None else np.ascontiguousarray(np.broadcast_to(np.asarray(v, float), (ns,)))
-
-            sens = (np.ascontiguousarray(D.T).reshape(-1), ns, _vec(sens_dt0), _vec(sens_dt1), bool(sens_out))
+            D = np.asarray(sens_dir, dtype=float).reshape(self.np, -1)  # ValueError on a wrong shape
+            vec = [None if v is None else np.ascontiguousarray(np.broadcast_to(np.asarray(v, float), D.shape[1:]))
+                   for v in (sens_dt0, sens_dt1)]
+            sens = (np.ascontiguousarray(D.T).reshape(-1), D.shape[1], vec[0], vec[1], bool(sens_out))
         cap = max(int(max_events_out), 1)
         while True:
             res = self._run_once(
