@@ -83,6 +83,10 @@ class System:
             self.x0 = self.x0 / self.state_scales()
         self.defaults = dict(defaults or {})
         self.name = scene_name or generated.scene
+        #: makes the build with the parameter derivatives of the sensitivities on the first
+        #: sensitivity request (set by :meth:`gearsym.Scene.compile`; None: not available)
+        self.derivative_build = None
+        self._derivative_engine: Engine | None = None
 
     # ------------------------------------------------------------ pickling
 
@@ -129,6 +133,44 @@ class System:
         return self.units.to_declared(dict(zip(self.param_names, (float(v) for v in p), strict=True)))
 
     # ------------------------------------------------------------------ info
+
+    @property
+    def has_derivatives(self) -> bool:
+        """Whether exact parameter sensitivities are available (explicit models whose build
+        has the parameter derivatives, or can make that build on demand)."""
+        if self.generated.implicit:
+            return False
+        return "gs_jacp" in self.generated.functions or self.derivative_build is not None
+
+    def derivative_engine(self) -> Engine:
+        """The engine of the build with the parameter derivatives (made on first use).
+
+        Returns
+        -------
+        Engine
+            This system's own engine if its build has them, else the one of the scene's
+            second build (same model and parameter order, ``gs_jacp`` etc. added).
+
+        Raises
+        ------
+        ParameterError
+            An implicit model, or a system without a scene to build from.
+        """
+        if self.generated.implicit:
+            raise ParameterError("parameter sensitivities need an explicit model (CVODE); this one is in "
+                                 "implicit (residual) form")
+        if "gs_jacp" in self.generated.functions:
+            return self.engine
+        if self._derivative_engine is None:
+            if self.derivative_build is None:
+                raise ParameterError("this system's build has no parameter derivatives; compile the scene "
+                                     "with Scene.compile(derivatives=True)")
+            gen = self.derivative_build()
+            if list(gen.param_names) != list(self.generated.param_names) or gen.nx != self.generated.nx:
+                raise ParameterError("the build with parameter derivatives does not match this system")
+            self._derivative_engine = load_engine(gen.so_path, sha256=gen.so_sha256 or None,
+                                                  build_key=gen.build_key or None)
+        return self._derivative_engine
 
     @property
     def state_names(self) -> list[str]:
@@ -414,7 +456,7 @@ class System:
                  t0: float = 0.0, method: str | None = None, max_step: float | None = None,
                  monodromy: bool = False, sigma0: Sequence[float] | None = None,
                  max_steps: int = 0, t_out: Sequence[float] | None = None, nonlinear: str = "auto",
-                 linear_solver: str = "auto") -> Trajectory:
+                 linear_solver: str = "auto", sensitivities: Sequence[str] | None = None) -> Trajectory:
         """Integrate the system with the C engine (one call into C).
 
         Parameters
@@ -461,6 +503,13 @@ class System:
             CVODE's nonlinear solver (``"newton"``, ``"fixedpoint"``) and Newton's
             linear solver (``"dense"``, ``"blockdiag"``), ``"auto"`` by default; see
             :meth:`gearsym.engine.driver.Engine.run`.
+        sensitivities
+            Run-time parameters (e.g. ``["omega"]``) whose exact sensitivities
+            ``d x(t) / d p`` to return along the trajectory (at the fixed output times)
+            in :attr:`Trajectory.sensitivities`: the parameter variational equations are
+            integrated with the state, with the event-time terms at contact events and
+            the breakpoint-time terms at scheduled breakpoints.  Explicit models (CVODE)
+            only; ``x0`` is held fixed.
 
         Returns
         -------
@@ -546,9 +595,18 @@ class System:
         if max_steps < 0:
             raise ParameterError(f"max_steps must be positive (0: the default), got {max_steps}")
         _check_step_budget(t0, t_end, max_step, max_steps, bool(T and max_step == T / 8))
-        res = self.engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
+        sens_kw: dict = {}
+        if sensitivities is not None:
+            sens_kw = self._sensitivity_args(list(sensitivities), p, np.full(self.generated.nx, atol),
+                                             monodromy, atol, inputs=params)
+        engine = self.engine if sensitivities is None else self.derivative_engine()
+        res = engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
                               sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
-                              max_step=max_step, nonlinear=nonlinear, linear_solver=linear_solver)
+                              max_step=max_step, nonlinear=nonlinear, linear_solver=linear_solver,
+                              sens_out=sensitivities is not None, **sens_kw)
+        sens = None
+        if sensitivities is not None:
+            sens = {name: res.sensitivity_out[:, :, s].copy() for s, name in enumerate(sensitivities)}
         names = self.surface_names
         events = [Event(float(tt), names[int(j)], int(d))
                   for tt, j, d in zip(res.events.t, res.events.surface, res.events.direction)]
@@ -558,13 +616,37 @@ class System:
         return Trajectory(t=grid, y=res.y, state_names=self.state_names, events=events, stats=stats,
                           period=T, params=self.param_dict(p),
                           x_final=res.x_final, monodromy=res.monodromy,
-                          event_speed=np.asarray(res.events.speed))
+                          event_speed=np.asarray(res.events.speed), sensitivities=sens)
+
+    def _sensitivity_args(self, names: list[str], p: np.ndarray, ax: np.ndarray, mono: bool,
+                          atol_mono: np.ndarray | float, scales: np.ndarray | None = None,
+                          inputs: Mapping[str, float] | None = None) -> dict:
+        """Engine arguments of the sensitivities ``names``: directions and a tolerance vector
+        (state, monodromy as :meth:`flow` sets it, then ``atol_i / |p|`` per sensitivity)."""
+        from .sensitivity import directions, sensitivity_atol
+
+        if self.generated.implicit:
+            raise ParameterError("parameter sensitivities need an explicit model (CVODE); this one is in "
+                                 "implicit (residual) form")
+        if not names:
+            raise ParameterError("sensitivities: give at least one parameter name")
+        D = directions(self, names, p, inputs)
+        nx = self.generated.nx
+        parts = [ax]
+        if mono:
+            sc = np.ones(nx) if scales is None else np.maximum(np.asarray(scales, float), np.finfo(float).tiny)
+            am = np.broadcast_to(np.asarray(atol_mono, float), (nx,))
+            parts.append((am[:, None] / sc[None, :]).T.ravel())
+        parts.append(sensitivity_atol(ax, p, D))
+        return {"sens_dir": D, "atol_vec": np.concatenate(parts)}
 
     def flow(self, x0: Sequence[float], t0: float, t1: float, p: np.ndarray | None = None, *,
              rtol: float = 1e-10, atol: float | np.ndarray = 1e-12, monodromy: bool = True,
              method: str | None = None, max_step: float | None = None, n_samples: int = 2,
              sigma0: Sequence[float] | None = None, max_steps: int = 0,
-             scales: np.ndarray | None = None) -> Flow:
+             scales: np.ndarray | None = None, sensitivities: Sequence[str] | None = None,
+             span_derivative: tuple[Sequence[float] | float, Sequence[float] | float] | None = None,
+             inputs: Mapping[str, float] | None = None) -> Flow:
         """The flow map ``phi(t1, t0, x0)`` and its Jacobian: the cheap path of the orbit solvers.
 
         One C call with a reused engine workspace; no output grid beyond ``n_samples``
@@ -601,6 +683,20 @@ class System:
             is then an error ``atol_i`` in ``x_i``) instead of ``atol_i``: in SI units the
             states and their ratios differ by orders of magnitude, and one ``atol`` for
             all made the variational equations take 7-26x the steps of the state.
+        sensitivities
+            Run-time parameters whose exact derivatives ``d phi / d p`` to return in
+            :attr:`Flow.sensitivity` (explicit models): parameter variational equations
+            with event-time and breakpoint-time terms, in the same integration as the
+            monodromy.
+        span_derivative
+            ``(d t0 / d p_s, d t1 / d p_s)`` for each of ``sensitivities`` when the span
+            moves with the parameter; :attr:`Flow.sensitivity` is then the total
+            derivative, e.g. for the period map ``x0 -> phi(T(p), 0, x0; p)`` give
+            ``(0, dT/dp)`` (:meth:`period_gradient`): the sensitivity at ``T-`` plus ``f(T-) dT/dp``.
+        inputs
+            The parameter overrides ``p`` was made with (:meth:`param_vector`), needed for the
+            derivative of a bound parameter whose arguments ``p`` does not hold; default: the
+            current values.
 
         Returns
         -------
@@ -629,13 +725,44 @@ class System:
             else:
                 atol_vec = np.array(ax)
             atol = float(np.min(ax))
-        res = self.engine.run(x0, pv, t0, t1, grid, method=method, rtol=rtol, atol=atol, sigma0=sigma0,
+        sens_kw: dict = {}
+        if sensitivities is not None:
+            ax = np.broadcast_to(np.asarray(atol if atol_vec is None else atol_vec[:nx], float), (nx,))
+            sens_kw = self._sensitivity_args(list(sensitivities), pv, np.array(ax), mono, ax, scales, inputs)
+            if span_derivative is not None:
+                sens_kw["sens_dt0"], sens_kw["sens_dt1"] = span_derivative
+            atol_vec = sens_kw.pop("atol_vec")
+        engine = self.engine if sensitivities is None else self.derivative_engine()
+        res = engine.run(x0, pv, t0, t1, grid, method=method, rtol=rtol, atol=atol, sigma0=sigma0,
                               atol_vec=atol_vec, want_monodromy=mono,
-                              max_steps=max_steps, max_step=max_step)
+                              max_steps=max_steps, max_step=max_step, **sens_kw)
         ev = res.events
         return Flow(x_final=res.x_final, monodromy=res.monodromy, event_t=ev.t, event_surface=ev.surface,
                     event_direction=ev.direction, event_speed=ev.speed, sigma_final=res.sigma_final,
-                    amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats)
+                    amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats, sensitivity=res.sensitivity)
+
+    def period_gradient(self, sensitivities: Sequence[str], p: np.ndarray | None = None,
+                        inputs: Mapping[str, float] | None = None) -> np.ndarray:
+        """Exact derivatives ``d T / d p`` of the forcing period (generated ``gs_periodp``).
+
+        Parameters
+        ----------
+        sensitivities
+            Run-time parameter names.
+        p
+            Parameter vector (default: the current values).
+        inputs
+            The parameter overrides ``p`` was made with (see :meth:`flow`).
+
+        Returns
+        -------
+        ndarray, shape (len(sensitivities),)
+            Zero for parameters the period does not depend on.
+        """
+        from .sensitivity import directions, period_gradient
+
+        pv = self.param_vector() if p is None else p
+        return period_gradient(self, pv, directions(self, list(sensitivities), pv, inputs))
 
     # ------------------------------------------- generated functions for the analyses
     def modes(self, t: Sequence[float] | float, x: Sequence[float], p: np.ndarray | None = None) -> np.ndarray:

@@ -13,7 +13,8 @@ in variables scaled by the state magnitudes and the parameter range):
   new point lies on the hyperplane through the prediction orthogonal to the
   tangent, so turning points (folds) are passed without special treatment.
   ``F_u`` is the monodromy minus the identity from the engine's variational
-  equations (with saltation matrices), ``F_lambda`` a central difference;
+  equations (with saltation matrices), ``F_lambda`` exact from the parameter
+  sensitivities (shooting; a finite difference for harmonic balance);
 * **step control**: the step grows after easy corrections (<= 3 Newton steps)
   and shrinks after hard ones; a step is rejected (and halved) when Newton
   fails, the integration fails, or the tangent turns by more than

@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import GearsymError, ParameterError
 from ..results import Event, Flow
 from .floquet import monodromy_product
+from .parameter_derivative import exact_f_lambda
 from .stability import rigid_state_basis
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -136,7 +137,12 @@ class PeriodicOrbitProblem:
         raise NotImplementedError  # pragma: no cover
 
     def _fd_lambda(self, u: np.ndarray, lam: float, R: np.ndarray | None = None) -> np.ndarray:
-        """``dF/dlambda`` by a forward difference from ``R = F(u, lambda)`` (central without it)."""
+        """``dF/dlambda``: exact from the parameter sensitivities where available
+        (:mod:`gearsym.analysis.parameter_derivative`), else a forward difference from
+        ``R = F(u, lambda)`` (central without it)."""
+        exact = exact_f_lambda(self, u, lam)
+        if exact is not None:
+            return exact
         h = self.fd_step
         Rp = self.evaluate(u, lam + h, jac=False).R
         if R is not None:

@@ -17,7 +17,7 @@ import numpy as np
 __all__ = ["CODEGEN_VERSION", "GeneratedModel", "decode_schedules", "generated_map"]
 
 #: Bump when the generated code's layout changes (invalidates caches).
-CODEGEN_VERSION = "3"
+CODEGEN_VERSION = "4"
 
 @dataclass
 class GeneratedModel:

@@ -2,7 +2,8 @@
 
 The generated functions follow the contract in ``gearsym/engine/gs_model_abi.h``
 (``gs_rhs``, ``gs_jac``, ``gs_res``, ``gs_resjac``, ``gs_sw``, ``gs_swx``, ``gs_swt``,
-``gs_sched``, ``gs_period`` and ``gs_model_info``).  Parameters are inputs of every
+``gs_sched``, ``gs_period`` and ``gs_model_info``, and for the parameter sensitivities
+``gs_jacp``, ``gs_swp``, ``gs_schedp``, ``gs_periodp``).  Parameters are inputs of every
 function, so changing one never recompiles.  :func:`write_and_compile` writes the
 sources into a private staging folder and compiles them with ``gcc -O3`` together
 with the engine's C driver into ``gs_<sha256[:16]>.so`` (named by its own bytes:
@@ -69,8 +70,19 @@ def c_comment(text: object, limit: int = 160) -> str:
     return "".join(out)
 
 
-def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
-    """Build the CasADi functions of the engine contract from a symbolic model."""
+def build_functions(model: SymbolicModel, derivatives: bool = False) -> dict[str, ca.Function]:
+    """Build the CasADi functions of the engine contract from a symbolic model.
+
+    With ``derivatives`` (explicit models) also the parameter derivatives of the
+    sensitivities: ``gs_jacp`` (d f / d p), ``gs_swp`` (d g / d p), ``gs_schedp`` and
+    ``gs_periodp``, with respect to *every* parameter (sparse), so that choosing the
+    parameters at run time never recompiles.  They are a separate build, made on the
+    first sensitivity request (:meth:`gearsym.system.System.simulate`): measured on the
+    shipped scenes they add 20-370 % to the C compile (``benchmarks/sensitivity_cost.py``:
+    ``gs_jacp`` has 1.3-4x the operations of ``gs_rhs``), which a user who never asks
+    for sensitivities should not pay.
+    """
+    derivatives = derivatives and model.form == "explicit"
     nx = len(model.states)
     params = model.parameters
     nsw = len(model.switching)
@@ -94,6 +106,9 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
         fns["gs_rhs"] = ca.Function("gs_rhs", [t, x, p, m], [f], ["t", "x", "p", "m"], ["xdot"])
         fns["gs_jac"] = ca.Function("gs_jac", [t, x, p, m], [ca.cse(ca.jacobian(f, x))],
                                     ["t", "x", "p", "m"], ["J"])
+        if derivatives:  # d f / d p, all columns, sparse: the driver contracts it with the directions
+            fns["gs_jacp"] = ca.Function("gs_jacp", [t, x, p, m], [ca.jacobian(f, p)],
+                                         ["t", "x", "p", "m"], ["Jp"])
     else:
         xd = ca.SX.sym("xd", nx)
         cj = ca.SX.sym("cj")
@@ -109,6 +124,8 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     fns["gs_sw"] = ca.Function("gs_sw", [t, x, p], [g], ["t", "x", "p"], ["g"])
     fns["gs_swx"] = ca.Function("gs_swx", [t, x, p], [ca.jacobian(g, x)], ["t", "x", "p"], ["G"])  # sparse
     fns["gs_swt"] = ca.Function("gs_swt", [t, x, p], [ca.densify(ca.jacobian(g, t))], ["t", "x", "p"], ["gt"])
+    if derivatives:  # event-time sensitivities: d g / d p (sparse)
+        fns["gs_swp"] = ca.Function("gs_swp", [t, x, p], [ca.jacobian(g, p)], ["t", "x", "p"], ["Gp"])
     sched = []
     for s in model.schedules:
         sched.append(tr(s.period))
@@ -120,6 +137,9 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     scales = getattr(model, "scales", None)
     if scales is not None:  # a model in dimensionless variables: [T, s_1, ..., s_n]
         fns["gs_scales"] = ca.Function("gs_scales", [p], [ca.vertcat(*[tr(e) for e in scales])], ["p"], ["s"])
+    if derivatives:  # breakpoint-time and period sensitivities
+        fns["gs_schedp"] = ca.Function("gs_schedp", [p], [ca.densify(ca.jacobian(sv, p))], ["p"], ["sp"])
+        fns["gs_periodp"] = ca.Function("gs_periodp", [p], [ca.densify(ca.jacobian(period, p))], ["p"], ["Tp"])
     outputs = getattr(model, "outputs", {})
     if outputs:
         o = ca.vertcat(*[tr(e) for e in outputs.values()])
@@ -149,6 +169,10 @@ _DOCS = {
     "gs_swt": "d g / d t, for saltation matrices",
     "gs_sched": "schedules: [period, break fractions...] for each schedule",
     "gs_period": "the scene's forcing period T(p)",
+    "gs_jacp": "d f / d p (sparse), for the parameter sensitivities",
+    "gs_swp": "d g / d p (sparse), for the event-time sensitivities",
+    "gs_schedp": "d s / d p of the schedules (breakpoint-time sensitivities)",
+    "gs_periodp": "d T / d p of the forcing period",
     "gs_out": "the model's [outputs] along a trajectory (post-processing, not used by the driver)",
     "gs_scales": "reference scales [T, s_1, ..., s_n] of the dimensionless variables (t = T*tau, q = s*Q)",
     **_EXTRA_DOCS,
