@@ -58,7 +58,7 @@ def rel_err(got, ref):
 # ------------------------------------------------------------------ smooth (no events)
 @pytest.mark.parametrize("name", ["k_m", "c_m", "omega"])
 def test_smooth_sensitivities_match_central_differences(spur, name):
-    params = {"e_a": 0.2e-6, "T1": 120.0, "T2": 150.0}  # small error, high load: never loses contact
+    params = {"e_a": 0.2, "T1": 120.0, "T2": 150.0}  # small error (um), high load: never loses contact
     kw = dict(t_end=3e-3, atol=1e-17, method="bdf", n_out=7)
     tr = spur.simulate(params=params, sensitivities=[name], rtol=1e-11, **kw)
     assert not tr.events
