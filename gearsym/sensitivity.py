@@ -25,12 +25,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .bound_functions import evaluate as evaluate_bound
+from .engine.driver import Engine, load_engine
 from .errors import ParameterError
 
 if TYPE_CHECKING:  # pragma: no cover
     from .system import System
 
-__all__ = ["directions", "period_gradient", "sensitivity_atol"]
+__all__ = ["SensitivityMethods", "directions", "period_gradient", "sensitivity_atol"]
 
 
 def directions(system: System, names: Sequence[str], p: np.ndarray,
@@ -140,3 +141,92 @@ def sensitivity_atol(atol: np.ndarray, p: np.ndarray, D: np.ndarray) -> np.ndarr
     scale = np.array([np.max(np.abs(p[D[:, s] != 0]), initial=0.0) for s in range(D.shape[1])])
     scale = np.where(scale > 0, scale, 1.0)
     return (np.asarray(atol, float)[:, None] / scale[None, :]).T.ravel()
+
+
+class SensitivityMethods:
+    """The parameter-sensitivity part of :class:`~gearsym.system.System` (mixed in)."""
+
+    @property
+    def has_derivatives(self) -> bool:
+        """Whether exact parameter sensitivities are available (explicit models whose build
+        has the parameter derivatives, or can make that build on demand)."""
+        if self.generated.implicit:
+            return False
+        return "gs_jacp" in self.generated.functions or self.derivative_build is not None
+
+    def derivative_engine(self) -> Engine:
+        """The engine of the build with the parameter derivatives (made on first use).
+
+        Returns
+        -------
+        Engine
+            This system's own engine if its build has them, else the one of the scene's
+            second build (same model and parameter order, ``gs_jacp`` etc. added).
+
+        Raises
+        ------
+        ParameterError
+            An implicit model, or a system without a scene to build from.
+        """
+        if self.generated.implicit:
+            raise ParameterError("parameter sensitivities need an explicit model (CVODE); this one is in "
+                                 "implicit (residual) form")
+        if "gs_jacp" in self.generated.functions:
+            return self.engine
+        if self._derivative_engine is None:
+            if self.derivative_build is None:
+                raise ParameterError("this system's build has no parameter derivatives; compile the scene "
+                                     "with Scene.compile(derivatives=True)")
+            gen = self.derivative_build()
+            if list(gen.param_names) != list(self.generated.param_names) or gen.nx != self.generated.nx:
+                raise ParameterError("the build with parameter derivatives does not match this system")
+            self._derivative_engine = load_engine(gen.so_path, sha256=gen.so_sha256 or None,
+                                                  build_key=gen.build_key or None)
+        return self._derivative_engine
+
+    def _sensitivity_args(self, names: list[str], p: np.ndarray, ax: np.ndarray, mono: bool,
+                          atol_mono: np.ndarray | float, scales: np.ndarray | None = None,
+                          inputs: Mapping[str, float] | None = None) -> dict:
+        """Engine arguments of the sensitivities ``names``: directions and a tolerance vector
+        (state, monodromy as :meth:`flow` sets it, then ``atol_i / |p|`` per sensitivity)."""
+        from .sensitivity import directions, sensitivity_atol
+
+        if self.generated.implicit:
+            raise ParameterError("parameter sensitivities need an explicit model (CVODE); this one is in "
+                                 "implicit (residual) form")
+        if not names:
+            raise ParameterError("sensitivities: give at least one parameter name")
+        D = directions(self, names, p, inputs)
+        nx = self.generated.nx
+        parts = [ax]
+        if mono:
+            sc = np.ones(nx) if scales is None else np.maximum(np.asarray(scales, float), np.finfo(float).tiny)
+            am = np.broadcast_to(np.asarray(atol_mono, float), (nx,))
+            parts.append((am[:, None] / sc[None, :]).T.ravel())
+        parts.append(sensitivity_atol(ax, p, D))
+        return {"sens_dir": D, "atol_vec": np.concatenate(parts)}
+
+    def period_gradient(self, sensitivities: Sequence[str], p: np.ndarray | None = None,
+                        inputs: Mapping[str, float] | None = None) -> np.ndarray:
+        """Exact derivatives ``d T / d p`` of the forcing period (generated ``gs_periodp``).
+
+        Parameters
+        ----------
+        sensitivities
+            Run-time parameter names.
+        p
+            Parameter vector (default: the current values).
+        inputs
+            The parameter overrides ``p`` was made with (see :meth:`flow`).
+
+        Returns
+        -------
+        ndarray, shape (len(sensitivities),)
+            Zero for parameters the period does not depend on.
+        """
+        from .sensitivity import directions, period_gradient
+
+        pv = self.param_vector() if p is None else p
+        return period_gradient(self, pv, directions(self, list(sensitivities), pv, inputs))
+
+    # ------------------------------------------- generated functions for the analyses

@@ -11,10 +11,12 @@ from types import MappingProxyType
 import numpy as np
 
 from .bound_functions import evaluate as evaluate_bound
-from .codegen.artifact import GeneratedModel, decode_schedules, generated_map
+from .codegen.artifact import GeneratedModel
 from .engine.driver import Engine, load_engine
 from .errors import GearsymError, ParameterError
+from .evaluation import Evaluations
 from .results import Event, Flow, Trajectory
+from .sensitivity import SensitivityMethods
 from .spec.units import ParameterUnits
 
 _METHODS = ("bdf", "adams", "ida")
@@ -26,7 +28,7 @@ MAX_OUTPUT_VALUES = 2 ** 28
 DEFAULT_MAX_STEPS = 10_000_000
 
 
-class System:
+class System(Evaluations, SensitivityMethods):
     """A compiled scene: simulate it, find its periodic orbits.
 
     Obtained from :meth:`gearsym.Scene.compile`; not constructed directly.
@@ -133,44 +135,6 @@ class System:
         return self.units.to_declared(dict(zip(self.param_names, (float(v) for v in p), strict=True)))
 
     # ------------------------------------------------------------------ info
-
-    @property
-    def has_derivatives(self) -> bool:
-        """Whether exact parameter sensitivities are available (explicit models whose build
-        has the parameter derivatives, or can make that build on demand)."""
-        if self.generated.implicit:
-            return False
-        return "gs_jacp" in self.generated.functions or self.derivative_build is not None
-
-    def derivative_engine(self) -> Engine:
-        """The engine of the build with the parameter derivatives (made on first use).
-
-        Returns
-        -------
-        Engine
-            This system's own engine if its build has them, else the one of the scene's
-            second build (same model and parameter order, ``gs_jacp`` etc. added).
-
-        Raises
-        ------
-        ParameterError
-            An implicit model, or a system without a scene to build from.
-        """
-        if self.generated.implicit:
-            raise ParameterError("parameter sensitivities need an explicit model (CVODE); this one is in "
-                                 "implicit (residual) form")
-        if "gs_jacp" in self.generated.functions:
-            return self.engine
-        if self._derivative_engine is None:
-            if self.derivative_build is None:
-                raise ParameterError("this system's build has no parameter derivatives; compile the scene "
-                                     "with Scene.compile(derivatives=True)")
-            gen = self.derivative_build()
-            if list(gen.param_names) != list(self.generated.param_names) or gen.nx != self.generated.nx:
-                raise ParameterError("the build with parameter derivatives does not match this system")
-            self._derivative_engine = load_engine(gen.so_path, sha256=gen.so_sha256 or None,
-                                                  build_key=gen.build_key or None)
-        return self._derivative_engine
 
     @property
     def state_names(self) -> list[str]:
@@ -338,117 +302,6 @@ class System:
         at = f" at {', '.join(deps)}" if deps else ""
         raise ParameterError(f"the forcing period is not finite and positive{at} (T = {T:g}); {what} needs a "
                              f"forcing period")
-
-    def rhs(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
-            params: Mapping[str, float] | None = None) -> np.ndarray:
-        """Evaluate the right-hand side (explicit models) in a given mode.
-
-        Parameters
-        ----------
-        t
-            Time.
-        x
-            State.
-        sigma
-            Side (+1/-1) of each switching surface; by default the sides at ``(t, x)``.
-        params
-            Parameter overrides (declared units).
-
-        Returns
-        -------
-        ndarray
-            ``dx/dt``.
-        """
-        return self._eval_one("rhs", t, x, sigma, params)
-
-    def jacobian(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
-                 params: Mapping[str, float] | None = None) -> np.ndarray:
-        """The generated Jacobian ``df/dx`` (explicit models).
-
-        Parameters
-        ----------
-        t
-            Time.
-        x
-            State.
-        sigma
-            Side (+1/-1) of each switching surface; by default the sides at ``(t, x)``.
-        params
-            Parameter overrides (declared units).
-
-        Returns
-        -------
-        ndarray, shape (n_states, n_states)
-            The Jacobian in that mode.
-        """
-        return self._eval_one("jac", t, x, sigma, params)
-
-    def _eval_one(self, name: str, t: float, x: Sequence[float], sigma: Sequence[float] | None,
-                  params: Mapping[str, float] | None) -> np.ndarray:
-        if self.generated.implicit:
-            raise ParameterError(f"{name}() needs an explicit model; this one is in implicit (residual) form")
-        sg = None if sigma is None else np.asarray(sigma, float).reshape(1, -1)
-        return self.engine.evaluate(name, [float(t)], np.asarray(x, float).reshape(1, -1),
-                                    self.param_vector(params), sg)[0]
-
-    def switching(self, t: Sequence[float] | float, x: Sequence[float], params: Mapping[str, float] | None = None,
-                  p: np.ndarray | None = None) -> np.ndarray:
-        """The switching functions ``g(t, x)`` at one or many points (generated C, no CasADi call).
-
-        Parameters
-        ----------
-        t
-            Time(s), shape () or (n,).
-        x
-            State(s), shape (nx,) or (n, nx).
-        params
-            Parameter overrides (declared units).
-        p
-            The parameter vector itself (from :meth:`param_vector`); when given,
-            ``params`` is ignored.
-
-        Returns
-        -------
-        ndarray
-            Shape (nsw,) for one point, (n, nsw) for many.
-        """
-        one = np.ndim(t) == 0
-        ta = np.atleast_1d(np.asarray(t, float))
-        xa = np.asarray(x, float).reshape(ta.shape[0], self.generated.nx)
-        pv = self.param_vector(params) if p is None else p
-        g = self.engine.evaluate("sw", ta, xa, pv)
-        return g[0] if one else g
-
-    @property
-    def output_names(self) -> list[str]:
-        """Names of the model's ``[outputs]`` (quantities evaluated along trajectories)."""
-        return list(self.generated.outputs)
-
-    def outputs(self, traj: Trajectory) -> dict[str, np.ndarray]:
-        """Evaluate the model's ``[outputs]`` along a trajectory.
-
-        Parameters
-        ----------
-        traj
-            A trajectory of this system (its parameters are used).
-
-        Returns
-        -------
-        dict
-            Output name -> array of values at ``traj.t`` (SI units).
-        """
-        if not self.generated.outputs:
-            return {}
-        p = self.param_vector({k: v for k, v in traj.params.items() if k in self.params})
-        vals = self.engine.evaluate("out", traj.t, traj.y, p)
-        return {name: vals[:, i].copy() for i, name in enumerate(self.generated.outputs)}
-
-    def _sched_mode(self, t: float, p: np.ndarray) -> np.ndarray:
-        """Schedule part of the mode vector at time ``t``: ``[n_0, seg_0, n_1, seg_1, ...]``."""
-        m = self.engine.evaluate("mode", [float(t)], np.zeros((1, self.generated.nx)), p)[0]
-        return m[self.generated.nsw:].copy()
-
-    # -------------------------------------------------------------- simulate
 
     def simulate(self, t_end: float | None = None, periods: float | None = None,
                  x0: Sequence[float] | None = None, rtol: float = 1e-8, atol: float = 1e-10,
@@ -618,28 +471,6 @@ class System:
                           x_final=res.x_final, monodromy=res.monodromy,
                           event_speed=np.asarray(res.events.speed), sensitivities=sens)
 
-    def _sensitivity_args(self, names: list[str], p: np.ndarray, ax: np.ndarray, mono: bool,
-                          atol_mono: np.ndarray | float, scales: np.ndarray | None = None,
-                          inputs: Mapping[str, float] | None = None) -> dict:
-        """Engine arguments of the sensitivities ``names``: directions and a tolerance vector
-        (state, monodromy as :meth:`flow` sets it, then ``atol_i / |p|`` per sensitivity)."""
-        from .sensitivity import directions, sensitivity_atol
-
-        if self.generated.implicit:
-            raise ParameterError("parameter sensitivities need an explicit model (CVODE); this one is in "
-                                 "implicit (residual) form")
-        if not names:
-            raise ParameterError("sensitivities: give at least one parameter name")
-        D = directions(self, names, p, inputs)
-        nx = self.generated.nx
-        parts = [ax]
-        if mono:
-            sc = np.ones(nx) if scales is None else np.maximum(np.asarray(scales, float), np.finfo(float).tiny)
-            am = np.broadcast_to(np.asarray(atol_mono, float), (nx,))
-            parts.append((am[:, None] / sc[None, :]).T.ravel())
-        parts.append(sensitivity_atol(ax, p, D))
-        return {"sens_dir": D, "atol_vec": np.concatenate(parts)}
-
     def flow(self, x0: Sequence[float], t0: float, t1: float, p: np.ndarray | None = None, *,
              rtol: float = 1e-10, atol: float | np.ndarray = 1e-12, monodromy: bool = True,
              method: str | None = None, max_step: float | None = None, n_samples: int = 2,
@@ -740,118 +571,6 @@ class System:
         return Flow(x_final=res.x_final, monodromy=res.monodromy, event_t=ev.t, event_surface=ev.surface,
                     event_direction=ev.direction, event_speed=ev.speed, sigma_final=res.sigma_final,
                     amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats, sensitivity=res.sensitivity)
-
-    def period_gradient(self, sensitivities: Sequence[str], p: np.ndarray | None = None,
-                        inputs: Mapping[str, float] | None = None) -> np.ndarray:
-        """Exact derivatives ``d T / d p`` of the forcing period (generated ``gs_periodp``).
-
-        Parameters
-        ----------
-        sensitivities
-            Run-time parameter names.
-        p
-            Parameter vector (default: the current values).
-        inputs
-            The parameter overrides ``p`` was made with (see :meth:`flow`).
-
-        Returns
-        -------
-        ndarray, shape (len(sensitivities),)
-            Zero for parameters the period does not depend on.
-        """
-        from .sensitivity import directions, period_gradient
-
-        pv = self.param_vector() if p is None else p
-        return period_gradient(self, pv, directions(self, list(sensitivities), pv, inputs))
-
-    # ------------------------------------------- generated functions for the analyses
-    def modes(self, t: Sequence[float] | float, x: Sequence[float], p: np.ndarray | None = None) -> np.ndarray:
-        """The mode vector (surface sides, then each schedule's cycle and segment) at many points.
-
-        Evaluated by the engine in C (the driver's own mode logic), so the analyses never
-        decode the schedules themselves.
-
-        Parameters
-        ----------
-        t
-            Times, shape (n,).
-        x
-            States, shape (n, nx).
-        p
-            Parameter vector (:meth:`param_vector`); the current values when ``None``.
-
-        Returns
-        -------
-        ndarray
-            Shape (n, nm): ``[sigma_0, ..., sigma_{nsw-1}, n_0, seg_0, n_1, seg_1, ...]``.
-        """
-        ta = np.atleast_1d(np.asarray(t, float))
-        pv = self.param_vector() if p is None else p
-        return self.engine.evaluate("mode", ta, np.asarray(x, float).reshape(ta.shape[0], self.generated.nx), pv)
-
-    def mesh_deflections(self, t: Sequence[float] | float, x: Sequence[float],
-                         p: np.ndarray | None = None) -> np.ndarray:
-        """Dynamic deflection (deflection - error) of every mesh at many points (generated C).
-
-        Parameters
-        ----------
-        t
-            Times, shape (n,).
-        x
-            States, shape (n, nx).
-        p
-            Parameter vector (:meth:`param_vector`); the current values when ``None``.
-
-        Returns
-        -------
-        ndarray
-            Shape (n, number of meshes), in the model's order (``generated.meshes``); the
-            mode at each point from the signs of the switching functions, as the driver's.
-        """
-        ta = np.atleast_1d(np.asarray(t, float))
-        if not getattr(self.generated, "meshes", None):
-            return np.empty((ta.shape[0], 0))
-        pv = self.param_vector() if p is None else p
-        return self.engine.evaluate("mesh", ta, np.asarray(x, float).reshape(ta.shape[0], self.generated.nx), pv)
-
-    def schedule_table(self, p: np.ndarray | None = None) -> list[tuple[float, np.ndarray]]:
-        """``(period, break fractions)`` of every schedule at a parameter vector.
-
-        Parameters
-        ----------
-        p
-            Parameter vector (:meth:`param_vector`); the current values when ``None``.
-
-        Returns
-        -------
-        list of (float, ndarray)
-            One entry per schedule, in model order (empty without schedules).
-        """
-        if not self.generated.schedules:
-            return []
-        pv = self.param_vector() if p is None else p
-        return decode_schedules(generated_map(self.generated, "gs_sched", 1)(pv), self.generated.schedules)
-
-    def generated_map(self, name: str, n: int):
-        """The generated CasADi function ``name`` mapped over ``n`` points (cached).
-
-        For what the engine does not evaluate in C: the analysis extras (``gs_mesh``,
-        ``gs_rigid``) and evaluations vectorised over many parameter vectors.
-
-        Parameters
-        ----------
-        name
-            ``"gs_mesh"``, ``"gs_rigid"``, ``"gs_jac"``, ...
-        n
-            Number of points (columns).
-
-        Returns
-        -------
-        casadi.Function
-        """
-        return generated_map(self.generated, name, n)
-
-    # --------------------------------------------------------- periodic orbits
 
     def periodic_orbit(self, period: float | None = None, periods: float = 1,
                        x0: Sequence[float] | None = None, method: str = "shooting",
