@@ -43,6 +43,7 @@ for _p in (ROOT, HERE):
     if str(_p) not in sys.path:
         sys.path.insert(0, str(_p))
 
+from c_reference import CTimer, bare_c_loop  # noqa: E402
 from peers import python_rhs  # noqa: E402
 
 import gearsym  # noqa: E402
@@ -125,6 +126,7 @@ def main() -> None:
     ap.add_argument("--rtol", type=float, default=1e-8, help="sweep integrator rtol (default 1e-8; atol = rtol/100)")
     ap.add_argument("--rounds", type=int, default=3, help="timing rounds of the continuation (best is reported)")
     ap.add_argument("--no-plot", action="store_true")
+    ap.add_argument("--no-sweeps", action="store_true", help="only the continuation and its C reference")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -134,12 +136,13 @@ def main() -> None:
     base = {k: system.params[k] for k in ("zeta", "Fm", "Fa", "eps", "b")}
 
     # ------------------------------------------------------------ continuation
-    times = []
+    times, cpu = [], []
     branch = None
     for _ in range(max(1, args.rounds)):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         branch = gearsym.continuation(system, "Omega", *RANGE, progress=False)
         times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
     assert branch is not None
     special = {b.type: [] for b in branch.bifurcations}
     for b in branch.bifurcations:
@@ -158,6 +161,22 @@ def main() -> None:
             "n_stable": int(np.sum(branch.stable)), "bifurcations": special,
             "ptp_error_max": float(max(errs)), "ptp_error_points": len(errs), "stop_reason": branch.stop_reason,
             "n_integrations": branch.info.get("n_integrations")}
+    # the C reference: a bare C CVODE loop over the same generated model, 200 periods at the
+    # continuation's tolerances; and the share of a continuation's wall time spent outside C
+    c_ref = bare_c_loop(system, dict(base, Omega=0.9), rtol=float(branch.info["rtol"]),
+                        atol=float(branch.info["atol"]), repeats=5)
+    with CTimer(system) as ct:
+        gearsym.continuation(system, "Omega", *RANGE, progress=False)
+    cont.update({"bare_c_loop_200_periods": c_ref, "ratio_to_bare_c_loop": cont["wall_s_best"] / c_ref["best_s"],
+                 "cpu_s_best": min(cpu), "ratio_to_bare_c_loop_cpu": min(cpu) / c_ref["cpu_best_s"],
+                 "outside_c_fraction": ct.outside_c_fraction,
+                 "outside_c_fraction_wall": ct.outside_c_fraction_wall, "c_calls": ct.c_calls,
+                 "targets": {"ratio_to_bare_c_loop": 20.0, "outside_c_fraction": 0.3}})
+    print(f"bare C loop (200 periods, rtol {c_ref['rtol']:g}, atol {c_ref['atol']:.2g}): {c_ref['best_s'] * 1e3:.1f} ms; "
+          f"continuation / bare loop = {cont['ratio_to_bare_c_loop']:.1f} (target 20), in CPU time "
+          f"{cont['ratio_to_bare_c_loop_cpu']:.1f}; outside C "
+          f"{100 * ct.outside_c_fraction:.0f} % of {ct.cpu_s:.2f} s CPU (target < 30 %), {ct.c_calls} C calls; load "
+          f"{os.getloadavg()[0]:.1f}")
     print(f"continuation: {cont['wall_s_best']:.2f} s (best of {len(times)}), {cont['n_points']} orbits, "
           f"max ptp error {cont['ptp_error_max']:.1e}, " + ", ".join(
               f"{k} at {', '.join(f'{v:.6f}' for v in vs)}" for k, vs in special.items()))
@@ -166,7 +185,7 @@ def main() -> None:
     grid = np.round(np.arange(RANGE[0], RANGE[1] + 1e-9, args.step), 10)
     rtol, atol = args.rtol, args.rtol * 1e-2
     res = {}
-    for name, steady in (("scipy DOP853", lambda p, x: scipy_steady(p, x, rtol, atol)),
+    for name, steady in () if args.no_sweeps else (("scipy DOP853", lambda p, x: scipy_steady(p, x, rtol, atol)),
                          ("gearsym simulate", lambda p, x: gearsym_steady(system, p, x, rtol, atol))):
         t0 = time.perf_counter()
         sw = sweeps(steady, base, grid, system.x0)
@@ -207,20 +226,21 @@ def main() -> None:
 
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4), gridspec_kw={"width_ratios": [2, 1]})
         branch.plot(a1, quantity="ptp", label="gearsym.continuation", legend=False)
-        sw = np.load(out / "continuation_speed_scipy_sweeps.npz")
-        a1.plot(sw["up"][:, 0], sw["up"][:, 1] - sw["up"][:, 2], ">", ms=3, mfc="none", color="C1",
-                label="scipy sweep up")
-        a1.plot(sw["down"][:, 0], sw["down"][:, 1] - sw["down"][:, 2], "<", ms=3, mfc="none", color="C2",
-                label="scipy sweep down")
+        if not args.no_sweeps:
+            sw = np.load(out / "continuation_speed_scipy_sweeps.npz")
+            a1.plot(sw["up"][:, 0], sw["up"][:, 1] - sw["up"][:, 2], ">", ms=3, mfc="none", color="C1",
+                    label="scipy sweep up")
+            a1.plot(sw["down"][:, 0], sw["down"][:, 1] - sw["down"][:, 2], "<", ms=3, mfc="none", color="C2",
+                    label="scipy sweep down")
         from gearsym.analysis.branch import add_legend
 
         add_legend(a1, loc="upper right")
         a1.set_ylabel("peak-to-peak of x")
-        names = ["gearsym.continuation"] + list(res)
-        walls = [cont["wall_s_best"]] + [res[k]["wall_s"] for k in res]
-        a2.barh(names, walls, color=["C0", "C1", "C2"])
+        names = ["bare C loop (200 periods)", "gearsym.continuation"] + list(res)
+        walls = [c_ref["best_s"], cont["wall_s_best"]] + [res[k]["wall_s"] for k in res]
+        a2.barh(names, walls, color=["C7", "C0", "C1", "C2"][:len(walls)])
         for i, w in enumerate(walls):
-            a2.text(w, i, f" {w:.1f} s", va="center", fontsize=8)
+            a2.text(w, i, f" {w:.3g} s", va="center", fontsize=8)
         a2.set_xlabel("wall time of the full response curve [s]")
         a2.set_xlim(0, max(walls) * 1.3)
         fig.tight_layout()

@@ -57,6 +57,9 @@ import gearsym  # noqa: E402
 from gearsym.analysis.hbm import harmonic_balance  # noqa: E402
 from gearsym.analysis.maps import stability_map  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from c_reference import CTimer, bare_c_loop  # noqa: E402
+
 KS = ROOT / "scenes" / "kahraman_singh.toml"
 MEISSNER = ROOT / "scenes" / "meissner.toml"
 P_KS = {"zeta": 0.05, "Fm": 0.1, "Fa": 0.05, "eps": 0.2, "b": 1.0, "Omega": 0.9}
@@ -64,13 +67,14 @@ P_ME = {"zeta": 0.02, "w0": 1.0, "d": 0.5}
 
 
 def _timeit(fn, repeats: int = 5) -> dict:
-    times = []
+    times, cpu = [], []
     out = None
     for _ in range(repeats):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         out = fn()
         times.append(time.perf_counter() - t)
-    return {"best_s": min(times), "median_s": statistics.median(times), "result": out}
+        cpu.append(time.process_time() - c)
+    return {"best_s": min(times), "median_s": statistics.median(times), "cpu_best_s": min(cpu), "result": out}
 
 
 # ----------------------------------------------------------- scipy peers
@@ -149,6 +153,7 @@ def main(argv=None) -> int:
     ap.add_argument("--subset", type=int, default=60, help="grid points scipy computes (default 60)")
     ap.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--orbit-only", action="store_true", help="only the one-orbit timings (no maps)")
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -184,6 +189,30 @@ def main(argv=None) -> int:
         "max_multiplier_difference": float(abs(mu_sci[-1] - ref.max_multiplier)),
         "hbm_peak_to_peak_rel_error": abs(o_hbm["result"].peak_to_peak() - ref.peak_to_peak()) / ref.peak_to_peak(),
     }
+    # the C reference: a bare C CVODE loop over the same generated model (one driver call, 200 periods)
+    # at the solve's tolerances (shooting's defaults rtol 1e-11, atol 1e-13)
+    c_ref = bare_c_loop(ks, P_KS, rtol=1e-11, atol=1e-13, repeats=max(args.repeats, 5))
+    with CTimer(ks) as ct:
+        for _ in range(args.repeats):
+            ks.periodic_orbit(x0=guess, transient=0)
+    res["orbit"].update({
+        "bare_c_loop_200_periods": c_ref,
+        "ratio_warm_solve_to_bare_c_loop": o_warm["best_s"] / c_ref["best_s"],
+        "ratio_warm_solve_median_to_bare_c_loop_median": o_warm["median_s"] / c_ref["median_s"],
+        "ratio_warm_solve_to_bare_c_loop_cpu": o_warm["cpu_best_s"] / c_ref["cpu_best_s"],
+        "warm_solve_outside_c_fraction": ct.outside_c_fraction,
+        "warm_solve_outside_c_fraction_wall": ct.outside_c_fraction_wall,
+        "targets": {"ratio_warm_solve_to_bare_c_loop": 0.06, "warm_solve_outside_c_fraction": 0.3},
+    })
+    print(f"one orbit (warm, Omega 0.9): {o_warm['best_s'] * 1e3:.2f} ms best, {o_warm['median_s'] * 1e3:.2f} ms "
+          f"median; bare C loop (200 periods): {c_ref['best_s'] * 1e3:.2f} ms best; ratio "
+          f"{res['orbit']['ratio_warm_solve_to_bare_c_loop']:.3f} (target 0.06), in CPU time "
+          f"{res['orbit']['ratio_warm_solve_to_bare_c_loop_cpu']:.3f}; outside C "
+          f"{100 * ct.outside_c_fraction:.0f} % of the CPU time (target < 30 %); load {os.getloadavg()[0]:.1f}")
+    if args.orbit_only:
+        (out / "orbit_speed.json").write_text(json.dumps(res, indent=1, default=float))
+        print(f"wrote {out / 'orbit_speed.json'}")
+        return 0
 
     # ------------------------------------------------------------- the maps
     n = args.n

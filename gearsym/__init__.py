@@ -16,9 +16,10 @@ from __future__ import annotations
 
 import importlib
 
+from ._version import __version__
+
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (type checkers read it as True)
 
-__version__ = "0.1.0"
 
 #: public name -> module that defines it
 _EXPORTS: dict[str, str] = {
@@ -26,6 +27,9 @@ _EXPORTS: dict[str, str] = {
     "Branch": ".analysis.branch",
     "BranchPoint": ".analysis.branch",
     "continuation": ".analysis.continuation",
+    "switch_period_doubling": ".analysis.branch_switching",
+    "ContinuationOptions": ".analysis.options",
+    "ShootingOptions": ".analysis.options",
     "PeriodicOrbit": ".analysis.orbit",
     "CompileError": ".errors",
     "ConvergenceError": ".errors",
@@ -41,14 +45,16 @@ _EXPORTS: dict[str, str] = {
 }
 
 __all__ = [
-    "Bifurcation", "Branch", "BranchPoint", "CompileError", "ConvergenceError", "Event", "GearsymError",
-    "ParameterError", "PeriodicOrbit", "Scene", "SimulationError", "SpecError", "System", "Trajectory",
-    "__version__", "continuation", "load_scene",
+    "Bifurcation", "Branch", "BranchPoint", "CompileError", "ContinuationOptions", "ConvergenceError", "Event",
+    "GearsymError", "ParameterError", "PeriodicOrbit", "Scene", "ShootingOptions", "SimulationError", "SpecError",
+    "System", "Trajectory", "__version__", "continuation", "load_scene", "switch_period_doubling",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
     from .analysis.branch import Bifurcation, Branch, BranchPoint
+    from .analysis.branch_switching import switch_period_doubling
     from .analysis.continuation import continuation
+    from .analysis.options import ContinuationOptions, ShootingOptions
     from .analysis.orbit import PeriodicOrbit
     from .errors import (
         CompileError,

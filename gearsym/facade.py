@@ -96,7 +96,7 @@ class Scene:
         return bool(self.spec.simulate.get("dimensionless", False))
 
     def compile(self, generated_dir: str | Path | None = None, force: bool = False,
-                dimensionless: bool | None = None) -> System:  # noqa: F821
+                dimensionless: bool | None = None, *, derivatives: bool = False) -> System:  # noqa: F821
         """Generate C, compile it (or reuse the cached build) and bind it to the engine.
 
         Parameters
@@ -109,6 +109,9 @@ class Scene:
             Simulate in the dimensionless variables of :meth:`SymbolicModel.dimensionless`
             (time ``tau``, states scaled by their references; the scene's initial state is
             converted); default: the scene's ``[simulate] dimensionless``.
+        derivatives
+            Build with the parameter derivatives of the sensitivities at once (otherwise
+            the system makes that second build on its first sensitivity request).
 
         Returns
         -------
@@ -122,10 +125,11 @@ class Scene:
         if self.resolved.static and self.model_spec.algebraic:
             raise SpecError("the static start does not handle algebraic variables ([constraints]): give "
                             "the initial state", file=self.spec.path, field="initial.static")
-        gen = self.generate(generated_dir, force, dimensionless)
+        gen = self.generate(generated_dir, force, dimensionless, derivatives=derivatives)
         values = {k: self.resolved.values[k] for k in gen.input_names}
         system = System(gen, values, self.initial_state(), self.spec.simulate, self.name,
                         ParameterUnits.of_model(self.model_spec))
+        system.derivative_build = _DerivativeBuild(self, generated_dir, gen.dimensionless)
         if self.resolved.static:  # [initial] static = true: start from the static equilibrium
             from .static import static_state
 
@@ -134,7 +138,7 @@ class Scene:
         return system
 
     def generate(self, generated_dir: str | Path | None = None, force: bool = False,
-                 dimensionless: bool | None = None) -> GeneratedModel:
+                 dimensionless: bool | None = None, *, derivatives: bool = False) -> GeneratedModel:
         """Generate and compile, returning the :class:`GeneratedModel` (cache-aware).
 
         The build is looked up by its key (:func:`gearsym.codegen.cache.build_key`) and
@@ -150,6 +154,8 @@ class Scene:
             Rebuild even if a verified build exists.
         dimensionless
             Generate the dimensionless form (default: the scene's ``[simulate] dimensionless``).
+        derivatives
+            The build with the parameter derivatives of the sensitivities (its own key).
 
         Returns
         -------
@@ -169,7 +175,7 @@ class Scene:
         if dimensionless is None:
             dimensionless = self.dimensionless
         form = self.model_spec.form + ("+dimensionless" if dimensionless else "")
-        key, parts = build_key(model_text, self.resolved.effects, form)
+        key, parts = build_key(model_text, self.resolved.effects, form, derivatives=derivatives)
         cache = BuildCache(root)
         entry = cache.entry(self.name, key)
         if not force:
@@ -187,7 +193,7 @@ class Scene:
                     if gen is not None:
                         return self._reused(gen)
                 model = self.model.dimensionless_system() if dimensionless else self.model
-                fns = build_functions(model)
+                fns = build_functions(model, derivatives=derivatives)
                 with cache.staging(entry) as staging:
                     gen = write_and_compile(model, fns, staging, entry.directory, self.name, key,
                                             self.resolved.effects, parts)
@@ -211,6 +217,18 @@ class Scene:
         gen.compile_seconds = 0.0
         gen.scene = self.name  # builds are shared by scenes whose names map to one folder
         return gen
+
+
+class _DerivativeBuild:
+    """Makes (or finds) a scene's build with the parameter derivatives, on demand."""
+
+    def __init__(self, scene: Scene, generated_dir: str | Path | None, dimensionless: bool = False):
+        self.scene = scene
+        self.generated_dir = generated_dir
+        self.dimensionless = dimensionless  # the same form as the system's own build
+
+    def __call__(self) -> GeneratedModel:
+        return self.scene.generate(self.generated_dir, dimensionless=self.dimensionless, derivatives=True)
 
 
 def load_scene(path: str | Path, effects: Mapping[str, bool | str] | None = None,

@@ -60,12 +60,10 @@ def surface_levels(system: Any) -> list[float]:
     """
     levels = []
     try:
-        fn = system.generated.casadi_function("gs_sw")
-        p = system.param_vector()
         x = np.zeros(system.generated.nx)
-        g0 = np.asarray(fn(0.0, x, p)).ravel()
+        g0 = np.asarray(system.switching(0.0, x), float).ravel()
         x[0] = 1.0
-        g1 = np.asarray(fn(0.0, x, p)).ravel()
+        g1 = np.asarray(system.switching(0.0, x), float).ravel()
         for a, b in zip(g0, g1):
             if abs((b - a) - 1.0) < 1e-12:
                 levels.append(-a)

@@ -54,6 +54,10 @@ class Trajectory:
         ``d x(t_end) / d x(t0)`` when requested.
     event_speed : ndarray
         ``dg/dt`` along the flow at each event (near 0: grazing contact).
+    sensitivities : dict or None
+        Parameter name -> ``d y / d p`` at the output times, shape (n_out, n_states)
+        (``simulate(..., sensitivities=[...])``; exact, including the shift of the
+        contact events with the parameter; ``x0`` held fixed).
     """
 
     t: np.ndarray
@@ -66,6 +70,7 @@ class Trajectory:
     x_final: np.ndarray
     monodromy: np.ndarray | None = None
     event_speed: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    sensitivities: dict[str, np.ndarray] | None = None
 
     @property
     def final_state(self) -> np.ndarray:
@@ -147,6 +152,9 @@ class Flow:
         ``max |x_i(t)|`` over the sampled points (``n_samples`` of :meth:`System.flow`).
     stats : dict
         ``n_steps``, ``n_rhs``, ``n_jac``, ``n_events``, ...
+    sensitivity : ndarray, shape (nx, n_sens), or None
+        ``d phi / d p`` for the requested parameters (:meth:`System.flow`'s
+        ``sensitivities``), the total derivative when the span moves with them.
     """
 
     x_final: np.ndarray
@@ -158,4 +166,5 @@ class Flow:
     sigma_final: np.ndarray
     amplitude: np.ndarray
     stats: dict
+    sensitivity: np.ndarray | None = None
 

@@ -62,15 +62,11 @@ def period_nodes(system: System, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     w : ndarray
         Weights summing to 1.
     """
-    T = float(system.generated.casadi_function("gs_period")(p))
-    if not (math.isfinite(T) and T > 0):
+    T = system.period_of(p)
+    if not T:
         return np.zeros(1), np.ones(1)
     cuts = {0.0, T}
-    s = np.asarray(system.generated.casadi_function("gs_sched")(p)).ravel()
-    i = 0
-    for sch in system.generated.schedules:
-        P, fractions = float(s[i]), s[i + 1: i + 1 + sch["n_breaks"]]
-        i += 1 + sch["n_breaks"]
+    for P, fractions in system.schedule_table(p):
         if not (math.isfinite(P) and P > 0) or T / P * (len(fractions) + 1) > _MAX_NODES / _GL_POINTS:
             continue
         for k in range(int(math.ceil(T / P)) + 1):

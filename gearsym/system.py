@@ -11,10 +11,12 @@ from types import MappingProxyType
 import numpy as np
 
 from .bound_functions import evaluate as evaluate_bound
-from .codegen.generate import GeneratedModel
+from .codegen.artifact import GeneratedModel
 from .engine.driver import Engine, load_engine
 from .errors import GearsymError, ParameterError
+from .evaluation import Evaluations
 from .results import Event, Flow, Trajectory
+from .sensitivity import SensitivityMethods
 from .spec.units import ParameterUnits
 
 _METHODS = ("bdf", "adams", "ida")
@@ -26,7 +28,7 @@ MAX_OUTPUT_VALUES = 2 ** 28
 DEFAULT_MAX_STEPS = 10_000_000
 
 
-class System:
+class System(Evaluations, SensitivityMethods):
     """A compiled scene: simulate it, find its periodic orbits.
 
     Obtained from :meth:`gearsym.Scene.compile`; not constructed directly.
@@ -83,6 +85,10 @@ class System:
             self.x0 = self.x0 / self.state_scales()
         self.defaults = dict(defaults or {})
         self.name = scene_name or generated.scene
+        #: makes the build with the parameter derivatives of the sensitivities on the first
+        #: sensitivity request (set by :meth:`gearsym.Scene.compile`; None: not available)
+        self.derivative_build = None
+        self._derivative_engine: Engine | None = None
 
     # ------------------------------------------------------------ pickling
 
@@ -297,124 +303,13 @@ class System:
         raise ParameterError(f"the forcing period is not finite and positive{at} (T = {T:g}); {what} needs a "
                              f"forcing period")
 
-    def rhs(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
-            params: Mapping[str, float] | None = None) -> np.ndarray:
-        """Evaluate the right-hand side (explicit models) in a given mode.
-
-        Parameters
-        ----------
-        t
-            Time.
-        x
-            State.
-        sigma
-            Side (+1/-1) of each switching surface; by default the sides at ``(t, x)``.
-        params
-            Parameter overrides (declared units).
-
-        Returns
-        -------
-        ndarray
-            ``dx/dt``.
-        """
-        return self._eval_one("rhs", t, x, sigma, params)
-
-    def jacobian(self, t: float, x: Sequence[float], sigma: Sequence[float] | None = None,
-                 params: Mapping[str, float] | None = None) -> np.ndarray:
-        """The generated Jacobian ``df/dx`` (explicit models).
-
-        Parameters
-        ----------
-        t
-            Time.
-        x
-            State.
-        sigma
-            Side (+1/-1) of each switching surface; by default the sides at ``(t, x)``.
-        params
-            Parameter overrides (declared units).
-
-        Returns
-        -------
-        ndarray, shape (n_states, n_states)
-            The Jacobian in that mode.
-        """
-        return self._eval_one("jac", t, x, sigma, params)
-
-    def _eval_one(self, name: str, t: float, x: Sequence[float], sigma: Sequence[float] | None,
-                  params: Mapping[str, float] | None) -> np.ndarray:
-        if self.generated.implicit:
-            raise ParameterError(f"{name}() needs an explicit model; this one is in implicit (residual) form")
-        sg = None if sigma is None else np.asarray(sigma, float).reshape(1, -1)
-        return self.engine.evaluate(name, [float(t)], np.asarray(x, float).reshape(1, -1),
-                                    self.param_vector(params), sg)[0]
-
-    def switching(self, t: Sequence[float] | float, x: Sequence[float], params: Mapping[str, float] | None = None,
-                  p: np.ndarray | None = None) -> np.ndarray:
-        """The switching functions ``g(t, x)`` at one or many points (generated C, no CasADi call).
-
-        Parameters
-        ----------
-        t
-            Time(s), shape () or (n,).
-        x
-            State(s), shape (nx,) or (n, nx).
-        params
-            Parameter overrides (declared units).
-        p
-            The parameter vector itself (from :meth:`param_vector`); when given,
-            ``params`` is ignored.
-
-        Returns
-        -------
-        ndarray
-            Shape (nsw,) for one point, (n, nsw) for many.
-        """
-        one = np.ndim(t) == 0
-        ta = np.atleast_1d(np.asarray(t, float))
-        xa = np.asarray(x, float).reshape(ta.shape[0], self.generated.nx)
-        pv = self.param_vector(params) if p is None else p
-        g = self.engine.evaluate("sw", ta, xa, pv)
-        return g[0] if one else g
-
-    @property
-    def output_names(self) -> list[str]:
-        """Names of the model's ``[outputs]`` (quantities evaluated along trajectories)."""
-        return list(self.generated.outputs)
-
-    def outputs(self, traj: Trajectory) -> dict[str, np.ndarray]:
-        """Evaluate the model's ``[outputs]`` along a trajectory.
-
-        Parameters
-        ----------
-        traj
-            A trajectory of this system (its parameters are used).
-
-        Returns
-        -------
-        dict
-            Output name -> array of values at ``traj.t`` (SI units).
-        """
-        if not self.generated.outputs:
-            return {}
-        p = self.param_vector({k: v for k, v in traj.params.items() if k in self.params})
-        vals = self.engine.evaluate("out", traj.t, traj.y, p)
-        return {name: vals[:, i].copy() for i, name in enumerate(self.generated.outputs)}
-
-    def _sched_mode(self, t: float, p: np.ndarray) -> np.ndarray:
-        """Schedule part of the mode vector at time ``t``: ``[n_0, seg_0, n_1, seg_1, ...]``."""
-        m = self.engine.evaluate("mode", [float(t)], np.zeros((1, self.generated.nx)), p)[0]
-        return m[self.generated.nsw:].copy()
-
-    # -------------------------------------------------------------- simulate
-
     def simulate(self, t_end: float | None = None, periods: float | None = None,
                  x0: Sequence[float] | None = None, rtol: float = 1e-8, atol: float = 1e-10,
                  n_out: int | None = None, params: Mapping[str, float] | None = None, *,
                  t0: float = 0.0, method: str | None = None, max_step: float | None = None,
                  monodromy: bool = False, sigma0: Sequence[float] | None = None,
                  max_steps: int = 0, t_out: Sequence[float] | None = None, nonlinear: str = "auto",
-                 linear_solver: str = "auto") -> Trajectory:
+                 linear_solver: str = "auto", sensitivities: Sequence[str] | None = None) -> Trajectory:
         """Integrate the system with the C engine (one call into C).
 
         Parameters
@@ -461,6 +356,13 @@ class System:
             CVODE's nonlinear solver (``"newton"``, ``"fixedpoint"``) and Newton's
             linear solver (``"dense"``, ``"blockdiag"``), ``"auto"`` by default; see
             :meth:`gearsym.engine.driver.Engine.run`.
+        sensitivities
+            Run-time parameters (e.g. ``["omega"]``) whose exact sensitivities
+            ``d x(t) / d p`` to return along the trajectory (at the fixed output times)
+            in :attr:`Trajectory.sensitivities`: the parameter variational equations are
+            integrated with the state, with the event-time terms at contact events and
+            the breakpoint-time terms at scheduled breakpoints.  Explicit models (CVODE)
+            only; ``x0`` is held fixed.
 
         Returns
         -------
@@ -545,15 +447,19 @@ class System:
             max_steps = int(self.defaults.get("max_steps", 0))
         if max_steps < 0:
             raise ParameterError(f"max_steps must be positive (0: the default), got {max_steps}")
-        budget = max_steps or DEFAULT_MAX_STEPS
-        if max_step and math.isfinite(max_step) and max_step > 0 and (t_end - t0) / max_step > budget:
-            raise ParameterError(
-                f"integrating to t_end = {t_end:g} needs at least {(t_end - t0) / max_step:.3g} steps "
-                f"(largest step {max_step:.3g}{' = T/8' if T and max_step == T / 8 else ''}), more than "
-                f"max_steps = {budget:d}: raise max_steps (--max-steps) or integrate fewer periods")
-        res = self.engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
+        _check_step_budget(t0, t_end, max_step, max_steps, bool(T and max_step == T / 8))
+        sens_kw: dict = {}
+        if sensitivities is not None:
+            sens_kw = self._sensitivity_args(list(sensitivities), p, np.full(self.generated.nx, atol),
+                                             monodromy, atol, inputs=params)
+        engine = self.engine if sensitivities is None else self.derivative_engine()
+        res = engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
                               sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
-                              max_step=max_step, nonlinear=nonlinear, linear_solver=linear_solver)
+                              max_step=max_step, nonlinear=nonlinear, linear_solver=linear_solver,
+                              sens_out=sensitivities is not None, **sens_kw)
+        sens = None
+        if sensitivities is not None:
+            sens = {name: res.sensitivity_out[:, :, s].copy() for s, name in enumerate(sensitivities)}
         names = self.surface_names
         events = [Event(float(tt), names[int(j)], int(d))
                   for tt, j, d in zip(res.events.t, res.events.surface, res.events.direction)]
@@ -563,13 +469,15 @@ class System:
         return Trajectory(t=grid, y=res.y, state_names=self.state_names, events=events, stats=stats,
                           period=T, params=self.param_dict(p),
                           x_final=res.x_final, monodromy=res.monodromy,
-                          event_speed=np.asarray(res.events.speed))
+                          event_speed=np.asarray(res.events.speed), sensitivities=sens)
 
     def flow(self, x0: Sequence[float], t0: float, t1: float, p: np.ndarray | None = None, *,
              rtol: float = 1e-10, atol: float | np.ndarray = 1e-12, monodromy: bool = True,
              method: str | None = None, max_step: float | None = None, n_samples: int = 2,
              sigma0: Sequence[float] | None = None, max_steps: int = 0,
-             scales: np.ndarray | None = None) -> Flow:
+             scales: np.ndarray | None = None, sensitivities: Sequence[str] | None = None,
+             span_derivative: tuple[Sequence[float] | float, Sequence[float] | float] | None = None,
+             inputs: Mapping[str, float] | None = None) -> Flow:
         """The flow map ``phi(t1, t0, x0)`` and its Jacobian: the cheap path of the orbit solvers.
 
         One C call with a reused engine workspace; no output grid beyond ``n_samples``
@@ -606,6 +514,20 @@ class System:
             is then an error ``atol_i`` in ``x_i``) instead of ``atol_i``: in SI units the
             states and their ratios differ by orders of magnitude, and one ``atol`` for
             all made the variational equations take 7-26x the steps of the state.
+        sensitivities
+            Run-time parameters whose exact derivatives ``d phi / d p`` to return in
+            :attr:`Flow.sensitivity` (explicit models): parameter variational equations
+            with event-time and breakpoint-time terms, in the same integration as the
+            monodromy.
+        span_derivative
+            ``(d t0 / d p_s, d t1 / d p_s)`` for each of ``sensitivities`` when the span
+            moves with the parameter; :attr:`Flow.sensitivity` is then the total
+            derivative, e.g. for the period map ``x0 -> phi(T(p), 0, x0; p)`` give
+            ``(0, dT/dp)`` (:meth:`period_gradient`): the sensitivity at ``T-`` plus ``f(T-) dT/dp``.
+        inputs
+            The parameter overrides ``p`` was made with (:meth:`param_vector`), needed for the
+            derivative of a bound parameter whose arguments ``p`` does not hold; default: the
+            current values.
 
         Returns
         -------
@@ -619,6 +541,8 @@ class System:
             max_step = T / 8 if math.isfinite(T) and T > 0 else 0.0
         grid = np.linspace(t0, t1, max(int(n_samples), 2))
         grid[-1] = t1
+        max_steps = max_steps or int(self.defaults.get("max_steps", 0))
+        _check_step_budget(t0, t1, max_step, max_steps, False)
         mono = bool(monodromy)
         nx = self.generated.nx
         nd = nx - len(self.generated.algebraic)  # variational columns: the differential states
@@ -632,22 +556,28 @@ class System:
             else:
                 atol_vec = np.array(ax)
             atol = float(np.min(ax))
-        res = self.engine.run(x0, pv, t0, t1, grid, method=method, rtol=rtol, atol=atol, sigma0=sigma0,
+        sens_kw: dict = {}
+        if sensitivities is not None:
+            ax = np.broadcast_to(np.asarray(atol if atol_vec is None else atol_vec[:nx], float), (nx,))
+            sens_kw = self._sensitivity_args(list(sensitivities), pv, np.array(ax), mono, ax, scales, inputs)
+            if span_derivative is not None:
+                sens_kw["sens_dt0"], sens_kw["sens_dt1"] = span_derivative
+            atol_vec = sens_kw.pop("atol_vec")
+        engine = self.engine if sensitivities is None else self.derivative_engine()
+        res = engine.run(x0, pv, t0, t1, grid, method=method, rtol=rtol, atol=atol, sigma0=sigma0,
                               atol_vec=atol_vec, want_monodromy=mono,
-                              max_steps=max_steps or int(self.defaults.get("max_steps", 0)), max_step=max_step)
+                              max_steps=max_steps, max_step=max_step, **sens_kw)
         ev = res.events
         return Flow(x_final=res.x_final, monodromy=res.monodromy, event_t=ev.t, event_surface=ev.surface,
                     event_direction=ev.direction, event_speed=ev.speed, sigma_final=res.sigma_final,
-                    amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats)
-
-    # --------------------------------------------------------- periodic orbits
+                    amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats, sensitivity=res.sensitivity)
 
     def periodic_orbit(self, period: float | None = None, periods: float = 1,
                        x0: Sequence[float] | None = None, method: str = "shooting",
                        params: Mapping[str, float] | None = None, **options):
         """Find a periodic orbit and its Floquet multipliers.
 
-        Delegates to :func:`gearsym.analysis.orbit.periodic_orbit`: ``method="shooting"``
+        Delegates to :func:`gearsym.analysis.periodic.periodic_orbit`: ``method="shooting"``
         (Newton on ``phi(T, x0) - x0`` with the engine's variational equations and
         saltation matrices; ``segments=N`` for multiple shooting) or ``"hbm"``
         (harmonic balance with alternating frequency/time; ``harmonics=H`` or grown).
@@ -679,7 +609,17 @@ class System:
         ConvergenceError
             The solver did not converge (with its residual history).
         """
-        from .analysis.orbit import periodic_orbit
+        from .analysis.periodic import periodic_orbit
 
         return periodic_orbit(self, period=period, periods=periods, x0=x0, method=method, params=params,
                               **options)
+
+
+def _check_step_budget(t0: float, t_end: float, max_step: float, max_steps: int, t8: bool) -> None:
+    """Refuse, before any work, a horizon that needs more steps of ``max_step`` than the budget."""
+    budget = max_steps or DEFAULT_MAX_STEPS
+    if max_step and math.isfinite(max_step) and max_step > 0 and (t_end - t0) / max_step > budget:
+        raise ParameterError(
+            f"integrating to t_end = {t_end:g} needs at least {(t_end - t0) / max_step:.3g} steps "
+            f"(largest step {max_step:.3g}{' = T/8' if t8 else ''}), more than "
+            f"max_steps = {budget:d}: raise max_steps (--max-steps) or integrate fewer periods")

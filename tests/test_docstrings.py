@@ -5,12 +5,7 @@ Functions and methods are checked with numpydoc's own validator (``numpydoc.vali
 no docstring (GL08), parameters not documented (PR01) or documented but absent (PR02),
 a function that returns something without a Returns section (RT01).  A class must describe
 every argument of its constructor under Parameters or, for result objects that users
-receive rather than build, Attributes.
-
-Exempt while the analysis-layer refactor (issue 14: problem objects, one Newton, frozen
-options and results dataclasses) is pending, because it rewrites these classes and their
-docstrings: the names in :data:`PENDING_ANALYSIS_REFACTOR`.  The test also fails when an
-exempt name has become complete, so that the list shrinks with the refactor.
+receive rather than build, Attributes.  No name is exempt.
 """
 
 from __future__ import annotations
@@ -24,7 +19,6 @@ from numpydoc.validate import validate
 import gearsym
 
 CHECKS = {"GL08", "PR01", "PR02", "RT01"}
-PENDING_ANALYSIS_REFACTOR = {"Bifurcation", "Branch", "BranchPoint", "PeriodicOrbit"}
 
 
 def _problems(name: str) -> list[str]:
@@ -64,15 +58,8 @@ PUBLIC = [n for n in gearsym.__all__ if n != "__version__"]
 
 def test_all_lists_every_export():
     assert set(gearsym.__all__) == set(gearsym._EXPORTS) | {"__version__"}
-    assert PENDING_ANALYSIS_REFACTOR <= set(PUBLIC)
 
 
-@pytest.mark.parametrize("name", [n for n in PUBLIC if n not in PENDING_ANALYSIS_REFACTOR])
+@pytest.mark.parametrize("name", PUBLIC)
 def test_public_name_has_a_complete_docstring(name):
     assert _problems(name) == []
-
-
-@pytest.mark.parametrize("name", sorted(PENDING_ANALYSIS_REFACTOR))
-def test_exempt_names_are_still_incomplete(name):
-    # when this fails, the name's docstrings are complete: take it out of PENDING_ANALYSIS_REFACTOR
-    assert _problems(name) != []

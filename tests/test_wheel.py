@@ -69,8 +69,11 @@ def _link_site(dists: list[metadata.Distribution], site: Path) -> None:
 def venv(tmp_path_factory: pytest.TempPathFactory) -> dict:
     tmp = tmp_path_factory.mktemp("wheel")
     dist = tmp / "dist"
+    # without PYTHONPATH: with the repository on it, the gearsym.egg-info that the build writes
+    # there looks like an installed gearsym to pip, which then skips the install
+    clean = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     subprocess.run([sys.executable, "-m", "build", "--no-isolation", "--outdir", str(dist), str(REPO)],
-                   check=True, capture_output=True, text=True, cwd=tmp)
+                   check=True, capture_output=True, text=True, cwd=tmp, env=clean)
     wheel = next(dist.glob("gearsym-*.whl"))
     with zipfile.ZipFile(wheel) as zf:
         name = next(n for n in zf.namelist() if n.endswith(".dist-info/METADATA"))
@@ -86,7 +89,7 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> dict:
                              check=True, capture_output=True, text=True).stdout.strip()
     Path(purelib, "gearsym_core_deps.pth").write_text(str(site) + "\n")
     subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "--no-index", "--quiet",
-                    str(wheel)], check=True, capture_output=True, text=True, cwd=tmp)
+                    str(wheel)], check=True, capture_output=True, text=True, cwd=tmp, env=clean)
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV"))}
     env.update(GEARSYM_GENERATED=str(tmp / "builds"), OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     work = tmp / "work"

@@ -19,186 +19,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .points import BIFURCATION_TYPES, Bifurcation, BranchPoint, ContinuationSetup, _jsonable
+
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
 
     from ..system import System
 
-__all__ = ["BIFURCATION_TYPES", "Bifurcation", "Branch", "BranchPoint", "add_legend"]
-
-#: Types of located special points and what they mean.
-BIFURCATION_TYPES: dict[str, str] = {
-    "fold": "turning point of the branch: a real multiplier through +1 (saddle-node, jump in a sweep)",
-    "period_doubling": "a real multiplier through -1 (flip): a period-2k orbit branches off",
-    "neimark_sacker": "a complex pair of multipliers through the unit circle (torus, quasi-periodic motion)",
-    "grazing": "the orbit starts or stops touching a switching (contact) surface: the rattle state changes",
-    "branch_point": "a real multiplier through +1 without a turning point (symmetry-breaking pitchfork)",
-}
+__all__ = ["BIFURCATION_TYPES", "Bifurcation", "Branch", "BranchPoint", "ContinuationSetup", "add_legend"]
 
 
-@dataclass
-class BranchPoint:
-    """One periodic orbit on a branch.
-
-    Attributes
-    ----------
-    value : float
-        The continuation parameter (SI).
-    x0 : ndarray
-        State at ``t0`` (the start of the forcing period).
-    period : float
-        Orbit period (``periods`` forcing periods at this parameter value).
-    periods : float
-        Forcing periods per orbit period.
-    multipliers : ndarray (complex)
-        Non-trivial Floquet multipliers by decreasing modulus (the multipliers of
-        rigid-body modes are in ``trivial_multipliers``).
-    stable : bool
-        No multiplier outside the unit circle beyond its tolerance (the rule of
-        :mod:`gearsym.analysis.stability`).
-    n_unstable : int
-        Number of multipliers outside the circle beyond their tolerances.
-    max, min, rms : float
-        Of the observed state (the first state unless chosen) over one period.
-    rattle_state : int or None
-        0 no contact loss, 1 contact loss only, 2 back-side contact (backlash models).
-    n_events : int
-        Surface crossings in one period.
-    surface_extrema : dict
-        ``{surface: (min g, max g)}`` of each switching function over the orbit
-        (grazing: one of them crosses 0).
-    tangent : ndarray
-        Unit tangent of the branch in scaled variables (unknowns, parameter).
-    bifurcation : str or None
-        Type of the special point this is (located bifurcation), else ``None``.
-    residual : float
-        Scaled residual of the corrector.
-    iterations : int
-        Corrector (Newton) iterations.
-    u : ndarray
-        The unknowns of the continuation (shooting states or harmonic coefficients).
-    stability : str
-        ``"asymptotically_stable"``, ``"neutral"`` or ``"unstable"``.
-    trivial_multipliers : ndarray (complex)
-        Multipliers of the rigid-body modes (reported apart, not judged).
-    multiplier_tolerances : ndarray
-        The neutral band of each multiplier.
-    meshes : dict
-        Per mesh: ``rattle_state`` and ``min``, ``max``, ``peak_to_peak`` of its
-        dynamic deflection over the orbit.
-    """
-
-    value: float
-    x0: np.ndarray
-    period: float
-    periods: float
-    multipliers: np.ndarray
-    stable: bool
-    n_unstable: int
-    max: float
-    min: float
-    rms: float
-    rattle_state: int | None
-    n_events: int
-    surface_extrema: dict[str, tuple[float, float]]
-    tangent: np.ndarray | None = None
-    bifurcation: str | None = None
-    residual: float = math.nan
-    iterations: int = 0
-    u: np.ndarray | None = field(default=None, repr=False)
-    monodromy: np.ndarray | None = field(default=None, repr=False)
-    stability: str = ""
-    trivial_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex), repr=False)
-    multiplier_tolerances: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
-    meshes: dict[str, dict[str, Any]] = field(default_factory=dict)
-
-    @property
-    def peak_to_peak(self) -> float:
-        """``max - min`` of the observed state."""
-        return self.max - self.min
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary (the keys of ``gearsym continue --json``)."""
-        return {
-            "value": float(self.value),
-            "stable": bool(self.stable),
-            "max": float(self.max),
-            "min": float(self.min),
-            "rms": float(self.rms),
-            "rattle_state": self.rattle_state,
-            "x0": [float(v) for v in self.x0],
-            "period": float(self.period),
-            "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
-            "n_unstable": int(self.n_unstable),
-            "n_events": int(self.n_events),
-            "bifurcation": self.bifurcation,
-            "stability": self.stability,
-            "trivial_multipliers": [[float(m.real), float(m.imag)] for m in self.trivial_multipliers],
-            "meshes": {k: {kk: _jsonable(vv) for kk, vv in v.items()} for k, v in self.meshes.items()},
-        }
-
-
-@dataclass
-class Bifurcation:
-    """A located special point of a branch.
-
-    Attributes
-    ----------
-    type : str
-        ``"fold"``, ``"period_doubling"``, ``"neimark_sacker"``, ``"grazing"`` or
-        ``"branch_point"`` (see :data:`BIFURCATION_TYPES`).
-    value : float
-        Parameter value at the point.
-    point : BranchPoint
-        The orbit there.
-    index : int
-        Index of the point in ``Branch.points``.
-    info : dict
-        Details: ``surface`` and ``side`` ("min"/"max" of g) for grazing, the crossing
-        multiplier, ``n_unstable`` before/after, whether the test function jumped
-        (``nonsmooth``), the test-function residual at the located point.
-    """
-
-    type: str
-    value: float
-    point: BranchPoint
-    index: int = -1
-    info: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def multipliers(self) -> np.ndarray:
-        """Floquet multipliers at the point."""
-        return self.point.multipliers
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary."""
-        d = {"type": self.type, "value": float(self.value),
-             "multipliers": [[float(m.real), float(m.imag)] for m in self.point.multipliers],
-             "x0": [float(v) for v in self.point.x0], "period": float(self.point.period),
-             "max": float(self.point.max), "min": float(self.point.min),
-             "rattle_state": self.point.rattle_state, "index": int(self.index)}
-        for k, v in self.info.items():
-            d[k] = _jsonable(v)
-        return d
-
-
-def _jsonable(v: Any) -> Any:
-    if isinstance(v, (np.floating, np.integer)):
-        return v.item()
-    if isinstance(v, complex):
-        return [v.real, v.imag]
-    if isinstance(v, np.ndarray):
-        if np.iscomplexobj(v):
-            return [[float(z.real), float(z.imag)] for z in v.ravel()]
-        return v.tolist()
-    if isinstance(v, (list, tuple)):
-        return [_jsonable(x) for x in v]
-    if isinstance(v, dict):
-        return {k: _jsonable(x) for k, x in v.items()}
-    return v
-
-
-@dataclass
+@dataclass(frozen=True, eq=False)
 class Branch:
     """A continued branch of periodic orbits.
 
@@ -226,10 +57,20 @@ class Branch:
         (the parameter stalled while the orbit grew, e.g. an undamped resonance).
     stop_value : float or None
         Parameter value (SI) of the last point.
+    state_names : list of str
+        The system's state names.
     children : list of Branch
-        Branches switched onto at period doublings of this one.
+        Branches switched onto at period doublings of this one (the one thing that grows
+        after the branch is made: :func:`~gearsym.analysis.branch_switching.switch_period_doubling`
+        appends to it).
+    parent : Bifurcation or None
+        The period doubling this branch was switched on at.
     info : dict
         Settings, counts of residual evaluations, wall time.
+    system : System or None
+        The compiled system (for :meth:`poincare`).
+    setup : ContinuationSetup or None
+        How the branch was computed (what branch switching starts from).
     """
 
     param: str
@@ -246,6 +87,7 @@ class Branch:
     parent: Bifurcation | None = field(default=None, repr=False)
     info: dict[str, Any] = field(default_factory=dict)
     system: System | None = field(default=None, repr=False, compare=False)
+    setup: ContinuationSetup | None = field(default=None, repr=False, compare=False)
 
     # ------------------------------------------------------------- arrays
     def __len__(self) -> int:
@@ -292,7 +134,18 @@ class Branch:
         return [p.rattle_state for p in self.points]
 
     def quantity(self, name: str) -> np.ndarray:
-        """``"max"``, ``"min"``, ``"rms"``, ``"ptp"`` (peak-to-peak) or ``"x0"`` (first entry)."""
+        """One quantity of the observed state along the branch.
+
+        Parameters
+        ----------
+        name
+            ``"max"``, ``"min"``, ``"rms"``, ``"ptp"`` (peak-to-peak) or ``"x0"`` (first entry).
+
+        Returns
+        -------
+        ndarray
+            One value per point.
+        """
         if name in ("ptp", "peak_to_peak"):
             return self.peak_to_peak
         if name == "x0":
@@ -310,8 +163,21 @@ class Branch:
         return list(names)
 
     def mesh_quantity(self, mesh: str, name: str = "peak_to_peak") -> np.ndarray:
-        """Along the branch, for one mesh: ``"min"``, ``"max"``, ``"peak_to_peak"`` of its dynamic
-        deflection or its ``"rattle_state"`` (NaN / -1 where unknown)."""
+        """One quantity of one mesh along the branch.
+
+        Parameters
+        ----------
+        mesh
+            The mesh (one of :attr:`mesh_names`).
+        name
+            ``"min"``, ``"max"``, ``"peak_to_peak"`` (``"ptp"``) of its dynamic deflection, or
+            its ``"rattle_state"``.
+
+        Returns
+        -------
+        ndarray
+            One value per point (NaN, or -1 for the rattle state, where unknown).
+        """
         if name == "ptp":
             name = "peak_to_peak"
         if name not in ("min", "max", "peak_to_peak", "rattle_state"):
@@ -321,11 +187,32 @@ class Branch:
         return np.array([default if v is None else v for v in vals], float)
 
     def of_type(self, kind: str) -> list[Bifurcation]:
-        """The located bifurcations of one type."""
+        """The located bifurcations of one type.
+
+        Parameters
+        ----------
+        kind
+            A key of :data:`BIFURCATION_TYPES`.
+
+        Returns
+        -------
+        list of Bifurcation
+        """
         return [b for b in self.bifurcations if b.type == kind]
 
     def params_at(self, value: float) -> dict[str, float]:
-        """Parameter overrides of the orbit at ``value`` (the branch's fixed ones plus ``param``)."""
+        """Parameter overrides of the orbit at ``value``.
+
+        Parameters
+        ----------
+        value
+            The continuation parameter's value (SI).
+
+        Returns
+        -------
+        dict
+            The branch's fixed overrides plus ``param = value``.
+        """
         p = dict(self.info.get("params", {}))
         p[self.param] = float(value)
         return p
@@ -334,8 +221,18 @@ class Branch:
                  ) -> tuple[np.ndarray, np.ndarray]:
         """Poincare points (one per forcing period) of every orbit of the branch.
 
-        Returns ``(values, points)`` with ``points`` of shape ``(n_points, k)`` for a
-        period-``k`` branch: the observed state at ``t0, t0 + T, ..., t0 + (k-1) T``.
+        Parameters
+        ----------
+        state
+            The state (index or name; default the observed one).
+        rtol, atol
+            Integrator tolerances (period-``k`` branches integrate ``k - 1`` periods).
+
+        Returns
+        -------
+        values, points : ndarray
+            The parameter values and ``points`` of shape ``(n_points, k)`` for a period-``k``
+            branch: the state at ``t0, t0 + T, ..., t0 + (k-1) T``.
         """
         if self.system is None:
             raise ValueError("the branch is not attached to a system")
@@ -353,15 +250,13 @@ class Branch:
                 pts[j] = tr.y[:, i]
         return self.values, pts
 
-    def switch(self, bifurcation: Bifurcation | int | None = None, **options: Any) -> Branch:
-        """Continue the period-doubled branch born at a located period doubling
-        (:func:`gearsym.analysis.continuation.switch_period_doubling`); appended to ``children``."""
-        from .continuation import switch_period_doubling
-
-        return switch_period_doubling(self, bifurcation, **options)
-
     def all_branches(self) -> list[Branch]:
-        """This branch and, recursively, its children."""
+        """This branch and, recursively, its children.
+
+        Returns
+        -------
+        list of Branch
+        """
         out = [self]
         for c in self.children:
             out += c.all_branches()
@@ -375,6 +270,15 @@ class Branch:
         "rattle_state", "x0", "period", "multipliers": [[re, im], ...], ...}],
         "bifurcations": [{"type", "value", "multipliers", ...}], "stop_reason",
         "complete", "stop_value", ...}``.
+
+        Parameters
+        ----------
+        children
+            Include the switched-on branches (``"children"``).
+
+        Returns
+        -------
+        dict
         """
         d: dict[str, Any] = {
             "param": self.param,
@@ -397,7 +301,18 @@ class Branch:
         return d
 
     def save_json(self, path: str | Path) -> Path:
-        """Write :meth:`to_dict` to a file."""
+        """Write :meth:`to_dict` to a file.
+
+        Parameters
+        ----------
+        path
+            The JSON file.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         from ..files import write_json
 
         return write_json(path, self.to_dict())
@@ -426,6 +341,10 @@ class Branch:
             Add a legend (line styles and marker types).
         xscale
             Multiply the parameter by this for the horizontal axis (unit change).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
         """
         import matplotlib.pyplot as plt
 
@@ -467,7 +386,23 @@ class Branch:
     def plot_multipliers(self, ax: Axes | None = None, children: bool = False, xscale: float = 1.0,
                          color: str | None = None) -> Axes:
         """``|mu|`` of every Floquet multiplier along the branch (log scale), the unit
-        circle as a line, bifurcations as vertical lines."""
+        circle as a line, bifurcations as vertical lines.
+
+        Parameters
+        ----------
+        ax
+            Axes to draw into (new figure if ``None``).
+        children
+            Also draw the branches switched onto at period doublings.
+        xscale
+            Multiply the parameter by this for the horizontal axis.
+        color
+            One colour for all multipliers (default: one per multiplier).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -511,6 +446,10 @@ class Branch:
             Label of the horizontal axis (default: the parameter name).
         children
             Also draw the branches switched onto at period doublings.
+
+        Returns
+        -------
+        list of matplotlib.axes.Axes
         """
         import matplotlib.pyplot as plt
 
@@ -546,7 +485,25 @@ class Branch:
 
     def plot_figure(self, path: str | Path | None = None, quantity: str | list[str] = "max",
                     title: str = "", xscale: float = 1.0, children: bool = True):
-        """A two-panel figure: response curve above, multipliers below.  Saved if ``path``."""
+        """A two-panel figure: response curve above, multipliers below.
+
+        Parameters
+        ----------
+        path
+            Save the figure there (and close it).
+        quantity
+            As for :meth:`plot`.
+        title
+            Title above the response curve.
+        xscale
+            Multiply the parameter by this for the horizontal axis.
+        children
+            Also draw the switched-on branches.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
         import matplotlib.pyplot as plt
 
         fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 6.4), sharex=True,

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..codegen.artifact import decode_schedules, generated_map
 from ..errors import GearsymError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -85,33 +86,24 @@ def floquet_multipliers(monodromy: np.ndarray | Sequence[np.ndarray]) -> np.ndar
 def segment_breaks(system: System, period: float, params: Mapping[str, float] | None = None,
                    t0: float = 0.0) -> np.ndarray:
     """All scheduled breakpoints in ``[t0, t0 + period]`` (both ends included), sorted."""
-    p = system.param_vector(params)
-    s = np.asarray(system.generated.casadi_function("gs_sched")(p)).ravel()
-    return _breaks_from(s, system.generated.schedules, period, t0)
+    return _breaks_from(system.schedule_table(system.param_vector(params)), period, t0)
 
 
-def _sched_modes_from(s: np.ndarray, schedules: Sequence[Mapping], t: np.ndarray) -> np.ndarray:
-    """Schedule part of the mode vector at times ``t`` (rows: n_0, seg_0, n_1, seg_1, ...)."""
+def _sched_modes_from(table: Sequence[tuple[float, np.ndarray]], t: np.ndarray) -> np.ndarray:
+    """Schedule part of the mode vector at times ``t`` (rows: n_0, seg_0, n_1, seg_1, ...)
+    from the decoded schedules (:func:`gearsym.system.decode_schedules`)."""
     t = np.atleast_1d(np.asarray(t, float))
     rows = []
-    i = 0
-    for sch in schedules:
-        P = float(s[i])
-        br = np.asarray(s[i + 1: i + 1 + sch["n_breaks"]], float)
-        i += 1 + sch["n_breaks"]
+    for P, br in table:
         u = t / P
         n = np.floor(u)
         rows += [n, (np.searchsorted(br, u - n, side="right") - 1).astype(float)]
     return np.array(rows).reshape(len(rows), len(t))
 
 
-def _breaks_from(s: np.ndarray, schedules: Sequence[Mapping], period: float, t0: float) -> np.ndarray:
+def _breaks_from(table: Sequence[tuple[float, np.ndarray]], period: float, t0: float) -> np.ndarray:
     times = [t0, t0 + period]
-    i = 0
-    for sch in schedules:
-        P = float(s[i])
-        fr = s[i + 1: i + 1 + sch["n_breaks"]]
-        i += 1 + sch["n_breaks"]
+    for P, fr in table:
         n0 = math.floor(t0 / P) - 1
         n1 = math.ceil((t0 + period) / P) + 1
         for n in range(n0, n1 + 1):
@@ -186,18 +178,9 @@ def expm_batch(A: np.ndarray) -> np.ndarray:
     return R.reshape(shp)
 
 
-_MAPPED: dict[tuple[str, str, int], object] = {}
-
-
 def _mapped(gen, name: str, n: int):
-    """``gen.casadi_function(name).map(n)``, cached."""
-    key = (gen.so_path, name, n)
-    f = _MAPPED.get(key)
-    if f is None:
-        if len(_MAPPED) > 256:
-            _MAPPED.clear()
-        f = _MAPPED[key] = gen.casadi_function(name).map(n)
-    return f
+    """The generated function ``name`` mapped over ``n`` points (:func:`gearsym.system.generated_map`)."""
+    return generated_map(gen, name, n)
 
 
 _CHUNK = 2048
@@ -495,7 +478,8 @@ def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]]
     if not np.all(np.isfinite(T) & (T > 0)):
         raise NotPiecewiseConstantError("the scene has no finite forcing period at some points")
     S = _call_columns(gen, "gs_sched", P).reshape(-1, N) if gen.schedules else np.zeros((0, N))
-    seg_times = [_breaks_from(S[:, k], gen.schedules, float(T[k]), 0.0) for k in range(N)]
+    tables = [decode_schedules(S[:, k], gen.schedules) for k in range(N)]
+    seg_times = [_breaks_from(tables[k], float(T[k]), 0.0) for k in range(N)]
     out = np.full((N, nx), complex(math.nan, math.nan))
     monos = np.full((N, nx, nx), math.nan)
     errs = np.full(N, math.nan)
@@ -515,7 +499,7 @@ def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]]
         nm = 2 * len(gen.schedules)
         modes = np.zeros((nm, G, nseg))
         for gi, k in enumerate(idx):
-            modes[:, gi, :] = _sched_modes_from(S[:, k], gen.schedules, mid[gi])
+            modes[:, gi, :] = _sched_modes_from(tables[k], mid[gi])
         ncol = nf * G * nseg
         tcol = tj.reshape(1, ncol)
         xcol = np.zeros((nx, nf, G * nseg))

@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import GearsymError, ParameterError
+from .periodic import ORBIT_METHODS
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray as xr
@@ -69,13 +70,16 @@ MAX_POINTS = 1_000_000
 #: rule; the estimate is :meth:`~gearsym.analysis.floquet.PiecewiseLTV.rounding_error`.
 EXACT_RTOL = 1e-14
 _STABILITY_CODE = {"asymptotically_stable": 0, "neutral": 1, "unstable": 2}
+#: Methods of a map: the exact matrix-exponential path (``auto`` picks it where it applies) and
+#: the periodic-orbit solvers (:data:`gearsym.analysis.periodic.ORBIT_METHODS`).
+MAP_METHODS = ("auto", "exact", *ORBIT_METHODS)
 
 
 # ----------------------------------------------------------------- one point
 def _point(system: System, params: dict[str, float], method: str, periods: float, guess: np.ndarray | None,
            want_ptp: bool, options: Mapping[str, Any]) -> dict[str, Any]:
     from .floquet import NotPiecewiseConstantError, PiecewiseLTV
-    from .orbit import periodic_orbit
+    from .periodic import periodic_orbit
     from .stability import floquet, rigid_state_basis
 
     out: dict[str, Any] = {"max_multiplier": math.nan, "peak_to_peak": math.nan, "rattle_state": -1,
@@ -255,8 +259,8 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
 
     if quantity not in QUANTITIES:
         raise ParameterError(f"quantity must be one of {', '.join(QUANTITIES)}, got '{quantity}'")
-    if method not in ("auto", "exact", "shooting", "hbm"):
-        raise ParameterError(f"method must be auto, exact, shooting or hbm, got '{method}'")
+    if method not in MAP_METHODS:
+        raise ParameterError(f"method must be {', '.join(MAP_METHODS)}, got '{method}'")
     wall = time.perf_counter()
     xname, xs = _axis(x, "x")
     yname, ys = _axis(y, "y")

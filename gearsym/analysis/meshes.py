@@ -28,21 +28,6 @@ def mesh_names(system: System) -> list[str]:
     return list(getattr(system.generated, "meshes", []) or [])
 
 
-def _modes(system: System, t: np.ndarray, Y: np.ndarray, p: np.ndarray) -> np.ndarray:
-    from .floquet import _sched_modes_from
-
-    gen = system.generated
-    n = len(t)
-    rows = []
-    if gen.nsw:
-        G = np.asarray(gen.casadi_function("gs_sw").map(n)(t[None, :], Y.T, np.tile(p[:, None], (1, n))))
-        rows.append(np.where(G.reshape(gen.nsw, n) >= 0, 1.0, -1.0))
-    if gen.schedules:
-        s = np.asarray(gen.casadi_function("gs_sched")(p)).ravel()
-        rows.append(_sched_modes_from(s, gen.schedules, t))
-    return np.vstack(rows) if rows else np.zeros((0, n))
-
-
 def mesh_deflections(system: System, t: Sequence[float], Y: np.ndarray,
                      params: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
     """Dynamic deflection of every mesh at the states ``Y[k]`` at times ``t[k]`` (SI).
@@ -57,11 +42,7 @@ def mesh_deflections(system: System, t: Sequence[float], Y: np.ndarray,
         return {}
     t = np.asarray(t, float)
     Y = np.asarray(Y, float).reshape(len(t), -1)
-    p = system.param_vector(params)
-    n = len(t)
-    m = _modes(system, t, Y, p)
-    D = np.asarray(system.generated.casadi_function("gs_mesh").map(n)(t[None, :], Y.T, np.tile(p[:, None], (1, n)),
-                                                                      m)).reshape(len(names), n)
+    D = system.mesh_deflections(t, Y, system.param_vector(params)).T  # generated C, in the engine
     return {name: D[i] for i, name in enumerate(names)}
 
 
@@ -89,7 +70,7 @@ def mesh_extrema(deflections: Mapping[str, np.ndarray]) -> dict[str, dict[str, f
 def mesh_report(system: System, t: np.ndarray, Y: np.ndarray, params: Mapping[str, float] | None,
                 rattle: Mapping[str, int | None]) -> dict[str, dict[str, Any]]:
     """Per-mesh summary of one orbit: rattle state and deflection extrema, JSON-ready."""
-    from .orbit import RATTLE_STATES
+    from .rattle import RATTLE_STATES
 
     ext = mesh_extrema(mesh_deflections(system, t, Y, params))
     out: dict[str, dict[str, Any]] = {}
@@ -123,7 +104,7 @@ def trajectory_meshes(system: System, traj: Trajectory, steady_fraction: float =
     for name in names:
         rattle[name] = (rattle_summary(traj, system=system, element=name, steady_fraction=steady_fraction).state
                         if name in surfaces else None)
-    from .orbit import RATTLE_STATES
+    from .rattle import RATTLE_STATES
 
     out: dict[str, dict[str, Any]] = {}
     for name in names:
@@ -151,8 +132,7 @@ def mesh_flanks(system: System, t: Sequence[float], Y: np.ndarray, deflections: 
     Y = np.asarray(Y, float).reshape(len(t), -1)
     p = system.param_vector(params)
     n = len(t)
-    G = np.asarray(gen.casadi_function("gs_sw").map(n)(t[None, :], Y.T, np.tile(p[:, None], (1, n)))).reshape(
-        gen.nsw, n)
+    G = system.switching(t, Y, p=p).reshape(n, gen.nsw).T
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for name, d in deflections.items():
         levels = [d - G[j] for j, s in enumerate(gen.surfaces)

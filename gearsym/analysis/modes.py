@@ -385,7 +385,7 @@ def _contact(system: System, q: np.ndarray, params: Mapping[str, float] | None, 
     if not any(s.get("kind") in ("drive", "back") for s in surfaces):
         return {}
     x = np.concatenate([q, np.zeros_like(q)])
-    g = np.asarray(system.generated.casadi_function("gs_sw")(t0, x, system.param_vector(params))).ravel()
+    g = system.switching(float(t0), x, params)
     state: dict[str, str] = {}
     for j, s in enumerate(surfaces):
         kind = s.get("kind")

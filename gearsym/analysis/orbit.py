@@ -1,10 +1,9 @@
-"""Periodic orbits: the result object and the entry point ``periodic_orbit``.
+"""Periodic orbits: the result object :class:`PeriodicOrbit`.
 
-:func:`periodic_orbit` is what :meth:`gearsym.system.System.periodic_orbit` calls;
-it dispatches to :mod:`gearsym.analysis.shooting` (single / multiple shooting with
-the engine's variational equations) or :mod:`gearsym.analysis.hbm` (harmonic
-balance with alternating frequency/time), and both return a
-:class:`PeriodicOrbit`.
+Shooting (:mod:`gearsym.analysis.shooting`) and harmonic balance
+(:mod:`gearsym.analysis.hbm`) both return one, assembled by :func:`finish_orbit`
+(multipliers, stability verdict, rattle states); the entry point that dispatches
+between them is :func:`gearsym.analysis.periodic.periodic_orbit`.
 """
 
 from __future__ import annotations
@@ -18,23 +17,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ParameterError
+from .fourier import synthesize
+from .rattle import RATTLE_STATES, mesh_rattle_states
 from .stability import floquet, rigid_state_basis
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..results import Event, Trajectory
     from ..system import System
 
-__all__ = ["PeriodicOrbit", "periodic_orbit", "rattle_state", "rattle_states", "RATTLE_STATES"]
+__all__ = ["PeriodicOrbit", "finish_orbit"]
 
-#: Meaning of the rattle-state codes of :func:`rattle_state`.
-RATTLE_STATES: dict[int, str] = {
-    0: "no contact loss (permanent drive-side contact)",
-    1: "contact loss only (single-sided impacts / free flight)",
-    2: "back-side contact (double-sided impacts)",
-}
-
-
-@dataclass
+@dataclass(frozen=True, eq=False)
 class PeriodicOrbit:
     """A periodic orbit of a compiled system and its Floquet multipliers.
 
@@ -101,6 +94,8 @@ class PeriodicOrbit:
         Tolerance of each non-trivial multiplier (the neutral band around the circle).
     rattle_states : dict
         Rattle state of every mesh with contact surfaces (``rattle_state`` is the worst).
+    system : System or None
+        The compiled system (for :meth:`trajectory`, :meth:`extrema`, :meth:`meshes`).
     """
 
     x0: np.ndarray
@@ -126,7 +121,7 @@ class PeriodicOrbit:
     history: list[dict[str, Any]] = field(default_factory=list)
     info: dict[str, Any] = field(default_factory=dict)
     system: System | None = field(default=None, repr=False, compare=False)
-    _traj: Trajectory | None = field(default=None, repr=False, compare=False)
+    _traj: Trajectory | None = field(default=None, init=False, repr=False, compare=False)
     stability: str = ""
     trivial_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
     multiplier_tolerances: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -148,6 +143,11 @@ class PeriodicOrbit:
             Output points (default 1024 per forcing period, at least 2048).
         rtol, atol
             Tolerances (default: those of the solve).
+
+        Returns
+        -------
+        Trajectory
+            Cached for the default arguments.
         """
         if self.system is None:
             raise ParameterError("this orbit is not attached to a system")
@@ -159,7 +159,7 @@ class PeriodicOrbit:
                                   atol=atol or self.info.get("atol", 1e-12),
                                   n_out=n, params=self.params)
         if n_out is None and rtol is None and atol is None:
-            self._traj = tr
+            object.__setattr__(self, "_traj", tr)  # a cache of the result, not state
         return tr
 
     def extrema(self, state: int | str = 0) -> tuple[float, float]:
@@ -167,23 +167,56 @@ class PeriodicOrbit:
 
         From the harmonic series for harmonic balance, from a dense engine
         trajectory (refined by parabolic interpolation) for shooting.
+
+        Parameters
+        ----------
+        state
+            Index or name of the state.
+
+        Returns
+        -------
+        tuple of float
+            ``(min, max)``.
         """
         i = self.state_names.index(state) if isinstance(state, str) else int(state)
         if self.method == "hbm" and self.coefficients is not None:
-            y = _series(self.coefficients[:, i], 8192)
+            y = synthesize(self.coefficients[:, i], 8192)
             return _refined_min(y), _refined_max(y)
         y = self.trajectory().y[:, i]
         return _refined_min(y), _refined_max(y)
 
     def peak_to_peak(self, state: int | str = 0) -> float:
-        """``max - min`` of one state over the orbit."""
+        """``max - min`` of one state over the orbit.
+
+        Parameters
+        ----------
+        state
+            Index or name of the state.
+
+        Returns
+        -------
+        float
+        """
         lo, hi = self.extrema(state)
         return hi - lo
 
     def save_plots(self, out_dir: str | Path, title: str = "") -> list[Path]:
         """Write ``orbit_phase.png`` (phase portrait and time history over one
         period, events marked) and ``orbit_multipliers.png`` (the multipliers and
-        the unit circle) into ``out_dir``."""
+        the unit circle) into ``out_dir``.
+
+        Parameters
+        ----------
+        out_dir
+            Folder (created if missing).
+        title
+            Title of the phase-portrait figure (default: method, stability, max |mu|).
+
+        Returns
+        -------
+        list of Path
+            The two files.
+        """
         import matplotlib
 
         matplotlib.use("Agg")
@@ -202,7 +235,7 @@ class PeriodicOrbit:
         elif self.coefficients is not None:
             n = 2048
             t = self.t0 + self.period * np.arange(n + 1) / n
-            y = np.array([_series(self.coefficients[:, i], n) for i in range(len(names))]).T
+            y = synthesize(self.coefficients, n)
             y = np.vstack([y, y[:1]])
         else:
             t, y = np.array([self.t0]), self.x0[None, :]
@@ -258,7 +291,13 @@ class PeriodicOrbit:
 
     def meshes(self) -> dict[str, dict[str, Any]]:
         """Per mesh: rattle state and the extrema / peak-to-peak of its dynamic deflection
-        over the orbit (``{}`` for a model without meshes or an orbit without a system)."""
+        over the orbit.
+
+        Returns
+        -------
+        dict
+            Mesh name -> summary (``{}`` for a model without meshes or an orbit without a system).
+        """
         if self.system is None:
             return {}
         from .meshes import mesh_names, mesh_report
@@ -268,14 +307,25 @@ class PeriodicOrbit:
         if self.method == "hbm" and self.coefficients is not None:
             n = 8192
             t = self.t0 + self.period * np.arange(n) / n
-            Y = np.array([_series(self.coefficients[:, i], n) for i in range(len(self.state_names))]).T
+            Y = synthesize(self.coefficients, n)
         else:
             tr = self.trajectory()
             t, Y = tr.t, tr.y
         return mesh_report(self.system, t, Y, self.params, self.rattle_states)
 
     def to_dict(self, extrema: bool = True) -> dict[str, Any]:
-        """JSON-ready summary (multipliers as ``[re, im]`` pairs)."""
+        """JSON-ready summary (multipliers as ``[re, im]`` pairs).
+
+        Parameters
+        ----------
+        extrema
+            Include ``min``, ``max`` of the first state and the per-mesh summary (one dense
+            integration).
+
+        Returns
+        -------
+        dict
+        """
         d: dict[str, Any] = {
             "method": self.method,
             "state_names": list(self.state_names),
@@ -312,16 +362,6 @@ class PeriodicOrbit:
         return d
 
 
-def _series(c: np.ndarray, n: int) -> np.ndarray:
-    """Evaluate ``a0 + sum a_k cos + b_k sin`` on ``n`` points of one period."""
-    H = (len(c) - 1) // 2
-    th = 2 * np.pi * np.arange(n) / n
-    y = np.full(n, c[0])
-    for k in range(1, H + 1):
-        y += c[2 * k - 1] * np.cos(k * th) + c[2 * k] * np.sin(k * th)
-    return y
-
-
 def _refined_max(y: np.ndarray) -> float:
     """Maximum of samples refined by a parabola through the top three points."""
     i = int(np.argmax(y))
@@ -335,76 +375,6 @@ def _refined_max(y: np.ndarray) -> float:
 
 def _refined_min(y: np.ndarray) -> float:
     return -_refined_max(-np.asarray(y))
-
-
-def rattle_state(system: System, x0: Sequence[float], t0: float, events: Sequence[Event],
-                 params: Mapping[str, float] | None = None,
-                 samples: tuple[np.ndarray, np.ndarray] | None = None) -> int | None:
-    """Classify the contact regime of a periodic orbit of a backlash model.
-
-    The worst mesh of :func:`rattle_states` (``None`` if the model has no contact
-    surfaces).
-
-    Returns
-    -------
-    int or None
-        0: the drive side is in contact all the time (no contact loss); 1: the
-        drive-side contact is lost (single-sided impacts, or no contact at all);
-        2: back-side contact occurs (double-sided impacts).
-    """
-    states = rattle_states(system, x0, t0, events, params, samples)
-    return max(states.values()) if states else None
-
-
-def rattle_states(system: System, x0: Sequence[float], t0: float, events: Sequence[Event],
-                  params: Mapping[str, float] | None = None,
-                  samples: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, int]:
-    """Rattle state of every backlash mesh along a periodic orbit.
-
-    Uses the contact surfaces of the compiled model (``kind`` drive/back, as the
-    symbolic layer names them, ``MESH.drive`` / ``MESH.back``) and is exact in the
-    events: the side of every surface at ``t0`` plus every crossing along the period.
-
-    With ``samples = (t, Y)`` (states ``Y[k]`` at times ``t[k]`` along the orbit, e.g.
-    from a harmonic series) the sides are taken at the samples instead of from the
-    events (approximate: a contact shorter than the sampling step can be missed).
-
-    Returns
-    -------
-    dict
-        Mesh name -> 0 (no contact loss), 1 (contact loss only) or 2 (back-side
-        contact); empty if the model has no contact surfaces.
-    """
-    surfaces = system.generated.surfaces
-    kinds = {s["name"]: (s.get("kind"), int(s.get("contact_sign", 0))) for s in surfaces}
-    if not any(k in ("drive", "back") for k, _ in kinds.values()):
-        return {}
-    p = system.param_vector(params)
-    g = np.asarray(system.generated.casadi_function("gs_sw")(t0, np.asarray(x0, float), p)).ravel()
-    G = None
-    if samples is not None:
-        ts, Y = np.asarray(samples[0], float), np.asarray(samples[1], float)
-        G = np.asarray(system.generated.casadi_function("gs_sw").map(len(ts))(
-            ts[None, :], Y.T, np.tile(p[:, None], (1, len(ts)))))
-    meshes: dict[str, dict[str, bool]] = {}
-    for j, s in enumerate(surfaces):
-        kind, sign = kinds[s["name"]]
-        if kind not in ("drive", "back"):
-            continue
-        mesh = s["name"].rsplit(".", 1)[0]
-        st = meshes.setdefault(mesh, {"drive_always": True, "drive_ever": False, "back_ever": False})
-        in_contact = (g[j] > 0) if sign > 0 else (g[j] < 0)
-        crossed = any(e.surface == s["name"] for e in events)
-        if G is not None:
-            side = (G[j] > 0) if sign > 0 else (G[j] < 0)
-            in_contact = bool(np.all(side)) if kind == "drive" else bool(np.any(side))
-            crossed = crossed or bool(np.any(side != side[0]))
-        if kind == "drive":
-            st["drive_ever"] |= bool(in_contact or crossed)
-            st["drive_always"] &= bool(in_contact and not crossed)
-        else:
-            st["back_ever"] |= bool(in_contact or crossed)
-    return {mesh: 2 if st["back_ever"] else (0 if st["drive_always"] else 1) for mesh, st in meshes.items()}
 
 
 def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: float, t0: float,
@@ -424,7 +394,7 @@ def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: floa
                  rigid_state_basis(system, params))
     info.update({"monodromy_error": fq.monodromy_error, "rigid_split": fq.info.get("rigid_split"),
                  "invariance_defect": fq.invariance_defect})
-    rss = rattle_states(system, x0, t0, events, params, samples=samples)
+    rss = mesh_rattle_states(system, x0, t0, events, params, samples=samples)
     return PeriodicOrbit(x0=np.asarray(x0, float), period=float(period), periods=float(periods),
                          t0=float(t0), monodromy=monodromy, multipliers=fq.multipliers, stable=fq.stable,
                          iterations=int(iterations), residual=float(residual), converged=bool(converged),
@@ -432,45 +402,3 @@ def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: floa
                          rattle_state=max(rss.values()) if rss else None, events=list(events), system=system,
                          stability=fq.stability, trivial_multipliers=fq.trivial,
                          multiplier_tolerances=fq.tolerances, rattle_states=rss, **extra)
-
-
-def periodic_orbit(system: System, period: float | None = None, periods: float = 1,
-                   x0: Sequence[float] | None = None, method: str = "shooting",
-                   params: Mapping[str, float] | None = None, **options: Any) -> PeriodicOrbit:
-    """Find a periodic orbit of a compiled system.
-
-    Parameters
-    ----------
-    system
-        The compiled system.
-    period
-        Period of the orbit; default ``periods`` times the forcing period.
-    periods
-        Number of forcing periods the orbit spans (``k`` for a period-``k`` orbit).
-    x0
-        Initial guess of the state at ``t0`` (shooting) or the starting point of
-        the harmonic balance's initial guess; default: the scene's initial state
-        after a transient (shooting) / a harmonic-balance continuation in the
-        number of harmonics (hbm).
-    method
-        ``"shooting"`` (single or multiple shooting, ``segments=N``) or ``"hbm"``
-        (harmonic balance, ``harmonics=H`` or grown until converged).
-    params
-        Parameter overrides (SI).
-    **options
-        Passed on to :func:`gearsym.analysis.shooting.shoot` or
-        :func:`gearsym.analysis.hbm.harmonic_balance`.
-
-    Returns
-    -------
-    PeriodicOrbit
-    """
-    if method == "shooting":
-        from .shooting import shoot
-
-        return shoot(system, period=period, periods=periods, x0=x0, params=params, **options)
-    if method == "hbm":
-        from .hbm import harmonic_balance
-
-        return harmonic_balance(system, period=period, periods=periods, x0=x0, params=params, **options)
-    raise ParameterError(f"method must be 'shooting' or 'hbm', got '{method}'")

@@ -34,17 +34,24 @@ back contact ``x < lower``; Kahraman & Singh) or ``"negative"`` (drive contact
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from ..codegen.artifact import generated_map
 from ..results import Trajectory
 
 NO_RATTLE = 0
 UNILATERAL = 1
 BILATERAL = 2
+#: Meaning of the rattle-state codes (:data:`NO_RATTLE`, :data:`UNILATERAL`, :data:`BILATERAL`).
+RATTLE_STATES: dict[int, str] = {
+    0: "no contact loss (permanent drive-side contact)",
+    1: "contact loss only (single-sided impacts / free flight)",
+    2: "back-side contact (double-sided impacts)",
+}
 
 Bound = float | np.ndarray | Callable[[np.ndarray], np.ndarray] | None
 
@@ -293,12 +300,7 @@ def _from_events(traj: Trajectory, system: Any, element: str | None, steady_frac
     window = [e for e in traj.events if ts <= e.t <= te]
     n_drive = sum(1 for e in window if e.surface == names.get("drive"))
     n_back = sum(1 for e in window if e.surface == names.get("back"))
-    if start == "back" or n_back:
-        st = BILATERAL
-    elif start == "separation" or n_drive:
-        st = UNILATERAL
-    else:
-        st = NO_RATTLE
+    st = classify(start == "drive", start == "back", n_drive > 0, n_back > 0)
     return RattleSummary(st, ts, te, start, n_drive, n_back, "events")
 
 
@@ -306,5 +308,76 @@ def _switching_values(system: Any, traj: Trajectory, t: float, x: Sequence[float
     gen = getattr(system, "generated", system)
     p = system.param_vector(traj.params) if hasattr(system, "param_vector") else \
         np.array([traj.params[n] for n in gen.param_names], dtype=float)
-    g = gen.casadi_function("gs_sw")(float(t), np.asarray(x, float), p)
-    return np.asarray(g, dtype=float).ravel()
+    if hasattr(system, "switching"):
+        return np.asarray(system.switching(float(t), x, p=p), dtype=float).ravel()
+    return np.asarray(generated_map(gen, "gs_sw", 1)(float(t), np.asarray(x, float), p), dtype=float).ravel()
+
+
+def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequence[Any],
+                       params: Mapping[str, float] | None = None,
+                       samples: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, int]:
+    """Rattle state of every backlash mesh along a periodic orbit.
+
+    Uses the contact surfaces of the compiled model (``kind`` drive/back, as the
+    symbolic layer names them, ``MESH.drive`` / ``MESH.back``) and is exact in the
+    events: the side of every surface at ``t0`` plus every crossing along the period.
+
+    With ``samples = (t, Y)`` (states ``Y[k]`` at times ``t[k]`` along the orbit, e.g.
+    from a harmonic series) the sides are taken at the samples instead of from the
+    events (approximate: a contact shorter than the sampling step can be missed).
+
+    Returns
+    -------
+    dict
+        Mesh name -> 0 (no contact loss), 1 (contact loss only) or 2 (back-side
+        contact); empty if the model has no contact surfaces.
+    """
+    surfaces = system.generated.surfaces
+    kinds = {s["name"]: (s.get("kind"), int(s.get("contact_sign", 0))) for s in surfaces}
+    if not any(k in ("drive", "back") for k, _ in kinds.values()):
+        return {}
+    p = system.param_vector(params)
+    g = system.switching(float(t0), x0, p=p)
+    G = None
+    if samples is not None:
+        ts, Y = np.asarray(samples[0], float), np.asarray(samples[1], float)
+        G = system.switching(ts, Y, p=p).reshape(len(ts), -1).T
+    meshes: dict[str, dict[str, bool]] = {}
+    for j, s in enumerate(surfaces):
+        kind, sign = kinds[s["name"]]
+        if kind not in ("drive", "back"):
+            continue
+        mesh = s["name"].rsplit(".", 1)[0]
+        st = meshes.setdefault(mesh, {"drive_in": False, "drive_crossed": False, "back_in": False,
+                                      "back_crossed": False})
+        in_contact = (g[j] > 0) if sign > 0 else (g[j] < 0)
+        crossed = any(e.surface == s["name"] for e in events)
+        if G is not None:
+            side = (G[j] > 0) if sign > 0 else (G[j] < 0)
+            in_contact = bool(np.all(side)) if kind == "drive" else bool(np.any(side))
+            crossed = crossed or bool(np.any(side != side[0]))
+        st[f"{kind}_in"] = bool(in_contact)
+        st[f"{kind}_crossed"] = bool(crossed)
+    return {mesh: classify(**st) for mesh, st in meshes.items()}
+
+
+def classify(drive_in: bool, back_in: bool, drive_crossed: bool, back_crossed: bool) -> int:
+    """The one rattle classifier: the state of a mesh from its contact at the start of a window
+    and the crossings of its drive and back surfaces in it (module docstring).
+
+    Parameters
+    ----------
+    drive_in, back_in
+        Drive-side / back-side contact at the start of the window.
+    drive_crossed, back_crossed
+        Whether the drive / back surface is crossed in the window.
+
+    Returns
+    -------
+    int
+        :data:`BILATERAL` with any back-side contact, else :data:`NO_RATTLE` when the drive-side
+        contact holds throughout, else :data:`UNILATERAL`.
+    """
+    if back_in or back_crossed:
+        return BILATERAL
+    return NO_RATTLE if drive_in and not drive_crossed else UNILATERAL

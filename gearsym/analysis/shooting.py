@@ -43,7 +43,10 @@ import numpy as np
 from ..errors import ConvergenceError, GearsymError, ParameterError
 from .floquet import monodromy_product
 from .isolation import Isolation, isolation, truncated_solve
+from .newton import NewtonPolicy, damped_newton
+from .options import ShootingOptions, resolve_options
 from .orbit import PeriodicOrbit, finish_orbit
+from .problems import flow_events, segment_jacobian, segment_times
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
@@ -51,21 +54,24 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["flow", "shoot"]
 
 
-def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mapping[str, float] | None,
+def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mapping[str, float] | np.ndarray | None,
          rtol: float, atol: float, jacobian: bool = True, fd_step: float = 1e-6,
-         method: str | None = None, n_out: int = 2, with_amplitude: bool = False
+         method: str | None = None, n_out: int = 2, with_amplitude: bool = False, max_step: float | None = None
          ) -> tuple[Any, ...]:
     """The flow map ``phi(t1, t0, x)``, its Jacobian and the events on the way.
 
-    The Jacobian is the engine's variational monodromy (explicit models) or
-    central finite differences with step ``fd_step * max(1, |x_j|)`` (implicit models).
-    With ``with_amplitude`` also ``max |x_i(t)|`` over ``n_out`` output points.
+    One call of :meth:`gearsym.system.System.flow` (the engine's cheap path: no output
+    grid, no trajectory object).  The Jacobian is the engine's variational monodromy, or for an
+    implicit model without one, central finite differences with step ``fd_step * max(1, |x_j|)``.  ``params`` may be the parameter vector itself.  With
+    ``with_amplitude`` also ``max |x_i(t)|`` over ``n_out`` evenly spaced points.  ``max_step``
+    as for :meth:`~gearsym.system.System.flow` (default an eighth of the forcing period).
     """
     x = np.asarray(x, float)
+    pv = params if isinstance(params, np.ndarray) else system.param_vector(params)
     implicit = system.generated.implicit
-    tr = system.simulate(t_end=t1, t0=t0, x0=x, rtol=rtol, atol=atol, n_out=n_out, params=params,
-                         monodromy=bool(jacobian), method=method)
-    M = tr.monodromy  # IDA too: the DAE's variational equations
+    fl = system.flow(x, t0, t1, pv, rtol=rtol, atol=atol, monodromy=bool(jacobian),
+                     method=method, n_samples=n_out, max_step=max_step)
+    M = fl.monodromy  # the engine's variational equations, where it has them
     if jacobian and implicit and M is None:
         n = len(x)
         M = np.empty((n, n))
@@ -73,20 +79,13 @@ def flow(system: System, x: Sequence[float], t0: float, t1: float, params: Mappi
             h = fd_step * max(1.0, abs(x[j]))
             e = np.zeros(n)
             e[j] = h
-            xp = system.simulate(t_end=t1, t0=t0, x0=x + e, rtol=rtol, atol=atol, n_out=2,
-                                 params=params, method=method).x_final
-            xm = system.simulate(t_end=t1, t0=t0, x0=x - e, rtol=rtol, atol=atol, n_out=2,
-                                 params=params, method=method).x_final
+            xp = system.flow(x + e, t0, t1, pv, rtol=rtol, atol=atol, monodromy=False, method=method).x_final
+            xm = system.flow(x - e, t0, t1, pv, rtol=rtol, atol=atol, monodromy=False, method=method).x_final
             M[:, j] = (xp - xm) / (2 * h)
+    events = flow_events(system, fl)
     if with_amplitude:
-        return np.asarray(tr.x_final, float), M, list(tr.events), np.max(np.abs(tr.y), axis=0)
-    return np.asarray(tr.x_final, float), M, list(tr.events)
-
-
-def _segment_times(t0: float, P: float, segments: int) -> np.ndarray:
-    s = t0 + P * np.arange(segments + 1) / segments
-    s[-1] = t0 + P
-    return s
+        return np.asarray(fl.x_final, float), M, events, fl.amplitude
+    return np.asarray(fl.x_final, float), M, events
 
 
 def shoot(system: System, period: float | None = None, periods: float = 1,
@@ -94,7 +93,8 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
           segments: int = 1, t0: float = 0.0, transient: float | None = None, tol: float = 1e-10,
           rtol: float = 1e-11, atol: float = 1e-13, max_iter: int = 50, min_step: float = 2.0 ** -12,
           raise_on_failure: bool = True, method: str | None = None,
-          relax_periods: float = 200, trivial: np.ndarray | None = None) -> PeriodicOrbit:
+          relax_periods: float = 200, trivial: np.ndarray | None = None,
+          options: ShootingOptions | None = None) -> PeriodicOrbit:
     """Find a periodic orbit by (multiple) shooting with damped Newton.
 
     Parameters
@@ -144,6 +144,9 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         Known trivial directions of the state space (nx x k), e.g. the rigid-body mode
         of a semi-definite model: a multiplier +1 whose eigenvector lies in their span
         does not count against the orbit's isolation.  Default: none.
+    options
+        A :class:`~gearsym.analysis.options.ShootingOptions` with all of the settings above
+        (``segments`` .. ``trivial``); a keyword not at its default overrides it.
 
     Returns
     -------
@@ -159,6 +162,13 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         The first integration already fails.
     """
     wall = time.perf_counter()
+    o = resolve_options(options, ShootingOptions, segments=segments, t0=t0, transient=transient, tol=tol,
+                        rtol=rtol, atol=atol, max_iter=max_iter, min_step=min_step,
+                        raise_on_failure=raise_on_failure, method=method, relax_periods=relax_periods,
+                        trivial=trivial)
+    segments, t0, transient, tol, rtol, atol = o.segments, o.t0, o.transient, o.tol, o.rtol, o.atol
+    max_iter, min_step, raise_on_failure, method = o.max_iter, o.min_step, o.raise_on_failure, o.method
+    relax_periods, trivial = o.relax_periods, o.trivial
     _check_tolerances(tol=tol, rtol=rtol, atol=atol)
     T = system.period(params)
     if period is None:
@@ -190,7 +200,7 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         tr = system.simulate(t_end=t0, t0=t0 - n_tr * Tt, x0=guess, rtol=max(rtol, 1e-9),
                              atol=max(atol, 1e-11), n_out=2, params=params, method=method)
         guess = tr.x_final
-    s = _segment_times(t0, period, segments)
+    s = segment_times(t0, period, segments)
     if segments == 1:
         X = guess[None, :].copy()
     else:
@@ -200,34 +210,37 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
 
     # ---------------------------------------------------------------- residual
     n_amp = max(3, int(math.ceil(16 / segments)) + 1)
+    pvec = system.param_vector(params)
+    max_step = T / 8 if T else 0.0  # System.flow's default, computed once
     amp = np.zeros(nx)
+    scale_box = [np.ones(nx)]  # the scales of the last evaluation (see scales())
 
     def evaluate(X: np.ndarray, jac: bool = True):
         xs, Ms, evs = [], [], []
         a = np.zeros(nx)
         for i in range(segments):
-            xe, M, ev, ai = flow(system, X[i], s[i], s[i + 1], params, rtol, atol, jacobian=jac,
-                                 method=method, n_out=n_amp, with_amplitude=True)
+            xe, M, ev, ai = flow(system, X[i], s[i], s[i + 1], pvec, rtol, atol, jacobian=jac,
+                                 method=method, n_out=n_amp, with_amplitude=True, max_step=max_step)
             xs.append(xe)
             Ms.append(M)
             evs.extend(ev)
             a = np.maximum(a, ai)
         amp[:] = a
-        R = np.array([xs[i] - X[(i + 1) % segments] for i in range(segments)])
-        return R, Ms, evs
-
-    def scales() -> np.ndarray:
         # per-state scale: the largest |x_i| along the current trajectory (states in
         # different units, e.g. m and m/s, each get a relative tolerance)
         # (floor atol/tol: a residual below the integrator's atol always counts as
         # converged, e.g. for the trivial orbit x = 0 of a homogeneous linear system)
-        top = float(np.max(amp)) if amp.size else 0.0
-        if not math.isfinite(top):
-            return np.ones(nx)
-        return np.maximum(amp, max(1e-9 * top, atol / tol))
+        top = float(a.max()) if a.size else 0.0
+        scale_box[0] = np.maximum(a, max(1e-9 * top, atol / tol)) if math.isfinite(top) else np.ones(nx)
+        R = xs[0] - X[1 % segments] if segments == 1 else np.array(
+            [xs[i] - X[(i + 1) % segments] for i in range(segments)])
+        return R.reshape(segments, nx), Ms, evs
+
+    def scales() -> np.ndarray:
+        return scale_box[0]
 
     def rel(A: np.ndarray) -> float:
-        return float(np.max(np.abs(A) / scales()[None, :]))
+        return float((np.abs(A) / scale_box[0]).max())
 
     def _relax(X: np.ndarray, n_periods: int) -> np.ndarray:
         tr = system.simulate(t_end=s[0], t0=s[0] - n_periods * Tt, x0=X[0], rtol=max(rtol, 1e-9),
@@ -243,20 +256,26 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     relaxed = 0
     relax_block = max(1, int(math.ceil(10 * max(1.0, float(periods)))))
     history: list[dict[str, Any]] = []
-    R, Ms, evs = evaluate(X)
-    rnorm = float(np.max(np.abs(R)))
-    history.append({"iteration": 0, "residual": rnorm, "relative": rel(R), "step": None})
-    converged = rel(R) <= tol
-    it = 0
-    failure = ""
-    while not converged and it < max_iter:
-        it += 1
-        n = segments * nx
-        J = np.zeros((n, n))
-        for i in range(segments):
-            J[i * nx:(i + 1) * nx, i * nx:(i + 1) * nx] = Ms[i]
-            k = (i + 1) % segments
-            J[i * nx:(i + 1) * nx, k * nx:(k + 1) * nx] -= np.eye(nx)
+
+    def norm(ev: tuple) -> float:
+        return float(np.max(np.abs(ev[0])))
+
+    def is_converged(ev: tuple, size: float, damping: float) -> str | None:
+        r = rel(ev[0])
+        if r <= tol:
+            return ""
+        if damping == 1.0 and size <= tol and r <= 100 * tol:
+            # a full Newton step below the tolerance: the residual left is integration noise
+            return "Newton step below tolerance (residual at the integration noise level)"
+        if damping == 0.0 and size <= 10 * tol and r <= 100 * tol:
+            # the next step is below 10 tol: taken without integrating again (its effect on the
+            # residual is quadratic in its size, ~1e-18 here)
+            return "Newton step below 10 tol applied without another integration"
+        return None
+
+    def direction(X: np.ndarray, ev: tuple) -> tuple[np.ndarray, float, dict[str, Any]]:
+        R, Ms, _ = ev
+        J = segment_jacobian(Ms)
         rhs = -R.ravel()
         if anchor is not None:
             # a rigid-body mode makes J singular (a Jordan block of M at +1): keep the rigid
@@ -268,66 +287,53 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
             # minimum-norm step without the directions the monodromy cannot resolve: never move
             # the state by noise divided by noise (a multiplier at +1 to working precision)
             dz, n_drop = truncated_solve(J, rhs, np.tile(scales(), segments), rtol)
-        if not np.all(np.isfinite(dz)):
-            failure = "the Newton matrix is not finite"
-            break
         dX = dz.reshape(segments, nx)
-        lam = 1.0
-        accepted = False
-        last_err = ""
-        while lam >= min_step:
-            Xn = X + lam * dX
+        return dX, rel(dX) if np.all(np.isfinite(dX)) else math.inf, (
+            {"dropped_directions": n_drop} if n_drop else {})
+
+    def on_step(it: int, ev: tuple, damping: float, notes: dict[str, Any]) -> None:
+        history.append({"iteration": it, "residual": norm(ev), "relative": rel(ev[0]), "step": damping, **notes})
+
+    def stalled(X: np.ndarray, ev: tuple, dX: np.ndarray, last_err: str) -> tuple[str, Any]:
+        nonlocal relaxed
+        # at the integration noise floor a tiny Newton step cannot reduce the residual any more
+        if rel(dX) <= 10 * tol and rel(ev[0]) <= 100 * tol:
+            history.append({"iteration": len(history), "residual": norm(ev), "step": 0.0,
+                            "note": "noise floor: Newton step below tolerance"})
+            return "converged", "noise floor"
+        if relaxed < relax_periods:
+            # Newton is stuck in a local minimum of the residual (the flow map of a
+            # nonsmooth system is far from linear over large distances): integrate
+            # a block of forcing periods (contracts towards an attracting orbit),
+            # then resume Newton from there
+            n_blk = int(min(relax_block, relax_periods - relaxed))
             try:
-                Rn, Msn, evsn = evaluate(Xn)
-                rn = float(np.max(np.abs(Rn)))
-                ok = math.isfinite(rn) and rn < (1.0 - 1e-4 * lam) * rnorm
+                Xr = _relax(X, n_blk)
+                evr = evaluate(Xr)
             except GearsymError as exc:
-                ok = False
-                last_err = str(exc)
-            if ok:
-                accepted = True
-                break
-            lam *= 0.5
-        if not accepted:
-            # at the integration noise floor a tiny Newton step cannot reduce the residual any more
-            if rel(dX) <= 10 * tol and rel(R) <= 100 * tol:
-                converged = True
-                history.append({"iteration": it, "residual": rnorm, "step": 0.0,
-                                "note": "noise floor: Newton step below tolerance"})
-                break
-            if relaxed < relax_periods:
-                # Newton is stuck in a local minimum of the residual (the flow map of a
-                # nonsmooth system is far from linear over large distances): integrate
-                # a block of forcing periods (contracts towards an attracting orbit),
-                # then resume Newton from there
-                n_blk = int(min(relax_block, relax_periods - relaxed))
-                try:
-                    X = _relax(X, n_blk)
-                    R, Ms, evs = evaluate(X)
-                except GearsymError as exc:
-                    failure = f"relaxation by integration failed: {exc}"
-                    break
-                relaxed += n_blk
-                rnorm = float(np.max(np.abs(R)))
-                history.append({"iteration": it, "residual": rnorm, "relative": rel(R), "step": None,
-                                "note": f"Newton stalled: integrated {n_blk} forcing periods"})
-                converged = rel(R) <= tol
-                continue
-            failure = ("the damped Newton step does not reduce the residual (tried down to a factor "
-                       f"{min_step:g}, after {relaxed} forcing periods of relaxation by integration)"
-                       + (f"; last integration error: {last_err}" if last_err else ""))
-            break
-        X, R, Ms, evs, rnorm = Xn, Rn, Msn, evsn, rn
-        history.append({"iteration": it, "residual": rnorm, "relative": rel(R), "step": lam})
-        if n_drop:
-            history[-1]["dropped_directions"] = n_drop
-        converged = rel(R) <= tol
-        if not converged and lam == 1.0 and rel(dX) <= tol and rel(R) <= 100 * tol:
-            # a full Newton step below the tolerance: the residual left is integration noise
-            converged = True
-            history[-1]["note"] = "Newton step below tolerance (residual at the integration noise level)"
-    if not converged and not failure:
-        failure = f"no convergence in max_iter={max_iter} Newton iterations"
+                return "fail", f"relaxation by integration failed: {exc}"
+            relaxed += n_blk
+            history.append({"iteration": len(history), "residual": norm(evr), "relative": rel(evr[0]), "step": None,
+                            "note": f"Newton stalled: integrated {n_blk} forcing periods"})
+            return "restart", (Xr, evr)
+        return "fail", ("the damped Newton step does not reduce the residual (tried down to a factor "
+                        f"{min_step:g}, after {relaxed} forcing periods of relaxation by integration)"
+                        + (f"; last integration error: {last_err}" if last_err else ""))
+
+    ev0 = evaluate(X)
+    history.append({"iteration": 0, "residual": norm(ev0), "relative": rel(ev0[0]), "step": None})
+    out = damped_newton(X, ev0, evaluate=evaluate, norm=norm, direction=direction, converged=is_converged,
+                        policy=NewtonPolicy(max_iter=max_iter, min_damping=min_step, apply_final_step=True),
+                        stalled=stalled,
+                        on_step=on_step)
+    X, (R, Ms, evs), it, converged = out.x, out.ev, out.iterations, out.converged
+    rnorm = norm(out.ev)
+    failure = ""
+    if converged and out.note and history[-1].get("note") is None and out.note != "noise floor":
+        history[-1]["note"] = out.note
+    if not converged:
+        failure = (f"no convergence in max_iter={max_iter} Newton iterations" if out.failure == "max_iter"
+                   else out.failure)
     mono = monodromy_product(Ms) if all(M is not None for M in Ms) else None
     iso: Isolation | None = None
     if mono is not None and np.all(np.isfinite(mono)):

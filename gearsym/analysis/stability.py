@@ -125,7 +125,7 @@ def rigid_state_basis(system: System, params: Mapping[str, float] | None = None)
     gen = system.generated
     if not getattr(gen, "rigid_modes", None) or "gs_rigid" not in gen.functions:
         return None
-    R = np.asarray(gen.casadi_function("gs_rigid")(system.param_vector(params)), float)
+    R = np.asarray(system.generated_map("gs_rigid", 1)(system.param_vector(params)), float)
     nq, k = R.shape
     if 2 * nq != gen.nx or k == 0 or not np.all(np.isfinite(R)):
         return None
@@ -178,11 +178,24 @@ def multiplier_tolerances(M: np.ndarray, rtol: float) -> tuple[np.ndarray, np.nd
     M = scipy.linalg.matrix_balance(M, permute=False)[0]
     nM = float(np.linalg.norm(M, 2))
     delta = ERROR_FACTOR * max(float(rtol), _EPS) * max(1.0, nM)
-    mu, vl, vr = scipy.linalg.eig(M, left=True, right=True)
-    den = np.abs(np.sum(np.conj(vl) * vr, axis=0))
-    num = np.linalg.norm(vl, axis=0) * np.linalg.norm(vr, axis=0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        kappa = np.where(den > 0, num / den, np.inf)
+    kappa = None
+    if M.shape[0] <= 64:
+        # small matrices: numpy's eig without scipy's per-call overhead; the left eigenvectors
+        # are the rows of inv(V), so v_l^H v_r = 1 and kappa_i = |row_i of inv(V)| |column_i of V|
+        mu, vr = np.linalg.eig(M)
+        try:
+            W = np.linalg.inv(vr)
+        except np.linalg.LinAlgError:
+            pass
+        else:
+            if np.all(np.isfinite(W)):
+                kappa = np.linalg.norm(W, axis=1) * np.linalg.norm(vr, axis=0)
+    if kappa is None:
+        mu, vl, vr = scipy.linalg.eig(M, left=True, right=True)
+        den = np.abs(np.sum(np.conj(vl) * vr, axis=0))
+        num = np.linalg.norm(vl, axis=0) * np.linalg.norm(vr, axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kappa = np.where(den > 0, num / den, np.inf)
     cap = math.sqrt(delta * max(1.0, nM))
     tol = np.maximum(np.minimum(kappa * delta, cap), 16 * _EPS)
     return mu.astype(complex), tol, delta

@@ -66,7 +66,8 @@ def _sources_digest() -> str:
     return h.hexdigest()
 
 
-def build_key(model_text: str, effects: dict, form: str, *, cc: str | None = None) -> tuple[str, dict]:
+def build_key(model_text: str, effects: dict, form: str, *, cc: str | None = None,
+              derivatives: bool = False) -> tuple[str, dict]:
     """The key of a build: SHA-256 over everything that changes the binary.
 
     Parameters
@@ -79,6 +80,9 @@ def build_key(model_text: str, effects: dict, form: str, *, cc: str | None = Non
         ``"explicit"`` or ``"implicit"``.
     cc
         Compiler (default ``$CC`` or ``gcc``).
+    derivatives
+        The build carries the parameter derivatives (``gs_jacp``, ...) of the
+        sensitivities (a separate build: :func:`gearsym.codegen.generate.build_functions`).
 
     Returns
     -------
@@ -87,9 +91,9 @@ def build_key(model_text: str, effects: dict, form: str, *, cc: str | None = Non
         in ``meta.json``; the model text enters as its SHA-256).  The scene's name is
         not part of it: it does not change the binary.
     """
-    from .. import __version__
+    from .._version import __version__
     from ..engine.build import toolchain_identity
-    from .generate import CODEGEN_VERSION
+    from .artifact import CODEGEN_VERSION
 
     parts = {
         "gearsym": __version__,
@@ -101,6 +105,8 @@ def build_key(model_text: str, effects: dict, form: str, *, cc: str | None = Non
         "form": form,
         "toolchain": toolchain_identity(cc),
     }
+    if derivatives:
+        parts["parameter_derivatives"] = True
     key = hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()
     return key, parts
 
@@ -177,7 +183,7 @@ class BuildCache:
         -------
         GeneratedModel or None
         """
-        from .generate import GeneratedModel
+        from .artifact import GeneratedModel
 
         try:
             gen = GeneratedModel.from_json((entry.directory / "meta.json").read_text(encoding="utf-8"))

@@ -2,7 +2,8 @@
 
 The generated functions follow the contract in ``gearsym/engine/gs_model_abi.h``
 (``gs_rhs``, ``gs_jac``, ``gs_res``, ``gs_resjac``, ``gs_sw``, ``gs_swx``, ``gs_swt``,
-``gs_sched``, ``gs_period`` and ``gs_model_info``).  Parameters are inputs of every
+``gs_sched``, ``gs_period`` and ``gs_model_info``, and for the parameter sensitivities
+``gs_jacp``, ``gs_swp``, ``gs_schedp``, ``gs_periodp``).  Parameters are inputs of every
 function, so changing one never recompiles.  :func:`write_and_compile` writes the
 sources into a private staging folder and compiles them with ``gcc -O3`` together
 with the engine's C driver into ``gs_<sha256[:16]>.so`` (named by its own bytes:
@@ -15,9 +16,7 @@ header comment, through :func:`c_comment`.
 
 from __future__ import annotations
 
-import json
 import time
-from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import casadi as ca
@@ -25,116 +24,13 @@ import sympy as sp
 
 from ..errors import CompileError
 from ..symbolic.model import SymbolicModel
+from .artifact import CODEGEN_VERSION, GeneratedModel
 from .cache import KEY_MARKER
 from .extras import DOCS as _EXTRA_DOCS
 from .extras import analysis_functions, analysis_meta
 from .sx import SXTranslator
 
-#: Bump when the generated code's layout changes (invalidates caches).
-CODEGEN_VERSION = "3"
 ENGINE_DIR = Path(__file__).resolve().parent.parent / "engine"
-
-
-@dataclass
-class GeneratedModel:
-    """What the compiler produced, and everything needed to run it without sympy.
-
-    Attributes
-    ----------
-    directory, so_path
-        Where the sources and the shared object are.
-    state_names, param_names
-        Order of the state and parameter vectors of the generated functions.
-    surfaces
-        One dict per switching function: ``name``, ``kind`` (drive/back/switch),
-        ``contact_sign``, ``meaning``, ``expr``.
-    schedules
-        One dict per schedule: ``name``, ``n_breaks``.
-    implicit
-        True for mass-matrix (IDA) models.
-    n_ops
-        Operation counts of the generated functions.
-    functions
-        Serialized CasADi functions (for evaluation from Python).
-    """
-
-    scene: str
-    key: str
-    directory: str
-    so_path: str
-    state_names: list[str]
-    param_names: list[str]
-    surfaces: list[dict]
-    schedules: list[dict]
-    implicit: bool
-    n_ops: dict[str, int]
-    effects: dict[str, object]
-    compile_seconds: float = 0.0
-    cached: bool = False
-    functions: dict[str, str] = field(default_factory=dict, repr=False)
-    #: parameters that are numeric functions of other parameters, evaluated at bind
-    #: time (:mod:`gearsym.bound_functions`): name -> [function name, [argument names]]
-    bound: dict[str, list] = field(default_factory=dict)
-    #: names of the model's [outputs] (evaluated by ``gs_out``), with their units
-    outputs: list[str] = field(default_factory=list)
-    output_units: dict[str, str] = field(default_factory=dict)
-    #: mesh elements (``gs_mesh`` gives their dynamic deflections) and rigid-body modes
-    #: (``gs_rigid``; coefficients as text), see :mod:`gearsym.codegen.extras`
-    meshes: list[str] = field(default_factory=list)
-    rigid_modes: list[dict] = field(default_factory=list)
-    #: the full build key (64 hex digits; ``key`` is its first 16), compiled into the
-    #: object as ``gs_build_key()`` (:func:`gearsym.codegen.cache.build_key`)
-    build_key: str = ""
-    #: SHA-256 of the shared object, checked before it is loaded
-    so_sha256: str = ""
-    #: what the key was computed from (versions, toolchain, model hash, effects)
-    key_parts: dict = field(default_factory=dict)
-    model: str = ""
-    built: float = 0.0
-    #: the generated functions are in dimensionless variables (``gs_scales`` converts)
-    dimensionless: bool = False
-    #: algebraic variables of a DAE model (the last states; IDA's id vector is 0 there)
-    algebraic: list[str] = field(default_factory=list)
-
-    @property
-    def input_names(self) -> list[str]:
-        """Parameters a caller sets: ``param_names`` without the bound ones, plus the
-        arguments of the bound ones."""
-        out = [p for p in self.param_names if p not in self.bound]
-        for _, args in self.bound.values():
-            out += [a for a in args if a not in out]
-        return out
-
-    @property
-    def nx(self) -> int:
-        """Number of states."""
-        return len(self.state_names)
-
-    @property
-    def nsw(self) -> int:
-        """Number of switching functions."""
-        return len(self.surfaces)
-
-    def casadi_function(self, name: str) -> ca.Function:
-        """A generated function as a CasADi Function (e.g. ``gs_rhs``), for Python-side use."""
-        if name not in self._fn_cache:
-            if name not in self.functions:
-                raise KeyError(f"no generated function '{name}' (have: {', '.join(self.functions)})")
-            self._fn_cache[name] = ca.Function.deserialize(self.functions[name])
-        return self._fn_cache[name]
-
-    def __post_init__(self) -> None:
-        self._fn_cache: dict[str, ca.Function] = {}
-
-    def to_json(self) -> str:
-        """Serialise (for the compile cache)."""
-        d = asdict(self)
-        return json.dumps(d, indent=1)
-
-    @classmethod
-    def from_json(cls, text: str) -> GeneratedModel:
-        """Load from :meth:`to_json` output."""
-        return cls(**json.loads(text))
 
 
 #: Characters that :func:`c_comment` keeps as they are.
@@ -174,8 +70,19 @@ def c_comment(text: object, limit: int = 160) -> str:
     return "".join(out)
 
 
-def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
-    """Build the CasADi functions of the engine contract from a symbolic model."""
+def build_functions(model: SymbolicModel, derivatives: bool = False) -> dict[str, ca.Function]:
+    """Build the CasADi functions of the engine contract from a symbolic model.
+
+    With ``derivatives`` (explicit models) also the parameter derivatives of the
+    sensitivities: ``gs_jacp`` (d f / d p), ``gs_swp`` (d g / d p), ``gs_schedp`` and
+    ``gs_periodp``, with respect to *every* parameter (sparse), so that choosing the
+    parameters at run time never recompiles.  They are a separate build, made on the
+    first sensitivity request (:meth:`gearsym.system.System.simulate`): measured on the
+    shipped scenes they add 20-370 % to the C compile (``benchmarks/sensitivity_cost.py``:
+    ``gs_jacp`` has 1.3-4x the operations of ``gs_rhs``), which a user who never asks
+    for sensitivities should not pay.
+    """
+    derivatives = derivatives and model.form == "explicit"
     nx = len(model.states)
     params = model.parameters
     nsw = len(model.switching)
@@ -199,6 +106,9 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
         fns["gs_rhs"] = ca.Function("gs_rhs", [t, x, p, m], [f], ["t", "x", "p", "m"], ["xdot"])
         fns["gs_jac"] = ca.Function("gs_jac", [t, x, p, m], [ca.cse(ca.jacobian(f, x))],
                                     ["t", "x", "p", "m"], ["J"])
+        if derivatives:  # d f / d p, all columns, sparse: the driver contracts it with the directions
+            fns["gs_jacp"] = ca.Function("gs_jacp", [t, x, p, m], [ca.jacobian(f, p)],
+                                         ["t", "x", "p", "m"], ["Jp"])
     else:
         xd = ca.SX.sym("xd", nx)
         cj = ca.SX.sym("cj")
@@ -214,6 +124,8 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     fns["gs_sw"] = ca.Function("gs_sw", [t, x, p], [g], ["t", "x", "p"], ["g"])
     fns["gs_swx"] = ca.Function("gs_swx", [t, x, p], [ca.jacobian(g, x)], ["t", "x", "p"], ["G"])  # sparse
     fns["gs_swt"] = ca.Function("gs_swt", [t, x, p], [ca.densify(ca.jacobian(g, t))], ["t", "x", "p"], ["gt"])
+    if derivatives:  # event-time sensitivities: d g / d p (sparse)
+        fns["gs_swp"] = ca.Function("gs_swp", [t, x, p], [ca.jacobian(g, p)], ["t", "x", "p"], ["Gp"])
     sched = []
     for s in model.schedules:
         sched.append(tr(s.period))
@@ -225,6 +137,9 @@ def build_functions(model: SymbolicModel) -> dict[str, ca.Function]:
     scales = getattr(model, "scales", None)
     if scales is not None:  # a model in dimensionless variables: [T, s_1, ..., s_n]
         fns["gs_scales"] = ca.Function("gs_scales", [p], [ca.vertcat(*[tr(e) for e in scales])], ["p"], ["s"])
+    if derivatives:  # breakpoint-time and period sensitivities
+        fns["gs_schedp"] = ca.Function("gs_schedp", [p], [ca.densify(ca.jacobian(sv, p))], ["p"], ["sp"])
+        fns["gs_periodp"] = ca.Function("gs_periodp", [p], [ca.densify(ca.jacobian(period, p))], ["p"], ["Tp"])
     outputs = getattr(model, "outputs", {})
     if outputs:
         o = ca.vertcat(*[tr(e) for e in outputs.values()])
@@ -254,6 +169,10 @@ _DOCS = {
     "gs_swt": "d g / d t, for saltation matrices",
     "gs_sched": "schedules: [period, break fractions...] for each schedule",
     "gs_period": "the scene's forcing period T(p)",
+    "gs_jacp": "d f / d p (sparse), for the parameter sensitivities",
+    "gs_swp": "d g / d p (sparse), for the event-time sensitivities",
+    "gs_schedp": "d s / d p of the schedules (breakpoint-time sensitivities)",
+    "gs_periodp": "d T / d p of the forcing period",
     "gs_out": "the model's [outputs] along a trajectory (post-processing, not used by the driver)",
     "gs_scales": "reference scales [T, s_1, ..., s_n] of the dimensionless variables (t = T*tau, q = s*Q)",
     **_EXTRA_DOCS,

@@ -19,6 +19,7 @@ import numpy as np
 
 from gearsym.engine import interrupt as _interrupt
 from gearsym.engine.errors import EngineABIError, EngineInputError, error_for_status
+from gearsym.engine.sim_args import GsSimArgs
 
 __all__ = ["EVAL_FUNCTIONS", "Engine", "GsSimArgs", "LINEAR_SOLVERS", "METHODS", "NONLINEAR", "RunResult",
            "load_engine"]
@@ -29,66 +30,11 @@ GS_ERR_INTERRUPTED = -8
 #: Integration methods: name -> GS_METHOD_* code.
 METHODS: dict[str, int] = {"bdf": 0, "adams": 1, "ida": 2}
 #: Functions of :meth:`Engine.evaluate`: name -> GS_EVAL_* code.
-EVAL_FUNCTIONS: dict[str, int] = {"sw": 0, "out": 1, "rhs": 2, "jac": 3, "mode": 4}
+EVAL_FUNCTIONS: dict[str, int] = {"sw": 0, "out": 1, "rhs": 2, "jac": 3, "mode": 4, "mesh": 5}
 #: CVODE nonlinear solvers: name -> GS_NONLIN_* code.
 NONLINEAR: dict[str, int] = {"auto": 0, "newton": 1, "fixedpoint": 2}
 #: Newton's linear solvers: name -> GS_LINSOL_* code.
 LINEAR_SOLVERS: dict[str, int] = {"auto": 0, "dense": 1, "blockdiag": 2}
-
-# Pointer members are declared c_void_p (same layout as double*/int*) so that
-# numpy buffers can be passed as plain addresses (fast: no ctypes casts).
-_PD = C.c_void_p
-_PI = C.c_void_p
-
-
-class GsSimArgs(C.Structure):
-    """ctypes mirror of ``struct gs_sim_args`` (gs_driver.h); keep in sync."""
-
-    _fields_ = [
-        # inputs
-        ("method", C.c_int),
-        ("rtol", C.c_double),
-        ("atol", C.c_double),
-        ("t0", C.c_double),
-        ("t_end", C.c_double),
-        ("x0", _PD),
-        ("p", _PD),
-        ("sigma0", _PD),
-        ("n_out", C.c_int),
-        ("t_out", _PD),
-        ("max_steps", C.c_long),
-        ("max_events", C.c_long),
-        ("storm_events", C.c_int),
-        ("storm_window", C.c_double),
-        ("max_step", C.c_double),
-        ("init_step", C.c_double),
-        ("want_monodromy", C.c_int),
-        ("max_events_out", C.c_int),
-        ("check_interrupt", C.c_int),
-        ("interrupt_fd", C.c_int),
-        ("nonlinear", C.c_int),
-        ("linear_solver", C.c_int),
-        ("atol_vec", _PD),
-        # outputs
-        ("y_out", _PD),
-        ("x_final", _PD),
-        ("sigma_final", _PD),
-        ("monodromy", _PD),
-        ("ev_t", _PD),
-        ("ev_surface", _PI),
-        ("ev_dir", _PI),
-        ("ev_speed", _PD),
-        ("n_events", C.c_int),
-        ("t_reached", C.c_double),
-        ("n_steps", C.c_long),
-        ("n_rhs", C.c_long),
-        ("n_jac", C.c_long),
-        ("n_root_evals", C.c_long),
-        ("n_breaks", C.c_long),
-        ("n_reinit", C.c_long),
-        ("status", C.c_int),
-        ("errmsg", C.c_char * 1024),
-    ]
 
 
 @dataclass(frozen=True)
@@ -138,6 +84,9 @@ class RunResult:
         n_steps, n_rhs, n_jac, n_root_evals, n_breaks, n_reinit, n_events.
     t_reached
         Last time reached.
+    sensitivity, sensitivity_out
+        ``d x(t_end) / d lambda_s`` (nx, n_sens; total when ``t_end`` moves) and at the fixed
+        output times (n_out, nx, n_sens), or None.
     """
 
     t: np.ndarray
@@ -148,6 +97,8 @@ class RunResult:
     events: EventLog
     stats: dict[str, int] = field(default_factory=dict)
     t_reached: float = math.nan
+    sensitivity: np.ndarray | None = None
+    sensitivity_out: np.ndarray | None = None
 
 
 def _ptr(a: np.ndarray | None) -> int | None:
@@ -242,9 +193,23 @@ class Engine:
             raise EngineInputError(msg.value.decode(errors="replace"))
         return float(out.value)
 
+    def period_gradient(self, p: np.ndarray) -> np.ndarray:
+        """``d T / d p`` (shape (np,)) of the forcing period at the parameter vector ``p``
+        (C-contiguous float64) from the generated ``gs_periodp``."""
+        out = np.zeros(max(self.np, 1))
+        msg = C.create_string_buffer(256)
+        pa = p if p.shape[0] else None
+        if self._lib.gs_eval_period_grad(self._ws(), _ptr(pa), _ptr(out), msg, 256) != 0:
+            raise EngineInputError(msg.value.decode(errors="replace"))
+        return out[: self.np]
+
     def n_outputs(self) -> int:
         """Number of model outputs (``gs_out``)."""
         return int(self._lib.gs_n_outputs(self._ws()))
+
+    def n_meshes(self) -> int:
+        """Number of mesh deflections (``gs_mesh``; 0 for a model without meshes)."""
+        return int(self._lib.gs_n_meshes(self._ws()))
 
     def evaluate(self, function: str, t: Any, x: Any, p: Any, sigma: Any = None) -> np.ndarray:
         """Evaluate a generated function at many points, in the driver's mode there.
@@ -253,8 +218,9 @@ class Engine:
         ----------
         function
             ``"sw"`` (switching functions), ``"out"`` (the model's outputs),
-            ``"rhs"``, ``"jac"`` (dense ``d xdot / d x``) or ``"mode"`` (the mode
-            vector: surface sides, schedule cycle and segment).
+            ``"rhs"``, ``"jac"`` (dense ``d xdot / d x``), ``"mode"`` (the mode
+            vector: surface sides, schedule cycle and segment) or ``"mesh"`` (the
+            dynamic deflection of each mesh).
         t
             Times, shape (n,).
         x
@@ -280,7 +246,7 @@ class Engine:
         if sigma is not None:
             sg = np.ascontiguousarray(np.asarray(sigma, dtype=float).reshape(n, self.nsw))
         k = {"sw": self.nsw, "out": max(self.n_outputs(), 0), "rhs": self.nx, "jac": self.nx * self.nx,
-             "mode": self.nm}[function]
+             "mode": self.nm, "mesh": max(self.n_meshes(), 0) if function == "mesh" else 0}[function]
         out = np.empty((n, max(k, 1)))
         msg = C.create_string_buffer(256)
         rc = self._lib.gs_eval(self._ws(), code, n, _ptr(ta), _ptr(xa), _ptr(pa) if pa.shape[0] else None,
@@ -320,6 +286,10 @@ class Engine:
         nonlinear: str = "auto",
         linear_solver: str = "auto",
         atol_vec: Any = None,
+        sens_dir: Any = None,
+        sens_dt0: Any = None,
+        sens_dt1: Any = None,
+        sens_out: bool = False,
     ) -> RunResult:
         """Integrate the model from ``t0`` to ``t_end`` in one C call.
 
@@ -364,10 +334,16 @@ class Engine:
             Jacobian and no linear algebra, for non-stiff models; cheapest for
             large models) or ``"auto"`` (Newton).
         atol_vec
-            One absolute tolerance per solver component instead of ``atol``: ``nx``
-            entries, or ``nx*(nx-nalg+1)`` with ``want_monodromy`` (the state, then the
-            variational matrix column by column), so that its entries, whose scale
-            is that of ``x_i / x0_j``, get a tolerance of their own.
+            One absolute tolerance per solver component instead of ``atol``:
+            ``nx * (1 + nd * want_monodromy + n_sens)`` entries (``nd = nx - nalg``) (the state, then the
+            variational matrix column by column, then the sensitivities column by
+            column), so that the variational entries, whose scale is that of
+            ``x_i / x0_j`` (or ``x_i / p_k``), get a tolerance of their own.
+        sens_dir, sens_dt0, sens_dt1, sens_out
+            Parameter sensitivities (explicit models, CVODE): directions ``D = d p / d
+            lambda`` (np, n_sens); ``d t0 / d lambda`` and ``d t_end / d lambda`` (n_sens,;
+            default 0) of a span that moves with them; whether to return them at the
+            output times too (see ``gs_driver.c`` for the equations and jumps).
         linear_solver
             Newton's linear solver: ``"dense"`` (SUNDIALS' dense LU of the whole
             system; with the monodromy that is an (n + n^2)^2 matrix),
@@ -412,9 +388,16 @@ class Engine:
         av = None
         if atol_vec is not None:
             av = np.ascontiguousarray(np.asarray(atol_vec, dtype=float).reshape(-1))
-            want = self.nx * (self.nx - self.nalg + 1) if want_monodromy else self.nx
+            n_s = 0 if sens_dir is None else int(np.asarray(sens_dir).reshape(self.np, -1).shape[1])
+            want = self.nx * (1 + ((self.nx - self.nalg) if want_monodromy else 0) + n_s)
             if av.shape[0] != want:
                 raise EngineInputError(f"atol_vec has {av.shape[0]} entries, need {want}")
+        sens = None
+        if sens_dir is not None:
+            D = np.asarray(sens_dir, dtype=float).reshape(self.np, -1)  # ValueError on a wrong shape
+            vec = [None if v is None else np.ascontiguousarray(np.broadcast_to(np.asarray(v, float), D.shape[1:]))
+                   for v in (sens_dt0, sens_dt1)]
+            sens = (np.ascontiguousarray(D.T).reshape(-1), D.shape[1], vec[0], vec[1], bool(sens_out))
         cap = max(int(max_events_out), 1)
         while True:
             res = self._run_once(
@@ -438,6 +421,7 @@ class Engine:
                 NONLINEAR[nonlinear],
                 LINEAR_SOLVERS[linear_solver],
                 av,
+                sens,
             )
             if isinstance(res, int):  # event log too small: rerun with the exact size
                 cap = res
@@ -466,6 +450,7 @@ class Engine:
         nonlin=0,
         linsol=0,
         av=None,
+        sens=None,
     ) -> RunResult | int:
         nx, nsw = self.nx, self.nsw
         n_out = int(tout.shape[0])
@@ -503,6 +488,15 @@ class Engine:
             _ptr(ev_d),
             _ptr(ev_v),
         )
+        s_final = s_out = None
+        if sens is not None:
+            sdir, ns, dt0, dt1, want_out = sens
+            s_final = np.empty((nx, ns))
+            s_out = np.empty((n_out, nx, ns)) if want_out and n_out else None
+            a.n_sens = ns
+            a.sens_dir = _ptr(sdir)
+            a.sens_dt0, a.sens_dt1 = _ptr(dt0), _ptr(dt1)
+            a.sens_final, a.sens_out = _ptr(s_final), _ptr(s_out)
         a.interrupt_fd, previous = _interrupt.arm()
         a.check_interrupt = 1 if a.interrupt_fd >= 0 else 0
         try:
@@ -543,6 +537,8 @@ class Engine:
             events=events,
             stats=stats,
             t_reached=float(a.t_reached),
+            sensitivity=s_final,
+            sensitivity_out=s_out,
         )
 
 
@@ -623,8 +619,13 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
     lib.gs_simulate_ws.argtypes = [C.c_void_p, C.POINTER(GsSimArgs)]
     lib.gs_eval_period.restype = C.c_int
     lib.gs_eval_period.argtypes = [C.c_void_p, C.c_void_p, C.POINTER(C.c_double), C.c_char_p, C.c_int]
+    if hasattr(lib, "gs_eval_period_grad"):
+        lib.gs_eval_period_grad.restype = C.c_int
+        lib.gs_eval_period_grad.argtypes = [C.c_void_p, C.c_void_p, C.c_void_p, C.c_char_p, C.c_int]
     lib.gs_n_outputs.restype = C.c_int
     lib.gs_n_outputs.argtypes = [C.c_void_p]
+    lib.gs_n_meshes.restype = C.c_int
+    lib.gs_n_meshes.argtypes = [C.c_void_p]
     lib.gs_eval.restype = C.c_int
     lib.gs_eval.argtypes = [C.c_void_p, C.c_int, C.c_int, C.c_void_p, C.c_void_p, C.c_void_p, C.c_void_p,
                             C.c_void_p, C.c_char_p, C.c_int]

@@ -5,8 +5,9 @@
  * from t0 to t_end with SUNDIALS 7 (CVODE for explicit models, IDA for implicit
  * ones): root finding on the switching functions with mode switch and
  * re-initialisation, exact stops at scheduled breakpoints, an output grid,
- * optional variational equations (monodromy with saltation matrices), and
- * statistics.  It never aborts the process: every failure is a status code plus
+ * optional variational equations (monodromy with saltation matrices),
+ * optional parameter sensitivities (with event-time and breakpoint-time terms),
+ * and statistics.  It never aborts the process: every failure is a status code plus
  * a message in `errmsg`.
  *
  * All arrays are owned by the caller.  Row-major means y_out[i*nx + j].
@@ -68,9 +69,10 @@ typedef struct gs_sim_args {
   int     linear_solver;   /* GS_LINSOL_*: Newton's linear solver (0 = auto)        */
   const double* atol_vec;  /* NULL: the scalar atol for every component; else one   */
                            /* absolute tolerance per solver component: nx, or       */
-                           /* nx*(nd+1) with the monodromy, nd = nx - nalg the      */
-                           /* differential states (state, then Phi column-          */
-                           /* major): the variational entries have their own scale  */
+                           /* nx*(1 + nd*want_monodromy + n_sens), nd = nx - nalg  */
+                           /* the differential states: the state, Phi column-major, */
+                           /* then S column-major: the variational entries have     */
+                           /* their own scale                                       */
   /* ---- outputs ---- */
   double* y_out;           /* [n_out*nx] row-major states at t_out                  */
   double* x_final;         /* [nx] state at the time reached                        */
@@ -88,6 +90,16 @@ typedef struct gs_sim_args {
   long    n_steps, n_rhs, n_jac, n_root_evals, n_breaks, n_reinit;
   int     status;          /* GS_OK or GS_ERR_*  (also the return value)            */
   char    errmsg[1024];    /* human-readable message when status != GS_OK          */
+  /* ---- parameter sensitivities (explicit models, CVODE; see gs_driver.c) ---- */
+  int     n_sens;          /* number of parameter directions (0: none)              */
+  const double* sens_dir;  /* [np*n_sens] column-major: column s is a direction     */
+                           /* d p / d lambda_s in parameter space                   */
+  const double* sens_dt0;  /* [n_sens] d t0 / d lambda_s, or NULL (t0 fixed)         */
+  const double* sens_dt1;  /* [n_sens] d t_end / d lambda_s, or NULL (t_end fixed)   */
+  double* sens_final;      /* [nx*n_sens] row-major total derivative                */
+                           /* d x(t_end(lambda)) / d lambda_s (includes f dt_end)   */
+  double* sens_out;        /* [n_out*nx*n_sens] d x(t_out[k]) / d lambda_s at fixed */
+                           /* output times, [k][i][s] (may be NULL)                 */
 } gs_sim_args;
 
 /* Integrate.  Returns args->status. */
@@ -106,8 +118,15 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* args);
  * -1 with a message. */
 int gs_eval_period(gs_workspace* ws, const double* p, double* T, char* msg, int len);
 
+/* d T / d p of the forcing period (gs_periodp) into dT[np].  Returns 0, or -1
+ * with a message (also when the model was built without gs_periodp). */
+int gs_eval_period_grad(gs_workspace* ws, const double* p, double* dT, char* msg, int len);
+
 /* Number of model outputs (gs_out), or -1. */
 int gs_n_outputs(gs_workspace* ws);
+
+/* Number of mesh deflections (gs_mesh; 0 for a model without meshes), or -1. */
+int gs_n_meshes(gs_workspace* ws);
 
 /* Evaluate a generated function at n points (t[i], x[i*nx..]) with parameters p:
  * GS_EVAL_SW   g(t, x, p)                          -> out[i*nsw + j]
@@ -115,6 +134,7 @@ int gs_n_outputs(gs_workspace* ws);
  * GS_EVAL_RHS  xdot (explicit models)              -> out[i*nx + j]
  * GS_EVAL_JAC  d xdot / d x, dense column-major    -> out[i*nx*nx + c*nx + r]
  * GS_EVAL_MODE the mode vector m (sides, schedule) -> out[i*nm + j]
+ * GS_EVAL_MESH dynamic deflection of each mesh      -> out[i*nmesh + j]
  * in the mode the driver would use there: the side of each switching surface
  * from sigma[i*nsw + j] (or, with sigma NULL, +1 where g >= 0), the schedule
  * cycle and segment from t.  Returns 0, or -1 with a message. */
@@ -123,6 +143,7 @@ int gs_n_outputs(gs_workspace* ws);
 #define GS_EVAL_RHS  2
 #define GS_EVAL_JAC  3
 #define GS_EVAL_MODE 4
+#define GS_EVAL_MESH 5
 int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p, const double* sigma,
             double* out, char* msg, int len);
 

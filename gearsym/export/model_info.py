@@ -184,7 +184,7 @@ def collect(scene, generated_dir: str | Path | None = None) -> ExportModel:
     ExportError
         A name collides with one of main.c's options or with another name.
     """
-    from .. import __version__
+    from .._version import __version__
     from ..bound_functions import IMPLEMENTATIONS
 
     system = scene.compile(generated_dir)

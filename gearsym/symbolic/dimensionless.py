@@ -252,8 +252,7 @@ class DimensionlessSystem:
     """
 
     def __init__(self, model: SymbolicModel):
-        from .model import ScheduleInfo, SwitchingFunction
-        from .switching import ModalForm
+        from .switching import ModalForm, ScheduleInfo, SwitchingFunction
 
         if model.form != "explicit":
             raise SpecError("simulating in dimensionless variables needs an explicit model",

@@ -81,7 +81,7 @@ def reduce_model(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: lis
         Nonlinear or time-dependent coefficients, dependent definitions, a non-diagonal
         mass matrix, or a reduced system that is not closed.
     """
-    from .model import _expand_in_states, _fold_segments
+    from .expand import _expand_in_states, _fold_segments
 
     spec = model.spec
     red = spec.reduction

@@ -53,7 +53,7 @@ def reduce_keeping(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: l
         coordinates, the mass matrix is not diagonal, or the reduced equations still
         depend on an eliminated coordinate.
     """
-    from .model import _expand_in_states
+    from .expand import _expand_in_states
 
     spec = model.spec
     red = spec.reduction

@@ -71,12 +71,10 @@ def _zero_state(model, expr: sp.Expr) -> sp.Expr:
 
 def _core(model):
     """The structured model of the same scene with every effect switched off (or ``None``)."""
-    from .model import SymbolicModel
-
     rs = model.resolved
     off = dataclasses.replace(rs, effects={e: False for e in rs.effects})
     try:
-        return SymbolicModel(off, structured=True)
+        return type(model)(off, structured=True)  # (no import of the model module: no cycle)
     except (GearsymError, ValueError, TypeError, ZeroDivisionError):
         return None
 

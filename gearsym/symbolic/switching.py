@@ -22,7 +22,53 @@ from ..errors import SpecError
 from .parsing import internal_symbol
 
 if TYPE_CHECKING:
-    from .model import SwitchingFunction, SymbolicModel
+    from .model import SymbolicModel
+
+@dataclass(frozen=True)
+class ScheduleInfo:
+    """A schedule of breakpoints: period and break fractions (0 first)."""
+
+    name: str
+    period: sp.Expr
+    breaks: tuple[sp.Expr, ...]
+    n: sp.Symbol
+    seg: sp.Symbol
+
+
+@dataclass(frozen=True)
+class Mode:
+    """A named mode of the hybrid system (e.g. drive-side contact)."""
+
+    name: str
+    condition: str
+
+
+@dataclass(frozen=True)
+class SwitchingFunction:
+    """A switching surface ``g(t, x, p) = 0`` whose crossing changes the mode.
+
+    Attributes
+    ----------
+    name
+        E.g. ``mesh.drive`` / ``mesh.back`` for the two flanks of a backlash mesh.
+    expr
+        ``g`` in terms of the states, time and parameters.
+    meaning
+        What the ``g > 0`` side means.
+    contact_sign
+        ``+1`` if ``g > 0`` is the contact side, ``-1`` if ``g < 0`` is, ``0`` if the
+        surface is not a contact surface.
+    kind
+        ``"drive"``, ``"back"`` or ``"switch"``.
+    """
+
+    name: str
+    expr: sp.Expr
+    meaning: str
+    contact_sign: int = 0
+    kind: str = "switch"
+
+
 
 _NONSMOOTH = (sp.Abs, sp.sign, sp.Max, sp.Min, sp.Heaviside)
 
@@ -59,8 +105,6 @@ class ModalForm:
 
 def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalForm:
     """Build the modal form of a model (see module docstring)."""
-    from .model import SwitchingFunction
-
     states = set(model.states)
     t = model.t
     ns = model.ns

@@ -69,7 +69,7 @@ class Assembly:
 def dead_zone(a: Assembly, el: Element, delta: sp.Expr, b: sp.Expr) -> sp.Expr:
     """``f(delta)``: the backlash dead zone of half width ``b`` (``delta`` itself if ``b`` is 0),
     registering the contact surfaces ``NAME.drive`` / ``NAME.back`` (as the ``mesh`` element)."""
-    from ..model import SwitchingFunction
+    from ..switching import SwitchingFunction
 
     if b == 0:
         return delta

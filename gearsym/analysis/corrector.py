@@ -1,0 +1,285 @@
+"""The corrector of the continuation: scaling, bordered Newton, tangents and branch points.
+
+:class:`Continuer` holds the scaled variables of one periodic-orbit problem
+(unknowns by the state magnitudes, the parameter by its range), corrects a
+predicted point onto the branch with Newton on ``F = 0`` plus one linear
+constraint (the pseudo-arclength hyperplane, or a fixed parameter), computes
+unit tangents and turns a corrected point into a :class:`~gearsym.analysis.branch.BranchPoint`
+with its test functions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..errors import ConvergenceError
+from .bifurcation import tau_branch_point, tau_neimark_sacker, tau_period_doubling
+from .branch import BranchPoint
+from .meshes import mesh_point
+from .newton import NewtonPolicy, damped_newton
+from .problems import Evaluation, PeriodicOrbitProblem
+from .rattle import mesh_rattle_states
+from .stability import floquet
+
+__all__ = ["Continuer", "Node", "graph_like", "rescale"]
+
+
+def _periodic_extremum(y: np.ndarray, i: int, sign: float) -> float:
+    """Parabolic refinement of a sample extremum of a periodic sequence."""
+    n = len(y)
+    a, b, c = y[(i - 1) % n], y[i], y[(i + 1) % n]
+    den = a - 2 * b + c
+    if den * sign < 0:
+        return float(b - 0.125 * (c - a) ** 2 / den)
+    return float(b)
+
+
+@dataclass
+class Node:
+    """A point of the branch with what the continuation needs."""
+
+    z: np.ndarray          # (u, lambda), unscaled
+    ev: Evaluation
+    point: BranchPoint
+    t: np.ndarray          # unit tangent, scaled variables
+    tau: dict[str, float]
+    iterations: int = 0
+    scale: np.ndarray | None = None
+    graph: bool = False    # the branch is a graph over the parameter between the previous point and this
+
+
+class Continuer:
+    """The predictor-corrector machinery on one residual."""
+
+    def __init__(self, res: PeriodicOrbitProblem, *, lam_scale: float, tol: float, max_newton: int, state: int,
+                 n_dense: int, detect: Sequence[str], state_weight: float = 1.0):
+        self.res = res
+        self.lam_scale = float(lam_scale)
+        self.tol = float(tol)
+        self.max_newton = int(max_newton)
+        self.state = int(state)
+        self.n_dense = int(n_dense)
+        self.detect = tuple(detect)
+        gen = res.system.generated
+        self.surfaces = [s["name"] for s in gen.surfaces]
+        self.state_weight = float(state_weight)
+        self.state_scale = np.ones(res.nx)
+        self.Rs = np.ones(res.n)
+        self.S = np.ones(res.n + 1)
+        self.S[-1] = self.lam_scale
+
+    # ------------------------------------------------------------ scaling
+    def set_state_scale(self, state_scale: np.ndarray) -> None:
+        """Scales: residual rows by the state magnitudes, unknowns by them over ``state_weight``.
+
+        A magnitude is at least ``atol / tol`` (as in shooting's convergence test): the
+        integration resolves no state better than ``atol``, so a state that vanishes on
+        the orbit (e.g. by symmetry) must not demand a scaled residual below ``tol``
+        from integration noise.  (With the default ``atol`` the floor is 1e-3 of the
+        smallest magnitude and never binds.)
+        """
+        floor = float(getattr(self.res, "atol", 0.0)) / self.tol
+        self.state_scale = np.maximum(np.asarray(state_scale, float), floor)
+        self.Rs = self.res.unknown_scale(self.state_scale)
+        self.S = np.concatenate([self.Rs / self.state_weight, [self.lam_scale]])
+        self.__dict__.pop("_anchor_cache", None)
+
+    def scaled_jacobian(self, ev: Evaluation) -> np.ndarray:
+        """``[F_u, F_lambda]`` in scaled variables, rows scaled by the state magnitudes."""
+        J = np.hstack([ev.Fu, ev.Flam[:, None]]) * self.S[None, :]
+        return J / self.Rs[:, None]
+
+    def scaled_residual(self, ev: Evaluation) -> np.ndarray:
+        return ev.R / self.Rs
+
+    def scaled_anchor(self, lam: float) -> np.ndarray | None:
+        """Anchor rows of the residual in scaled variables (unit rows; ``None`` without)."""
+        key = float(lam)
+        cache = self.__dict__.setdefault("_anchor_cache", {})
+        if key not in cache:
+            if len(cache) > 32:
+                cache.clear()
+            rows = self.res.anchor_rows(key)
+            if rows is not None:
+                rows = np.hstack([rows * self.S[None, :-1], np.zeros((len(rows), 1))])
+                rows = rows / np.linalg.norm(rows, axis=1)[:, None]
+            cache[key] = rows
+        return cache[key]
+
+    # ------------------------------------------------------------ corrector
+    def correct(self, z_guess: np.ndarray, row: np.ndarray, target: float, Flam: np.ndarray | None = None
+                ) -> tuple[np.ndarray, Evaluation, int]:
+        """Newton on ``F(z) = 0``, ``row . (z / S) = target``.
+
+        ``F_lambda`` (a finite difference, the costly column) is computed at the first
+        iterate and kept (chord) until convergence, then recomputed at the solution
+        for the tangent.  A residual at the integrator's noise floor (a Newton step
+        below ``tol`` that no longer reduces it, up to ``100 * tol``) is accepted.
+
+        Raises
+        ------
+        ConvergenceError, GearsymError
+            No convergence (step to be rejected).
+        """
+        z = np.asarray(z_guess, float).copy()
+        ev = self.res.evaluate(z[:-1], z[-1], dlam=Flam is None)
+        if Flam is None:
+            Flam = ev.Flam
+        tol, S = self.tol, self.S
+
+        def evaluate(z: np.ndarray) -> tuple[np.ndarray, Evaluation]:
+            return z, self.res.evaluate(z[:-1], z[-1], dlam=False)
+
+        def norm(rec: tuple[np.ndarray, Evaluation]) -> float:
+            return float(np.max(np.abs(self.scaled_residual(rec[1]))))
+
+        def converged(rec: tuple[np.ndarray, Evaluation], size: float, damping: float) -> str | None:
+            r = norm(rec)
+            c = float(row @ (rec[0] / S) - target)
+            return "" if (r <= tol or (size <= tol and r <= 100 * tol)) and abs(c) <= 1e-9 else None
+
+        def direction(z: np.ndarray, rec: tuple[np.ndarray, Evaluation]) -> tuple[np.ndarray, float, dict]:
+            ev = rec[1]
+            if ev.Flam is None:
+                ev.Flam = Flam
+            c = float(row @ (z / S) - target)
+            anchor = self.scaled_anchor(z[-1])
+            if anchor is None:
+                A = np.vstack([self.scaled_jacobian(ev), row[None, :]])
+                rhs = -np.concatenate([self.scaled_residual(ev), [c]])
+                try:
+                    dw = np.linalg.solve(A, rhs)
+                except np.linalg.LinAlgError:
+                    dw = np.linalg.lstsq(A, rhs, rcond=None)[0]
+            else:  # rigid-body modes: keep their coordinates where they are (least squares)
+                A = np.vstack([self.scaled_jacobian(ev), anchor, row[None, :]])
+                rhs = -np.concatenate([self.scaled_residual(ev), np.zeros(len(anchor)), [c]])
+                dw = np.linalg.lstsq(A, rhs, rcond=None)[0]
+            if not np.all(np.isfinite(dw)):
+                raise ConvergenceError("corrector: singular Newton matrix")
+            return dw * S, float(np.max(np.abs(dw))), {}
+
+        # damped step: halve it (up to 3 times) while the residual grows, then take it anyway
+        policy = NewtonPolicy(max_iter=self.max_newton, min_damping=0.125, decrease=0.0, accept_below=tol,
+                              accept_last=True, diverge=(0.9, 100 * tol))
+        out = damped_newton(z, (z, ev), evaluate=evaluate, norm=norm, direction=direction, converged=converged,
+                            policy=policy)
+        z, ev = out.ev
+        if not out.converged:
+            if out.failure == "max_iter":
+                raise ConvergenceError(f"corrector: no convergence in {out.iterations} Newton steps "
+                                       f"(residual {norm(out.ev):.3g})")
+            raise ConvergenceError(f"corrector: {out.failure}")
+        if ev.Flam is None:
+            ev.Flam = self.res._fd_lambda(z[:-1], float(z[-1]), ev.R)
+        return z, ev, out.iterations
+
+    def tangent(self, ev: Evaluation, t_ref: np.ndarray, lam: float | None = None) -> np.ndarray:
+        """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0`` (and, with
+        rigid-body modes, no component along their shift: anchor rows at ``lam``)."""
+        anchor = self.scaled_anchor(lam) if lam is not None else None
+        A = np.vstack([self.scaled_jacobian(ev)] + ([anchor] if anchor is not None else []) + [t_ref[None, :]])
+        b = np.zeros(A.shape[0])
+        b[-1] = 1.0
+        if anchor is not None:
+            t = np.linalg.lstsq(A, b, rcond=None)[0]
+        else:
+            try:
+                t = np.linalg.solve(A, b)
+            except np.linalg.LinAlgError:
+                t = np.linalg.lstsq(A, b, rcond=None)[0]
+        if not np.all(np.isfinite(t)) or not np.any(t):
+            # fall back on the smallest right singular vector
+            _, _, Vt = np.linalg.svd(self.scaled_jacobian(ev))
+            t = Vt[-1]
+        t = t / np.linalg.norm(t)
+        if t @ t_ref < 0:
+            t = -t
+        return t
+
+    # ------------------------------------------------------------ points
+    def make_node(self, z: np.ndarray, ev: Evaluation, t_ref: np.ndarray, iterations: int = 0,
+                  ref: Node | None = None) -> Node:
+        """Post-process a corrected point: multipliers, extrema, grazing tests, tangent.
+
+        The tangent is oriented along ``t_ref``; but when neither this point nor
+        ``ref`` (the previous point) has a multiplier near +1 and no real multiplier
+        crossed +1 between them, the branch is locally a graph over the parameter
+        (implicit function theorem: no turning point is possible), and the
+        tangent is oriented so that the parameter keeps its direction -- a rattling
+        orbit whose state moves fast and erratically with the parameter could
+        otherwise flip it and send the continuation backwards.
+        """
+        res = self.res
+        u, lam = z[:-1], float(z[-1])
+        fq = floquet(ev.monodromy, res.rtol, res.rigid_basis(lam))
+        mu = fq.multipliers
+        t_dense, Y = res.dense(u, lam, self.n_dense)
+        y = Y[:, self.state]
+        i_max, i_min = int(np.argmax(y)), int(np.argmin(y))
+        params = res.params(lam)
+        ext: dict[str, tuple[float, float]] = {}
+        if self.surfaces:
+            G = res.system.switching(t_dense, Y, p=res.system.param_vector(params)).reshape(len(t_dense), -1).T
+            for j, name in enumerate(self.surfaces):
+                g = G[j]
+                ext[name] = (_periodic_extremum(g, int(np.argmin(g)), +1.0),
+                             _periodic_extremum(g, int(np.argmax(g)), -1.0))
+        x0 = res.x0_of(u)
+        try:
+            rss = mesh_rattle_states(res.system, x0, res.t0, ev.events, params)
+        except Exception:  # noqa: BLE001 - the classification is informative only
+            rss = {}
+        meshes = mesh_point(res.system, t_dense, Y, params, rss)
+        t = self.tangent(ev, t_ref, lam)
+        if ref is not None and graph_like(mu, ref.point.multipliers) and ref.t[-1] * t[-1] < 0:
+            t = -t
+        pt = BranchPoint(
+            value=lam, x0=np.asarray(x0, float), period=res.period(lam), periods=res.periods, multipliers=mu,
+            stable=fq.stable, n_unstable=fq.n_unstable,
+            max=_periodic_extremum(y, i_max, -1.0), min=_periodic_extremum(y, i_min, +1.0),
+            rms=float(np.sqrt(np.mean(y ** 2))), rattle_state=max(rss.values()) if rss else None,
+            n_events=len(ev.events),
+            surface_extrema=ext, tangent=t, residual=float(np.max(np.abs(self.scaled_residual(ev)))),
+            iterations=iterations, u=np.asarray(u, float).copy(), monodromy=ev.monodromy,
+            stability=fq.stability, trivial_multipliers=fq.trivial, multiplier_tolerances=fq.tolerances,
+            meshes=meshes)
+        tau: dict[str, float] = {"fold": float(t[-1])}
+        if len(mu):
+            tau["period_doubling"] = tau_period_doubling(mu)
+            tau["neimark_sacker"] = tau_neimark_sacker(mu)
+            tau["branch_point"] = tau_branch_point(mu)
+        for name, (gmin, gmax) in ext.items():
+            tau[f"grazing|{name}|min"] = gmin
+            tau[f"grazing|{name}|max"] = gmax
+        return Node(z=np.asarray(z, float).copy(), ev=ev, point=pt, t=t, tau=tau, iterations=iterations,
+                     scale=np.maximum(np.max(np.abs(Y), axis=0), np.ptp(Y, axis=0)))
+
+
+def graph_like(mu_b: np.ndarray, mu_a: np.ndarray, margin: float = 0.05) -> bool:
+    """No multiplier within ``margin`` of +1 at either point and none crossed +1 in between."""
+    if len(mu_a) == 0 or len(mu_b) == 0:
+        return False
+    if np.min(np.abs(mu_a - 1.0)) <= margin or np.min(np.abs(mu_b - 1.0)) <= margin:
+        return False
+    return (tau_branch_point(mu_a) > 0) == (tau_branch_point(mu_b) > 0)
+
+
+def rescale(C: Continuer, node: Node, force: bool = False) -> tuple[Continuer, Node]:
+    """Grow the state scales when the orbit outgrows them; re-express the tangent."""
+    old = C.S.copy()
+    cur = C.state_scale
+    new_scale = np.asarray(node.scale, float)
+    grow = new_scale > 2 * cur
+    if not force and not np.any(grow):
+        return C, node
+    target = np.where(grow, new_scale, cur) if not force else np.maximum(new_scale, 1e-12 * max(1e-300, new_scale.max()))
+    C.set_state_scale(target)
+    t = node.t * old / C.S
+    node.t = t / np.linalg.norm(t)
+    node.point = replace(node.point, tangent=node.t)
+    node.tau["fold"] = float(node.t[-1])
+    return C, node

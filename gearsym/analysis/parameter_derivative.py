@@ -1,0 +1,90 @@
+"""Exact ``F_lambda`` of the continuation residuals, from the engine's parameter sensitivities.
+
+For the (multiple) shooting residual with segment times ``s_i = t0 + P(lambda) i / N``
+(``P = periods * T(lambda)``, so the orbit period follows a forcing-frequency parameter),
+
+    R_i = phi(s_{i+1}(lambda), s_i(lambda), X_i; lambda) - X_{i+1}
+    dR_i/dlambda = S_i(s_{i+1}-) + f(s_{i+1}-) ds_{i+1}/dlambda - Phi_i f(s_i+) ds_i/dlambda
+
+with ``S_i`` the solution of the parameter variational equations (jumps at contact
+events and breakpoints included, see ``gearsym/engine/gs_driver.c``) and
+``ds_i/dlambda = (i/N) periods dT/dlambda`` from the generated ``gs_periodp``: one
+integration per segment of the state and one sensitivity column, in place of the
+finite difference with step ``sqrt(rtol)`` (whose truncation error moved fold locations).
+
+Where the exact derivative is not available, :func:`exact_f_lambda` returns ``None`` and
+the continuation keeps its finite difference: the harmonic-balance residual, implicit
+(IDA) models, systems whose build with the parameter derivatives cannot be made (the
+first exact ``F_lambda`` makes it: :meth:`gearsym.system.System.derivative_engine`), and
+integrations that fail for the sensitivities only (a grazing event, where the event-time
+derivative is infinite).  :func:`finite_difference_f_lambda` forces the finite difference (benchmarks).
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+
+from ..errors import CompileError, GearsymError
+
+__all__ = ["exact_f_lambda", "finite_difference_f_lambda"]
+
+_FORCE_FD = [False]
+
+
+@contextlib.contextmanager
+def finite_difference_f_lambda() -> Iterator[None]:
+    """Within this block continuation uses the finite-difference ``F_lambda`` (for comparisons)."""
+    old = _FORCE_FD[0]
+    _FORCE_FD[0] = True
+    try:
+        yield
+    finally:
+        _FORCE_FD[0] = old
+
+
+def exact_f_lambda(res: Any, u: np.ndarray, lam: float) -> np.ndarray | None:
+    """``dF/dlambda`` of a continuation residual at ``(u, lambda)``, or ``None`` if not available.
+
+    Parameters
+    ----------
+    res
+        The residual (:class:`gearsym.analysis.continuation.ShootingResidual`; others give ``None``).
+    u
+        Unknowns (segment start states).
+    lam
+        Parameter value.
+
+    Returns
+    -------
+    ndarray or None
+        Shape ``(N * nx,)``.
+    """
+    system = res.system
+    if _FORCE_FD[0] or not system.has_derivatives or not hasattr(res, "segments") or not hasattr(res, "times"):
+        return None
+    N, nx = res.segments, res.nx
+    X = np.asarray(u, float).reshape(N, nx)
+    s = res.times(lam)
+    out = np.empty(N * nx)
+    try:
+        system.derivative_engine()  # the build with the derivatives, made on first use
+    except CompileError:
+        system.derivative_build = None  # not retried: the finite difference from now on
+        return None
+    try:
+        inputs = res.params(lam)
+        p = system.param_vector(inputs)
+        dP = float(res.periods) * float(system.period_gradient([res.param], p, inputs)[0])
+        for i in range(N):
+            fl = system.flow(X[i], float(s[i]), float(s[i + 1]), p, rtol=res.rtol, atol=res.atol,
+                             monodromy=False, method=res.method, sensitivities=[res.param],
+                             span_derivative=(dP * i / N, dP * (i + 1) / N), inputs=inputs)
+            res.n_integrations += 1
+            out[i * nx:(i + 1) * nx] = fl.sensitivity[:, 0]
+    except GearsymError:  # e.g. a grazing event: the event-time derivative is infinite
+        return None
+    return out

@@ -1,0 +1,295 @@
+"""Periodic-orbit problems: the residual ``F(u, lambda)`` that continuation drives.
+
+:class:`PeriodicOrbitProblem` is the interface (residual, Jacobian, parameter
+derivative, state at ``t0``, dense evaluation); :class:`ShootingResidual` is single
+and multiple shooting over the C engine's flow with its variational monodromy;
+harmonic balance is :class:`gearsym.analysis.hb_problem.HBResidual`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import GearsymError, ParameterError
+from ..results import Event, Flow
+from .floquet import monodromy_product
+from .parameter_derivative import exact_f_lambda
+from .stability import rigid_state_basis
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..system import System
+
+__all__ = ["Evaluation", "PeriodicOrbitProblem", "ShootingResidual", "flow_events", "segment_jacobian",
+           "segment_times"]
+
+
+@dataclass
+class Evaluation:
+    """One evaluation of a periodic-orbit problem at ``(u, lambda)``.
+
+    A work record of the solvers (not a result): the corrector fills ``Flam`` in
+    when it was not computed with the residual.
+
+    Attributes
+    ----------
+    R : ndarray
+        The residual ``F(u, lambda)``.
+    Fu : ndarray or None
+        The Jacobian ``dF/du`` (``None`` when not asked for).
+    Flam : ndarray or None
+        The parameter derivative ``dF/dlambda`` (``None`` when not asked for).
+    monodromy : ndarray or None
+        The monodromy of the orbit (product of the segment monodromies).
+    events : list of Event
+        Surface crossings along one period.
+    """
+
+    R: np.ndarray
+    Fu: np.ndarray | None
+    Flam: np.ndarray | None
+    monodromy: np.ndarray | None = None
+    events: list = field(default_factory=list)
+
+
+class PeriodicOrbitProblem:
+    """A periodic-orbit problem ``F(u, lambda) = 0`` in one run-time parameter.
+
+    The interface that shooting (:class:`ShootingResidual`) and harmonic balance
+    (:class:`~gearsym.analysis.hb_problem.HBResidual`) implement and that the
+    continuation's predictor-corrector drives: the residual with its Jacobian
+    and parameter derivative (:meth:`evaluate`), the state at ``t0`` of the
+    unknowns (:meth:`x0_of`), the parameter derivative alone (:meth:`_fd_lambda`,
+    the one place where ``F_lambda`` is computed), the orbit on a dense grid
+    (:meth:`dense`) and the unknowns of a given orbit (``u_from_orbit``).
+    """
+
+    system: System
+    param: str
+    periods: float
+    t0: float
+    n: int
+
+    def params(self, lam: float) -> dict[str, float]:
+        p = dict(self.base_params)
+        p[self.param] = float(lam)
+        return p
+
+    def pvec(self, lam: float) -> np.ndarray:
+        """The parameter vector at ``lambda`` (cached: the corrector asks for a few values many times)."""
+        cache = self.__dict__.setdefault("_pvec_cache", {})
+        p = cache.get(lam)
+        if p is None:
+            if len(cache) > 64:
+                cache.clear()
+            p = cache[lam] = self.system.param_vector(self.params(lam))
+        return p
+
+    def period(self, lam: float) -> float:
+        cache = self.__dict__.setdefault("_period_cache", {})
+        T = cache.get(lam)
+        if T is None:
+            T = self.system.period_of(self.pvec(lam))
+            if not T:
+                T = self.system.require_period(self.params(lam), "continuation of periodic orbits")
+            if len(cache) > 64:
+                cache.clear()
+            cache[lam] = T
+        return float(self.periods) * T
+
+    def evaluate(self, u: np.ndarray, lam: float, jac: bool = True, dlam: bool = True
+                 ) -> Evaluation:  # pragma: no cover
+        raise NotImplementedError
+
+    def x0_of(self, u: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def unknown_scale(self, state_scale: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def dense(self, u: np.ndarray, lam: float, n_per_period: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(t, Y)``: the orbit on ``n`` evenly spaced times of one period (end excluded)."""
+        raise NotImplementedError  # pragma: no cover
+
+    def rigid_basis(self, lam: float) -> np.ndarray | None:
+        """The rigid-body subspace of the state at ``lambda`` (``None`` without rigid-body modes)."""
+        return rigid_state_basis(self.system, self.params(lam))
+
+    def anchor_rows(self, lam: float) -> np.ndarray | None:
+        """Rows ``(k, n)`` that pin the rigid-body coordinates of the orbit (one per mode):
+        without them ``F_u`` is singular along the rigid-body shift."""
+        V = self.rigid_basis(lam)
+        if V is None:
+            return None
+        k = V.shape[1] // 2
+        Pq = V[:, :k] / np.linalg.norm(V[:, :k], axis=0)
+        out = np.zeros((k, self.n))
+        for j, i in enumerate(self._anchor_index()):
+            out[:, i] = Pq[j]
+        return out
+
+    def _anchor_index(self) -> list[int]:
+        """Index in the unknowns of the quantity of each state the anchor acts on."""
+        raise NotImplementedError  # pragma: no cover
+
+    def _fd_lambda(self, u: np.ndarray, lam: float, R: np.ndarray | None = None) -> np.ndarray:
+        """``dF/dlambda``: exact from the parameter sensitivities where available
+        (:mod:`gearsym.analysis.parameter_derivative`), else a forward difference from
+        ``R = F(u, lambda)`` (central without it)."""
+        exact = exact_f_lambda(self, u, lam)
+        if exact is not None:
+            return exact
+        h = self.fd_step
+        Rp = self.evaluate(u, lam + h, jac=False).R
+        if R is not None:
+            return (Rp - R) / h
+        Rm = self.evaluate(u, lam - h, jac=False).R
+        return (Rp - Rm) / (2 * h)
+
+
+class ShootingResidual(PeriodicOrbitProblem):
+    """``F(X, lambda)``: the (multiple) shooting residual of ``periods`` forcing periods.
+
+    Parameters
+    ----------
+    system
+        The compiled system.
+    param
+        The continuation parameter (a run-time parameter of ``system``).
+    periods
+        Forcing periods per orbit.
+    params
+        Other parameter overrides (SI).
+    segments
+        Shooting segments (1: single shooting); the unknowns are the states at
+        the segment starts.
+    t0
+        Phase of the orbit's reference state.
+    rtol, atol
+        Integrator tolerances.
+    fd_step
+        Step of the central difference ``F_lambda``.
+    method
+        Integrator.
+    """
+
+    def __init__(self, system: System, param: str, periods: float = 1, params: Mapping[str, float] | None = None,
+                 segments: int = 1, t0: float = 0.0, rtol: float = 1e-10, atol: float = 1e-12,
+                 fd_step: float = 1e-6, method: str | None = None):
+        self.system = system
+        self.param = param
+        self.periods = float(periods)
+        self.base_params = dict(params or {})
+        self.segments = int(segments)
+        if self.segments < 1:
+            raise ParameterError(f"segments must be >= 1, got {segments}")
+        self.t0 = float(t0)
+        self.rtol, self.atol = float(rtol), float(atol)
+        self.fd_step = float(fd_step)
+        self.method = method
+        self.nx = system.generated.nx
+        self.n = self.segments * self.nx
+        self.n_evals = 0
+        self.n_integrations = 0
+
+    def times(self, lam: float) -> np.ndarray:
+        """Segment boundaries ``t0 = s_0 < ... < s_N = t0 + P(lambda)``."""
+        return segment_times(self.t0, self.period(lam), self.segments)
+
+    def x0_of(self, u: np.ndarray) -> np.ndarray:
+        return np.asarray(u[: self.nx], float)
+
+    def _anchor_index(self) -> list[int]:
+        return list(range(self.nx))  # the states of the first segment
+
+    def unknown_scale(self, state_scale: np.ndarray) -> np.ndarray:
+        return np.tile(state_scale, self.segments)
+
+    def u_from_orbit(self, x0: np.ndarray, lam: float) -> np.ndarray:
+        """Unknowns (segment start states) of the orbit through ``x0``."""
+        if self.segments == 1:
+            return np.asarray(x0, float).copy()
+        s = self.times(lam)
+        tr = self.system.simulate(t_end=s[-1], t0=s[0], x0=x0, rtol=self.rtol, atol=self.atol, t_out=s,
+                                  params=self.params(lam), method=self.method)
+        return np.asarray(tr.y[:-1], float).ravel()
+
+    def evaluate(self, u: np.ndarray, lam: float, jac: bool = True, dlam: bool = True) -> Evaluation:
+        N, nx = self.segments, self.nx
+        X = np.asarray(u, float).reshape(N, nx)
+        s = self.times(lam)
+        p = self.pvec(lam)
+        max_step = self.period(lam) / self.periods / 8  # System.flow's default (T/8), without asking the engine
+        xs, Ms, evs = [], [], []
+        for i in range(N):
+            fl = self.system.flow(X[i], s[i], s[i + 1], p, rtol=self.rtol, atol=self.atol, monodromy=jac,
+                                  method=self.method, max_step=max_step)
+            self.n_integrations += 1
+            xs.append(fl.x_final)
+            Ms.append(fl.monodromy)
+            evs.extend(flow_events(self.system, fl))
+        R = np.concatenate([xs[i] - X[(i + 1) % N] for i in range(N)])
+        self.n_evals += 1
+        if not jac:
+            return Evaluation(R, None, None, events=evs)
+        if any(M is None for M in Ms):
+            raise GearsymError("the engine returned no monodromy (implicit models are not supported by "
+                               "continuation yet)")
+        J = segment_jacobian(Ms)
+        Flam = self._fd_lambda(u, lam, R) if dlam else None
+        return Evaluation(R, J, Flam, monodromy=monodromy_product(Ms), events=evs)
+
+    def dense(self, u: np.ndarray, lam: float, n_per_period: int) -> tuple[np.ndarray, np.ndarray]:
+        N, nx = self.segments, self.nx
+        X = np.asarray(u, float).reshape(N, nx)
+        s = self.times(lam)
+        p = self.params(lam)
+        n_seg = max(8, int(math.ceil(n_per_period * self.periods / N)))
+        ts, ys = [], []
+        for i in range(N):
+            grid = np.linspace(s[i], s[i + 1], n_seg + 1)
+            tr = self.system.simulate(t_end=s[i + 1], t0=s[i], x0=X[i], rtol=self.rtol, atol=self.atol,
+                                      t_out=grid, params=p, method=self.method)
+            self.n_integrations += 1
+            ts.append(grid[:-1])
+            ys.append(tr.y[:-1])
+        return np.concatenate(ts), np.vstack(ys)
+
+
+
+
+def segment_times(t0: float, P: float, segments: int) -> np.ndarray:
+    """Boundaries ``s_0 = t0 < s_1 < ... < s_N = t0 + P`` of ``segments`` equal shooting segments."""
+    s = t0 + P * np.arange(segments + 1) / segments
+    s[-1] = t0 + P
+    return s
+
+
+def segment_jacobian(Ms: list[np.ndarray]) -> np.ndarray:
+    """Jacobian of the cyclic multiple-shooting residual ``phi_i(X_i) - X_{i+1}``.
+
+    Block row ``i`` holds the segment monodromy ``M_i`` in column ``i`` and ``-I`` in
+    column ``i + 1`` (cyclically; ``M_0 - I`` for single shooting).
+    """
+    N = len(Ms)
+    nx = Ms[0].shape[0]
+    J = np.zeros((N * nx, N * nx))
+    eye = np.eye(nx)
+    for i in range(N):
+        J[i * nx:(i + 1) * nx, i * nx:(i + 1) * nx] = Ms[i]
+        k = (i + 1) % N
+        J[i * nx:(i + 1) * nx, k * nx:(k + 1) * nx] -= eye
+    return J
+
+
+def flow_events(system: System, fl: Flow) -> list[Event]:
+    """The events of a :class:`~gearsym.results.Flow` as :class:`~gearsym.results.Event` objects."""
+    if not len(fl.event_t):
+        return []
+    names = system.surface_names
+    return [Event(t, names[j], d) for t, j, d in zip(fl.event_t.tolist(), np.asarray(fl.event_surface).tolist(),
+                                                     np.asarray(fl.event_direction).tolist(), strict=True)]

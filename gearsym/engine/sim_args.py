@@ -1,0 +1,73 @@
+"""ctypes mirror of the driver's ``struct gs_sim_args`` (gs_driver.h); keep in sync.
+
+The driver checks the size at load time (``gs_sizeof_args``), so a mismatch is an error
+at load, never memory corruption.
+"""
+
+from __future__ import annotations
+
+import ctypes as C
+
+__all__ = ["GsSimArgs"]
+
+# Pointer members are declared c_void_p (same layout as double*/int*) so that
+# numpy buffers can be passed as plain addresses (fast: no ctypes casts).
+_PD = C.c_void_p
+_PI = C.c_void_p
+
+
+class GsSimArgs(C.Structure):
+    """ctypes mirror of ``struct gs_sim_args`` (gs_driver.h); keep in sync."""
+
+    _fields_ = [
+        # inputs
+        ("method", C.c_int),
+        ("rtol", C.c_double),
+        ("atol", C.c_double),
+        ("t0", C.c_double),
+        ("t_end", C.c_double),
+        ("x0", _PD),
+        ("p", _PD),
+        ("sigma0", _PD),
+        ("n_out", C.c_int),
+        ("t_out", _PD),
+        ("max_steps", C.c_long),
+        ("max_events", C.c_long),
+        ("storm_events", C.c_int),
+        ("storm_window", C.c_double),
+        ("max_step", C.c_double),
+        ("init_step", C.c_double),
+        ("want_monodromy", C.c_int),
+        ("max_events_out", C.c_int),
+        ("check_interrupt", C.c_int),
+        ("interrupt_fd", C.c_int),
+        ("nonlinear", C.c_int),
+        ("linear_solver", C.c_int),
+        ("atol_vec", _PD),
+        # outputs
+        ("y_out", _PD),
+        ("x_final", _PD),
+        ("sigma_final", _PD),
+        ("monodromy", _PD),
+        ("ev_t", _PD),
+        ("ev_surface", _PI),
+        ("ev_dir", _PI),
+        ("ev_speed", _PD),
+        ("n_events", C.c_int),
+        ("t_reached", C.c_double),
+        ("n_steps", C.c_long),
+        ("n_rhs", C.c_long),
+        ("n_jac", C.c_long),
+        ("n_root_evals", C.c_long),
+        ("n_breaks", C.c_long),
+        ("n_reinit", C.c_long),
+        ("status", C.c_int),
+        ("errmsg", C.c_char * 1024),
+        # parameter sensitivities
+        ("n_sens", C.c_int),
+        ("sens_dir", _PD),
+        ("sens_dt0", _PD),
+        ("sens_dt1", _PD),
+        ("sens_final", _PD),
+        ("sens_out", _PD),
+    ]

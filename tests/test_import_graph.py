@@ -1,0 +1,163 @@
+"""The import graph of gearsym: no cycles, and no module imports a higher layer.
+
+Every module of the package is read with :mod:`ast` (not imported); every ``import`` /
+``from ... import`` of a gearsym module counts, at module level or inside a function
+(a lazy import is still a dependency), except under ``if TYPE_CHECKING:`` (annotations
+only).  ``from pkg import name`` counts as an import of ``pkg.name`` when that is a
+module, else of ``pkg``.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1] / "gearsym"
+
+#: The layers, lowest first, as the code has them (data flows one way, upwards):
+#:
+#: * base: errors, the version, file helpers, optional extras, bound (fractal) functions;
+#: * spec: TOML parsing/validation (no sympy); the catalogue of shipped models and scenes;
+#: * symbolic: sympy equations of motion, modes, switching surfaces;
+#: * engine: the generic C driver over SUNDIALS and its build; it knows no model, so it sits
+#:   *below* codegen, which generates a model's C and links it against the driver;
+#: * codegen: sympy -> CasADi -> C, the build cache, the GeneratedModel artefact;
+#: * system: the compiled System, the user facade (Scene, load_scene), result objects,
+#:   the static equilibrium;
+#: * analysis: periodic orbits, Floquet, continuation, maps, modes;
+#: * presentation: plots, inspection, export (C project, FMU);
+#: * top: the CLI, the benchmark harness and the package root (its lazy public namespace).
+LAYERS: list[tuple[str, tuple[str, ...]]] = [
+    ("base", ("gearsym._version", "gearsym.errors", "gearsym.files", "gearsym.extras", "gearsym.fractal",
+              "gearsym.bound_functions")),
+    ("spec", ("gearsym.spec", "gearsym.catalog")),
+    ("symbolic", ("gearsym.symbolic",)),
+    ("engine", ("gearsym.engine",)),
+    ("codegen", ("gearsym.codegen",)),
+    ("system", ("gearsym.system", "gearsym.facade", "gearsym.results", "gearsym.static", "gearsym.evaluation",
+                "gearsym.sensitivity")),
+    ("analysis", ("gearsym.analysis",)),
+    ("presentation", ("gearsym.plots", "gearsym.inspection", "gearsym.export")),
+    ("top", ("gearsym.cli", "gearsym.cli_cache", "gearsym.cli_catalog", "gearsym.cli_checks", "gearsym.bench",
+             "gearsym.__main__", "gearsym")),
+]
+
+#: The one upward import: ``System.periodic_orbit`` (the public convenience method of
+#: DESIGN.md's surface) is a thin delegate to :func:`gearsym.analysis.periodic.periodic_orbit`,
+#: imported when called.  It closes no cycle (the test below checks the whole graph, this
+#: edge included).  (importer, function, imported).
+ALLOWED_UPWARD = {("gearsym.system", "periodic_orbit", "gearsym.analysis.periodic")}
+
+
+def _modules() -> dict[str, Path]:
+    mods = {}
+    for f in ROOT.rglob("*.py"):
+        parts = list(f.relative_to(ROOT.parent).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        mods[".".join(parts)] = f
+    return mods
+
+
+MODULES = _modules()
+
+
+def _is_type_checking(test: ast.expr) -> bool:
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def _imports(mod: str, path: Path) -> list[tuple[str, str]]:
+    """``(imported module, enclosing function or "")`` of every gearsym import of a module."""
+    package = mod.split(".") if path.name == "__init__.py" else mod.split(".")[:-1]
+    out: list[tuple[str, str]] = []
+
+    def visit(node: ast.AST, func: str) -> None:
+        if isinstance(node, ast.If) and _is_type_checking(node.test):
+            for child in node.orelse:
+                visit(child, func)
+            return
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            func = node.name
+        if isinstance(node, ast.Import):
+            out.extend((a.name, func) for a in node.names if a.name.split(".")[0] == "gearsym")
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - node.level + 1]
+                name = ".".join(base + ([node.module] if node.module else []))
+            else:
+                name = node.module or ""
+            if name.split(".")[0] == "gearsym":
+                for a in node.names:
+                    full = f"{name}.{a.name}"
+                    out.append((full if full in MODULES else name, func))
+        for child in ast.iter_child_nodes(node):
+            visit(child, func)
+
+    visit(ast.parse(path.read_text(encoding="utf-8")), "")
+    return [(m, fn) for m, fn in out if m != mod]
+
+
+GRAPH = {mod: _imports(mod, path) for mod, path in MODULES.items()}
+
+
+def _layer(mod: str) -> int:
+    best, rank = -1, -1
+    for i, (_, prefixes) in enumerate(LAYERS):
+        for p in prefixes:
+            if (mod == p or mod.startswith(p + ".")) and len(p) > best:
+                best, rank = len(p), i
+    return rank
+
+
+def test_every_module_has_a_layer():
+    assert [m for m in MODULES if _layer(m) < 0] == []
+
+
+def test_imports_resolve_to_modules_of_the_package():
+    # a typo in an import (or a moved module) would otherwise drop an edge silently
+    missing = sorted({(mod, dep) for mod, deps in GRAPH.items() for dep, _ in deps if dep not in MODULES})
+    assert missing == []
+
+
+def test_no_upward_imports():
+    bad = []
+    for mod, deps in GRAPH.items():
+        for dep, func in deps:
+            if _layer(dep) > _layer(mod) and (mod, func, dep) not in ALLOWED_UPWARD:
+                bad.append(f"{mod} ({LAYERS[_layer(mod)][0]}) imports {dep} ({LAYERS[_layer(dep)][0]})"
+                           + (f" in {func}()" if func else ""))
+    assert bad == []
+
+
+def test_no_import_cycles():
+    edges = {mod: sorted({d for d, _ in deps if d in MODULES}) for mod, deps in GRAPH.items()}
+    cycles = []
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def dfs(m: str) -> None:
+        state[m] = 1
+        stack.append(m)
+        for d in edges[m]:
+            if state.get(d) == 1:
+                cycles.append(" -> ".join(stack[stack.index(d):] + [d]))
+            elif d not in state:
+                dfs(d)
+        stack.pop()
+        state[m] = 2
+
+    for m in sorted(edges):
+        if m not in state:
+            dfs(m)
+    assert cycles == []
+
+
+@pytest.mark.parametrize("mod", ["gearsym.spec.model", "gearsym.spec.scene", "gearsym.spec.expressions"])
+def test_the_spec_layer_never_imports_sympy(mod):
+    tree = ast.parse(MODULES[mod].read_text(encoding="utf-8"))
+    names = [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
+    names += [n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
+    assert not [n for n in names if n.split(".")[0] == "sympy"]
