@@ -23,7 +23,7 @@ from .expand import _expand_in_states
 from .parsing import Namespace, internal_symbol
 from .reduction import reduce_model
 from .rigid import mode_dicts, rigid_body_modes, transform_modes
-from .switching import ModalForm, Mode, ScheduleInfo, SwitchingFunction, make_modal
+from .switching import ModalForm, Mode, ScheduleInfo, SwitchingFunction, dead_zone, make_modal
 
 
 class SymbolicModel:
@@ -213,20 +213,8 @@ class SymbolicModel:
                     k = field("stiffness")
                     c = field("damping")
                     b = field("backlash")
-                    if b != 0:
-                        f = sp.Piecewise((delta - b, delta - b > 0), (delta + b, delta + b < 0), (0, True))
-                        drive_pos = el.drive_side == "positive"
-                        up = SwitchingFunction(
-                            f"{el.name}.{'drive' if drive_pos else 'back'}", delta - b,
-                            f"{'drive' if drive_pos else 'back'}-side contact of {el.name} when > 0",
-                            +1, "drive" if drive_pos else "back")
-                        lo = SwitchingFunction(
-                            f"{el.name}.{'back' if drive_pos else 'drive'}", delta + b,
-                            f"{'back' if drive_pos else 'drive'}-side contact of {el.name} when < 0",
-                            -1, "back" if drive_pos else "drive")
-                        self._surface_hints += [up, lo] if drive_pos else [lo, up]
-                    else:
-                        f = delta
+                    f, surfaces = dead_zone(el.name, el.drive_side, delta, b)
+                    self._surface_hints += surfaces
                     W = k * f + c * ddt(delta)
                 gfree = geom.free_symbols
                 for i, qi in enumerate(q):

@@ -261,3 +261,38 @@ def _bottom_up(expr: sp.Basic, fn, skip: type | tuple[type, ...] = ()) -> sp.Bas
             except TypeError:
                 pass
     return fn(expr)
+
+
+def dead_zone(name: str, drive_side: str, delta: sp.Expr, b: sp.Expr) -> tuple[sp.Expr, list[SwitchingFunction]]:
+    """The backlash dead zone of a mesh and its contact surfaces.
+
+    Parameters
+    ----------
+    name
+        The mesh element's name (surfaces ``NAME.drive`` / ``NAME.back``).
+    drive_side
+        ``"positive"``: drive-side contact is ``delta > b``; else ``delta < -b``.
+    delta
+        The dynamic deflection.
+    b
+        The half backlash (0: no dead zone, no surfaces).
+
+    Returns
+    -------
+    f, surfaces
+        ``f(delta)`` (``delta - b`` / ``0`` / ``delta + b``) and the two switching functions,
+        drive side first.
+    """
+    if b == 0:
+        return delta, []
+    f = sp.Piecewise((delta - b, delta - b > 0), (delta + b, delta + b < 0), (0, True))
+    drive_pos = drive_side == "positive"
+    up = SwitchingFunction(
+        f"{name}.{'drive' if drive_pos else 'back'}", delta - b,
+        f"{'drive' if drive_pos else 'back'}-side contact of {name} when > 0",
+        +1, "drive" if drive_pos else "back")
+    lo = SwitchingFunction(
+        f"{name}.{'back' if drive_pos else 'drive'}", delta + b,
+        f"{'back' if drive_pos else 'drive'}-side contact of {name} when < 0",
+        -1, "back" if drive_pos else "drive")
+    return f, ([up, lo] if drive_pos else [lo, up])

@@ -69,19 +69,8 @@ class Assembly:
 def dead_zone(a: Assembly, el: Element, delta: sp.Expr, b: sp.Expr) -> sp.Expr:
     """``f(delta)``: the backlash dead zone of half width ``b`` (``delta`` itself if ``b`` is 0),
     registering the contact surfaces ``NAME.drive`` / ``NAME.back`` (as the ``mesh`` element)."""
-    from ..switching import SwitchingFunction
+    from ..switching import dead_zone as _dead_zone
 
-    if b == 0:
-        return delta
-    f = sp.Piecewise((delta - b, delta - b > 0), (delta + b, delta + b < 0), (0, True))
-    drive_pos = el.drive_side == "positive"
-    up = SwitchingFunction(
-        f"{el.name}.{'drive' if drive_pos else 'back'}", delta - b,
-        f"{'drive' if drive_pos else 'back'}-side contact of {el.name} when > 0",
-        +1, "drive" if drive_pos else "back")
-    lo = SwitchingFunction(
-        f"{el.name}.{'back' if drive_pos else 'drive'}", delta + b,
-        f"{'back' if drive_pos else 'drive'}-side contact of {el.name} when < 0",
-        -1, "back" if drive_pos else "drive")
-    a.hints += [up, lo] if drive_pos else [lo, up]
+    f, surfaces = _dead_zone(el.name, el.drive_side, delta, b)
+    a.hints += surfaces
     return f
