@@ -109,6 +109,9 @@ class _Eval:
 class _Residual:
     """Interface of a continuation residual ``F(u, lambda)``."""
 
+    #: steps in the parameter itself where no multiplier is near +1 (see :func:`_run`)
+    natural_steps = True
+
     system: System
     param: str
     periods: float
@@ -298,7 +301,13 @@ class HBResidual(_Residual):
     :class:`gearsym.analysis.hbm.HarmonicBalance`); the base frequency is
     ``2*pi/P(lambda)``.  The Floquet multipliers of each point come from one
     integration of the variational equations from the series' ``x(t0)``.
+
+    No steps in the parameter itself and no orientation of the tangent by them: those
+    multipliers belong to the integrated orbit, not to the truncated balance, whose own
+    fold can lie where none of them is near +1.
     """
+
+    natural_steps = False
 
     def __init__(self, system: System, param: str, harmonics: int, periods: float = 1,
                  params: Mapping[str, float] | None = None, t0: float = 0.0, samples: int | None = None,
@@ -615,7 +624,8 @@ class _Continuer:
             rss = {}
         meshes = mesh_point(res.system, t_dense, Y, params, rss)
         t = self.tangent(ev, t_ref, lam)
-        if ref is not None and _graph_like(mu, ref.point.multipliers) and ref.t[-1] * t[-1] < 0:
+        if res.natural_steps and ref is not None and _graph_like(mu, ref.point.multipliers) \
+                and ref.t[-1] * t[-1] < 0:
             t = -t
         pt = BranchPoint(
             value=lam, x0=np.asarray(x0, float), period=res.period(lam), periods=res.periods, multipliers=mu,
@@ -1037,7 +1047,7 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
             # with the parameter, step in the parameter itself (natural parameter): Newton on a
             # contracting map at fixed parameter is robust even when the branch is kinked by
             # many grazing impacts
-            natural = (A.graph and abs(A.t[-1]) < 0.7 and not force_arc
+            natural = (res.natural_steps and A.graph and abs(A.t[-1]) < 0.7 and not force_arc
                        and np.min(np.abs(A.point.multipliers - 1.0)) > 0.2)
             h = h_nat if natural else h_arc
             try:
@@ -1052,7 +1062,7 @@ def _run(res: _Residual, u0: np.ndarray, start: float, stop: float, *, state_sca
                     row = A.t
                     z, ev, it = C.correct((wA + h * A.t) * C.S, A.t, float(A.t @ wA) + h)
                 B = C.make_node(z, ev, A.t, it, ref=A)
-                B.graph = _graph_like(B.point.multipliers, A.point.multipliers)
+                B.graph = res.natural_steps and _graph_like(B.point.multipliers, A.point.multipliers)
                 if natural and (tau_branch_point(B.point.multipliers) > 0) != (tau_branch_point(
                         A.point.multipliers) > 0):
                     force_arc = True  # a real multiplier crossed +1: a fold may be near, use the arclength
