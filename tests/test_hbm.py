@@ -53,8 +53,9 @@ def test_non_impacting_orbit_agrees_with_shooting(ks):
 
 def test_impacting_orbit_harmonics_needed(ks):
     """Omega = 0.9, impacting: the peak-to-peak error against shooting falls with
-    the number of harmonics; H = 8 is the first from which it stays below 1e-3
-    (non-monotone below: H = 6 gives 1.03e-3)."""
+    the number of harmonics; from H = 8 on it stays below 1e-3 (H = 6 gave 1.03e-3 with
+    a fixed 4(2H+1) AFT samples; with the samples doubled until a finer grid agrees,
+    1.8e-4)."""
     shot = ks.periodic_orbit()
     pp = shot.peak_to_peak()
     errs = {}
@@ -64,7 +65,7 @@ def test_impacting_orbit_harmonics_needed(ks):
         errs[H] = abs(hb.peak_to_peak() - pp) / pp
     needed = min(H for H in errs if all(errs[K] < 1e-3 for K in errs if K >= H))
     print(f"impacting orbit: peak-to-peak relative error by harmonics {errs}; needed for 1e-3: H = {needed}")
-    assert needed == 8
+    assert needed <= 8
     assert errs[32] < 1e-5
     assert errs[2] > 1e-3  # two harmonics are not enough for an impacting orbit
 
@@ -91,7 +92,9 @@ def test_contact_damping_orbit(ks_cd):
     pp = shot.peak_to_peak()
     e16 = abs(harmonic_balance(ks_cd, harmonics=16, initial_guess="simulation").peak_to_peak() - pp) / pp
     e64 = abs(harmonic_balance(ks_cd, harmonics=64, initial_guess="simulation").peak_to_peak() - pp) / pp
-    assert e64 < 2e-4 and e64 < e16 < 2e-3
+    # (with the AFT samples doubled until a grid twice as fine agrees, H = 16 is already
+    # at 4e-6: the jump, not the truncation, limited the fixed-sample balance)
+    assert e64 < 2e-4 and e16 < 2e-3
 
 
 def test_aft_jacobian_matches_finite_differences(ks):

@@ -701,7 +701,8 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
                  detect: Sequence[str] | bool = True, locate: bool = True, state: int | str = 0,
                  n_dense: int | None = None, switch: int = 0, progress: bool | None = None,
                  transient: float | None = None, state_weight: float = 1.0, stall_points: int = 50,
-                 stall_tol: float = 1e-5, display: tuple[float, str] | None = None) -> Branch:
+                 stall_tol: float = 1e-5, display: tuple[float, str] | None = None,
+                 defect_tol: float = 1e-5) -> Branch:
     """Continue a periodic orbit in one parameter from ``start`` to ``stop``.
 
     Parameters
@@ -730,8 +731,10 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     segments
         Shooting segments.
     harmonics
-        Harmonics of the harmonic-balance residual (default: those the starting
-        harmonic balance converged with).
+        Harmonics of the harmonic-balance residual.  Default: those with which the
+        starting harmonic balance meets ``defect_tol`` (its harmonics grown until one
+        period integrated from the balanced state closes to ``defect_tol`` of the orbit's
+        size): a margin for the orbit's growth along the branch.
     t0
         Phase of ``x0`` (a multiple of the forcing period).
     ds, ds_min, ds_max
@@ -782,6 +785,9 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
         Measured on a forced linear oscillator: with damping ratios down to 1e-4 the
         smallest spread over 50 points through the resonance peak is 1.9e-4 of the range;
         undamped, the parameter converges to the resonance and the branch stalls.
+    defect_tol
+        Time-domain defect of the starting harmonic balance (``method="hbm"``, see
+        ``harmonics``).
     display
         ``(SI value of one display unit, unit name)`` for the parameter values in
         ``stop_reason`` (the CLI passes the model's declared unit); default SI.
@@ -858,7 +864,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
             from .hbm import harmonic_balance
 
             orbit = harmonic_balance(system, periods=periods, x0=x0, params=p_start, t0=t0, harmonics=harmonics,
-                                     rtol=rtol, atol=atol or 1e-12)
+                                     rtol=rtol, atol=atol or 1e-12, defect_tol=defect_tol)
         state_scale = _state_scale(system, orbit.x0, t0, float(orbit.period), p_start, rtol, atol or 1e-12)
         if atol is None:
             atol = _default_atol(rtol, state_scale)
