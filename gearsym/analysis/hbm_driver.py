@@ -176,7 +176,9 @@ def run(hb_cls, system: System, period: float | None, periods: float, x0: Sequen
             C, it, r, conv, hist, failure = hb.solve(hb.restrict(C_full), tol=tol, max_iter=max_iter,
                                                      floor_tol=floor_tol, floor_rel=floor_rel, lm=True)
             C_full = hb.full_coefficients(C)
-            if samples is not None or not hb.uniform or not conv or 2 * hb.M > max_samples:
+            if samples is not None or not hb.uniform or not conv or hb.floor or len(checks) >= 3 \
+                    or 2 * hb.M > max_samples:
+                # (a residual floor of a kinked residual is no sampling question; at most 8x)
                 return hb, C_full, (it, r, conv, hist, failure), checks
             fine = hb_cls(system, period, ks, params, t0, 2 * hb.M)
             Rf = hb._flat(fine.residual(C))
