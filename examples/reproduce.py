@@ -201,8 +201,15 @@ def ks_hbm(r: Row) -> Result:
           and all(abs(a - b) < 1e-4 for a, b in zip(folds, ref["folds"])))
     if not HBM_VERDICTS:
         return Result(gives, "pending", "issue 13 item 2 (HBM continuation past folds) is not done yet")
-    return Result(gives, "reproduced" if ok else "not reproduced",
-                  "folds within 1e-4 of shooting's" if ok else "does not reach Omega = 1.4 with both folds")
+    if ok:
+        return Result(gives, "reproduced", "folds within 1e-4 of shooting's")
+    if abs(last - 1.4) < 1e-6 and folds and any(abs(f - ref.get("folds", [0])[-1]) < 1e-4 for f in folds):
+        return Result(gives, "qualitatively",
+                      f"passes the jump-up fold ({ref['folds'][-1]:.5f} as shooting) and reaches 1.4, but where the "
+                      f"impacts begin (shooting: one fold at {ref['folds'][0]:.5f}) the truncated balance's branch "
+                      f"zigzags ({sum(1 for f in folds if abs(f - ref['folds'][0]) < 5e-3)} folds within 5e-3): "
+                      f"its AFT samples change contact side there")
+    return Result(gives, "not reproduced", "does not reach Omega = 1.4 with both folds")
 
 
 # ---------------------------------------------------------------- Vaishya & Singh

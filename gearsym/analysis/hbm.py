@@ -18,11 +18,14 @@ and take the discrete Fourier transform (eq. 17).
 
 The algebraic system is solved by a quasi-Newton method (Broyden's good update,
 as in Liu et al.), started from the exact AFT Jacobian
-``D - DFT diag(df/dx(t_m)) IDFT`` and refreshed when the Broyden steps stop
-reducing the residual; steps are damped by backtracking.  The number of
-harmonics is given (``harmonics=H``) or grown ``1, 2, 4, ...`` until the time
-series changes by less than ``harmonics_tol`` relative to its peak-to-peak
-(each solve starts from the previous one).
+``D - DFT diag(df/dx(t_m)) IDFT`` (assembled from the FFT of ``df/dx(t_m)``) and
+refreshed when the Broyden steps stop reducing the residual; steps are damped by
+backtracking.  A contact makes the residual kinked wherever a sample changes side and
+the Newton direction overshoots: then Levenberg-Marquardt steps in scaled variables
+take over.  The harmonics are given (``harmonics=H`` or a set) or grown through sets
+that contain every excitation frequency (:mod:`gearsym.analysis.hbm_sets`) until one
+period integrated from the balanced state closes to ``defect_tol`` of the orbit's
+size (:mod:`gearsym.analysis.hbm_driver`, which also adapts the AFT samples).
 
 This is a second, independent periodic solver: it shares only the generated
 model functions with shooting, not the integrator.  The Floquet multipliers of
@@ -40,15 +43,13 @@ converged only if its residual is also below ``tol`` times the size of the initi
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import ConvergenceError, GearsymError, ParameterError
-from .isolation import isolation
-from .orbit import PeriodicOrbit, finish_orbit
+from ..errors import ParameterError
+from .orbit import PeriodicOrbit
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
@@ -455,11 +456,32 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
     params
         Parameter overrides (SI).
     harmonics
-        Fixed number of harmonics; ``None``: grow ``1, 2, 4, ...`` up to
-        ``max_harmonics`` until the time series changes by less than
-        ``harmonics_tol`` (relative to each state's peak-to-peak).
+        Fixed harmonics: a number ``H`` (``1..H``) or the harmonic numbers to keep (a
+        set, e.g. bands around the mesh harmonic); ``None``: grow through the sets of
+        :func:`gearsym.analysis.hbm_sets.growth_sets` (bands around the carriers found in
+        the model's excitation spectrum, else ``1, 2, 4, ...``) up to ``max_harmonics``
+        until the time-domain defect is below ``defect_tol`` (and, if ``harmonics_tol``
+        is given, the series changed by less than it relative to each state's
+        peak-to-peak).
+    max_harmonics
+        Highest harmonic of the automatic growth.
+    harmonics_tol
+        See ``harmonics`` (default ``None``: the defect alone decides).
     samples
-        AFT samples per period (default: power of two >= 4(2H+1), >= 64).
+        AFT samples per period, fixed.  Default: a power of two >= 4(2H+1) (H the highest
+        harmonic of the set or of the excitation), >= 64, doubled (up to 8 times, at most
+        ``max_samples``) until the residual on a grid twice as fine implies a Newton
+        correction below ``aft_tol`` of every state's size.
+    aft_tol, max_samples
+        See ``samples``.
+    defect_tol
+        One period integrated from the balanced ``x(t0)`` must close to ``defect_tol`` of
+        every state's peak-to-peak (``info["defect_relative"]``): the automatic growth
+        stops there, and a balance grown automatically that does not reach it has not
+        converged.  With fixed ``harmonics`` the defect is reported, not enforced.
+    floor_rel
+        Accept a residual floor (see ``floor_tol``) whose residual relative to the
+        derivative it balances is below ``floor_rel`` (the kinked residual of a contact).
     t0
         Time origin (the orbit's ``x0`` is ``x(t0)``).
     tol
@@ -499,9 +521,12 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
     Returns
     -------
     PeriodicOrbit
-        With ``harmonics``, ``coefficients`` and ``info["harmonic_growth"]``
-        (``H``, change, peak-to-peak of the first state, iterations per step)
-        and ``info["defect"] = max |phi(t0 + P, x0) - x0|`` (truncation error seen by the integrator).
+        With ``harmonics`` (the highest), ``coefficients`` (full layout, zeros outside
+        the set), ``info["harmonic_set"]``, ``info["harmonic_growth"]`` (per set:
+        harmonics, samples and their checks, iterations, residual, change, defect),
+        ``info["defect"] = max |phi(t0 + P, x0) - x0|`` and ``info["defect_relative"]``
+        (per state relative to its peak-to-peak).  The rattle state comes from the
+        harmonic series (``info["rattle_states_integration"]``: that of the integration).
 
     Raises
     ------
