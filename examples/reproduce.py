@@ -13,13 +13,13 @@ in this process through ``gearsym.cli.main`` (the same code as the shell command
 ``--json`` output parsed), ``python examples/...`` scripts in a subprocess.
 
 Rows that depend on harmonic balance (the Liu paper's method; issue 13 items 1-2) are
-measured now but say "pending" until ``--hbm-verdicts`` is given.
+judged like the others (``--hbm-pending`` marks them pending instead).
 
 Results are cached in ``docs/reproduction.json``; ``--only PATTERN`` recomputes the rows
 whose id matches (fnmatch, e.g. ``--only 'VS-*'``) and re-renders the whole table from
 the cache.  Not part of the test suite (a full run takes 15-30 minutes).
 
-Run: ``python examples/reproduce.py [--only PATTERN] [--hbm-verdicts] [--list]``
+Run: ``python examples/reproduce.py [--only PATTERN] [--hbm-pending] [--list]``
 """
 
 from __future__ import annotations
@@ -81,7 +81,7 @@ class Row:
 
 
 ROWS: list[Row] = []
-HBM_VERDICTS = False
+HBM_VERDICTS = True
 
 
 def row(id_: str, figure: str, shows: str, commands: list[str], hbm: bool = False):
@@ -201,8 +201,15 @@ def ks_hbm(r: Row) -> Result:
           and all(abs(a - b) < 1e-4 for a, b in zip(folds, ref["folds"])))
     if not HBM_VERDICTS:
         return Result(gives, "pending", "issue 13 item 2 (HBM continuation past folds) is not done yet")
-    return Result(gives, "reproduced" if ok else "not reproduced",
-                  "folds within 1e-4 of shooting's" if ok else "does not reach Omega = 1.4 with both folds")
+    if ok:
+        return Result(gives, "reproduced", "folds within 1e-4 of shooting's")
+    if abs(last - 1.4) < 1e-6 and folds and any(abs(f - ref.get("folds", [0])[-1]) < 1e-4 for f in folds):
+        return Result(gives, "qualitatively",
+                      f"passes the jump-up fold ({ref['folds'][-1]:.5f} as shooting) and reaches 1.4, but where the "
+                      f"impacts begin (shooting: one fold at {ref['folds'][0]:.5f}) the truncated balance's branch "
+                      f"zigzags ({sum(1 for f in folds if abs(f - ref['folds'][0]) < 5e-3)} folds within 5e-3): "
+                      f"its AFT samples change contact side there")
+    return Result(gives, "not reproduced", "does not reach Omega = 1.4 with both folds")
 
 
 # ---------------------------------------------------------------- Vaishya & Singh
@@ -623,7 +630,8 @@ def liu_hbm(r: Row) -> Result:
             ok = False
             continue
         rel = ppv(d) / ppv(ref) - 1
-        parts.append(f"{s} rad/s: H = {d['harmonics']}, ppv {rel * 100:+.1f} % vs shooting, rattle state "
+        parts.append(f"{s} rad/s: {len(d.get('harmonic_set') or []) or d['harmonics']} harmonics up to "
+                     f"{d['harmonics']}, defect {d.get('defect_relative', float('nan')):.1e}, ppv {rel * 100:+.1f} % vs shooting, rattle state "
                      f"{d['rattle_state']} (shooting {ref['rattle_state']})")
         ok = ok and abs(rel) < 0.01 and d["rattle_state"] == ref["rattle_state"]
     gives = "; ".join(parts)
@@ -837,15 +845,15 @@ def main() -> None:
     global HBM_VERDICTS
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", default="*", help="fnmatch pattern on row ids (others come from the cache)")
-    parser.add_argument("--hbm-verdicts", action="store_true",
-                        help="judge the HBM rows (issue 13 items 1-2) instead of marking them pending")
+    parser.add_argument("--hbm-pending", action="store_true",
+                        help="mark the HBM rows (issue 13 items 1-2) pending instead of judging them")
     parser.add_argument("--list", action="store_true", help="list the rows and exit")
     args = parser.parse_args()
     if args.list:
         for r in ROWS:
             print(f"{r.id:12s} {r.figure}")
         return
-    HBM_VERDICTS = args.hbm_verdicts
+    HBM_VERDICTS = not args.hbm_pending
     cache = json.loads(CACHE.read_text()) if CACHE.exists() else {"rows": {}}
     results = cache["rows"]
     for r in ROWS:

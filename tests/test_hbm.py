@@ -53,8 +53,9 @@ def test_non_impacting_orbit_agrees_with_shooting(ks):
 
 def test_impacting_orbit_harmonics_needed(ks):
     """Omega = 0.9, impacting: the peak-to-peak error against shooting falls with
-    the number of harmonics; H = 8 is the first from which it stays below 1e-3
-    (non-monotone below: H = 6 gives 1.03e-3)."""
+    the number of harmonics; from H = 8 on it stays below 1e-3 (H = 6 gave 1.03e-3 with
+    a fixed 4(2H+1) AFT samples; with the samples doubled until a finer grid agrees,
+    1.8e-4)."""
     shot = ks.periodic_orbit()
     pp = shot.peak_to_peak()
     errs = {}
@@ -64,7 +65,7 @@ def test_impacting_orbit_harmonics_needed(ks):
         errs[H] = abs(hb.peak_to_peak() - pp) / pp
     needed = min(H for H in errs if all(errs[K] < 1e-3 for K in errs if K >= H))
     print(f"impacting orbit: peak-to-peak relative error by harmonics {errs}; needed for 1e-3: H = {needed}")
-    assert needed == 8
+    assert needed <= 8
     assert errs[32] < 1e-5
     assert errs[2] > 1e-3  # two harmonics are not enough for an impacting orbit
 
@@ -91,7 +92,9 @@ def test_contact_damping_orbit(ks_cd):
     pp = shot.peak_to_peak()
     e16 = abs(harmonic_balance(ks_cd, harmonics=16, initial_guess="simulation").peak_to_peak() - pp) / pp
     e64 = abs(harmonic_balance(ks_cd, harmonics=64, initial_guess="simulation").peak_to_peak() - pp) / pp
-    assert e64 < 2e-4 and e64 < e16 < 2e-3
+    # (with the AFT samples doubled until a grid twice as fine agrees, H = 16 is already
+    # at 4e-6: the jump, not the truncation, limited the fixed-sample balance)
+    assert e64 < 2e-4 and e16 < 2e-3
 
 
 def test_aft_jacobian_matches_finite_differences(ks):
@@ -149,3 +152,119 @@ def test_meissner_forced_hbm_vs_closed_form():
     assert np.max(np.abs(shot.x0 - x0_ref)) < 1e-8
     assert abs(hb.peak_to_peak() - shot.peak_to_peak()) / shot.peak_to_peak() < 1e-5
     assert hb.stable
+
+
+# ------------------------------------------------------------------ harmonic sets, AFT, Duffing folds
+LIU140 = ROOT / "scenes" / "liu_nfg_140.toml"
+
+DUFFING = """
+[model]
+name = "duffing"
+description = "Duffing oscillator x'' + 2 zeta x' + x + beta x^3 = F cos(Omega t)"
+reference = "issue 13"
+time_unit = "1"
+
+[coordinates.x]
+unit = "1"
+meaning = "displacement"
+velocity = "v"
+
+[parameters]
+zeta = { value = 0.05, meaning = "damping ratio" }
+beta = { value = 0.1, meaning = "cubic stiffness" }
+F = { value = 0.3, meaning = "forcing amplitude" }
+Omega = { value = 1.0, meaning = "forcing frequency" }
+
+[forcing]
+period = "2*pi/Omega"
+
+[elements.mass]
+type = "inertia"
+coordinate = "x"
+value = "1"
+
+[equations.x]
+force = "-2*zeta*v - x - beta*x**3 + F*cos(Omega*t)"
+
+[initial]
+x = 0.0
+v = 0.0
+"""
+
+
+@pytest.fixture(scope="module")
+def liu140():
+    return gearsym.load_scene(LIU140).compile()
+
+
+def test_excitation_harmonics_and_sets_contain_the_mesh_harmonic(liu140):
+    """The NFG's time dependence: the instantaneous-centre harmonics and the mesh
+    harmonic Z2 = 64 with its sidebands; every set of the growth contains 64."""
+    from gearsym.analysis.hbm_sets import carriers_of, excitation_harmonics, growth_sets
+
+    ex = excitation_harmonics(liu140, liu140.period(), liu140.x0)
+    assert 1 in ex and 64 in ex and not any(20 < k < 50 for k in ex)
+    assert carriers_of(ex) == [64]
+    sets = growth_sets([64], 512)
+    assert all(64 in s and 1 in s for s in sets)
+    assert len(sets[0]) < 20 and sets[-1][-1] == 512
+
+
+def test_aft_jacobian_on_a_harmonic_set_matches_finite_differences(liu140):
+    """Exact AFT Jacobian (assembled from the FFT of df/dx) on a sparse set around the
+    mesh harmonic, on a contact-loss state: central differences agree in norm to 1e-6
+    (the residual is only piecewise smooth where a sample changes contact side)."""
+    from gearsym.analysis.hbm import HarmonicBalance
+
+    hb = HarmonicBalance(liu140, liu140.period(), [1, 2, 3, 62, 63, 64, 65, 66], samples=512)
+    rng = np.random.default_rng(5)
+    C = np.zeros((hb.nc, 2))
+    C[0] = [-2.9e-4, 0.0]
+    C[1:, 0] = 2e-5 * rng.standard_normal(hb.nc - 1)
+    C[1:, 1] = 2e-2 * rng.standard_normal(hb.nc - 1)
+    J = hb.jacobian(C)
+    z = hb._flat(C)
+    Jfd = np.empty_like(J)
+    for k in range(len(z)):
+        h = 1e-10 if k < hb.nc else 1e-7
+        e = np.zeros_like(z)
+        e[k] = h
+        Jfd[:, k] = (hb._flat(hb.residual(hb._unflat(z + e))) - hb._flat(hb.residual(hb._unflat(z - e)))) / (2 * h)
+    assert np.linalg.norm(J - Jfd) / np.linalg.norm(J) < 1e-6
+    # the FFT assembly is the sample-by-sample product
+    col = rng.standard_normal(hb.M)
+    assert np.abs(hb.product_matrix(col) - hb.Ep @ (col[:, None] * hb.E)).max() < 1e-12
+
+
+def test_liu_140_default_hbm_contains_mesh_harmonic_and_matches_shooting(liu140):
+    """Issue 13: the default growth used to stop at H = 32 < Z2 = 64 (peak-to-peak -4 %).
+    Now the set holds the mesh harmonic, the orbit is verified by its time-domain defect
+    (below defect_tol = 2e-3 of the orbit's size), the peak-to-peak agrees with shooting
+    to 1 %, the rattle state (0) comes from the series, and the multipliers (one
+    variational integration from the balanced state) agree with shooting's."""
+    shot = liu140.periodic_orbit()
+    hb = liu140.periodic_orbit(method="hbm")
+    assert hb.converged and 64 in hb.info["harmonic_set"]
+    assert hb.info["defect_relative"] <= hb.info["defect_tol"] == 2e-3
+    assert abs(hb.peak_to_peak() / shot.peak_to_peak() - 1) < 1e-2
+    assert hb.rattle_state == shot.rattle_state == 0
+    assert hb.info["rattle_state_source"] == "harmonic series"
+    assert np.max(np.abs(hb.multipliers)) == pytest.approx(np.max(np.abs(shot.multipliers)), rel=1e-2)
+
+
+def test_duffing_hbm_continuation_passes_both_folds_with_defaults(tmp_path):
+    """Issue 13: with default options the HB continuation stopped at Omega = 1.2116 before
+    the fold at 1.21308 (the multipliers of the integrated orbit said "no fold here", so the
+    branch was stepped in the parameter and oriented by them).  Both folds against
+    shooting's branch: within 1e-4."""
+    (tmp_path / "duffing.toml").write_text(DUFFING)
+    (tmp_path / "scene.toml").write_text('[scene]\nname = "duffing"\nmodel = "duffing.toml"\n')
+    system = gearsym.load_scene(tmp_path / "scene.toml").compile(generated_dir=tmp_path / "gen")
+    hb = gearsym.continuation(system, "Omega", 0.5, 2.0, method="hbm", progress=False,
+                              detect=["fold"])
+    assert hb.complete
+    sh = gearsym.continuation(system, "Omega", 0.8, 1.6, progress=False, detect=["fold"])
+    f_hb = sorted(b.value for b in hb.of_type("fold"))
+    f_sh = sorted(b.value for b in sh.of_type("fold"))
+    assert len(f_hb) == len(f_sh) == 2
+    assert f_hb == pytest.approx(f_sh, abs=1e-4)

@@ -123,7 +123,7 @@ def run(res: PeriodicOrbitProblem, u0: np.ndarray, start: float, stop: float, *,
             # with the parameter, step in the parameter itself (natural parameter): Newton on a
             # contracting map at fixed parameter is robust even when the branch is kinked by
             # many grazing impacts
-            natural = (A.graph and abs(A.t[-1]) < 0.7 and not force_arc
+            natural = (res.natural_steps and A.graph and abs(A.t[-1]) < 0.7 and not force_arc
                        and np.min(np.abs(A.point.multipliers - 1.0)) > 0.2)
             h = h_nat if natural else h_arc
             try:
@@ -138,7 +138,7 @@ def run(res: PeriodicOrbitProblem, u0: np.ndarray, start: float, stop: float, *,
                     row = A.t
                     z, ev, it = C.correct((wA + h * A.t) * C.S, A.t, float(A.t @ wA) + h)
                 B = C.make_node(z, ev, A.t, it, ref=A)
-                B.graph = graph_like(B.point.multipliers, A.point.multipliers)
+                B.graph = res.natural_steps and graph_like(B.point.multipliers, A.point.multipliers)
                 if natural and (tau_branch_point(B.point.multipliers) > 0) != (tau_branch_point(
                         A.point.multipliers) > 0):
                     force_arc = True  # a real multiplier crossed +1: a fold may be near, use the arclength

@@ -106,7 +106,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
                  n_dense: int | None = None, switch: int = 0, progress: bool | None = None,
                  transient: float | None = None, state_weight: float = 1.0, stall_points: int = 50,
                  stall_tol: float = 1e-5, display: tuple[float, str] | None = None,
-                 options: ContinuationOptions | None = None) -> Branch:
+                 options: ContinuationOptions | None = None, defect_tol: float = 1e-5) -> Branch:
     """Continue a periodic orbit in one parameter from ``start`` to ``stop``.
 
     Parameters
@@ -135,8 +135,10 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     segments
         Shooting segments.
     harmonics
-        Harmonics of the harmonic-balance residual (default: those the starting
-        harmonic balance converged with).
+        Harmonics of the harmonic-balance residual.  Default: those with which the
+        starting harmonic balance meets ``defect_tol`` (its harmonics grown until one
+        period integrated from the balanced state closes to ``defect_tol`` of the orbit's
+        size): a margin for the orbit's growth along the branch.
     t0
         Phase of ``x0`` (a multiple of the forcing period).
     ds, ds_min, ds_max
@@ -194,6 +196,9 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     options
         A :class:`~gearsym.analysis.options.ContinuationOptions` with the numerical settings
         above (``ds`` .. ``display``); a keyword not at its default overrides it.
+    defect_tol
+        Time-domain defect of the starting harmonic balance (``method="hbm"``, see
+        ``harmonics``).
 
     Returns
     -------
@@ -272,7 +277,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     else:
         if orbit is None:
             orbit = harmonic_balance(system, periods=periods, x0=x0, params=p_start, t0=t0, harmonics=harmonics,
-                                     rtol=rtol, atol=atol or 1e-12)
+                                     rtol=rtol, atol=atol or 1e-12, defect_tol=defect_tol)
         state_scale = _state_scale(system, orbit.x0, t0, float(orbit.period), p_start, rtol, atol or 1e-12)
         if atol is None:
             atol = _default_atol(rtol, state_scale)

@@ -235,7 +235,8 @@ class Continuer:
             rss = {}
         meshes = mesh_point(res.system, t_dense, Y, params, rss)
         t = self.tangent(ev, t_ref, lam)
-        if ref is not None and graph_like(mu, ref.point.multipliers) and ref.t[-1] * t[-1] < 0:
+        if res.natural_steps and ref is not None and graph_like(mu, ref.point.multipliers) \
+                and ref.t[-1] * t[-1] < 0:
             t = -t
         pt = BranchPoint(
             value=lam, x0=np.asarray(x0, float), period=res.period(lam), periods=res.periods, multipliers=mu,

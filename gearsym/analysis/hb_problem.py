@@ -30,7 +30,13 @@ class HBResidual(_Residual):
     :class:`gearsym.analysis.hbm.HarmonicBalance`); the base frequency is
     ``2*pi/P(lambda)``.  The Floquet multipliers of each point come from one
     integration of the variational equations from the series' ``x(t0)``.
+
+    No steps in the parameter itself and no orientation of the tangent by them: those
+    multipliers belong to the integrated orbit, not to the truncated balance, whose own
+    fold can lie where none of them is near +1.
     """
+
+    natural_steps = False
 
     def __init__(self, system: System, param: str, harmonics: int, periods: float = 1,
                  params: Mapping[str, float] | None = None, t0: float = 0.0, samples: int | None = None,

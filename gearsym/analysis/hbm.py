@@ -18,11 +18,14 @@ and take the discrete Fourier transform (eq. 17).
 
 The algebraic system is solved by a quasi-Newton method (Broyden's good update,
 as in Liu et al.), started from the exact AFT Jacobian
-``D - DFT diag(df/dx(t_m)) IDFT`` and refreshed when the Broyden steps stop
-reducing the residual; steps are damped by backtracking.  The number of
-harmonics is given (``harmonics=H``) or grown ``1, 2, 4, ...`` until the time
-series changes by less than ``harmonics_tol`` relative to its peak-to-peak
-(each solve starts from the previous one).
+``D - DFT diag(df/dx(t_m)) IDFT`` (assembled from the FFT of ``df/dx(t_m)``) and
+refreshed when the Broyden steps stop reducing the residual; steps are damped by
+backtracking.  A contact makes the residual kinked wherever a sample changes side and
+the Newton direction overshoots: then Levenberg-Marquardt steps in scaled variables
+take over.  The harmonics are given (``harmonics=H`` or a set) or grown through sets
+that contain every excitation frequency (:mod:`gearsym.analysis.hbm_sets`) until one
+period integrated from the balanced state closes to ``defect_tol`` of the orbit's
+size (:mod:`gearsym.analysis.hbm_driver`, which also adapts the AFT samples).
 
 This is a second, independent periodic solver: it shares only the generated
 model functions with shooting, not the integrator.  The Floquet multipliers of
@@ -40,15 +43,13 @@ converged only if its residual is also below ``tol`` times the size of the initi
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import ConvergenceError, GearsymError, ParameterError
-from .isolation import isolation
-from .orbit import PeriodicOrbit, finish_orbit
+from ..errors import ParameterError
+from .orbit import PeriodicOrbit
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
@@ -82,27 +83,38 @@ class HarmonicBalance:
         integrand that jumps between samples is only first-order accurate.
     """
 
-    def __init__(self, system: System, period: float, harmonics: int, params: Mapping[str, float] | None = None,
-                 t0: float = 0.0, samples: int | None = None):
+    def __init__(self, system: System, period: float, harmonics: int | Sequence[int],
+                 params: Mapping[str, float] | None = None, t0: float = 0.0, samples: int | None = None):
         if system.generated.implicit:
             raise ParameterError("harmonic balance needs an explicit model (x' = f(t, x))")
         self.system = system
-        self.H = H = int(harmonics)
-        if H < 0:
-            raise ParameterError(f"harmonics must be >= 0, got {harmonics}")
+        if isinstance(harmonics, (int, np.integer)):
+            if int(harmonics) < 0:
+                raise ParameterError(f"harmonics must be >= 0, got {harmonics}")
+            ks = np.arange(1, int(harmonics) + 1)
+        else:
+            ks = np.unique(np.asarray(list(harmonics), dtype=int))
+            ks = ks[ks != 0]
+            if ks.size and ks[0] < 0:
+                raise ParameterError(f"harmonic numbers must be >= 0, got {int(ks[0])}")
+        #: the harmonic numbers kept (>= 1; the mean is always kept)
+        self.ks = ks
+        #: the highest harmonic (``H`` of a full set ``1..H``)
+        self.H = H = int(ks[-1]) if ks.size else 0
+        self.full = bool(ks.size == H)
         self.P = float(period)
         self.w = 2 * np.pi / self.P
         self.t0 = float(t0)
         self.nx = system.generated.nx
-        self.nc = 2 * H + 1
+        self.nc = 2 * len(ks) + 1
         n = self.nx * self.nc
         if float(n) * n > MAX_JACOBIAN_VALUES:
-            raise ParameterError(f"harmonics={H}: the harmonic-balance Jacobian would have {n} x {n} entries "
+            raise ParameterError(f"harmonics={len(ks)}: the harmonic-balance Jacobian would have {n} x {n} entries "
                                  f"({8.0 * n * n / 2**30:.3g} GiB), above the limit of {MAX_JACOBIAN_VALUES:.3g} "
                                  f"({8 * MAX_JACOBIAN_VALUES / 2**30:g} GiB): use fewer harmonics")
-        M = samples or max(64, 1 << int(math.ceil(math.log2(4 * self.nc))))
-        if M < self.nc:
-            raise ParameterError(f"samples={M} must be at least 2*harmonics+1 = {self.nc}")
+        M = samples or max(64, 1 << int(math.ceil(math.log2(4 * (2 * H + 1)))))
+        if M < 2 * H + 1:
+            raise ParameterError(f"samples={M} must be at least 2*harmonics+1 = {2 * H + 1}")
         self.p = system.param_vector(params)
         breaks = None
         if system.generated.schedules:
@@ -130,18 +142,19 @@ class HarmonicBalance:
         self.M = M
         th = self.w * (self.t - self.t0)
         E = np.ones((M, self.nc))
-        for k in range(1, H + 1):
-            E[:, 2 * k - 1] = np.cos(k * th)
-            E[:, 2 * k] = np.sin(k * th)
+        for i, k in enumerate(ks, start=1):
+            E[:, 2 * i - 1] = np.cos(k * th)
+            E[:, 2 * i] = np.sin(k * th)
         self.E = E
         Ep = E.T * (2.0 * weights)[None, :]
         Ep[0] = weights
         self.Ep = Ep
         D = np.zeros((self.nc, self.nc))
-        for k in range(1, H + 1):
-            D[2 * k - 1, 2 * k] = k * self.w
-            D[2 * k, 2 * k - 1] = -k * self.w
+        for i, k in enumerate(ks, start=1):
+            D[2 * i - 1, 2 * i] = k * self.w
+            D[2 * i, 2 * i - 1] = -k * self.w
         self.D = D
+        self.uniform = self.quadrature.startswith("uniform")
         gen = system.generated
         self._rhs = gen.casadi_function("gs_rhs").map(M)
         self._jac = gen.casadi_function("gs_jac").map(M)
@@ -188,11 +201,16 @@ class HarmonicBalance:
         return self.D @ C - self.Ep @ F
 
     def jacobian(self, C: np.ndarray) -> np.ndarray:
-        """Exact AFT Jacobian ``dR/dC`` (ordering: state-major, then coefficient)."""
+        """Exact AFT Jacobian ``dR/dC`` (ordering: state-major, then coefficient).
+
+        Block ``(i, j)`` is ``D delta_ij - DFT diag(df_i/dx_j(t_m)) IDFT``; on the uniform
+        grid it is assembled from the FFT of ``df_i/dx_j(t_m)`` (the product of two
+        harmonics is a sum and a difference frequency, aliased modulo ``M`` exactly as the
+        DFT of the samples aliases them), in ``O(nc^2)`` per block instead of ``O(nc^2 M)``.
+        """
         X = self.samples_of(C)
         Jm = np.asarray(self._jac(self.t[None, :], X.T, self._P, self._modes(X)))  # (nx, nx*M)
         Jm = Jm.reshape(self.nx, self.M, self.nx).transpose(1, 0, 2)  # (M, i, j)
-        # block (i, j) = D*delta_ij - Ep diag(J_ij) E   (BLAS products per block)
         nc = self.nc
         n = self.nx * nc
         Jr = np.zeros((n, n))
@@ -201,9 +219,66 @@ class HarmonicBalance:
                 col = Jm[:, i, j]
                 if not np.any(col):
                     continue
-                Jr[i * nc:(i + 1) * nc, j * nc:(j + 1) * nc] = -(self.Ep @ (col[:, None] * self.E))
+                Jr[i * nc:(i + 1) * nc, j * nc:(j + 1) * nc] = -self.product_matrix(col)
             Jr[i * nc:(i + 1) * nc, i * nc:(i + 1) * nc] += self.D
         return Jr
+
+    def product_matrix(self, col: np.ndarray) -> np.ndarray:
+        """``DFT diag(col) IDFT`` restricted to the harmonic set: the coefficients of
+        ``col(t) x(t)`` as a linear map of the coefficients of ``x`` (shape (nc, nc))."""
+        if not self.uniform:
+            return self.Ep @ (col[:, None] * self.E)
+        idx = self.__dict__.get("_prod_idx")
+        if idx is None:
+            f = np.concatenate([[0], np.repeat(self.ks, 2)])
+            sin = np.zeros(self.nc, bool)
+            sin[2::2] = True
+            dm = (f[:, None] - f[None, :]) % self.M
+            sm = (f[:, None] + f[None, :]) % self.M
+            half = np.where(np.arange(self.nc) == 0, 0.5, 1.0)[:, None]
+            idx = self._prod_idx = (dm, sm, sin[:, None], sin[None, :], half)
+        dm, sm, sr, sl, half = idx
+        c = np.fft.fft(col) / self.M
+        A, B = c.real, -c.imag
+        Am, Ap, Bm, Bp = A[dm], A[sm], B[dm], B[sm]
+        out = np.where(sr, np.where(sl, Am - Ap, Bp + Bm), np.where(sl, Bp - Bm, Am + Ap))
+        return out * half
+
+    def full_coefficients(self, C: np.ndarray) -> np.ndarray:
+        """Coefficients on the set, expanded to the full layout ``[a0, a1, b1, ..., aH, bH]``
+        (zeros for the harmonics not in the set), shape (2H+1, nx)."""
+        if self.full:
+            return np.asarray(C, float)
+        out = np.zeros((2 * self.H + 1, C.shape[1]))
+        out[0] = C[0]
+        out[2 * self.ks - 1] = C[1::2]
+        out[2 * self.ks] = C[2::2]
+        return out
+
+    def restrict(self, C_full: np.ndarray) -> np.ndarray:
+        """Coefficients in the full layout (any number of harmonics) restricted to the set."""
+        C_full = np.asarray(C_full, float)
+        out = np.zeros((self.nc, C_full.shape[1]))
+        out[0] = C_full[0]
+        Hf = (C_full.shape[0] - 1) // 2
+        for i, k in enumerate(self.ks, start=1):
+            if k <= Hf:
+                out[2 * i - 1] = C_full[2 * k - 1]
+                out[2 * i] = C_full[2 * k]
+        return out
+
+    def x_at_t0(self, C: np.ndarray) -> np.ndarray:
+        """The state ``x(t0)`` of the series."""
+        return np.asarray(C[0] + C[1::2].sum(axis=0), float)
+
+    def relative_residual(self, C: np.ndarray, R: np.ndarray | None = None) -> float:
+        """``max_i |R_i| / |(D C)_i|`` (2-norms over the harmonics of state ``i``): the
+        residual relative to the size of the derivative it balances (dimensionless)."""
+        R = self.residual(C) if R is None else R
+        DC = np.linalg.norm(self.D @ C, axis=0)
+        Rn = np.linalg.norm(R, axis=0)
+        ref = np.maximum(DC, 1e-300)
+        return float(np.max(Rn / ref)) if Rn.size else 0.0
 
     @staticmethod
     def _flat(C: np.ndarray) -> np.ndarray:
@@ -213,13 +288,15 @@ class HarmonicBalance:
         return z.reshape(self.nx, self.nc).T
 
     # --------------------------------------------------------------- solve
-    def solve(self, C0: np.ndarray, tol: float = 1e-10, max_iter: int = 100, floor_tol: float = 0.0
-              ) -> tuple[np.ndarray, int, float, bool, list[dict[str, Any]], str]:
+    def solve(self, C0: np.ndarray, tol: float = 1e-10, max_iter: int = 100, floor_tol: float = 0.0,
+              floor_rel: float = 0.0, lm: bool = False) -> tuple[np.ndarray, int, float, bool, list[dict[str, Any]], str]:
         """Quasi-Newton (Broyden) solve from ``C0``.
 
         ``floor_tol``: when no damped step reduces the residual any more but it is
-        below ``floor_tol * max(1, max|C|)``, accept it (``self.floor = True``):
-        the residual floor of a discontinuous vector field.
+        below ``floor_tol * max(1, max|C|)`` (or its :meth:`relative_residual` is below
+        ``floor_rel``), accept it (``self.floor = True``): the residual floor of a
+        non-smooth vector field.  ``lm``: when the damped quasi-Newton step stalls, go on
+        with Levenberg-Marquardt steps (:meth:`levenberg_marquardt`) before giving up.
 
         Returns ``(C, iterations, residual, converged, history, failure)``.
         """
@@ -237,7 +314,12 @@ class HarmonicBalance:
         def scale(zz: np.ndarray) -> float:
             return max(1.0, float(np.max(np.abs(zz))))
 
-        while r > tol * scale(z) and it < max_iter:
+        def small(zz: np.ndarray, RR: np.ndarray, rr: float, level: float) -> bool:
+            # absolute (relative to max(1, max|C|)) or relative to the derivative balanced
+            return rr <= level * scale(zz) or self.relative_residual(self._unflat(zz), self._unflat(RR)) <= level
+
+        lm_done = not lm
+        while not small(z, R, r, tol) and it < max_iter:
             it += 1
             try:
                 dz = np.linalg.solve(J, -R)
@@ -250,7 +332,7 @@ class HarmonicBalance:
                 Rn = self._flat(self.residual(self._unflat(zn)))
                 rn = float(np.max(np.abs(Rn)))
                 if math.isfinite(rn) and (float(np.linalg.norm(Rn)) < (1 - 1e-4 * lam) * r2
-                                          or rn <= tol * scale(zn)):
+                                          or small(zn, Rn, rn, tol)):
                     ok = True
                     break
                 lam *= 0.5
@@ -261,7 +343,19 @@ class HarmonicBalance:
                     fresh = True
                     history.append({"iteration": it, "residual": r, "jacobian": True, "note": "refresh"})
                     continue
-                if r <= floor_tol * scale(z):
+                if not lm_done:
+                    # a contact nonlinearity makes the residual kinked wherever a sample changes
+                    # side: the Newton direction overshoots; Levenberg-Marquardt steps do not
+                    lm_done = True
+                    z, R, k_lm, hist_lm = self.levenberg_marquardt(z, R, max_iter - it, tol)
+                    r = float(np.max(np.abs(R)))
+                    history += [dict(h, iteration=it + h["iteration"]) for h in hist_lm]
+                    it += k_lm
+                    J = self.jacobian(self._unflat(z))
+                    fresh = True
+                    continue
+                if r <= floor_tol * scale(z) or (
+                        floor_rel > 0 and self.relative_residual(self._unflat(z), self._unflat(R)) <= floor_rel):
                     # a vector field that jumps across a switching surface makes the AFT
                     # residual jump whenever a sample changes side: the residual has a
                     # floor of the order of (jump)/M that no step can go below
@@ -282,36 +376,72 @@ class HarmonicBalance:
                 J = J + np.outer(y - J @ s, s) / float(s @ s)
                 fresh = False
             history.append({"iteration": it, "residual": r, "step": lam, "jacobian": fresh})
-        conv = r <= tol * scale(z) or self.floor
+        self.rel_residual = self.relative_residual(self._unflat(z), self._unflat(R))
+        conv = small(z, R, r, tol) or self.floor
         if not conv and not failure:
             failure = f"no convergence in {max_iter} quasi-Newton iterations"
         return self._unflat(z), it, r, conv, history, failure
 
-
-def _pad(C: np.ndarray, H_new: int) -> np.ndarray:
-    out = np.zeros((2 * H_new + 1, C.shape[1]))
-    n = min(C.shape[0], out.shape[0])
-    out[:n] = C[:n]
-    return out
-
-
-def _dense(C: np.ndarray, n: int = 4096) -> np.ndarray:
-    H = (C.shape[0] - 1) // 2
-    th = 2 * np.pi * np.arange(n) / n
-    y = np.tile(C[0], (n, 1))
-    for k in range(1, H + 1):
-        y += np.outer(np.cos(k * th), C[2 * k - 1]) + np.outer(np.sin(k * th), C[2 * k])
-    return y
+    def levenberg_marquardt(self, z: np.ndarray, R: np.ndarray, max_iter: int, tol: float
+                            ) -> tuple[np.ndarray, np.ndarray, int, list[dict[str, Any]]]:
+        """Levenberg-Marquardt on ``|R|^2`` in scaled variables (every state's coefficients
+        by its amplitude ``s_i``, its equations by ``w s_i``), exact AFT Jacobian, from the
+        flat coefficients ``z`` with residual ``R``; until the damping has to exceed 1e6 of
+        the largest curvature, the squared residual falls by less than 1 % over 8 steps, or the
+        residual is below ``tol``.  Returns ``(z, R, steps, history)``."""
+        C = self._unflat(z)
+        amp = np.sum(np.abs(C[1:]), axis=0)
+        sc = np.where(amp > 0, amp, np.maximum(np.abs(C[0]) * 1e-6, 1e-300))
+        if not np.all(amp > 0):
+            sc = np.where(amp > 0, amp, np.max(amp) if np.any(amp > 0) else 1.0)
+        us = np.repeat(sc, self.nc)
+        rs = np.repeat(sc * self.w, self.nc)
+        Rs = R / rs
+        cost = float(Rs @ Rs)
+        mu = 1e-3
+        history: list[dict[str, Any]] = []
+        k = 0
+        eye = np.eye(len(z))
+        while k < max_iter and mu <= 1e6:
+            J = self.jacobian(self._unflat(z)) * us[None, :] / rs[:, None]
+            A = J.T @ J
+            g = J.T @ Rs
+            dmax = float(np.max(np.diag(A))) or 1.0
+            k += 1
+            while mu <= 1e6:
+                try:
+                    du = -np.linalg.solve(A + mu * dmax * eye, g)
+                except np.linalg.LinAlgError:
+                    mu *= 10
+                    continue
+                zn = z + du * us
+                Rn = self._flat(self.residual(self._unflat(zn)))
+                Rns = Rn / rs
+                cn = float(Rns @ Rns)
+                if math.isfinite(cn) and cn < cost:
+                    mu = max(mu / (10 if cn < 0.5 * cost else 3), 1e-12)
+                    z, R, Rs, cost = zn, Rn, Rns, cn
+                    break
+                mu *= 10
+            history.append({"iteration": k, "residual": float(np.max(np.abs(R))), "damping": mu,
+                            "note": "levenberg-marquardt", "cost": cost})
+            if k > 8 and cost > 0.99 * history[-9]["cost"]:
+                break  # stagnates: the floor of the kinked residual
+            if float(np.max(np.abs(R))) <= tol * max(1.0, float(np.max(np.abs(z)))):
+                break
+        return z, R, k, history
 
 
 def harmonic_balance(system: System, period: float | None = None, periods: float = 1,
                      x0: Sequence[float] | None = None, params: Mapping[str, float] | None = None, *,
-                     harmonics: int | None = None, max_harmonics: int = 256, harmonics_tol: float = 1e-6,
+                     harmonics: int | Sequence[int] | None = None, max_harmonics: int = 512,
+                     harmonics_tol: float | None = None,
                      samples: int | None = None, t0: float = 0.0, tol: float = 1e-10, max_iter: int = 100,
                      guess: np.ndarray | PeriodicOrbit | None = None, monodromy: bool = True,
                      rtol: float = 1e-11, atol: float = 1e-13, raise_on_failure: bool = True,
                      initial_guess: str = "auto", transient: float = 50, floor_tol: float = 1e-5,
-                     trivial: np.ndarray | None = None) -> PeriodicOrbit:
+                     trivial: np.ndarray | None = None, defect_tol: float = 2e-3, aft_tol: float = 1e-4,
+                     max_samples: int = 1 << 16, floor_rel: float = 1e-3) -> PeriodicOrbit:
     """Find a periodic orbit by harmonic balance (AFT + quasi-Newton).
 
     Parameters
@@ -326,11 +456,32 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
     params
         Parameter overrides (SI).
     harmonics
-        Fixed number of harmonics; ``None``: grow ``1, 2, 4, ...`` up to
-        ``max_harmonics`` until the time series changes by less than
-        ``harmonics_tol`` (relative to each state's peak-to-peak).
+        Fixed harmonics: a number ``H`` (``1..H``) or the harmonic numbers to keep (a
+        set, e.g. bands around the mesh harmonic); ``None``: grow through the sets of
+        :func:`gearsym.analysis.hbm_sets.growth_sets` (bands around the carriers found in
+        the model's excitation spectrum, else ``1, 2, 4, ...``) up to ``max_harmonics``
+        until the time-domain defect is below ``defect_tol`` (and, if ``harmonics_tol``
+        is given, the series changed by less than it relative to each state's
+        peak-to-peak).
+    max_harmonics
+        Highest harmonic of the automatic growth.
+    harmonics_tol
+        See ``harmonics`` (default ``None``: the defect alone decides).
     samples
-        AFT samples per period (default: power of two >= 4(2H+1), >= 64).
+        AFT samples per period, fixed.  Default: a power of two >= 4(2H+1) (H the highest
+        harmonic of the set or of the excitation), >= 64, doubled (up to 8 times, at most
+        ``max_samples``) until the residual on a grid twice as fine implies a Newton
+        correction below ``aft_tol`` of every state's size.
+    aft_tol, max_samples
+        See ``samples``.
+    defect_tol
+        One period integrated from the balanced ``x(t0)`` must close to ``defect_tol`` of
+        every state's peak-to-peak (``info["defect_relative"]``): the automatic growth
+        stops there, and a balance grown automatically that does not reach it has not
+        converged.  With fixed ``harmonics`` the defect is reported, not enforced.
+    floor_rel
+        Accept a residual floor (see ``floor_tol``) whose residual relative to the
+        derivative it balances is below ``floor_rel`` (the kinked residual of a contact).
     t0
         Time origin (the orbit's ``x0`` is ``x(t0)``).
     tol
@@ -370,9 +521,12 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
     Returns
     -------
     PeriodicOrbit
-        With ``harmonics``, ``coefficients`` and ``info["harmonic_growth"]``
-        (``H``, change, peak-to-peak of the first state, iterations per step)
-        and ``info["defect"] = max |phi(t0 + P, x0) - x0|`` (truncation error seen by the integrator).
+        With ``harmonics`` (the highest), ``coefficients`` (full layout, zeros outside
+        the set), ``info["harmonic_set"]``, ``info["harmonic_growth"]`` (per set:
+        harmonics, samples and their checks, iterations, residual, change, defect),
+        ``info["defect"] = max |phi(t0 + P, x0) - x0|`` and ``info["defect_relative"]``
+        (per state relative to its peak-to-peak).  The rattle state comes from the
+        harmonic series (``info["rattle_states_integration"]``: that of the integration).
 
     Raises
     ------
@@ -380,168 +534,11 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
         The balance did not converge, or it converged only relative to coefficients
         blown up along a direction of a multiplier at +1 (no isolated orbit).
     """
-    wall = time.perf_counter()
-    from .shooting import _check_tolerances
+    from .hbm_driver import run
 
-    _check_tolerances(tol=tol, rtol=rtol, atol=atol)
-    T = system.period(params)
-    if period is None:
-        if not T and system.has_forcing_period:
-            system.require_period(params, "a periodic orbit")  # raises: says why
-        if not T:
-            raise ParameterError("the scene has no forcing period: give period=")
-        period = float(periods) * T
-    else:
-        period = float(period)
-        periods = period / T if T else 1.0
-    nx = system.generated.nx
-    base = system.x0 if x0 is None else np.asarray(x0, float)
-    if base.shape != (nx,):
-        raise ParameterError(f"x0 must have {nx} entries, got shape {base.shape}")
-
-    def from_series(y: np.ndarray, H_g: int) -> np.ndarray:
-        Cf = np.fft.rfft(y, axis=0) / len(y)
-        Cg = np.zeros((2 * H_g + 1, nx))
-        Cg[0] = Cf[0].real
-        for k in range(1, min(H_g, Cf.shape[0] - 1) + 1):
-            Cg[2 * k - 1] = 2 * Cf[k].real
-            Cg[2 * k] = -2 * Cf[k].imag
-        return Cg
-
-    H_sim = int(harmonics or 16)
-    attempts: list[tuple[str, Any]] = []
-    if isinstance(guess, PeriodicOrbit):
-        attempts.append(("orbit", from_series(guess.trajectory(n_out=max(64, 8 * H_sim) + 1).y[:-1], H_sim)))
-    elif guess is not None:
-        attempts.append(("coefficients", np.asarray(guess, float)))
-    else:
-        C_const = np.zeros((3, nx))
-        C_const[0] = base
-        attempts.append(("constant", C_const))
-        if initial_guess == "auto":
-            attempts.append(("simulation", None))
-        elif initial_guess == "simulation":
-            attempts = [("simulation", None)]
-        elif initial_guess != "constant":
-            raise ParameterError(f"initial_guess must be 'auto', 'constant' or 'simulation', got "
-                                 f"'{initial_guess}'")
-
-    def simulation_guess() -> np.ndarray:
-        Tt = T if T else period
-        n_tr = max(1, int(math.ceil(transient)))
-        tr = system.simulate(t_end=t0, t0=t0 - n_tr * Tt, x0=base, rtol=1e-8, atol=1e-10, n_out=2,
-                             params=params)
-        tr = system.simulate(t_end=t0 + period, t0=t0, x0=tr.x_final, rtol=1e-8, atol=1e-10,
-                             n_out=max(64, 8 * H_sim) + 1, params=params)
-        return from_series(tr.y[:-1], H_sim)
-
-    def grow(C: np.ndarray, stop_on_stall: bool):
-        if harmonics is not None:
-            sequence = [int(harmonics)]
-        else:
-            sequence = []
-            H = max(1, (C.shape[0] - 1) // 2)
-            while H < max_harmonics:
-                sequence.append(H)
-                H *= 2
-            sequence.append(int(max_harmonics))
-        growth: list[dict[str, Any]] = []
-        prev_dense: np.ndarray | None = None
-        total_it = 0
-        history: list[dict[str, Any]] = []
-        hb: HarmonicBalance | None = None
-        r, conv, failure = math.inf, False, ""
-        h_conv = harmonics is not None
-        for H in sequence:
-            hb = HarmonicBalance(system, period, H, params, t0, samples)
-            C, it, r, conv, hist, failure = hb.solve(_pad(C, H), tol=tol, max_iter=max_iter,
-                                                     floor_tol=floor_tol)
-            total_it += it
-            history += [dict(h, harmonics=H) for h in hist]
-            if not conv:
-                growth.append({"harmonics": H, "change": math.nan, "peak_to_peak": math.nan,
-                               "iterations": it, "residual": r, "note": f"not converged ({failure})"})
-                if stop_on_stall or H == sequence[-1]:
-                    break
-                prev_dense = None  # an intermediate truncation only provides a starting point
-                continue
-            dense = _dense(C)
-            ptp = np.ptp(dense, axis=0)
-            change = math.nan
-            if prev_dense is not None:
-                rel = np.max(np.abs(dense - prev_dense), axis=0) / np.maximum(ptp, 1e-300)
-                change = float(np.max(rel))
-            growth.append({"harmonics": H, "change": change, "peak_to_peak": float(ptp[0]),
-                           "iterations": it, "residual": r})
-            prev_dense = dense
-            if harmonics is None and math.isfinite(change) and change < harmonics_tol:
-                h_conv = True
-                break
-        return hb, C, r, conv, failure, growth, total_it, history, h_conv
-
-    total_it = 0
-    history: list[dict[str, Any]] = []
-    growth: list[dict[str, Any]] = []
-    used = ""
-    guess_scale = 1.0
-    for k, (name, C0) in enumerate(attempts):
-        if C0 is None:
-            C0 = simulation_guess()
-        guess_scale = max(1.0, float(np.max(np.abs(C0))) if np.size(C0) else 1.0)
-        last = k == len(attempts) - 1
-        hb, C, r, conv, failure, g, it, hist, harmonics_converged = grow(C0, stop_on_stall=not last)
-        total_it += it
-        history += [dict(h, initial_guess=name) for h in hist]
-        growth += [dict(x, initial_guess=name) for x in g]
-        used = name
-        if conv:
-            break
-    if not conv and raise_on_failure:
-        hist_txt = ", ".join(f"{h['residual']:.3g}" for h in history[-10:])
-        raise ConvergenceError(
-            f"harmonic balance did not converge (H={hb.H} harmonics, initial guess '{used}'): {failure}; "
-            f"residual history [{hist_txt}]. Try a guess (guess=<orbit from shooting>), a different x0, "
-            f"more harmonics, or method='shooting'.")
-    assert hb is not None and C is not None
-    H = hb.H
-    x_start = C[0] + sum(C[2 * k - 1] for k in range(1, H + 1)) if H else C[0].copy()
-    x_start = np.asarray(x_start, float)
-    mono = None
-    events = []
-    defect = math.nan
-    iso = None
-    if monodromy and conv:
-        try:
-            tr = system.simulate(t_end=t0 + period, t0=t0, x0=x_start, rtol=rtol, atol=atol, n_out=256,
-                                 params=params, monodromy=True)
-            mono = tr.monodromy
-            events = list(tr.events)
-            defect = float(np.max(np.abs(tr.x_final - x_start)))
-            amp = np.max(np.abs(tr.y), axis=0)
-            iso = isolation(mono, np.maximum(amp, max(1e-9 * float(np.max(amp)), atol / tol)), rtol, trivial)
-        except GearsymError:
-            mono = None
-        if iso is not None and not iso.isolated and r > max(tol, floor_tol if hb.floor else tol) * guess_scale:
-            # converged only relative to coefficients blown up along the unresolved direction
-            conv = False
-            failure = (f"{iso.reason()}: the balance's residual {r:.3g} is small only relative to coefficients "
-                       f"of size {float(np.max(np.abs(C))):.3g} (initial guess {guess_scale:.3g})")
-            if raise_on_failure:
-                raise ConvergenceError(f"harmonic balance: {failure}. Add damping, move the forcing off the "
-                                       f"resonance, or tighten rtol (now {rtol:g}) if the system is lightly "
-                                       f"damped.")
-    p = system.param_vector(params)
-    samples = None
-    if mono is None:  # no integration: contact sides from the series
-        n_s = 4096
-        samples = (t0 + period * np.arange(n_s) / n_s, _dense(C, n_s))
-    return finish_orbit(
-        system, x0=x_start, period=period, periods=periods, t0=t0, monodromy=mono, iterations=total_it,
-        residual=r, converged=conv, method="hbm", params={k: v for k, v in system.param_dict(p).items()
-                                                                        if k in system.params},
-        events=events, samples=samples, harmonics=H, coefficients=C, history=history,
-        info={"harmonic_growth": growth, "harmonics_converged": harmonics_converged, "defect": defect,
-              "initial_guess": used, "quadrature": hb.quadrature, "failure": failure or None,
-              "isolation": iso.to_dict() if iso is not None else None,
-              "samples": hb.M, "tol": tol, "rtol": rtol, "atol": atol,
-              "wall_s": time.perf_counter() - wall})
+    return run(HarmonicBalance, system, period, periods, x0, params, harmonics=harmonics,
+               max_harmonics=max_harmonics, harmonics_tol=harmonics_tol, samples=samples, t0=t0, tol=tol,
+               max_iter=max_iter, guess=guess, monodromy=monodromy, rtol=rtol, atol=atol,
+               raise_on_failure=raise_on_failure, initial_guess=initial_guess, transient=transient,
+               floor_tol=floor_tol, trivial=trivial, defect_tol=defect_tol, aft_tol=aft_tol,
+               max_samples=max_samples, floor_rel=floor_rel)

@@ -356,7 +356,7 @@ class PeriodicOrbit:
             lo, hi = self.extrema(0)
             d["min"], d["max"] = lo, hi
             d["meshes"] = self.meshes()
-        for k in ("wall_s", "harmonic_growth", "rtol", "atol", "tol"):
+        for k in ("wall_s", "harmonic_growth", "rtol", "atol", "tol", "defect", "defect_relative", "harmonic_set"):
             if k in self.info:
                 d[k] = self.info[k]
         return d

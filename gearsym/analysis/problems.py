@@ -68,6 +68,10 @@ class PeriodicOrbitProblem:
     (:meth:`dense`) and the unknowns of a given orbit (``u_from_orbit``).
     """
 
+    #: steps in the parameter itself where no multiplier is near +1 (see
+    #: :mod:`gearsym.analysis.arclength`)
+    natural_steps = True
+
     system: System
     param: str
     periods: float
