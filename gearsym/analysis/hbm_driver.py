@@ -22,6 +22,7 @@ series); the Floquet multipliers from one variational integration from ``x(t0)``
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -32,7 +33,8 @@ import numpy as np
 from ..errors import ConvergenceError, GearsymError, ParameterError
 from .hbm_sets import carriers_of, excitation_harmonics, growth_sets
 from .isolation import isolation
-from .orbit import PeriodicOrbit, finish_orbit, rattle_states
+from .orbit import PeriodicOrbit, finish_orbit
+from .rattle import mesh_rattle_states as rattle_states
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
@@ -322,6 +324,4 @@ def run(hb_cls, system: System, period: float | None, periods: float, x0: Sequen
               "wall_s": time.perf_counter() - wall})
     # the rattle state of the balance is that of its own series, not of the integration
     rss = rattle_states(system, x_start, t0, [], params, samples=series)
-    orbit.rattle_states = rss
-    orbit.rattle_state = max(rss.values()) if rss else None
-    return orbit
+    return dataclasses.replace(orbit, rattle_states=rss, rattle_state=max(rss.values()) if rss else None)
