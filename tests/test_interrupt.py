@@ -29,13 +29,24 @@ KS_MODEL = ROOT / "models" / "kahraman_singh.toml"
 #: compile (cached), then run `gearsym simulate` of 200,000 forcing periods (about a minute
 #: of CPU on this machine) through the CLI's entry point
 CHILD = """
-import sys, time
+import signal, sys, time
+signal.signal(signal.SIGINT, signal.default_int_handler)  # a shell's background job starts with SIGINT ignored
 import gearsym
 from gearsym.cli import main
 gearsym.load_scene(sys.argv[1]).compile()
 print("start", flush=True)
 sys.exit(main(["simulate", sys.argv[1], "--periods", "200000"]))
 """
+
+
+@pytest.fixture(autouse=True)
+def sigint_handled():
+    """Python's own SIGINT handler for the test: a process started as a background job of a
+    non-interactive shell (``cmd &``, as some CI runners do) inherits SIGINT ignored, and
+    Python then leaves it ignored."""
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, old)
 
 
 @pytest.fixture(scope="module")
