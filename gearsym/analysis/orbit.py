@@ -210,7 +210,7 @@ class PeriodicOrbit:
         out_dir
             Folder (created if missing).
         title
-            Title of the phase-portrait figure (default: method, stability, max |mu|).
+            Title of the phase-portrait figure (default: method, stability, max ``|mu|``).
 
         Returns
         -------
