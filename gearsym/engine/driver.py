@@ -245,8 +245,12 @@ class Engine:
         sg = None
         if sigma is not None:
             sg = np.ascontiguousarray(np.asarray(sigma, dtype=float).reshape(n, self.nsw))
-        k = {"sw": self.nsw, "out": max(self.n_outputs(), 0), "rhs": self.nx, "jac": self.nx * self.nx,
-             "mode": self.nm, "mesh": max(self.n_meshes(), 0) if function == "mesh" else 0}[function]
+        if function == "out":  # the counts that need a call into the driver: only when asked for
+            k = max(self.n_outputs(), 0)
+        elif function == "mesh":
+            k = max(self.n_meshes(), 0)
+        else:
+            k = {"sw": self.nsw, "rhs": self.nx, "jac": self.nx * self.nx, "mode": self.nm}[function]
         out = np.empty((n, max(k, 1)))
         msg = C.create_string_buffer(256)
         rc = self._lib.gs_eval(self._ws(), code, n, _ptr(ta), _ptr(xa), _ptr(pa) if pa.shape[0] else None,
