@@ -6,8 +6,8 @@
   periods of the benchmark oscillator.  The Python cost of the call (one ctypes call,
   ~50 us) is included; it is ~0.3 % of the loop.
 * :class:`CTimer` counts the wall time spent inside the driver's C entry points
-  (``gs_simulate_ws``, ``gs_eval``, ``gs_eval_period``) during a piece of Python code, by
-  wrapping them on one engine; the rest is time outside C (Python, numpy, CasADi).
+  (``gs_simulate_ws``, ``gs_shoot_ws``, ``gs_eval``, ``gs_eval_period``, ...) during a piece of Python code, by
+  wrapping them on the system's engines; the rest is time outside C (Python, numpy, CasADi).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 #: The C entry points of the driver that do numerical work.
-C_ENTRY_POINTS = ("gs_simulate_ws", "gs_simulate", "gs_eval", "gs_eval_period")
+C_ENTRY_POINTS = ("gs_simulate_ws", "gs_simulate", "gs_shoot_ws", "gs_eval", "gs_eval_period", "gs_eval_period_grad")
 
 
 def bare_c_loop(system: Any, params: dict[str, float], periods: int = 200, rtol: float = 1e-10,
@@ -73,7 +73,10 @@ class CTimer:
     (``c_s`` / ``wall_s``: the same in wall time)."""
 
     def __init__(self, system: Any):
-        self.engine = system.engine
+        # the system's engine and, once made, the engine of its build with parameter derivatives
+        # (continuation integrates the monodromy and F_lambda there)
+        engines = [system.engine, getattr(system, "_derivative_engine", None)]
+        self.engines = [e for i, e in enumerate(engines) if e is not None and e not in engines[:i]]
         self.c_s = 0.0
         self.c_cpu_s = 0.0
         self.c_calls = 0
@@ -81,15 +84,17 @@ class CTimer:
         self.cpu_s = 0.0
 
     def __enter__(self) -> CTimer:
-        self._orig = self.engine._lib
-        self.engine._lib = _TimedLib(self._orig, self)
+        self._orig = [e._lib for e in self.engines]
+        for e in self.engines:
+            e._lib = _TimedLib(e._lib, self)
         self._t, self._c = time.perf_counter(), time.process_time()
         return self
 
     def __exit__(self, *exc: Any) -> None:
         self.wall_s = time.perf_counter() - self._t
         self.cpu_s = time.process_time() - self._c
-        self.engine._lib = self._orig
+        for e, lib in zip(self.engines, self._orig, strict=True):
+            e._lib = lib
 
     @property
     def outside_c_fraction(self) -> float:

@@ -155,6 +155,8 @@ class Flow:
     sensitivity : ndarray, shape (nx, n_sens), or None
         ``d phi / d p`` for the requested parameters (:meth:`System.flow`'s
         ``sensitivities``), the total derivative when the span moves with them.
+    samples : ndarray, shape (n_samples, nx), or None
+        The state at the ``n_samples`` evenly spaced times from ``t0`` to ``t1``.
     """
 
     x_final: np.ndarray
@@ -167,4 +169,5 @@ class Flow:
     amplitude: np.ndarray
     stats: dict
     sensitivity: np.ndarray | None = None
+    samples: np.ndarray | None = None
 

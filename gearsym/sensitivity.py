@@ -67,9 +67,11 @@ def directions(system: System, names: Sequence[str], p: np.ndarray,
     names = [str(n) for n in names]
     if len(set(names)) != len(names):
         raise ParameterError(f"sensitivities: repeated parameter in {names}")
-    # SI values of every input (the public mappings are in declared units, the vector p is SI)
-    values = system.units.to_si({**system.params, **{k: float(v) for k, v in (inputs or {}).items()}})
-    values.update({k: float(v) for k, v in zip(pnames, p, strict=True)})
+    values: dict[str, float] = {}
+    if gen.bound:
+        # SI values of every input (the public mappings are in declared units, the vector p is SI)
+        values = system.units.to_si({**system.params, **{k: float(v) for k, v in (inputs or {}).items()}})
+        values.update({k: float(v) for k, v in zip(pnames, p, strict=True)})
     D = np.zeros((len(pnames), len(names)))
     for s, name in enumerate(names):
         if name not in system.params:

@@ -502,7 +502,7 @@ class System(Evaluations, SensitivityMethods):
         max_step
             Largest internal step; default an eighth of the forcing period.
         n_samples
-            Evenly spaced samples from ``t0`` to ``t1`` for :attr:`Flow.amplitude`.
+            Evenly spaced samples from ``t0`` to ``t1`` (:attr:`Flow.samples`, :attr:`Flow.amplitude`).
         sigma0
             Side of each switching surface at ``t0`` (default: from the state).
         max_steps
@@ -570,7 +570,8 @@ class System(Evaluations, SensitivityMethods):
         ev = res.events
         return Flow(x_final=res.x_final, monodromy=res.monodromy, event_t=ev.t, event_surface=ev.surface,
                     event_direction=ev.direction, event_speed=ev.speed, sigma_final=res.sigma_final,
-                    amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats, sensitivity=res.sensitivity)
+                    amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats, sensitivity=res.sensitivity,
+                    samples=res.y)
 
     def periodic_orbit(self, period: float | None = None, periods: float = 1,
                        x0: Sequence[float] | None = None, method: str = "shooting",

@@ -47,6 +47,15 @@ def ks_branch(ks_system):
 
 
 # ------------------------------------------------------------------ brute force
+def returns_to_orbit(system, point, periods=300, offset=1e-4):
+    """Whether integration from the branch point's state plus ``offset`` (every state) comes
+    back to it: after ``periods`` forcing periods the Poincare point is within 1e-6."""
+    T = system.period({"Omega": point.value})
+    tr = system.simulate(t_end=periods * T, x0=np.asarray(point.x0) + offset, params={"Omega": point.value},
+                         n_out=2, rtol=1e-10, atol=1e-12)
+    return bool(np.max(np.abs(tr.x_final - point.x0)) < 1e-6)
+
+
 def steady_state(system, params, x, block=100, max_periods=4000, tol=1e-10):
     """Integrate blocks of forcing periods until the Poincare point repeats (period 1)
     or ``max_periods`` are spent; then one dense period.  Returns (x, max, min, poincare)."""
@@ -119,14 +128,22 @@ def test_branch_covers_range_and_jumps_at_located_points(ks_system, ks_branch):
     # every stable branch point is on one of the sweeps' attractors (peak-to-peak to 1e-4)
     ptp_up = {round(w, 12): hi - lo for w, hi, lo, _ in up}
     ptp_down = {round(w, 12): hi - lo for w, hi, lo, _ in down}
+    # (or, where a sweep steps across a narrow stable segment -- between the grazing at 0.8922 and
+    # the fold at 0.8941 -- and lands on the other attractor, an attractor of its own: integration
+    # from a perturbed state comes back to the orbit)
     worst = 0.0
+    unvisited = []
     for p in br.points:
         key = round(p.value, 12)
         if not p.stable or key not in ptp_up:
             continue
         err = min(abs(p.peak_to_peak - ptp_up[key]), abs(p.peak_to_peak - ptp_down[key]))
+        if err >= 1e-4 and returns_to_orbit(ks_system, p):
+            unvisited.append(p.value)
+            continue
         worst = max(worst, err)
     assert worst < 1e-4, worst
+    assert all(0.8922 < w < 0.8942 for w in unvisited), unvisited
     # ... and every sweep point lies on a stable part of the branch (at a branch point of the
     # same parameter value, else between the two ends of a stable segment around it)
     for w, hi, lo, _ in up + down:

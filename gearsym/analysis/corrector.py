@@ -114,9 +114,11 @@ class Continuer:
                 ) -> tuple[np.ndarray, Evaluation, int]:
         """Newton on ``F(z) = 0``, ``row . (z / S) = target``.
 
-        ``F_lambda`` (a finite difference, the costly column) is computed at the first
-        iterate and kept (chord) until convergence, then recomputed at the solution
-        for the tangent.  A residual at the integrator's noise floor (a Newton step
+        ``F_lambda``, where it is a finite difference (the costly column), is computed at
+        the first iterate and kept (chord) until convergence, then recomputed at the
+        solution for the tangent; where the residual's integration gives it
+        (:meth:`~gearsym.analysis.problems.ShootingResidual.flam_with_residual`) it is
+        taken at every iterate.  A residual at the integrator's noise floor (a Newton step
         below ``tol`` that no longer reduces it, up to ``100 * tol``) is accepted.
 
         Raises
@@ -125,13 +127,16 @@ class Continuer:
             No convergence (step to be rejected).
         """
         z = np.asarray(z_guess, float).copy()
-        ev = self.res.evaluate(z[:-1], z[-1], dlam=Flam is None)
-        if Flam is None:
+        # F_lambda integrated with the residual (exact sensitivities) is nearly free: then it is
+        # computed at every iterate (plain Newton); else the chord described above
+        every = bool(getattr(self.res, "flam_with_residual", lambda lam: False)(float(z[-1])))
+        ev = self.res.evaluate(z[:-1], z[-1], dlam=every or Flam is None)
+        if Flam is None or every:
             Flam = ev.Flam
         tol, S = self.tol, self.S
 
         def evaluate(z: np.ndarray) -> tuple[np.ndarray, Evaluation]:
-            return z, self.res.evaluate(z[:-1], z[-1], dlam=False)
+            return z, self.res.evaluate(z[:-1], z[-1], dlam=every)
 
         def norm(rec: tuple[np.ndarray, Evaluation]) -> float:
             return float(np.max(np.abs(self.scaled_residual(rec[1]))))

@@ -137,7 +137,8 @@ def isolation(monodromy: np.ndarray, scale: np.ndarray | None, rtol: float,
             V = V.T
         V = V / d[:, None]
     Q = _complement(V, n)
-    threshold = monodromy_error(float(np.linalg.norm(Ms, 2)) if np.all(np.isfinite(Ms)) else math.inf, rtol)
+    threshold = monodromy_error(float(np.linalg.svd(Ms, compute_uv=False)[0]) if n and np.all(np.isfinite(Ms))
+                                else (0.0 if not n else math.inf), rtol)
     if Q.shape[1] == 0:
         return Isolation(math.inf, threshold, True, np.zeros(n), V.shape[1])
     if not np.all(np.isfinite(A)):

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import CompileError, GearsymError
 
-__all__ = ["exact_f_lambda", "finite_difference_f_lambda"]
+__all__ = ["exact_f_lambda", "finite_difference_f_lambda", "sensitivity_setup"]
 
 _FORCE_FD = [False]
 
@@ -46,13 +46,44 @@ def finite_difference_f_lambda() -> Iterator[None]:
         _FORCE_FD[0] = old
 
 
+def sensitivity_setup(res: Any, lam: float) -> tuple[dict[str, float], np.ndarray, float] | None:
+    """What the exact ``F_lambda`` of a shooting residual needs at ``lambda``, or ``None`` if not available.
+
+    Returns ``(inputs, p, dP)``: the parameter overrides, the parameter vector and
+    ``d P / d lambda`` of the orbit period ``P = periods * T``.  Cached per ``lambda`` on
+    the residual (the corrector asks at a few values many times).  ``None``: finite
+    differences forced (:func:`finite_difference_f_lambda`), not a shooting residual, no
+    derivative build (or its compilation failed: not retried).
+    """
+    system = res.system
+    if _FORCE_FD[0] or not system.has_derivatives or not hasattr(res, "segments") or not hasattr(res, "times"):
+        return None
+    cache = res.__dict__.setdefault("_sens_setup_cache", {})
+    key = float(lam)
+    hit = cache.get(key)
+    if hit is not None:
+        return hit
+    try:
+        system.derivative_engine()  # the build with the derivatives, made on first use
+    except CompileError:
+        system.derivative_build = None  # not retried: the finite difference from now on
+        return None
+    inputs = res.params(key)
+    p = res.pvec(key)
+    dP = float(res.periods) * float(system.period_gradient([res.param], p, inputs)[0])
+    if len(cache) > 64:
+        cache.clear()
+    cache[key] = (inputs, p, dP)
+    return cache[key]
+
+
 def exact_f_lambda(res: Any, u: np.ndarray, lam: float) -> np.ndarray | None:
     """``dF/dlambda`` of a continuation residual at ``(u, lambda)``, or ``None`` if not available.
 
     Parameters
     ----------
     res
-        The residual (:class:`gearsym.analysis.continuation.ShootingResidual`; others give ``None``).
+        The residual (:class:`gearsym.analysis.problems.ShootingResidual`; others give ``None``).
     u
         Unknowns (segment start states).
     lam
@@ -63,22 +94,16 @@ def exact_f_lambda(res: Any, u: np.ndarray, lam: float) -> np.ndarray | None:
     ndarray or None
         Shape ``(N * nx,)``.
     """
-    system = res.system
-    if _FORCE_FD[0] or not system.has_derivatives or not hasattr(res, "segments") or not hasattr(res, "times"):
+    setup = sensitivity_setup(res, lam)
+    if setup is None:
         return None
+    inputs, p, dP = setup
+    system = res.system
     N, nx = res.segments, res.nx
     X = np.asarray(u, float).reshape(N, nx)
     s = res.times(lam)
     out = np.empty(N * nx)
     try:
-        system.derivative_engine()  # the build with the derivatives, made on first use
-    except CompileError:
-        system.derivative_build = None  # not retried: the finite difference from now on
-        return None
-    try:
-        inputs = res.params(lam)
-        p = system.param_vector(inputs)
-        dP = float(res.periods) * float(system.period_gradient([res.param], p, inputs)[0])
         for i in range(N):
             fl = system.flow(X[i], float(s[i]), float(s[i + 1]), p, rtol=res.rtol, atol=res.atol,
                              monodromy=False, method=res.method, sensitivities=[res.param],

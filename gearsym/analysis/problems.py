@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import GearsymError, ParameterError
 from ..results import Event, Flow
 from .floquet import monodromy_product
-from .parameter_derivative import exact_f_lambda
+from .parameter_derivative import exact_f_lambda, sensitivity_setup
 from .stability import rigid_state_basis
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -222,20 +222,54 @@ class ShootingResidual(PeriodicOrbitProblem):
                                   params=self.params(lam), method=self.method)
         return np.asarray(tr.y[:-1], float).ravel()
 
+    def flam_with_residual(self, lam: float) -> bool:
+        """Whether :meth:`evaluate` gets ``F_lambda`` from the residual's own integration (the
+        parameter sensitivity as one more variational column: exact and nearly free)."""
+        return sensitivity_setup(self, lam) is not None
+
     def evaluate(self, u: np.ndarray, lam: float, jac: bool = True, dlam: bool = True) -> Evaluation:
+        """The residual, with ``F_u`` (``jac``) and ``F_lambda`` (``dlam``).
+
+        With both, one integration per segment carries the state, the monodromy and the
+        parameter sensitivity when the exact derivative is available
+        (:func:`~gearsym.analysis.parameter_derivative.sensitivity_setup`); where the
+        sensitivity cannot be integrated (a grazing event: infinite event-time
+        derivative) the segment is integrated again without it and ``F_lambda`` comes
+        from :meth:`_fd_lambda`.
+        """
+        setup = sensitivity_setup(self, lam) if (jac and dlam) else None
+        if setup is not None:
+            try:
+                return self._integrate(u, lam, jac, setup)
+            except GearsymError:
+                pass  # e.g. a grazing event; the residual alone may still be fine
+        ev = self._integrate(u, lam, jac, None)
+        if jac and dlam:
+            ev.Flam = self._fd_lambda(u, lam, ev.R)
+        return ev
+
+    def _integrate(self, u: np.ndarray, lam: float, jac: bool, setup: tuple | None) -> Evaluation:
         N, nx = self.segments, self.nx
         X = np.asarray(u, float).reshape(N, nx)
         s = self.times(lam)
         p = self.pvec(lam)
         max_step = self.period(lam) / self.periods / 8  # System.flow's default (T/8), without asking the engine
         xs, Ms, evs = [], [], []
+        Flam = np.empty(N * nx) if setup is not None else None
         for i in range(N):
+            sens: dict = {}
+            if setup is not None:
+                inputs, _, dP = setup
+                sens = {"sensitivities": [self.param], "span_derivative": (dP * i / N, dP * (i + 1) / N),
+                        "inputs": inputs}
             fl = self.system.flow(X[i], s[i], s[i + 1], p, rtol=self.rtol, atol=self.atol, monodromy=jac,
-                                  method=self.method, max_step=max_step)
+                                  method=self.method, max_step=max_step, **sens)
             self.n_integrations += 1
             xs.append(fl.x_final)
             Ms.append(fl.monodromy)
             evs.extend(flow_events(self.system, fl))
+            if Flam is not None:
+                Flam[i * nx:(i + 1) * nx] = fl.sensitivity[:, 0]
         R = np.concatenate([xs[i] - X[(i + 1) % N] for i in range(N)])
         self.n_evals += 1
         if not jac:
@@ -243,24 +277,25 @@ class ShootingResidual(PeriodicOrbitProblem):
         if any(M is None for M in Ms):
             raise GearsymError("the engine returned no monodromy (implicit models are not supported by "
                                "continuation yet)")
-        J = segment_jacobian(Ms)
-        Flam = self._fd_lambda(u, lam, R) if dlam else None
-        return Evaluation(R, J, Flam, monodromy=monodromy_product(Ms), events=evs)
+        return Evaluation(R, segment_jacobian(Ms), Flam, monodromy=monodromy_product(Ms), events=evs)
 
     def dense(self, u: np.ndarray, lam: float, n_per_period: int) -> tuple[np.ndarray, np.ndarray]:
         N, nx = self.segments, self.nx
         X = np.asarray(u, float).reshape(N, nx)
         s = self.times(lam)
-        p = self.params(lam)
+        p = self.pvec(lam)
         n_seg = max(8, int(math.ceil(n_per_period * self.periods / N)))
+        max_step = self.period(lam) / self.periods / 8
         ts, ys = [], []
         for i in range(N):
-            grid = np.linspace(s[i], s[i + 1], n_seg + 1)
-            tr = self.system.simulate(t_end=s[i + 1], t0=s[i], x0=X[i], rtol=self.rtol, atol=self.atol,
-                                      t_out=grid, params=p, method=self.method)
+            # the flow's samples: the same integration as System.simulate on this grid, without
+            # the trajectory object
+            fl = self.system.flow(X[i], s[i], s[i + 1], p, rtol=self.rtol, atol=self.atol, monodromy=False,
+                                  method=self.method, max_step=max_step, n_samples=n_seg + 1)
             self.n_integrations += 1
+            grid = np.linspace(s[i], s[i + 1], n_seg + 1)
             ts.append(grid[:-1])
-            ys.append(tr.y[:-1])
+            ys.append(fl.samples[:-1])
         return np.concatenate(ts), np.vstack(ys)
 
 

@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ConvergenceError, GearsymError, ParameterError
+from ..results import Event
 from .floquet import monodromy_product
 from .isolation import Isolation, isolation, truncated_solve
 from .newton import NewtonPolicy, damped_newton
@@ -320,20 +321,43 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
                         f"{min_step:g}, after {relaxed} forcing periods of relaxation by integration)"
                         + (f"; last integration error: {last_err}" if last_err else ""))
 
-    ev0 = evaluate(X)
-    history.append({"iteration": 0, "residual": norm(ev0), "relative": rel(ev0[0]), "step": None})
-    out = damped_newton(X, ev0, evaluate=evaluate, norm=norm, direction=direction, converged=is_converged,
-                        policy=NewtonPolicy(max_iter=max_iter, min_damping=min_step, apply_final_step=True),
-                        stalled=stalled,
-                        on_step=on_step)
-    X, (R, Ms, evs), it, converged = out.x, out.ev, out.iterations, out.converged
-    rnorm = norm(out.ev)
-    failure = ""
-    if converged and out.note and history[-1].get("note") is None and out.note != "noise floor":
-        history[-1]["note"] = out.note
-    if not converged:
-        failure = (f"no convergence in max_iter={max_iter} Newton iterations" if out.failure == "max_iter"
-                   else out.failure)
+    fast = None
+    if segments == 1 and anchor is None:
+        # the full-step Newton iteration in one C call; where it gives up (damping, a nearly
+        # singular step, ...) the Python iteration below starts from the same guess
+        fast = _newton_in_c(system, X[0], s[0], s[1], pvec, rtol=rtol, atol=atol, tol=tol, max_iter=max_iter,
+                            method=method, max_step=max_step, n_amp=n_amp)
+    if fast is not None:
+        ev_log = fast.run.events
+        names = system.surface_names
+        evs = [Event(t, names[j], d) for t, j, d in zip(ev_log.t.tolist(), ev_log.surface.tolist(),
+                                                        ev_log.direction.tolist(), strict=True)]
+        X, Ms, it, converged = fast.x[None, :].copy(), [fast.run.monodromy], fast.iterations, True
+        note = _C_NOTES[fast.note]
+        scale_box[0] = fast.scale
+        amp[:] = fast.scale
+        history.extend({"iteration": i, "residual": float(fast.history_abs[i]), "relative": float(fast.history_rel[i]),
+                        "step": None if i == 0 else 1.0} for i in range(len(fast.history_abs)))
+        if note:
+            history[-1]["note"] = note
+        history[-1]["engine"] = "C"
+        rnorm, rel_res = float(fast.history_abs[-1]), float(fast.history_rel[-1])
+        failure = ""
+    else:
+        ev0 = evaluate(X)
+        history.append({"iteration": 0, "residual": norm(ev0), "relative": rel(ev0[0]), "step": None})
+        out = damped_newton(X, ev0, evaluate=evaluate, norm=norm, direction=direction, converged=is_converged,
+                            policy=NewtonPolicy(max_iter=max_iter, min_damping=min_step, apply_final_step=True),
+                            stalled=stalled,
+                            on_step=on_step)
+        X, (R, Ms, evs), it, converged = out.x, out.ev, out.iterations, out.converged
+        rnorm, rel_res = norm(out.ev), rel(R)
+        failure = ""
+        if converged and out.note and history[-1].get("note") is None and out.note != "noise floor":
+            history[-1]["note"] = out.note
+        if not converged:
+            failure = (f"no convergence in max_iter={max_iter} Newton iterations" if out.failure == "max_iter"
+                       else out.failure)
     mono = monodromy_product(Ms) if all(M is not None for M in Ms) else None
     iso: Isolation | None = None
     if mono is not None and np.all(np.isfinite(mono)):
@@ -367,9 +391,43 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         info={"rtol": rtol, "atol": atol, "tol": tol, "wall_s": wall, "failure": failure or None,
               "monodromy_rtol": max(rtol / 1e-6, 1e-12) if system.generated.implicit else rtol,
               "rigid_anchor": anchor is not None,
-              "relative_residual": rel(R), "state_scales": scales().tolist(),
+              "relative_residual": rel_res, "state_scales": scales().tolist(),
               "isolation": iso.to_dict() if iso is not None else None})
     return orbit
+
+
+#: the notes of the C iteration's convergence (:class:`gearsym.engine.shoot.ShootOutcome` ``note``)
+_C_NOTES = {0: "", 1: "Newton step below tolerance (residual at the integration noise level)",
+            2: "Newton step below 10 tol applied without another integration"}
+
+
+def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.ndarray, *, rtol: float, atol: float,
+                 tol: float, max_iter: int, method: str | None, max_step: float, n_amp: int) -> Any:
+    """The full-step Newton iteration of :func:`shoot` in one C call
+    (:func:`gearsym.engine.shoot.shoot_in_c`), or ``None`` where it does not apply (implicit
+    models, a build without it) or gave up (the caller then iterates in Python)."""
+    from ..engine.driver import METHODS
+    from ..engine.shoot import shoot_in_c
+    from .isolation import monodromy_error
+
+    gen = system.generated
+    if gen.implicit or not hasattr(system.engine._lib, "gs_shoot_ws"):
+        return None
+    method = method or str(system.defaults.get("method", "adams"))
+    if method not in ("adams", "bdf"):
+        return None
+    max_steps = int(system.defaults.get("max_steps", 0))
+    if max_step and (t1 - t0) / max_step > (max_steps or 10_000_000):
+        return None  # the Python path raises the step-budget error
+    grid = np.linspace(t0, t1, max(int(n_amp), 2))
+    grid[-1] = t1
+    # the Python step drops singular values of the scaled M - I below monodromy_error; give up
+    # well before a pivot gets near that level
+    pivot_tol = 1e3 * monodromy_error(1.0, rtol)
+    out = shoot_in_c(system.engine, x, pvec, t0, t1, grid, method=METHODS[method], rtol=rtol, atol=atol,
+                     max_step=max_step, max_steps=max_steps, tol=tol, scale_floor=atol / tol,
+                     pivot_tol=pivot_tol, max_iter=max_iter)
+    return out if out.converged else None
 
 
 def _anchor_rows(system: System, params: Mapping[str, float] | None, segments: int) -> np.ndarray | None:

@@ -51,7 +51,7 @@ import numpy as np
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
 
-__all__ = ["ERROR_FACTOR", "STABILITY", "FloquetResult", "complex_sides", "floquet", "multiplier_tolerances",
+__all__ = ["ERROR_FACTOR", "STABILITY", "FloquetResult", "balance", "complex_sides", "floquet", "multiplier_tolerances", "norm2",
            "neutral_step_limit", "rigid_state_basis", "split_trivial"]
 
 #: The three verdicts.
@@ -152,8 +152,33 @@ def split_trivial(M: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     Q, _ = np.linalg.qr(np.asarray(V, float), mode="complete")
     r = int(np.linalg.matrix_rank(V))
     B = Q.T @ M @ Q
-    defect = float(np.linalg.norm(B[r:, :r], 2)) / max(1.0, float(np.linalg.norm(M, 2))) if r else 0.0
+    defect = norm2(B[r:, :r]) / max(1.0, norm2(M)) if r else 0.0
     return B[r:, r:], np.linalg.eigvals(B[:r, :r]).astype(complex), defect
+
+
+def balance(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(D^-1 M D, diag(D))``: LAPACK's balancing without permutations (``dgebal``, as
+    ``scipy.linalg.matrix_balance(M, permute=False)`` but without its per-call overhead,
+    which was most of the cost of a small matrix's multipliers)."""
+    from scipy.linalg import lapack
+
+    M = np.asarray(M, float)
+    if M.size and np.all(np.isfinite(M)):
+        Mb, _, _, scale, info = lapack.dgebal(M, permute=0, scale=1)
+        if info == 0:
+            return np.asarray(Mb, float), np.asarray(scale, float)
+    import scipy.linalg
+
+    Mb, (scale, _) = scipy.linalg.matrix_balance(M, permute=False, separate=True)
+    return Mb, scale
+
+
+def norm2(M: np.ndarray) -> float:
+    """The 2-norm (largest singular value) of ``M`` (0 for an empty matrix)."""
+    M = np.asarray(M, float)
+    if M.size == 0:
+        return 0.0
+    return float(np.linalg.svd(M, compute_uv=False)[0])
 
 
 def multiplier_tolerances(M: np.ndarray, rtol: float) -> tuple[np.ndarray, np.ndarray, float]:
@@ -175,8 +200,8 @@ def multiplier_tolerances(M: np.ndarray, rtol: float) -> tuple[np.ndarray, np.nd
         return np.zeros(0, complex), np.zeros(0), ERROR_FACTOR * max(float(rtol), _EPS)
     # states in different units (m, rad, m/s) make the norm and the eigenvector angles
     # depend on the units: balance first (a diagonal similarity, same eigenvalues)
-    M = scipy.linalg.matrix_balance(M, permute=False)[0]
-    nM = float(np.linalg.norm(M, 2))
+    M = balance(M)[0]
+    nM = norm2(M)
     delta = ERROR_FACTOR * max(float(rtol), _EPS) * max(1.0, nM)
     kappa = None
     if M.shape[0] <= 64:
@@ -231,10 +256,8 @@ def floquet(monodromy: np.ndarray | None, rtol: float, basis: np.ndarray | None 
     info: dict[str, Any] = {"rigid_split": "none"}
     Mq = M
     if basis is not None and basis.shape[0] == M.shape[0] and basis.shape[1]:
-        import scipy.linalg
-
         # in balanced variables (x = D y), where the subspace is span(D^-1 V)
-        Mb, (scale, _) = scipy.linalg.matrix_balance(M, permute=False, separate=True)
+        Mb, scale = balance(M)
         quot, triv, defect = split_trivial(Mb, np.asarray(basis, float) / scale[:, None])
         limit = max(1e-6, 1e3 * ERROR_FACTOR * max(float(rtol), _EPS))
         if defect <= limit:

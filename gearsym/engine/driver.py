@@ -432,7 +432,12 @@ class Engine:
                 continue
             return res
 
-    def _run_once(
+    def _run_once(self, *args: Any) -> RunResult | int:
+        a, buf = self._prepare(*args)
+        self._call(self._lib.gs_simulate_ws, a)
+        return self._result(a, buf)
+
+    def _prepare(
         self,
         x0,
         p,
@@ -455,18 +460,17 @@ class Engine:
         linsol=0,
         av=None,
         sens=None,
-    ) -> RunResult | int:
+    ) -> tuple[GsSimArgs, dict[str, Any]]:
+        """The argument struct of one run and the numpy buffers it points at."""
         nx, nsw = self.nx, self.nsw
         n_out = int(tout.shape[0])
         # the driver writes every entry before it returns success (and a failure raises)
-        y = np.empty((n_out, nx))
-        x_final = np.empty(nx)
-        sigma_final = np.zeros(max(nsw, 1))
-        mono_arr = np.empty((nx, nx)) if mono else None
-        ev_t = np.empty(cap)
-        ev_s = np.empty(cap, dtype=np.intc)
-        ev_d = np.empty(cap, dtype=np.intc)
-        ev_v = np.empty(cap)
+        buf: dict[str, Any] = {
+            "x0": x0, "p": p, "tout": tout, "sig": sig, "av": av,
+            "y": np.empty((n_out, nx)), "x_final": np.empty(nx), "sigma_final": np.zeros(max(nsw, 1)),
+            "mono": np.empty((nx, nx)) if mono else None, "ev_t": np.empty(cap),
+            "ev_s": np.empty(cap, dtype=np.intc), "ev_d": np.empty(cap, dtype=np.intc), "ev_v": np.empty(cap),
+            "cap": cap, "s_final": None, "s_out": None}
         a = GsSimArgs()
         a.method = method
         a.rtol, a.atol, a.t0, a.t_end = rtol, atol, t0, t_end
@@ -482,29 +486,33 @@ class Engine:
         a.max_events_out = cap
         a.nonlinear, a.linear_solver = nonlin, linsol
         a.atol_vec = _ptr(av)
-        a.y_out = _ptr(y) if n_out else None
-        a.x_final = _ptr(x_final)
-        a.sigma_final = _ptr(sigma_final)
-        a.monodromy = _ptr(mono_arr)
+        a.y_out = _ptr(buf["y"]) if n_out else None
+        a.x_final = _ptr(buf["x_final"])
+        a.sigma_final = _ptr(buf["sigma_final"])
+        a.monodromy = _ptr(buf["mono"])
         a.ev_t, a.ev_surface, a.ev_dir, a.ev_speed = (
-            _ptr(ev_t),
-            _ptr(ev_s),
-            _ptr(ev_d),
-            _ptr(ev_v),
+            _ptr(buf["ev_t"]),
+            _ptr(buf["ev_s"]),
+            _ptr(buf["ev_d"]),
+            _ptr(buf["ev_v"]),
         )
-        s_final = s_out = None
         if sens is not None:
             sdir, ns, dt0, dt1, want_out = sens
-            s_final = np.empty((nx, ns))
-            s_out = np.empty((n_out, nx, ns)) if want_out and n_out else None
+            buf["s_final"] = np.empty((nx, ns))
+            buf["s_out"] = np.empty((n_out, nx, ns)) if want_out and n_out else None
+            buf["sens"] = sens
             a.n_sens = ns
             a.sens_dir = _ptr(sdir)
             a.sens_dt0, a.sens_dt1 = _ptr(dt0), _ptr(dt1)
-            a.sens_final, a.sens_out = _ptr(s_final), _ptr(s_out)
+            a.sens_final, a.sens_out = _ptr(buf["s_final"]), _ptr(buf["s_out"])
+        return a, buf
+
+    def _call(self, fn: Any, a: GsSimArgs, *extra: Any) -> None:
+        """Call a driver entry point on this thread's workspace with Ctrl-C armed; raise on failure."""
         a.interrupt_fd, previous = _interrupt.arm()
         a.check_interrupt = 1 if a.interrupt_fd >= 0 else 0
         try:
-            status = self._lib.gs_simulate_ws(self._ws(), C.byref(a))
+            status = fn(self._ws(), C.byref(a), *extra)
         finally:
             _interrupt.disarm(previous)
         if status == GS_ERR_INTERRUPTED:
@@ -514,14 +522,17 @@ class Engine:
         if status != 0:
             msg = a.errmsg.decode("utf-8", errors="replace")
             raise error_for_status(int(status), msg, float(a.t_reached))
+
+    def _result(self, a: GsSimArgs, buf: dict[str, Any]) -> RunResult | int:
+        """The result of a successful run (or the event count when the log was too small)."""
         n_ev = int(a.n_events)
-        if n_ev > cap:
+        if n_ev > buf["cap"]:
             return n_ev
         events = EventLog(
-            t=ev_t[:n_ev].copy(),
-            surface=ev_s[:n_ev].astype(int),
-            direction=ev_d[:n_ev].astype(int),
-            speed=ev_v[:n_ev].copy(),
+            t=buf["ev_t"][:n_ev].copy(),
+            surface=buf["ev_s"][:n_ev].astype(int),
+            direction=buf["ev_d"][:n_ev].astype(int),
+            speed=buf["ev_v"][:n_ev].copy(),
         )
         stats = {
             "n_steps": int(a.n_steps),
@@ -533,16 +544,16 @@ class Engine:
             "n_events": n_ev,
         }
         return RunResult(
-            t=tout.copy(),
-            y=y,
-            x_final=x_final,
-            sigma_final=sigma_final[:nsw].copy(),
-            monodromy=mono_arr,
+            t=buf["tout"].copy(),
+            y=buf["y"],
+            x_final=buf["x_final"],
+            sigma_final=buf["sigma_final"][: self.nsw].copy(),
+            monodromy=buf["mono"],
             events=events,
             stats=stats,
             t_reached=float(a.t_reached),
-            sensitivity=s_final,
-            sensitivity_out=s_out,
+            sensitivity=buf["s_final"],
+            sensitivity_out=buf["s_out"],
         )
 
 
@@ -633,6 +644,9 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
     lib.gs_eval.restype = C.c_int
     lib.gs_eval.argtypes = [C.c_void_p, C.c_int, C.c_int, C.c_void_p, C.c_void_p, C.c_void_p, C.c_void_p,
                             C.c_void_p, C.c_char_p, C.c_int]
+    if hasattr(lib, "gs_shoot_ws"):
+        lib.gs_shoot_ws.restype = C.c_int
+        lib.gs_shoot_ws.argtypes = [C.c_void_p, C.POINTER(GsSimArgs), C.c_void_p]
     size_c = lib.gs_sizeof_args()
     if size_c != C.sizeof(GsSimArgs):
         raise EngineABIError(

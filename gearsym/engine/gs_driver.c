@@ -2421,3 +2421,177 @@ fail:
   snprintf(msg, (size_t)len, "evaluation of %s failed at point %d", f ? f->name : "the mode", i);
   return -1;
 }
+
+/* ================================================================ shooting Newton in C
+ *
+ * gs_shoot_ws(): Newton's method for a periodic orbit x(t_end; t0, x) = x of fixed period
+ * (single shooting), each iterate one gs_simulate_ws() run with the monodromy M; the step
+ * solves (M - I) dx = -R in the variables scaled by the orbit's state magnitudes, by LU
+ * with partial pivoting.  It mirrors the full-step path of gearsym.analysis.shooting.shoot
+ * (the same convergence tests, the same scales) and gives up -- outcome != 0, nothing
+ * raised -- wherever that function would do more than a full Newton step: a residual that
+ * does not decrease (damping), a nearly singular Newton matrix (truncated solve), a failed
+ * run after the first, an event log too small, or the iteration budget.  The caller then
+ * runs the Python iteration from its own start.  One C call in place of one ctypes call,
+ * numpy step and bookkeeping per iterate. */
+#define GS_SHOOT_MAXN 256
+
+static int shoot_lu(int n, double* A, int* piv, double pivot_tol) {
+  /* in-place LU with partial pivoting of the row-major n x n matrix A; 1: (nearly) singular */
+  int i, j, k;
+  double umax = 0.0, umin = HUGE_VAL;
+  for (k = 0; k < n; ++k) {
+    int r = k;
+    double best = fabs(A[(size_t)k * n + k]);
+    for (i = k + 1; i < n; ++i)
+      if (fabs(A[(size_t)i * n + k]) > best) best = fabs(A[(size_t)(r = i) * n + k]);
+    if (!isfinite(best)) return 1;
+    piv[k] = r;
+    if (r != k)
+      for (j = 0; j < n; ++j) {
+        double tmp = A[(size_t)k * n + j];
+        A[(size_t)k * n + j] = A[(size_t)r * n + j];
+        A[(size_t)r * n + j] = tmp;
+      }
+    if (best > umax) umax = best;
+    if (best < umin) umin = best;
+    if (best == 0.0) return 1;
+    for (i = k + 1; i < n; ++i) {
+      double f = A[(size_t)i * n + k] / A[(size_t)k * n + k];
+      A[(size_t)i * n + k] = f;
+      if (f != 0.0)
+        for (j = k + 1; j < n; ++j) A[(size_t)i * n + j] -= f * A[(size_t)k * n + j];
+    }
+  }
+  return umin <= pivot_tol * (umax > 1.0 ? umax : 1.0);
+}
+
+static void shoot_lu_solve(int n, const double* LU, const int* piv, double* b) {
+  int i, j;
+  for (i = 0; i < n; ++i) {
+    if (piv[i] != i) {
+      double tmp = b[i];
+      b[i] = b[piv[i]];
+      b[piv[i]] = tmp;
+    }
+  }
+  for (i = 0; i < n; ++i)
+    for (j = 0; j < i; ++j) b[i] -= LU[(size_t)i * n + j] * b[j];
+  for (i = n - 1; i >= 0; --i) {
+    for (j = i + 1; j < n; ++j) b[i] -= LU[(size_t)i * n + j] * b[j];
+    b[i] /= LU[(size_t)i * n + i];
+  }
+}
+
+/* One evaluation at the start state a->x0: residual R = x(t_end) - x0, its max norm, the
+ * scales and the scaled max norm.  Returns the run's status. */
+static int shoot_eval(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s, int nx, double* R, double* r_abs,
+                      double* r_rel) {
+  int rc, i, k;
+  double top = 0.0;
+  rc = gs_simulate_ws(ws, a);
+  if (rc) return rc;
+  for (i = 0; i < nx; ++i) {
+    double amp = 0.0;
+    for (k = 0; k < a->n_out; ++k) {
+      double v = fabs(a->y_out[(size_t)k * nx + i]);
+      if (!(v <= amp)) amp = v; /* NaN propagates */
+    }
+    s->scale[i] = amp;
+    if (!(amp <= top)) top = amp;
+  }
+  *r_abs = 0.0;
+  *r_rel = 0.0;
+  for (i = 0; i < nx; ++i) {
+    double fl = 1e-9 * top > s->scale_floor ? 1e-9 * top : s->scale_floor;
+    if (!isfinite(top)) s->scale[i] = 1.0;
+    else if (s->scale[i] < fl) s->scale[i] = fl;
+    R[i] = a->x_final[i] - a->x0[i];
+    if (!(fabs(R[i]) <= *r_abs)) *r_abs = fabs(R[i]);
+    if (!(fabs(R[i]) / s->scale[i] <= *r_rel)) *r_rel = fabs(R[i]) / s->scale[i];
+  }
+  return 0;
+}
+
+int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
+  double x[GS_SHOOT_MAXN], xn[GS_SHOOT_MAXN], R[GS_SHOOT_MAXN], dx[GS_SHOOT_MAXN];
+  double *J = NULL, r_abs, r_rel, size = HUGE_VAL;
+  int piv[GS_SHOOT_MAXN];
+  int nx, i, j, rc, it = 0;
+  if (!a || !s) return GS_ERR_INPUT;
+  s->iterations = 0;
+  s->n_hist = 0;
+  s->note = 0;
+  s->outcome = GS_SHOOT_GAVE_UP_OTHER;
+  if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
+  if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
+  nx = ws->U.nx;
+  if (nx > GS_SHOOT_MAXN || nx < 1 || !a->want_monodromy || !a->monodromy || a->n_out < 2 || !a->y_out || !s->x ||
+      !s->scale || !s->hist_abs || !s->hist_rel || s->max_iter < 0 || ws->U.nalg > 0)
+    return set_err(a, GS_ERR_INPUT, "gs_shoot_ws: needs 1 <= nx <= %d, the monodromy, >= 2 samples and the "
+                   "output buffers (explicit models)", GS_SHOOT_MAXN);
+  J = (double*)malloc(sizeof(double) * (size_t)nx * (size_t)nx);
+  if (!J) return set_err(a, GS_ERR_INPUT, "out of memory");
+  memcpy(x, s->x, sizeof(double) * (size_t)nx);
+  a->x0 = x;
+  rc = shoot_eval(ws, a, s, nx, R, &r_abs, &r_rel);
+  if (rc) goto done; /* the first integration fails: the caller raises, as the Python path would */
+  for (;;) {
+    if (a->n_events > a->max_events_out) { s->outcome = GS_SHOOT_GAVE_UP_EVENTS; break; }
+    s->hist_abs[s->n_hist] = r_abs;
+    s->hist_rel[s->n_hist] = r_rel;
+    s->n_hist++;
+    /* converged(ev, size, damping) */
+    if (r_rel <= s->tol) { s->outcome = GS_SHOOT_CONVERGED; s->note = 0; break; }
+    if (size <= s->tol && r_rel <= 100.0 * s->tol) { /* after a full step (the only kind taken here) */
+      s->outcome = GS_SHOOT_CONVERGED;
+      s->note = 1;
+      break;
+    }
+    if (it >= s->max_iter) { s->outcome = GS_SHOOT_GAVE_UP_ITER; break; }
+    if (!isfinite(r_abs)) { s->outcome = GS_SHOOT_GAVE_UP_OTHER; break; }
+    /* the Newton step in scaled variables: (D^-1 (M - I) D) (D^-1 dx) = -D^-1 R */
+    for (i = 0; i < nx; ++i)
+      for (j = 0; j < nx; ++j)
+        J[(size_t)i * nx + j] = (a->monodromy[(size_t)i * nx + j] - (i == j ? 1.0 : 0.0)) * s->scale[j] / s->scale[i];
+    if (shoot_lu(nx, J, piv, s->pivot_tol)) { s->outcome = GS_SHOOT_GAVE_UP_SINGULAR; break; }
+    for (i = 0; i < nx; ++i) dx[i] = -R[i] / s->scale[i];
+    shoot_lu_solve(nx, J, piv, dx);
+    size = 0.0;
+    for (i = 0; i < nx; ++i) {
+      if (!isfinite(dx[i])) size = HUGE_VAL;
+      else if (fabs(dx[i]) > size) size = fabs(dx[i]);
+      dx[i] *= s->scale[i];
+    }
+    if (!isfinite(size)) { s->outcome = GS_SHOOT_GAVE_UP_SINGULAR; break; }
+    /* converged(ev, size, 0): a step below 10 tol is applied without integrating again */
+    if (size <= 10.0 * s->tol && r_rel <= 100.0 * s->tol) {
+      for (i = 0; i < nx; ++i) x[i] += dx[i];
+      s->outcome = GS_SHOOT_CONVERGED;
+      s->note = 2;
+      break;
+    }
+    it++;
+    {
+      double rn_abs, rn_rel, Rn[GS_SHOOT_MAXN];
+      for (i = 0; i < nx; ++i) xn[i] = x[i] + dx[i];
+      a->x0 = xn;
+      rc = shoot_eval(ws, a, s, nx, Rn, &rn_abs, &rn_rel);
+      if (rc == GS_ERR_INTERRUPTED) goto done;
+      if (rc) { rc = 0; a->status = GS_OK; a->errmsg[0] = '\0'; s->outcome = GS_SHOOT_GAVE_UP_RUN; break; }
+      /* the full step must decrease the residual (Python: 1 - 1e-4 of it), else damping */
+      if (!(rn_abs < (1.0 - 1e-4) * r_abs)) { s->outcome = GS_SHOOT_GAVE_UP_DECREASE; break; }
+      memcpy(x, xn, sizeof(double) * (size_t)nx);
+      memcpy(R, Rn, sizeof(double) * (size_t)nx);
+      a->x0 = x;
+      r_abs = rn_abs;
+      r_rel = rn_rel;
+    }
+  }
+  s->iterations = it;
+  memcpy(s->x, x, sizeof(double) * (size_t)nx);
+done:
+  a->x0 = NULL; /* points at this frame */
+  free(J);
+  return rc;
+}

@@ -154,4 +154,36 @@ int gs_check_abi(char* msg, int len);
 /* sizeof(gs_sim_args), so that the Python side can verify its ctypes layout. */
 int gs_sizeof_args(void);
 
+/* ---- Newton's method for a periodic orbit, in C (see gs_shoot_ws in gs_driver.c) ---- */
+#define GS_SHOOT_CONVERGED        0
+#define GS_SHOOT_GAVE_UP_DECREASE 1  /* a full step did not decrease the residual (damping) */
+#define GS_SHOOT_GAVE_UP_ITER     2  /* max_iter steps taken                               */
+#define GS_SHOOT_GAVE_UP_SINGULAR 3  /* a (nearly) singular Newton matrix                  */
+#define GS_SHOOT_GAVE_UP_RUN      4  /* an integration after the first failed              */
+#define GS_SHOOT_GAVE_UP_EVENTS   5  /* more events than the event log holds               */
+#define GS_SHOOT_GAVE_UP_OTHER    6  /* a non-finite residual                              */
+
+typedef struct gs_shoot_args {
+  double  tol;          /* converged: max_i |R_i| / scale_i <= tol (or the noise rules)     */
+  double  scale_floor;  /* scale_i = max(max_k |x_i(t_out[k])|, 1e-9 max_j(...), floor)    */
+  double  pivot_tol;    /* give up when min |u_kk| <= pivot_tol * max(1, max |u_kk|)        */
+  int     max_iter;     /* Newton steps allowed                                            */
+  double* x;            /* [nx] in: the guess; out: the last iterate (the orbit's state)     */
+  double* scale;        /* [nx] out: the scales of the last evaluation                      */
+  double* hist_abs;     /* [max_iter + 1] out: max |R| of each accepted evaluation           */
+  double* hist_rel;     /* [max_iter + 1] out: max |R_i| / scale_i                           */
+  int     n_hist;       /* out: evaluations recorded                                       */
+  int     iterations;   /* out: Newton steps taken                                         */
+  int     note;         /* out: 0 residual <= tol; 1 full step below tol, residual <= 100 tol; */
+                        /* 2 a last step below 10 tol applied without integrating           */
+  int     outcome;      /* out: GS_SHOOT_*                                                  */
+} gs_shoot_args;
+
+/* Newton on x(t_end; t0, x) = x with the run described by `a` (want_monodromy = 1, an output
+ * grid of >= 2 samples whose magnitudes give the scales, x0 ignored: s->x is the start).
+ * After a converged outcome the run buffers of `a` (x_final, monodromy, events, y_out)
+ * hold the last evaluation.  Returns 0 (see s->outcome) or the status of a failed first
+ * run (or of an interrupt). */
+int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s);
+
 #endif

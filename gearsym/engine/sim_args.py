@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import ctypes as C
 
-__all__ = ["GsSimArgs"]
+__all__ = ["GsShootArgs", "GsSimArgs"]
 
 # Pointer members are declared c_void_p (same layout as double*/int*) so that
 # numpy buffers can be passed as plain addresses (fast: no ctypes casts).
@@ -70,4 +70,23 @@ class GsSimArgs(C.Structure):
         ("sens_dt1", _PD),
         ("sens_final", _PD),
         ("sens_out", _PD),
+    ]
+
+
+class GsShootArgs(C.Structure):
+    """ctypes mirror of ``struct gs_shoot_args`` (gs_driver.h); keep in sync."""
+
+    _fields_ = [
+        ("tol", C.c_double),
+        ("scale_floor", C.c_double),
+        ("pivot_tol", C.c_double),
+        ("max_iter", C.c_int),
+        ("x", _PD),
+        ("scale", _PD),
+        ("hist_abs", _PD),
+        ("hist_rel", _PD),
+        ("n_hist", C.c_int),
+        ("iterations", C.c_int),
+        ("note", C.c_int),
+        ("outcome", C.c_int),
     ]

@@ -1,0 +1,136 @@
+"""Newton's method for a periodic orbit in one C call (``gs_shoot_ws``, gs_driver.c).
+
+:func:`shoot_in_c` runs the full-step Newton iteration of single shooting inside the
+driver: one integration with the monodromy per iterate, the step from an LU solve of
+``M - I`` in the variables scaled by the orbit's state magnitudes, the convergence tests
+of :func:`gearsym.analysis.shooting.shoot`.  Where that function would do more than a
+full step (damping, a truncated solve of a nearly singular matrix, a failed trial run,
+the iteration budget) the C iteration gives up and says why; the caller then runs its
+own iteration from its own start, so the outcome never differs from the Python path's
+except by round-off.
+"""
+
+from __future__ import annotations
+
+import ctypes as C
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .errors import EngineInputError
+from .sim_args import GsShootArgs
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .driver import Engine, RunResult
+
+__all__ = ["OUTCOMES", "ShootOutcome", "shoot_in_c"]
+
+#: ``gs_shoot_args.outcome`` codes (gs_driver.h) -> meaning.
+OUTCOMES: dict[int, str] = {
+    0: "converged",
+    1: "a full Newton step did not decrease the residual",
+    2: "the iteration budget is spent",
+    3: "the Newton matrix is nearly singular",
+    4: "an integration after the first failed",
+    5: "more events than the event log holds",
+    6: "a non-finite residual",
+}
+
+
+@dataclass(frozen=True)
+class ShootOutcome:
+    """What :func:`shoot_in_c` returns.
+
+    Attributes
+    ----------
+    converged : bool
+        Whether the C iteration converged (else ``reason`` says why it gave up).
+    reason : str
+        :data:`OUTCOMES` entry.
+    x : ndarray
+        The last iterate (the orbit's state at ``t0`` when converged).
+    run : RunResult or None
+        The last evaluation (x_final, monodromy, events, samples) when converged.
+    scale : ndarray
+        The state scales of the last evaluation.
+    history_abs, history_rel : ndarray
+        ``max |R|`` and ``max |R_i| / scale_i`` of each evaluation.
+    iterations : int
+        Newton steps taken.
+    note : int
+        0: residual <= tol; 1: a full step below ``tol`` with the residual below ``100 tol``;
+        2: a last step below ``10 tol`` applied without integrating again.
+    """
+
+    converged: bool
+    reason: str
+    x: np.ndarray
+    run: RunResult | None
+    scale: np.ndarray
+    history_abs: np.ndarray
+    history_rel: np.ndarray
+    iterations: int
+    note: int
+
+
+def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, grid: np.ndarray, *,
+               method: int, rtol: float, atol: float, max_step: float, max_steps: int, tol: float,
+               scale_floor: float, pivot_tol: float, max_iter: int, max_events_out: int = 4096) -> ShootOutcome:
+    """Single-shooting Newton for ``x(t1; t0, x) = x`` in one driver call.
+
+    Parameters
+    ----------
+    engine
+        The loaded engine (explicit model).
+    x0
+        Start of the iteration, shape (nx,).
+    p
+        Parameter vector (C-contiguous float64).
+    t0, t1
+        The orbit's span.
+    grid
+        Sample times in ``[t0, t1]`` (>= 2) whose state magnitudes are the scales.
+    method
+        ``METHODS`` code (CVODE: BDF or Adams).
+    rtol, atol, max_step, max_steps
+        Integration settings (scalar tolerances; the variational equations use them too).
+    tol, scale_floor, pivot_tol, max_iter
+        See ``gs_shoot_args`` in gs_driver.h.
+    max_events_out
+        Capacity of the event log (the iteration gives up if a run has more).
+
+    Returns
+    -------
+    ShootOutcome
+
+    Raises
+    ------
+    EngineError
+        The first integration failed (a subclass per failure, as :meth:`Engine.run`).
+    KeyboardInterrupt
+        Ctrl-C during an integration.
+    """
+    if engine.implicit or engine.nalg or not hasattr(engine._lib, "gs_shoot_ws"):
+        raise EngineInputError("shooting in C needs an explicit model built with this gearsym")
+    nx = engine.nx
+    xa = np.array(x0, dtype=float).reshape(-1)
+    tout = np.ascontiguousarray(grid, dtype=float)
+    a, buf = engine._prepare(xa, p, float(t0), float(t1), tout, int(method), float(rtol), float(atol), None, True,
+                             int(max_steps), float(max_step), 0.0, 0, 0, 0.0, int(max_events_out))
+    scale = np.empty(nx)
+    h_abs = np.empty(max_iter + 1)
+    h_rel = np.empty(max_iter + 1)
+    s = GsShootArgs()
+    s.tol, s.scale_floor, s.pivot_tol, s.max_iter = float(tol), float(scale_floor), float(pivot_tol), int(max_iter)
+    s.x = xa.ctypes.data
+    s.scale = scale.ctypes.data
+    s.hist_abs, s.hist_rel = h_abs.ctypes.data, h_rel.ctypes.data
+    engine._call(engine._lib.gs_shoot_ws, a, C.byref(s))
+    n = int(s.n_hist)
+    converged = int(s.outcome) == 0
+    run = engine._result(a, buf) if converged else None
+    if isinstance(run, int):  # the event log overflowed (the C side gives up first; kept for safety)
+        run, converged = None, False
+    return ShootOutcome(converged, OUTCOMES.get(int(s.outcome), "unknown"), xa, run, scale, h_abs[:n].copy(),
+                        h_rel[:n].copy(), int(s.iterations), int(s.note))
