@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 #: The C entry points of the driver that do numerical work.
-C_ENTRY_POINTS = ("gs_simulate_ws", "gs_simulate", "gs_shoot_ws", "gs_eval", "gs_eval_period", "gs_eval_period_grad")
+C_ENTRY_POINTS = ("gs_simulate_ws", "gs_simulate", "gs_shoot_ws", "gs_correct_ws", "gs_eval", "gs_eval_period", "gs_eval_period_grad")
 
 
 def bare_c_loop(system: Any, params: dict[str, float], periods: int = 200, rtol: float = 1e-10,

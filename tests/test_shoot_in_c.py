@@ -108,3 +108,61 @@ def test_first_integration_failure_raises_like_the_python_path(ks):
         shoot_in_c(ks.engine, np.array([0.5, 0.0]), p, 0.0, T, np.linspace(0.0, T, 17), method=METHODS["adams"],
                    rtol=1e-11, atol=1e-13, max_step=T / 8, max_steps=5, tol=1e-10, scale_floor=1e-3,
                    pivot_tol=1e-6, max_iter=50)
+
+
+# ------------------------------------------------------------------ the continuation's corrector in C
+def test_corrector_in_c_matches_python_corrector(ks, monkeypatch):
+    """The benchmark's frequency response with the corrector in C and in Python: the same special
+    points (to 1e-8) and the same orbits; F_lambda and the residual at a corrected point equal
+    the Python path's (System.flow with the parameter sensitivity)."""
+    import gearsym.analysis.corrector as corrector_mod
+    from gearsym.analysis.parameter_derivative import exact_f_lambda
+
+    calls = []
+    orig = corrector_mod.Continuer._correct_in_c
+
+    def counting(self, z, row, target):
+        out = orig(self, z, row, target)
+        calls.append(out is not None)
+        return out
+
+    monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", counting)
+    br_c = gearsym.continuation(ks, "Omega", 0.8, 1.0, progress=False)
+    assert sum(calls) >= 0.9 * len(calls) and len(calls) > 20  # the C corrector did the work
+    monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", lambda self, z, row, target: None)
+    br_py = gearsym.continuation(ks, "Omega", 0.8, 1.0, progress=False)
+    kinds = lambda br: sorted((b.type, round(b.value, 6)) for b in br.bifurcations)  # noqa: E731
+    assert kinds(br_c) == kinds(br_py) and len(br_c.bifurcations) >= 3
+    for a, b in zip(sorted(br_c.bifurcations, key=lambda b: b.value), sorted(br_py.bifurcations, key=lambda b: b.value),
+                    strict=True):
+        assert abs(a.value - b.value) < 1e-8
+    # every C point is an orbit of the Python corrector's branch (same parameter -> same orbit)
+    for p in br_c.points[::7]:
+        o = ks.periodic_orbit(x0=p.x0, params={"Omega": p.value}, transient=0)
+        assert np.max(np.abs(o.x0 - p.x0)) < 1e-8
+        assert abs(o.peak_to_peak() - p.peak_to_peak) < 1e-5
+    # the C corrector's F_lambda, residual and monodromy at a branch point against System.flow's
+    # (the state, monodromy and parameter sensitivity integrated by the Python path)
+    from gearsym.analysis.problems import ShootingResidual
+    from gearsym.engine.shoot import correct_in_c
+    from gearsym.sensitivity import directions
+
+    p = br_c.points[len(br_c.points) // 2]
+    rtol, atol = br_c.info["rtol"], br_c.info["atol"]
+    res = ShootingResidual(ks, "Omega", 1, {}, 1, 0.0, rtol, atol)
+    ev = res.evaluate(p.x0, p.value)
+    fl = exact_f_lambda(res, p.x0, p.value)
+    p0 = res.pvec(p.value)
+    z = np.concatenate([p.x0, [p.value]])
+    row = np.zeros(3)
+    row[-1] = 1.0
+    out = correct_in_c(ks.derivative_engine(), z, row, p.value, np.ones(3), np.ones(2), tol=1e-6, max_iter=5,
+                       min_damping=0.125, periods=1.0, lam0=p.value, p0=p0,
+                       D=directions(ks, ["Omega"], p0)[:, 0], atol=atol, t0=0.0, method=METHODS["adams"], rtol=rtol,
+                       max_steps=0)
+    assert out.converged and out.iterations == 0 and out.n_runs == 1
+    assert np.max(np.abs(out.f_lambda - fl)) < 1e-6 * max(1.0, np.abs(fl).max())
+    assert np.max(np.abs(out.f_lambda - ev.Flam)) < 1e-6 * max(1.0, np.abs(fl).max())
+    assert np.max(np.abs(out.R - ev.R)) < 1e-9
+    assert np.max(np.abs(out.monodromy - ev.monodromy)) < 1e-7 * max(1.0, np.abs(ev.monodromy).max())
+    assert len(out.run.events) == len(ev.events)

@@ -189,7 +189,7 @@ def run(res: PeriodicOrbitProblem, u0: np.ndarray, start: float, stop: float, *,
                     complete = True
                     break
                 merge_ref = max(merge_ref, d)
-            stalled = stalled_branch([(float(nd.z[-1]), nd.scale, nd.point.multipliers) for nd in
+            stalled = stalled_branch([(float(nd.z[-1]), nd.size, nd.point.multipliers) for nd in
                                       nodes[-max(stall_points, QUICK_STALL[0]) - 1:]], stall_points,
                                      stall_tol * lam_scale, lam_scale, getattr(res, "rtol", 1e-10))
             if stalled:

@@ -99,11 +99,18 @@ def bracket_root(f: Callable[[float], float], a: float, fa: float, b: float, fb:
     Returns ``(x, a, fa, b, fb)``: the estimate and the final bracket (so that a
     jump of ``f`` -- a discontinuous test function -- can be told from a root).
     ``f`` may return NaN (a failed evaluation): the bracket is then bisected.
+
+    The iteration also stops at a point whose value is at most ``1e-6`` of the end values
+    and whose distance to the root, by the slope of the current bracket, is below
+    ``xtol / 2`` (the bracket need not shrink to ``xtol`` around a root already found:
+    that cost two to four more evaluations, each a corrected branch point).  A jump of
+    ``f`` never stops it that way: its values near the jump are not small.
     """
     if fa == 0:
         return a, a, fa, a, fa
     if fb == 0:
         return b, b, fb, b, fb
+    small = 1e-6 * max(abs(fa), abs(fb))
     ga, gb = fa, fb  # Illinois-modified values for the secant
     side = 0
     width0 = abs(b - a)
@@ -139,6 +146,8 @@ def bracket_root(f: Callable[[float], float], a: float, fa: float, b: float, fb:
             if side == 1:
                 ga *= 0.5
             side = 1
+        if abs(fc) <= small and fb != fa and abs(fc) * abs(b - a) / abs(fb - fa) <= 0.5 * xtol:
+            return c, a, fa, b, fb
     x = a if abs(fa) < abs(fb) else b
     return x, a, fa, b, fb
 

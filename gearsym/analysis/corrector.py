@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, GearsymError
 from .bifurcation import tau_branch_point, tau_neimark_sacker, tau_period_doubling
 from .branch import BranchPoint
 from .meshes import mesh_point
@@ -48,6 +48,7 @@ class Node:
     tau: dict[str, float]
     iterations: int = 0
     scale: np.ndarray | None = None
+    size: float = float("nan")  # max of scale (the stall test reads it at every step)
     graph: bool = False    # the branch is a graph over the parameter between the previous point and this
 
 
@@ -127,6 +128,9 @@ class Continuer:
             No convergence (step to be rejected).
         """
         z = np.asarray(z_guess, float).copy()
+        fast = self._correct_in_c(z, row, target)
+        if fast is not None:
+            return fast
         # F_lambda integrated with the residual (exact sensitivities) is nearly free: then it is
         # computed at every iterate (plain Newton); else the chord described above
         every = bool(getattr(self.res, "flam_with_residual", lambda lam: False)(float(z[-1])))
@@ -181,6 +185,74 @@ class Continuer:
         if ev.Flam is None:
             ev.Flam = self.res._fd_lambda(z[:-1], float(z[-1]), ev.R)
         return z, ev, out.iterations
+
+    def _c_setup(self, lam: float) -> dict | None:
+        """What the corrector in C needs (:func:`gearsym.engine.shoot.correct_in_c`), or ``None``
+        where it does not apply: not single shooting, no exact parameter derivatives, a parameter
+        that does not enter the parameter vector linearly (an argument of a bound parameter),
+        rigid-body modes (anchored least squares), implicit models.  Decided once."""
+        if "_c_setup_cache" in self.__dict__:
+            return self.__dict__["_c_setup_cache"]
+        try:
+            out = self._make_c_setup(lam)
+        except GearsymError:
+            out = None
+        self.__dict__["_c_setup_cache"] = out
+        return out
+
+    def _make_c_setup(self, lam: float) -> dict | None:
+        from ..engine.driver import METHODS
+        from ..sensitivity import directions
+
+        res = self.res
+        system = getattr(res, "system", None)
+        if getattr(res, "segments", None) != 1 or system is None or system.generated.implicit:
+            return None
+        gen = system.generated
+        if res.param not in gen.param_names or res.param in gen.bound or any(
+                res.param in args for _, args in gen.bound.values()):
+            return None
+        if not getattr(res, "flam_with_residual", lambda lam: False)(lam) or self.scaled_anchor(lam) is not None:
+            return None
+        engine = system.derivative_engine()
+        if not hasattr(engine._lib, "gs_correct_ws"):
+            return None
+        method = res.method or str(system.defaults.get("method", "adams"))
+        if method not in ("adams", "bdf") or np.ndim(res.atol):
+            return None
+        p0 = np.array(res.pvec(lam), float)
+        D = directions(system, [res.param], p0, res.params(lam))[:, 0]
+        # p(lambda) must be p0 + (lambda - lam0) D (declared-unit scaling is linear; check it)
+        for d in (1.0, -0.5):
+            pl = res.pvec(lam + d * max(1.0, abs(lam)))
+            if np.max(np.abs(pl - (p0 + d * max(1.0, abs(lam)) * D))) > 1e-12 * max(1.0, float(np.max(np.abs(pl)))):
+                return None
+        return {"engine": engine, "method": METHODS[method], "lam0": float(lam), "p0": p0, "D": D,
+                "max_steps": int(system.defaults.get("max_steps", 0))}
+
+    def _correct_in_c(self, z: np.ndarray, row: np.ndarray, target: float
+                      ) -> tuple[np.ndarray, Evaluation, int] | None:
+        """:meth:`correct` in one C call where it applies (see :meth:`_c_setup`); ``None`` where it
+        does not or where the C iteration gave up (the Python iteration then starts from ``z``)."""
+        from ..engine.shoot import correct_in_c
+        from .problems import log_events, segment_jacobian
+
+        setup = self._c_setup(float(z[-1]))
+        if setup is None:
+            return None
+        res = self.res
+        out = correct_in_c(setup["engine"], z, row, target, self.S, self.Rs, tol=self.tol, max_iter=self.max_newton,
+                           min_damping=0.125, periods=res.periods, lam0=setup["lam0"], p0=setup["p0"],
+                           D=setup["D"], atol=float(res.atol), t0=res.t0, method=setup["method"], rtol=res.rtol,
+                           max_steps=setup["max_steps"])
+        res.n_evals += out.n_runs
+        res.n_integrations += out.n_runs
+        if not out.converged:
+            return None
+        ev_log = out.run.events
+        ev = Evaluation(out.R, segment_jacobian([out.monodromy]), out.f_lambda, monodromy=out.monodromy,
+                        events=log_events(res.system, ev_log.t, ev_log.surface, ev_log.direction))
+        return out.z, ev, out.iterations
 
     def tangent(self, ev: Evaluation, t_ref: np.ndarray, lam: float | None = None) -> np.ndarray:
         """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0`` (and, with
@@ -261,8 +333,9 @@ class Continuer:
         for name, (gmin, gmax) in ext.items():
             tau[f"grazing|{name}|min"] = gmin
             tau[f"grazing|{name}|max"] = gmax
+        scale = np.maximum(np.max(np.abs(Y), axis=0), np.ptp(Y, axis=0))
         return Node(z=np.asarray(z, float).copy(), ev=ev, point=pt, t=t, tau=tau, iterations=iterations,
-                     scale=np.maximum(np.max(np.abs(Y), axis=0), np.ptp(Y, axis=0)))
+                    scale=scale, size=float(np.max(scale)))
 
 
 def graph_like(mu_b: np.ndarray, mu_a: np.ndarray, margin: float = 0.05) -> bool:

@@ -24,8 +24,8 @@ from .stability import rigid_state_basis
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
 
-__all__ = ["Evaluation", "PeriodicOrbitProblem", "ShootingResidual", "flow_events", "segment_jacobian",
-           "segment_times"]
+__all__ = ["Evaluation", "PeriodicOrbitProblem", "ShootingResidual", "flow_events", "log_events",
+           "segment_jacobian", "segment_times"]
 
 
 @dataclass
@@ -327,8 +327,13 @@ def segment_jacobian(Ms: list[np.ndarray]) -> np.ndarray:
 
 def flow_events(system: System, fl: Flow) -> list[Event]:
     """The events of a :class:`~gearsym.results.Flow` as :class:`~gearsym.results.Event` objects."""
-    if not len(fl.event_t):
+    return log_events(system, fl.event_t, fl.event_surface, fl.event_direction)
+
+
+def log_events(system: System, t: np.ndarray, surface: np.ndarray, direction: np.ndarray) -> list[Event]:
+    """Events from the engine's parallel arrays (times, surface indices, directions)."""
+    if not len(t):
         return []
     names = system.surface_names
-    return [Event(t, names[j], d) for t, j, d in zip(fl.event_t.tolist(), np.asarray(fl.event_surface).tolist(),
-                                                     np.asarray(fl.event_direction).tolist(), strict=True)]
+    return [Event(tt, names[j], d) for tt, j, d in zip(np.asarray(t).tolist(), np.asarray(surface).tolist(),
+                                                       np.asarray(direction).tolist(), strict=True)]

@@ -41,13 +41,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ConvergenceError, GearsymError, ParameterError
-from ..results import Event
 from .floquet import monodromy_product
 from .isolation import Isolation, isolation, truncated_solve
 from .newton import NewtonPolicy, damped_newton
 from .options import ShootingOptions, resolve_options
 from .orbit import PeriodicOrbit, finish_orbit
-from .problems import flow_events, segment_jacobian, segment_times
+from .problems import flow_events, log_events, segment_jacobian, segment_times
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
@@ -329,9 +328,7 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
                             method=method, max_step=max_step, n_amp=n_amp)
     if fast is not None:
         ev_log = fast.run.events
-        names = system.surface_names
-        evs = [Event(t, names[j], d) for t, j, d in zip(ev_log.t.tolist(), ev_log.surface.tolist(),
-                                                        ev_log.direction.tolist(), strict=True)]
+        evs = log_events(system, ev_log.t, ev_log.surface, ev_log.direction)
         X, Ms, it, converged = fast.x[None, :].copy(), [fast.run.monodromy], fast.iterations, True
         note = _C_NOTES[fast.note]
         scale_box[0] = fast.scale

@@ -40,7 +40,7 @@ def stalled_branch(points: Sequence[tuple[float, np.ndarray | None, np.ndarray]]
     Parameters
     ----------
     points
-        ``(parameter, state magnitudes or None, multipliers)`` of the branch's points, in
+        ``(parameter, state magnitudes (or their maximum) or None, multipliers)`` of the branch's points, in
         order (at least the last ``max(n, 30) + 1``).
     n, tol
         The parameter staying within ``tol`` over ``n`` points is a stall.
@@ -57,7 +57,8 @@ def stalled_branch(points: Sequence[tuple[float, np.ndarray | None, np.ndarray]]
     def window(k: int) -> tuple[list[float], list[float]]:
         pts = points[-k - 1:]
         return ([float(p[0]) for p in pts],
-                [float(np.max(p[1])) if p[1] is not None else math.nan for p in pts])
+                [math.nan if p[1] is None else (float(p[1]) if np.ndim(p[1]) == 0 else float(np.max(p[1])))
+                 for p in pts])
 
     if len(points) > n:
         lam, size = window(n)

@@ -644,9 +644,10 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
     lib.gs_eval.restype = C.c_int
     lib.gs_eval.argtypes = [C.c_void_p, C.c_int, C.c_int, C.c_void_p, C.c_void_p, C.c_void_p, C.c_void_p,
                             C.c_void_p, C.c_char_p, C.c_int]
-    if hasattr(lib, "gs_shoot_ws"):
-        lib.gs_shoot_ws.restype = C.c_int
-        lib.gs_shoot_ws.argtypes = [C.c_void_p, C.POINTER(GsSimArgs), C.c_void_p]
+    for name in ("gs_shoot_ws", "gs_correct_ws"):  # Newton in C (absent from objects built before them)
+        if hasattr(lib, name):
+            getattr(lib, name).restype = C.c_int
+            getattr(lib, name).argtypes = [C.c_void_p, C.POINTER(GsSimArgs), C.c_void_p]
     size_c = lib.gs_sizeof_args()
     if size_c != C.sizeof(GsSimArgs):
         raise EngineABIError(

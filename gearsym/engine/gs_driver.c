@@ -2595,3 +2595,186 @@ done:
   free(J);
   return rc;
 }
+
+/* ================================================================ the continuation's corrector in C
+ *
+ * gs_correct_ws(): Newton on F(x, lambda) = phi(t0 + P(lambda); t0, x, p(lambda)) - x = 0 plus the
+ * linear constraint row . (z / S) = target, z = (x, lambda): the pseudo-arclength corrector of
+ * gearsym.analysis.corrector.Continuer.correct for single shooting, with the parameter entering
+ * linearly, p(lambda) = p0 + (lambda - lambda0) D, the period P = periods T(p) from gs_period
+ * and dP/dlambda = periods (dT/dp) . D from gs_periodp.  Each iterate is one run with the
+ * monodromy and the parameter sensitivity (F_lambda, exact); the bordered step is solved in
+ * the scaled variables by LU.  The damping (halving down to min_damping while the scaled
+ * residual does not decrease, the last one taken anyway), the divergence test and the
+ * convergence tests are those of the Python corrector; anything else -- a failed run, a
+ * singular bordered matrix, the iteration budget, divergence -- gives up (outcome != 0) and
+ * the caller corrects in Python from the same guess (and fails there the way it always did). */
+static int correct_eval(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c, const double* z, double* p,
+                        double* atolv, double* R, double* M, double* Fl, double* r_scaled) {
+  int nx = c->nx, np = ws->U.np, i, k, rc;
+  double lam = z[nx], T, dT = 0.0, ps = 0.0;
+  const double* in[1];
+  double gbuf[GS_SHOOT_MAXN];
+  for (k = 0; k < np; ++k) {
+    p[k] = c->p0[k] + (lam - c->lam0) * c->D[k];
+    if (c->D[k] != 0.0 && fabs(p[k]) > ps) ps = fabs(p[k]);
+  }
+  in[0] = np ? p : ws->U.dummy;
+  if (gs_call(&ws->U, &ws->U.period, in, 1, &T) || !isfinite(T) || T <= 0.0) return GS_ERR_NONFINITE;
+  if (np > GS_SHOOT_MAXN) return GS_ERR_INPUT;
+  if (np) {
+    if (gs_call(&ws->U, &ws->U.periodp, in, 1, gbuf)) return GS_ERR_NONFINITE;
+    for (k = 0; k < np; ++k)
+      if (c->D[k] != 0.0 && isfinite(gbuf[k])) dT += gbuf[k] * c->D[k];
+  }
+  c->dP = c->periods * dT;
+  a->t_end = a->t0 + c->periods * T;
+  a->max_step = T / 8.0;
+  /* tolerances as System.flow sets them: state, monodromy columns, then atol / |p| for S */
+  if (ps <= 0.0) ps = 1.0;
+  for (i = 0; i < nx; ++i) atolv[(size_t)nx * (nx + 1) + i] = c->atol / ps;
+  a->x0 = z;
+  rc = gs_simulate_ws(ws, a);
+  if (rc) return rc;
+  *r_scaled = 0.0;
+  for (i = 0; i < nx; ++i) {
+    R[i] = a->x_final[i] - z[i];
+    Fl[i] = a->sens_final[i]; /* one direction: row-major [nx][1] */
+    if (!(fabs(R[i]) / c->Rs[i] <= *r_scaled)) *r_scaled = fabs(R[i]) / c->Rs[i];
+  }
+  memcpy(M, a->monodromy, sizeof(double) * (size_t)nx * (size_t)nx);
+  return 0;
+}
+
+int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
+  int nx, n1, i, j, rc = 0, it = 0, piv[GS_SHOOT_MAXN + 1];
+  double *p = NULL, *atolv = NULL, *A = NULL, *M = NULL, *zt = NULL;
+  double R[GS_SHOOT_MAXN], Fl[GS_SHOOT_MAXN], Rt[GS_SHOOT_MAXN], Flt[GS_SHOOT_MAXN], dw[GS_SHOOT_MAXN + 1];
+  double r, r_prev = HUGE_VAL, size = HUGE_VAL, zero = 0.0;
+  if (!a || !c) return GS_ERR_INPUT;
+  c->iterations = 0;
+  c->n_runs = 0;
+  c->outcome = GS_SHOOT_GAVE_UP_OTHER;
+  if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
+  if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
+  nx = ws->U.nx;
+  n1 = nx + 1;
+  if (c->nx != nx || nx > GS_SHOOT_MAXN || ws->U.np > GS_SHOOT_MAXN || ws->U.nalg > 0 || !ws->U.period.present ||
+      !ws->U.periodp.present || !a->monodromy || !a->want_monodromy || a->n_sens != 1 || !a->sens_final ||
+      !c->z || !c->row || !c->S || !c->Rs || !c->p0 || !c->D || !c->R_out || !c->M_out || !c->Flam_out)
+    return set_err(a, GS_ERR_INPUT, "gs_correct_ws: needs an explicit model with gs_period and gs_periodp, the "
+                   "monodromy, one sensitivity direction and the buffers (nx <= %d)", GS_SHOOT_MAXN);
+  p = (double*)malloc(sizeof(double) * (size_t)(ws->U.np > 0 ? ws->U.np : 1));
+  atolv = (double*)malloc(sizeof(double) * (size_t)nx * (size_t)(nx + 2));
+  A = (double*)malloc(sizeof(double) * (size_t)n1 * (size_t)n1);
+  M = (double*)malloc(sizeof(double) * (size_t)nx * (size_t)nx * 2);
+  zt = (double*)malloc(sizeof(double) * (size_t)n1 * 2);
+  if (!p || !atolv || !A || !M || !zt) {
+    rc = set_err(a, GS_ERR_INPUT, "out of memory");
+    goto done;
+  }
+  for (i = 0; i < nx * (nx + 1); ++i) atolv[i] = c->atol;
+  a->atol_vec = atolv;
+  a->p = ws->U.np ? p : NULL;
+  a->sens_dir = c->D;
+  a->sens_dt0 = &zero;
+  a->sens_dt1 = &c->dP;
+  a->n_out = 0;
+  {
+    double* z = zt;          /* the current iterate */
+    double* zn = zt + n1;    /* a trial */
+    double* Mt = M + (size_t)nx * nx;
+    memcpy(z, c->z, sizeof(double) * (size_t)n1);
+    rc = correct_eval(ws, a, c, z, p, atolv, R, M, Fl, &r);
+    c->n_runs++;
+    if (rc) {
+      if (rc == GS_ERR_INTERRUPTED) goto done;
+      rc = 0;
+      a->status = GS_OK;
+      c->outcome = GS_SHOOT_GAVE_UP_RUN;
+      goto done;
+    }
+    for (;;) {
+      double cval = -c->target;
+      if (a->n_events > a->max_events_out) { c->outcome = GS_SHOOT_GAVE_UP_EVENTS; break; }
+      for (j = 0; j < n1; ++j) cval += c->row[j] * z[j] / c->S[j];
+      /* converged(ev, size, damping) */
+      if ((r <= c->tol || (size <= c->tol && r <= 100.0 * c->tol)) && fabs(cval) <= 1e-9) {
+        c->outcome = GS_SHOOT_CONVERGED;
+        break;
+      }
+      if (it >= c->max_iter) { c->outcome = GS_SHOOT_GAVE_UP_ITER; break; }
+      if (!isfinite(r)) { c->outcome = GS_SHOOT_GAVE_UP_OTHER; break; }
+      if (it >= 2 && r > 0.9 * r_prev && r > 100.0 * c->tol) { c->outcome = GS_SHOOT_GAVE_UP_DECREASE; break; }
+      /* the bordered step in scaled variables */
+      for (i = 0; i < nx; ++i) {
+        for (j = 0; j < nx; ++j)
+          A[(size_t)i * n1 + j] = (M[(size_t)i * nx + j] - (i == j ? 1.0 : 0.0)) * c->S[j] / c->Rs[i];
+        A[(size_t)i * n1 + nx] = Fl[i] * c->S[nx] / c->Rs[i];
+        dw[i] = -R[i] / c->Rs[i];
+      }
+      for (j = 0; j < n1; ++j) A[(size_t)nx * n1 + j] = c->row[j];
+      dw[nx] = -cval;
+      if (shoot_lu(n1, A, piv, 0.0)) { c->outcome = GS_SHOOT_GAVE_UP_SINGULAR; break; }
+      shoot_lu_solve(n1, A, piv, dw);
+      size = 0.0;
+      for (j = 0; j < n1; ++j) {
+        if (!isfinite(dw[j])) size = HUGE_VAL;
+        else if (fabs(dw[j]) > size) size = fabs(dw[j]);
+      }
+      if (!isfinite(size)) { c->outcome = GS_SHOOT_GAVE_UP_SINGULAR; break; }
+      /* converged(ev, size, 0): no further integration (the point itself is returned) */
+      if ((r <= c->tol || (size <= c->tol && r <= 100.0 * c->tol)) && fabs(cval) <= 1e-9) {
+        c->outcome = GS_SHOOT_CONVERGED;
+        break;
+      }
+      it++;
+      r_prev = r;
+      {
+        double damping = 1.0, rn = HUGE_VAL;
+        int accepted = 0;
+        while (damping >= c->min_damping) {
+          int last = damping * 0.5 < c->min_damping;
+          for (j = 0; j < n1; ++j) zn[j] = z[j] + damping * dw[j] * c->S[j];
+          rc = correct_eval(ws, a, c, zn, p, atolv, Rt, Mt, Flt, &rn);
+          c->n_runs++;
+          if (rc) {
+            if (rc == GS_ERR_INTERRUPTED) goto done;
+            rc = 0;
+            a->status = GS_OK;
+            a->errmsg[0] = '\0';
+            if (last) break; /* Python raises here: give up */
+            rn = NAN;
+          } else if (isfinite(rn) && (rn < r || rn <= c->tol || last)) {
+            accepted = 1;
+            break;
+          }
+          damping *= 0.5;
+        }
+        if (!accepted) { c->outcome = GS_SHOOT_GAVE_UP_RUN; break; }
+        memcpy(z, zn, sizeof(double) * (size_t)n1);
+        memcpy(R, Rt, sizeof(double) * (size_t)nx);
+        memcpy(Fl, Flt, sizeof(double) * (size_t)nx);
+        memcpy(M, Mt, sizeof(double) * (size_t)nx * nx);
+        r = rn;
+      }
+    }
+    c->iterations = it;
+    c->residual = r;
+    memcpy(c->z, z, sizeof(double) * (size_t)n1);
+    memcpy(c->R_out, R, sizeof(double) * (size_t)nx);
+    memcpy(c->Flam_out, Fl, sizeof(double) * (size_t)nx);
+    memcpy(c->M_out, M, sizeof(double) * (size_t)nx * nx);
+  }
+done:
+  a->x0 = NULL;
+  a->p = NULL;
+  a->atol_vec = NULL;
+  a->sens_dir = a->sens_dt0 = a->sens_dt1 = NULL;
+  free(p);
+  free(atolv);
+  free(A);
+  free(M);
+  free(zt);
+  return rc;
+}

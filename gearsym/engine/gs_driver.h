@@ -186,4 +186,39 @@ typedef struct gs_shoot_args {
  * run (or of an interrupt). */
 int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s);
 
+/* ---- the continuation's pseudo-arclength corrector, in C (see gs_correct_ws in gs_driver.c) ---- */
+typedef struct gs_correct_args {
+  int     nx;           /* states (the unknowns are z = (x, lambda), nx + 1)               */
+  double* z;            /* [nx+1] in: the predicted point; out: the corrected one          */
+  const double* row;    /* [nx+1] the constraint row . (z / S) = target                    */
+  double  target;
+  const double* S;      /* [nx+1] scales of the unknowns                                   */
+  const double* Rs;     /* [nx] scales of the residual rows                                */
+  double  tol;          /* converged: max |R_i| / Rs_i <= tol (or a step below tol with    */
+                        /* the residual below 100 tol), constraint within 1e-9             */
+  int     max_iter;     /* Newton steps allowed                                            */
+  double  min_damping;  /* smallest damping tried (halving from 1)                         */
+  double  periods;      /* orbit period = periods * T(p)                                   */
+  double  lam0;         /* p(lambda) = p0 + (lambda - lam0) D                              */
+  const double* p0;     /* [np]                                                            */
+  const double* D;      /* [np]                                                            */
+  double  atol;         /* absolute tolerance of the states (variational: the same;        */
+                        /* the sensitivity atol / max |p_k| over the entries D moves)      */
+  double  dP;           /* scratch: d P / d lambda of the current run                      */
+  double* R_out;        /* [nx] out: the residual at the corrected point                   */
+  double* M_out;        /* [nx*nx] out: its monodromy, row-major                           */
+  double* Flam_out;     /* [nx] out: its F_lambda                                          */
+  double  residual;     /* out: max |R_i| / Rs_i                                           */
+  int     iterations;   /* out: Newton steps taken                                         */
+  int     n_runs;       /* out: integrations made                                          */
+  int     outcome;      /* out: GS_SHOOT_*                                                 */
+} gs_correct_args;
+
+/* The corrector with the run described by `a` (method, tolerances, t0, max_steps, event log,
+ * x_final / monodromy / sens_final buffers, n_sens = 1; the driver sets x0, p, t_end,
+ * max_step, atol_vec and the sensitivity direction).  After a converged outcome the event
+ * log of `a` holds the events of the corrected point's run.  Returns 0 (see c->outcome) or
+ * the status of an interrupt. */
+int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c);
+
 #endif

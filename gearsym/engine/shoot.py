@@ -1,4 +1,4 @@
-"""Newton's method for a periodic orbit in one C call (``gs_shoot_ws``, gs_driver.c).
+"""Newton's method for a periodic orbit, and the continuation's corrector, in one C call each.
 
 :func:`shoot_in_c` runs the full-step Newton iteration of single shooting inside the
 driver: one integration with the monodromy per iterate, the step from an LU solve of
@@ -24,7 +24,7 @@ from .sim_args import GsShootArgs
 if TYPE_CHECKING:  # pragma: no cover
     from .driver import Engine, RunResult
 
-__all__ = ["OUTCOMES", "ShootOutcome", "shoot_in_c"]
+__all__ = ["OUTCOMES", "CorrectOutcome", "ShootOutcome", "correct_in_c", "shoot_in_c"]
 
 #: ``gs_shoot_args.outcome`` codes (gs_driver.h) -> meaning.
 OUTCOMES: dict[int, str] = {
@@ -134,3 +134,84 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
         run, converged = None, False
     return ShootOutcome(converged, OUTCOMES.get(int(s.outcome), "unknown"), xa, run, scale, h_abs[:n].copy(),
                         h_rel[:n].copy(), int(s.iterations), int(s.note))
+
+
+@dataclass(frozen=True)
+class CorrectOutcome:
+    """What :func:`correct_in_c` returns.
+
+    Attributes
+    ----------
+    converged : bool
+        Whether the C corrector converged (else ``reason`` says why it gave up).
+    reason : str
+        :data:`OUTCOMES` entry.
+    z : ndarray
+        The corrected point ``(x, lambda)`` (the last iterate when not converged).
+    R, monodromy, f_lambda : ndarray
+        Residual, monodromy and ``F_lambda`` at ``z``.
+    run : RunResult or None
+        The run at ``z`` (its event log) when converged.
+    residual : float
+        ``max |R_i| / Rs_i``.
+    iterations, n_runs : int
+        Newton steps taken and integrations made.
+    """
+
+    converged: bool
+    reason: str
+    z: np.ndarray
+    R: np.ndarray
+    monodromy: np.ndarray
+    f_lambda: np.ndarray
+    run: RunResult | None
+    residual: float
+    iterations: int
+    n_runs: int
+
+
+def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
+                 tol: float, max_iter: int, min_damping: float, periods: float, lam0: float, p0: np.ndarray,
+                 D: np.ndarray, atol: float, t0: float, method: int, rtol: float, max_steps: int,
+                 max_events_out: int = 4096) -> CorrectOutcome:
+    """The continuation's pseudo-arclength corrector for single shooting in one driver call.
+
+    ``F(x, lambda) = phi(t0 + P(lambda); t0, x, p(lambda)) - x`` with ``p(lambda) = p0 +
+    (lambda - lam0) D`` and ``P = periods * T(p)``, plus ``row . (z / S) = target``; see
+    ``gs_correct_args`` in gs_driver.h and :meth:`gearsym.analysis.corrector.Continuer.correct`,
+    whose iteration it mirrors.  ``engine`` must be a build with the parameter derivatives.
+
+    Raises
+    ------
+    EngineInputError
+        An engine without the corrector or the derivatives.
+    KeyboardInterrupt
+        Ctrl-C during an integration.
+    """
+    if engine.implicit or engine.nalg or not hasattr(engine._lib, "gs_correct_ws"):
+        raise EngineInputError("the corrector in C needs an explicit model built with this gearsym")
+    from .sim_args import GsCorrectArgs
+
+    nx = engine.nx
+    za = np.array(z, dtype=float).reshape(-1)
+    rowa = np.ascontiguousarray(row, dtype=float)
+    Sa, Rsa = np.ascontiguousarray(S, dtype=float), np.ascontiguousarray(Rs, dtype=float)
+    p0a, Da = np.ascontiguousarray(p0, dtype=float), np.ascontiguousarray(D, dtype=float).reshape(-1)
+    sens = (Da, 1, None, None, False)
+    a, buf = engine._prepare(za[:nx].copy(), p0a, float(t0), float(t0) + 1.0, np.empty(0), int(method), float(rtol),
+                             float(atol), None, True, int(max_steps), 0.0, 0.0, 0, 0, 0.0, int(max_events_out),
+                             0, 0, None, sens)
+    R, M, Fl = np.empty(nx), np.empty((nx, nx)), np.empty(nx)
+    c = GsCorrectArgs()
+    c.nx = nx
+    c.z, c.row, c.target, c.S, c.Rs = za.ctypes.data, rowa.ctypes.data, float(target), Sa.ctypes.data, Rsa.ctypes.data
+    c.tol, c.max_iter, c.min_damping, c.periods = float(tol), int(max_iter), float(min_damping), float(periods)
+    c.lam0, c.p0, c.D, c.atol = float(lam0), p0a.ctypes.data if p0a.size else None, Da.ctypes.data, float(atol)
+    c.R_out, c.M_out, c.Flam_out = R.ctypes.data, M.ctypes.data, Fl.ctypes.data
+    engine._call(engine._lib.gs_correct_ws, a, C.byref(c))
+    converged = int(c.outcome) == 0
+    run = engine._result(a, buf) if converged else None
+    if isinstance(run, int):
+        run, converged = None, False
+    return CorrectOutcome(converged, OUTCOMES.get(int(c.outcome), "unknown"), za, R, M, Fl, run, float(c.residual),
+                          int(c.iterations), int(c.n_runs))

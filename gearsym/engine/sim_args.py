@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import ctypes as C
 
-__all__ = ["GsShootArgs", "GsSimArgs"]
+__all__ = ["GsCorrectArgs", "GsShootArgs", "GsSimArgs"]
 
 # Pointer members are declared c_void_p (same layout as double*/int*) so that
 # numpy buffers can be passed as plain addresses (fast: no ctypes casts).
@@ -88,5 +88,34 @@ class GsShootArgs(C.Structure):
         ("n_hist", C.c_int),
         ("iterations", C.c_int),
         ("note", C.c_int),
+        ("outcome", C.c_int),
+    ]
+
+
+class GsCorrectArgs(C.Structure):
+    """ctypes mirror of ``struct gs_correct_args`` (gs_driver.h); keep in sync."""
+
+    _fields_ = [
+        ("nx", C.c_int),
+        ("z", _PD),
+        ("row", _PD),
+        ("target", C.c_double),
+        ("S", _PD),
+        ("Rs", _PD),
+        ("tol", C.c_double),
+        ("max_iter", C.c_int),
+        ("min_damping", C.c_double),
+        ("periods", C.c_double),
+        ("lam0", C.c_double),
+        ("p0", _PD),
+        ("D", _PD),
+        ("atol", C.c_double),
+        ("dP", C.c_double),
+        ("R_out", _PD),
+        ("M_out", _PD),
+        ("Flam_out", _PD),
+        ("residual", C.c_double),
+        ("iterations", C.c_int),
+        ("n_runs", C.c_int),
         ("outcome", C.c_int),
     ]
