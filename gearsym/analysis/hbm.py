@@ -155,48 +155,21 @@ class HarmonicBalance:
             D[2 * i, 2 * i - 1] = -k * self.w
         self.D = D
         self.uniform = self.quadrature.startswith("uniform")
-        gen = system.generated
-        self._rhs = gen.casadi_function("gs_rhs").map(M)
-        self._jac = gen.casadi_function("gs_jac").map(M)
-        self._sw = gen.casadi_function("gs_sw").map(M) if gen.nsw else None
-        self._P = np.tile(self.p[:, None], (1, M))
-        self._sched = self._sched_modes()
+        # f and df/dx at the samples are evaluated by the engine (gs_eval), in the mode the
+        # driver would use there: the side of each surface from the sign of g, the schedule
+        # cycle and segment from t (the one schedule decoder, in C)
+        self._engine = system.engine
         self.n_evals = 0
-
-    def _sched_modes(self) -> np.ndarray:
-        gen = self.system.generated
-        if not gen.schedules:
-            return np.zeros((0, self.M))
-        s = np.asarray(gen.casadi_function("gs_sched")(self.p)).ravel()
-        rows = []
-        i = 0
-        for sch in gen.schedules:
-            P = s[i]
-            br = s[i + 1: i + 1 + sch["n_breaks"]]
-            i += 1 + sch["n_breaks"]
-            u = self.t / P
-            n = np.floor(u)
-            seg = np.searchsorted(br, u - n, side="right") - 1
-            rows += [n, seg.astype(float)]
-        return np.array(rows)
 
     # -------------------------------------------------------------- series
     def samples_of(self, C: np.ndarray) -> np.ndarray:
         """Time samples ``x(t_m)``, shape (M, nx), of coefficients ``C`` (nc, nx)."""
         return self.E @ C
 
-    def _modes(self, X: np.ndarray) -> np.ndarray:
-        if self._sw is not None:
-            g = np.asarray(self._sw(self.t[None, :], X.T, self._P))
-            sig = np.where(g >= 0, 1.0, -1.0)
-        else:
-            sig = np.zeros((0, self.M))
-        return np.vstack([sig, self._sched])
-
     def residual(self, C: np.ndarray) -> np.ndarray:
         """``R(C) = D C - DFT(f(t_m, x(t_m)))``, shape (nc, nx)."""
         X = self.samples_of(C)
-        F = np.asarray(self._rhs(self.t[None, :], X.T, self._P, self._modes(X))).T  # (M, nx)
+        F = self._engine.evaluate("rhs", self.t, X, self.p)  # (M, nx)
         self.n_evals += 1
         return self.D @ C - self.Ep @ F
 
@@ -209,8 +182,7 @@ class HarmonicBalance:
         DFT of the samples aliases them), in ``O(nc^2)`` per block instead of ``O(nc^2 M)``.
         """
         X = self.samples_of(C)
-        Jm = np.asarray(self._jac(self.t[None, :], X.T, self._P, self._modes(X)))  # (nx, nx*M)
-        Jm = Jm.reshape(self.nx, self.M, self.nx).transpose(1, 0, 2)  # (M, i, j)
+        Jm = self._engine.evaluate("jac", self.t, X, self.p)  # (M, i, j): d f_i / d x_j
         nc = self.nc
         n = self.nx * nc
         Jr = np.zeros((n, n))

@@ -46,23 +46,21 @@ def excitation_harmonics(system: System, period: float, x: np.ndarray, params: M
         Harmonic number (>= 1) -> largest relative amplitude over the entries.
     """
     gen = system.generated
+    if gen.schedules:
+        return {}  # scheduled jumps: every harmonic is excited; the caller keeps 1..H
     p = system.param_vector(params)
     t = t0 + period * np.arange(samples) / samples
-    X = np.tile(np.asarray(x, float)[:, None], (1, samples))
-    Pm = np.tile(p[:, None], (1, samples))
+    X = np.tile(np.asarray(x, float)[None, :], (samples, 1))
+    sigma = None
     if gen.nsw:
         # one contact mode over the whole period (that of the first sample): the spectrum of
         # the time dependence, not of the switching a constant state sees as the backlash moves
-        g = np.asarray(gen.casadi_function("gs_sw")(t[0], np.asarray(x, float), p)).ravel()
-        modes = np.tile(np.where(g >= 0, 1.0, -1.0)[:, None], (1, samples))
-    else:
-        modes = np.zeros((0, samples))
-    if gen.schedules:
-        return {}  # scheduled jumps: every harmonic is excited; the caller keeps 1..H
-    F = np.asarray(gen.casadi_function("gs_rhs").map(samples)(t[None, :], X, Pm, modes))
-    J = np.asarray(gen.casadi_function("gs_jac").map(samples)(t[None, :], X, Pm, modes))
-    nx = F.shape[0]
-    rows = np.vstack([F, J.reshape(nx, samples, nx).transpose(0, 2, 1).reshape(-1, samples)])
+        g = system.engine.evaluate("sw", t[:1], X[:1], p)[0]
+        sigma = np.tile(np.where(g >= 0, 1.0, -1.0)[None, :], (samples, 1))
+    F = system.engine.evaluate("rhs", t, X, p, sigma)  # (samples, nx)
+    J = system.engine.evaluate("jac", t, X, p, sigma)  # (samples, i, j)
+    nx = F.shape[1]
+    rows = np.vstack([F.T, J.reshape(samples, nx * nx).T])
     A = np.abs(np.fft.rfft(rows, axis=1))[:, 1:samples // 2]
     out: dict[int, float] = {}
     for a in A:
