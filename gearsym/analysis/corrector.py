@@ -202,11 +202,13 @@ class Continuer:
 
     def _make_c_setup(self, lam: float) -> dict | None:
         from ..engine.driver import METHODS
+        from ..engine.shoot import MAX_STATES
         from ..sensitivity import directions
 
         res = self.res
         system = getattr(res, "system", None)
-        if getattr(res, "segments", None) != 1 or system is None or system.generated.implicit:
+        if getattr(res, "segments", None) != 1 or system is None or system.generated.implicit or \
+                system.generated.nx > MAX_STATES or len(system.generated.param_names) > MAX_STATES:
             return None
         gen = system.generated
         if res.param not in gen.param_names or res.param in gen.bound or any(

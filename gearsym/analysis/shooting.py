@@ -404,11 +404,11 @@ def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.n
     (:func:`gearsym.engine.shoot.shoot_in_c`), or ``None`` where it does not apply (implicit
     models, a build without it) or gave up (the caller then iterates in Python)."""
     from ..engine.driver import METHODS
-    from ..engine.shoot import shoot_in_c
+    from ..engine.shoot import MAX_STATES, shoot_in_c
     from .isolation import monodromy_error
 
     gen = system.generated
-    if gen.implicit or not hasattr(system.engine._lib, "gs_shoot_ws"):
+    if gen.implicit or gen.nx > MAX_STATES or not hasattr(system.engine._lib, "gs_shoot_ws"):
         return None
     method = method or str(system.defaults.get("method", "adams"))
     if method not in ("adams", "bdf"):

@@ -24,7 +24,10 @@ from .sim_args import GsShootArgs
 if TYPE_CHECKING:  # pragma: no cover
     from .driver import Engine, RunResult
 
-__all__ = ["OUTCOMES", "CorrectOutcome", "ShootOutcome", "correct_in_c", "shoot_in_c"]
+__all__ = ["MAX_STATES", "OUTCOMES", "CorrectOutcome", "ShootOutcome", "correct_in_c", "shoot_in_c"]
+
+#: Largest model the C iterations take (``GS_SHOOT_MAXN`` in gs_driver.c); larger ones iterate in Python.
+MAX_STATES = 256
 
 #: ``gs_shoot_args.outcome`` codes (gs_driver.h) -> meaning.
 OUTCOMES: dict[int, str] = {
