@@ -73,7 +73,7 @@ def test_damped_steps_fall_back_to_python(ks, monkeypatch):
     grid = np.linspace(0.0, T, 17)
     out = shoot_in_c(ks.engine, guess, p, 0.0, T, grid, method=METHODS["adams"], rtol=1e-11, atol=1e-13,
                      max_step=T / 8, max_steps=0, tol=1e-10, scale_floor=1e-3, pivot_tol=1e-6, max_iter=50)
-    assert not out.converged and out.reason == "a full Newton step did not decrease the residual"
+    assert not out.converged and out.reason.startswith("a full Newton step did not decrease the residual")
     orbit = ks.periodic_orbit(x0=guess, transient=0)
     assert "engine" not in orbit.history[-1]
     assert any(h["step"] not in (None, 1.0) for h in orbit.history)  # damped

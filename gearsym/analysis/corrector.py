@@ -249,6 +249,16 @@ class Continuer:
                            max_steps=setup["max_steps"])
         res.n_evals += out.n_runs
         res.n_integrations += out.n_runs
+        # the failures the Python iteration would meet the same way are raised as it raises them
+        # (not iterated again); the others (a failed run, a singular matrix, a full event log)
+        # are left to it
+        if out.code == 2:
+            raise ConvergenceError(f"corrector: no convergence in {out.iterations} Newton steps "
+                                   f"(residual {out.residual:.3g})")
+        if out.code == 1:
+            raise ConvergenceError(f"corrector: Newton diverges (residual {out.residual:.3g})")
+        if out.code == 6:
+            raise ConvergenceError("corrector: non-finite residual")
         if not out.converged:
             return None
         ev_log = out.run.events

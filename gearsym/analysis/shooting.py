@@ -419,8 +419,9 @@ def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.n
     grid = np.linspace(t0, t1, max(int(n_amp), 2))
     grid[-1] = t1
     # the Python step drops singular values of the scaled M - I below monodromy_error; give up
-    # well before a pivot gets near that level
-    pivot_tol = 1e3 * monodromy_error(1.0, rtol)
+    # when a pivot gets within a factor 10 of that level (a stricter factor, 1e3, sent
+    # lightly damped 48- and 130-state models to the Python iteration after a wasted C one)
+    pivot_tol = 10 * monodromy_error(1.0, rtol)
     out = shoot_in_c(system.engine, x, pvec, t0, t1, grid, method=METHODS[method], rtol=rtol, atol=atol,
                      max_step=max_step, max_steps=max_steps, tol=tol, scale_floor=atol / tol,
                      pivot_tol=pivot_tol, max_iter=max_iter)

@@ -32,7 +32,7 @@ MAX_STATES = 256
 #: ``gs_shoot_args.outcome`` codes (gs_driver.h) -> meaning.
 OUTCOMES: dict[int, str] = {
     0: "converged",
-    1: "a full Newton step did not decrease the residual",
+    1: "a full Newton step did not decrease the residual (the corrector: its divergence test)",
     2: "the iteration budget is spent",
     3: "the Newton matrix is nearly singular",
     4: "an integration after the first failed",
@@ -159,6 +159,8 @@ class CorrectOutcome:
         ``max |R_i| / Rs_i``.
     iterations, n_runs : int
         Newton steps taken and integrations made.
+    code : int
+        The outcome code (:data:`OUTCOMES`).
     """
 
     converged: bool
@@ -171,6 +173,7 @@ class CorrectOutcome:
     residual: float
     iterations: int
     n_runs: int
+    code: int = 0
 
 
 def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
@@ -217,4 +220,4 @@ def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, 
     if isinstance(run, int):
         run, converged = None, False
     return CorrectOutcome(converged, OUTCOMES.get(int(c.outcome), "unknown"), za, R, M, Fl, run, float(c.residual),
-                          int(c.iterations), int(c.n_runs))
+                          int(c.iterations), int(c.n_runs), int(c.outcome))
