@@ -291,8 +291,11 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         return dX, rel(dX) if np.all(np.isfinite(dX)) else math.inf, (
             {"dropped_directions": n_drop} if n_drop else {})
 
+    it_offset = [0]  # Newton steps the C iteration took before the Python one resumed
+
     def on_step(it: int, ev: tuple, damping: float, notes: dict[str, Any]) -> None:
-        history.append({"iteration": it, "residual": norm(ev), "relative": rel(ev[0]), "step": damping, **notes})
+        history.append({"iteration": it + it_offset[0], "residual": norm(ev), "relative": rel(ev[0]),
+                        "step": damping, **notes})
 
     def stalled(X: np.ndarray, ev: tuple, dX: np.ndarray, last_err: str) -> tuple[str, Any]:
         nonlocal relaxed
@@ -323,9 +326,18 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     fast = None
     if segments == 1 and anchor is None:
         # the full-step Newton iteration in one C call; where it gives up (damping, a nearly
-        # singular step, ...) the Python iteration below starts from the same guess
+        # singular step, ...) the Python iteration below resumes from its last accepted
+        # iterate (the steps before are the ones it would have taken itself)
         fast = _newton_in_c(system, X[0], s[0], s[1], pvec, rtol=rtol, atol=atol, tol=tol, max_iter=max_iter,
                             method=method, max_step=max_step, n_amp=n_amp)
+    if fast is not None and not fast.converged:
+        if fast.code in (1, 2, 3, 4) and fast.iterations >= 1:
+            X = fast.x[None, :].copy()
+            history.extend({"iteration": i, "residual": float(fast.history_abs[i]),
+                            "relative": float(fast.history_rel[i]), "step": None if i == 0 else 1.0, "engine": "C"}
+                           for i in range(fast.iterations + 1))
+            it_offset[0] = fast.iterations
+        fast = None
     if fast is not None:
         ev_log = fast.run.events
         evs = log_events(system, ev_log.t, ev_log.surface, ev_log.direction)
@@ -342,12 +354,14 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         failure = ""
     else:
         ev0 = evaluate(X)
-        history.append({"iteration": 0, "residual": norm(ev0), "relative": rel(ev0[0]), "step": None})
+        if not it_offset[0]:
+            history.append({"iteration": 0, "residual": norm(ev0), "relative": rel(ev0[0]), "step": None})
         out = damped_newton(X, ev0, evaluate=evaluate, norm=norm, direction=direction, converged=is_converged,
-                            policy=NewtonPolicy(max_iter=max_iter, min_damping=min_step, apply_final_step=True),
+                            policy=NewtonPolicy(max_iter=max_iter - it_offset[0], min_damping=min_step,
+                                                apply_final_step=True),
                             stalled=stalled,
                             on_step=on_step)
-        X, (R, Ms, evs), it, converged = out.x, out.ev, out.iterations, out.converged
+        X, (R, Ms, evs), it, converged = out.x, out.ev, out.iterations + it_offset[0], out.converged
         rnorm, rel_res = norm(out.ev), rel(R)
         failure = ""
         if converged and out.note and history[-1].get("note") is None and out.note != "noise floor":
@@ -401,8 +415,8 @@ _C_NOTES = {0: "", 1: "Newton step below tolerance (residual at the integration 
 def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.ndarray, *, rtol: float, atol: float,
                  tol: float, max_iter: int, method: str | None, max_step: float, n_amp: int) -> Any:
     """The full-step Newton iteration of :func:`shoot` in one C call
-    (:func:`gearsym.engine.shoot.shoot_in_c`), or ``None`` where it does not apply (implicit
-    models, a build without it) or gave up (the caller then iterates in Python)."""
+    (:func:`gearsym.engine.shoot.shoot_in_c`; its outcome, converged or not), or ``None`` where
+    it does not apply (implicit models, a build without it)."""
     from ..engine.driver import METHODS
     from ..engine.shoot import MAX_STATES, shoot_in_c
     from .isolation import monodromy_error
@@ -425,7 +439,7 @@ def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.n
     out = shoot_in_c(system.engine, x, pvec, t0, t1, grid, method=METHODS[method], rtol=rtol, atol=atol,
                      max_step=max_step, max_steps=max_steps, tol=tol, scale_floor=atol / tol,
                      pivot_tol=pivot_tol, max_iter=max_iter)
-    return out if out.converged else None
+    return out
 
 
 def _anchor_rows(system: System, params: Mapping[str, float] | None, segments: int) -> np.ndarray | None:

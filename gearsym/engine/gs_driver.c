@@ -2571,7 +2571,6 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
       s->note = 2;
       break;
     }
-    it++;
     {
       double rn_abs, rn_rel, Rn[GS_SHOOT_MAXN];
       for (i = 0; i < nx; ++i) xn[i] = x[i] + dx[i];
@@ -2581,6 +2580,7 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
       if (rc) { rc = 0; a->status = GS_OK; a->errmsg[0] = '\0'; s->outcome = GS_SHOOT_GAVE_UP_RUN; break; }
       /* the full step must decrease the residual (Python: 1 - 1e-4 of it), else damping */
       if (!(rn_abs < (1.0 - 1e-4) * r_abs)) { s->outcome = GS_SHOOT_GAVE_UP_DECREASE; break; }
+      it++; /* an accepted step (a rejected one leaves x, the last accepted iterate, and it) */
       memcpy(x, xn, sizeof(double) * (size_t)nx);
       memcpy(R, Rn, sizeof(double) * (size_t)nx);
       a->x0 = x;

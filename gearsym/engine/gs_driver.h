@@ -173,7 +173,7 @@ typedef struct gs_shoot_args {
   double* hist_abs;     /* [max_iter + 1] out: max |R| of each accepted evaluation           */
   double* hist_rel;     /* [max_iter + 1] out: max |R_i| / scale_i                           */
   int     n_hist;       /* out: evaluations recorded                                       */
-  int     iterations;   /* out: Newton steps taken                                         */
+  int     iterations;   /* out: Newton steps accepted (s->x is the last accepted iterate)   */
   int     note;         /* out: 0 residual <= tol; 1 full step below tol, residual <= 100 tol; */
                         /* 2 a last step below 10 tol applied without integrating           */
   int     outcome;      /* out: GS_SHOOT_*                                                  */

@@ -32,7 +32,7 @@ MAX_STATES = 256
 #: ``gs_shoot_args.outcome`` codes (gs_driver.h) -> meaning.
 OUTCOMES: dict[int, str] = {
     0: "converged",
-    1: "a full Newton step did not decrease the residual (the corrector: its divergence test)",
+    1: "the residual did not decrease (a full shooting step; the corrector's divergence test)",
     2: "the iteration budget is spent",
     3: "the Newton matrix is nearly singular",
     4: "an integration after the first failed",
@@ -64,6 +64,9 @@ class ShootOutcome:
     note : int
         0: residual <= tol; 1: a full step below ``tol`` with the residual below ``100 tol``;
         2: a last step below ``10 tol`` applied without integrating again.
+    code : int
+        The outcome code (:data:`OUTCOMES`).  When the iteration gave up after ``iterations``
+        accepted full steps, ``x`` is the last accepted iterate.
     """
 
     converged: bool
@@ -75,6 +78,7 @@ class ShootOutcome:
     history_rel: np.ndarray
     iterations: int
     note: int
+    code: int = 0
 
 
 def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, grid: np.ndarray, *,
@@ -136,7 +140,7 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
     if isinstance(run, int):  # the event log overflowed (the C side gives up first; kept for safety)
         run, converged = None, False
     return ShootOutcome(converged, OUTCOMES.get(int(s.outcome), "unknown"), xa, run, scale, h_abs[:n].copy(),
-                        h_rel[:n].copy(), int(s.iterations), int(s.note))
+                        h_rel[:n].copy(), int(s.iterations), int(s.note), int(s.outcome))
 
 
 @dataclass(frozen=True)
