@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import test_shooting
 from test_shooting import P0, SCENE, ref_flow
 
 import gearsym
@@ -20,15 +21,8 @@ from gearsym.engine.driver import METHODS
 from gearsym.engine.shoot import shoot_in_c
 from gearsym.errors import ConvergenceError
 
-
-@pytest.fixture(scope="module")
-def ks():
-    return gearsym.load_scene(SCENE).compile()
-
-
-@pytest.fixture(scope="module")
-def ks_cd():
-    return gearsym.load_scene(SCENE, effects={"contact_damping": True}).compile()
+#: the fixtures of tests/test_shooting.py (the benchmark scene, and with contact damping)
+ks, ks_cd = test_shooting.ks, test_shooting.ks_cd
 
 
 def python_only(monkeypatch):
