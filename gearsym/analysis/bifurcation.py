@@ -25,6 +25,7 @@ unstable orbits; only their sign and continuity matter.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -56,13 +57,22 @@ def tau_branch_point(mu: np.ndarray) -> float:
     return float(np.real(np.prod((mu - 1.0) / (1.0 + np.abs(mu)))))
 
 
+@functools.lru_cache(maxsize=64)
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs ``i < j`` of ``n`` multipliers (cached: asked at every branch point)."""
+    i, j = np.triu_indices(n, 1)
+    i.flags.writeable = False
+    j.flags.writeable = False
+    return i, j
+
+
 def tau_neimark_sacker(mu: np.ndarray) -> float:
     """Sign-carrying test function of a pair with ``mu_i mu_j = 1`` (complex pair on the circle)."""
     mu = np.asarray(mu, complex)
     n = len(mu)
     if n < 2 or not np.all(np.isfinite(mu)):
         return math.nan if n and not np.all(np.isfinite(mu)) else 1.0
-    i, j = np.triu_indices(n, 1)
+    i, j = _pairs(n)
     q = mu[i] * mu[j]
     return float(np.real(np.prod((q - 1.0) / (1.0 + np.abs(q)))))
 
