@@ -212,7 +212,6 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     n_amp = max(3, int(math.ceil(16 / segments)) + 1)
     pvec = system.param_vector(params)
     max_step = T / 8 if T else 0.0  # System.flow's default, computed once
-    amp = np.zeros(nx)
     scale_box = [np.ones(nx)]  # the scales of the last evaluation (see scales())
 
     def evaluate(X: np.ndarray, jac: bool = True):
@@ -225,7 +224,6 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
             Ms.append(M)
             evs.extend(ev)
             a = np.maximum(a, ai)
-        amp[:] = a
         # per-state scale: the largest |x_i| along the current trajectory (states in
         # different units, e.g. m and m/s, each get a relative tolerance)
         # (floor atol/tol: a residual below the integrator's atol always counts as
@@ -344,7 +342,6 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         X, Ms, it, converged = fast.x[None, :].copy(), [fast.run.monodromy], fast.iterations, True
         note = _C_NOTES[fast.note]
         scale_box[0] = fast.scale
-        amp[:] = fast.scale
         history.extend({"iteration": i, "residual": float(fast.history_abs[i]), "relative": float(fast.history_rel[i]),
                         "step": None if i == 0 else 1.0} for i in range(len(fast.history_abs)))
         if note:
