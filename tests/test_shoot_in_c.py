@@ -188,3 +188,26 @@ def test_python_iteration_resumes_from_the_last_c_iterate(ks, monkeypatch):
     assert np.max(np.abs(orbit.x0 - py.x0)) < 1e-10
     for a_, b_ in zip(orbit.history, py.history, strict=True):
         assert a_["residual"] == pytest.approx(b_["residual"], rel=1e-3, abs=1e-12)
+
+
+def test_wrong_sizes_are_refused_before_c_reads_them(ks):
+    """Arrays of the wrong length never reach the C iterations (they would be read out of bounds)."""
+    from gearsym.engine.errors import EngineInputError
+    from gearsym.engine.shoot import correct_in_c
+
+    p = ks.param_vector()
+    T = ks.period()
+    kw = dict(method=METHODS["adams"], rtol=1e-10, atol=1e-12, max_step=T / 8, max_steps=0, tol=1e-10,
+              scale_floor=1e-3, pivot_tol=1e-6, max_iter=5)
+    with pytest.raises(EngineInputError, match="x0 has 3 entries"):
+        shoot_in_c(ks.engine, np.zeros(3), p, 0.0, T, np.linspace(0, T, 5), **kw)
+    with pytest.raises(EngineInputError, match="p has"):
+        shoot_in_c(ks.engine, np.zeros(2), p[:-1], 0.0, T, np.linspace(0, T, 5), **kw)
+    with pytest.raises(EngineInputError, match="sample times"):
+        shoot_in_c(ks.engine, np.zeros(2), p, 0.0, T, np.array([T]), **kw)
+    ckw = dict(tol=1e-9, max_iter=5, min_damping=0.125, periods=1.0, lam0=0.9, p0=p, D=np.zeros(len(p)), atol=1e-12,
+               t0=0.0, method=METHODS["adams"], rtol=1e-10, max_steps=0)
+    with pytest.raises(EngineInputError, match="row has 2 entries"):
+        correct_in_c(ks.derivative_engine(), np.zeros(3), np.zeros(2), 0.0, np.ones(3), np.ones(2), **ckw)
+    with pytest.raises(EngineInputError, match="Rs has 3 entries"):
+        correct_in_c(ks.derivative_engine(), np.zeros(3), np.zeros(3), 0.0, np.ones(3), np.ones(3), **ckw)

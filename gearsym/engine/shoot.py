@@ -41,6 +41,14 @@ OUTCOMES: dict[int, str] = {
 }
 
 
+def _check_sizes(engine: Engine, **arrays: tuple[np.ndarray, int]) -> None:
+    """Every array has the length the C side reads (a wrong one would be read out of bounds)."""
+    for name, (a, n) in arrays.items():
+        if a.shape[0] != n:
+            raise EngineInputError(f"{name} has {a.shape[0]} entries, the C iteration needs {n} "
+                                   f"(model: nx={engine.nx}, np={engine.np})")
+
+
 @dataclass(frozen=True)
 class ShootOutcome:
     """What :func:`shoot_in_c` returns.
@@ -122,7 +130,11 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
         raise EngineInputError("shooting in C needs an explicit model built with this gearsym")
     nx = engine.nx
     xa = np.array(x0, dtype=float).reshape(-1)
-    tout = np.ascontiguousarray(grid, dtype=float)
+    tout = np.ascontiguousarray(grid, dtype=float).reshape(-1)
+    p = np.ascontiguousarray(p, dtype=float).reshape(-1)
+    _check_sizes(engine, x0=(xa, nx), p=(p, engine.np))
+    if tout.shape[0] < 2 or nx > MAX_STATES or int(max_iter) < 0:
+        raise EngineInputError(f"shooting in C needs >= 2 sample times, nx <= {MAX_STATES} and max_iter >= 0")
     a, buf = engine._prepare(xa, p, float(t0), float(t1), tout, int(method), float(rtol), float(atol), None, True,
                              int(max_steps), float(max_step), 0.0, 0, 0, 0.0, int(max_events_out))
     scale = np.empty(nx)
@@ -204,9 +216,13 @@ def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, 
 
     nx = engine.nx
     za = np.array(z, dtype=float).reshape(-1)
-    rowa = np.ascontiguousarray(row, dtype=float)
-    Sa, Rsa = np.ascontiguousarray(S, dtype=float), np.ascontiguousarray(Rs, dtype=float)
-    p0a, Da = np.ascontiguousarray(p0, dtype=float), np.ascontiguousarray(D, dtype=float).reshape(-1)
+    rowa = np.ascontiguousarray(row, dtype=float).reshape(-1)
+    Sa, Rsa = np.ascontiguousarray(S, dtype=float).reshape(-1), np.ascontiguousarray(Rs, dtype=float).reshape(-1)
+    p0a, Da = np.ascontiguousarray(p0, dtype=float).reshape(-1), np.ascontiguousarray(D, dtype=float).reshape(-1)
+    _check_sizes(engine, z=(za, nx + 1), row=(rowa, nx + 1), S=(Sa, nx + 1), Rs=(Rsa, nx), p0=(p0a, engine.np),
+                 D=(Da, engine.np))
+    if nx > MAX_STATES or engine.np > MAX_STATES or int(max_iter) < 0:
+        raise EngineInputError(f"the corrector in C needs nx, np <= {MAX_STATES} and max_iter >= 0")
     sens = (Da, 1, None, None, False)
     a, buf = engine._prepare(za[:nx].copy(), p0a, float(t0), float(t0) + 1.0, np.empty(0), int(method), float(rtol),
                              float(atol), None, True, int(max_steps), 0.0, 0.0, 0, 0, 0.0, int(max_events_out),
