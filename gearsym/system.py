@@ -174,7 +174,7 @@ class System(Evaluations, SensitivityMethods):
         """
         if not self.generated.dimensionless:
             return np.ones(self.generated.nx)
-        s = np.asarray(self.generated.casadi_function("gs_scales")(self.param_vector(params))).ravel()
+        s = self._reference_scales(params)
         T, q = s[0], s[1:]
         return np.concatenate([q, q / T])
 
@@ -193,7 +193,11 @@ class System(Evaluations, SensitivityMethods):
         """
         if not self.generated.dimensionless:
             return 1.0
-        return float(np.asarray(self.generated.casadi_function("gs_scales")(self.param_vector(params))).ravel()[0])
+        return float(self._reference_scales(params)[0])
+
+    def _reference_scales(self, params: Mapping[str, float] | None) -> np.ndarray:
+        """``[t_ref, q_ref...]`` of a dimensionless system (the generated ``gs_scales``)."""
+        return np.asarray(self.generated.casadi_function("gs_scales")(self.param_vector(params))).ravel()
 
     def param_vector(self, params: Mapping[str, float] | None = None) -> np.ndarray:
         """The engine's parameter vector (SI), with ``params`` overriding the current values.

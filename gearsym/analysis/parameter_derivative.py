@@ -97,19 +97,7 @@ def exact_f_lambda(res: Any, u: np.ndarray, lam: float) -> np.ndarray | None:
     setup = sensitivity_setup(res, lam)
     if setup is None:
         return None
-    inputs, p, dP = setup
-    system = res.system
-    N, nx = res.segments, res.nx
-    X = np.asarray(u, float).reshape(N, nx)
-    s = res.times(lam)
-    out = np.empty(N * nx)
-    try:
-        for i in range(N):
-            fl = system.flow(X[i], float(s[i]), float(s[i + 1]), p, rtol=res.rtol, atol=res.atol,
-                             monodromy=False, method=res.method, sensitivities=[res.param],
-                             span_derivative=(dP * i / N, dP * (i + 1) / N), inputs=inputs)
-            res.n_integrations += 1
-            out[i * nx:(i + 1) * nx] = fl.sensitivity[:, 0]
+    try:  # the state and one sensitivity column per segment, no monodromy
+        return res._integrate(u, lam, False, setup, count=False).Flam
     except GearsymError:  # e.g. a grazing event: the event-time derivative is infinite
         return None
-    return out

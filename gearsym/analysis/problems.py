@@ -248,7 +248,11 @@ class ShootingResidual(PeriodicOrbitProblem):
             ev.Flam = self._fd_lambda(u, lam, ev.R)
         return ev
 
-    def _integrate(self, u: np.ndarray, lam: float, jac: bool, setup: tuple | None) -> Evaluation:
+    def _integrate(self, u: np.ndarray, lam: float, jac: bool, setup: tuple | None, count: bool = True
+                   ) -> Evaluation:
+        """One integration per segment: the residual, with the monodromy (``jac``) and the
+        parameter sensitivity (``setup`` from :func:`sensitivity_setup`) when asked for;
+        ``count``: a residual evaluation (not ``F_lambda`` alone, see :func:`exact_f_lambda`)."""
         N, nx = self.segments, self.nx
         X = np.asarray(u, float).reshape(N, nx)
         s = self.times(lam)
@@ -271,9 +275,9 @@ class ShootingResidual(PeriodicOrbitProblem):
             if Flam is not None:
                 Flam[i * nx:(i + 1) * nx] = fl.sensitivity[:, 0]
         R = np.concatenate([xs[i] - X[(i + 1) % N] for i in range(N)])
-        self.n_evals += 1
+        self.n_evals += int(count)
         if not jac:
-            return Evaluation(R, None, None, events=evs)
+            return Evaluation(R, None, Flam, events=evs)
         if any(M is None for M in Ms):
             raise GearsymError("the engine returned no monodromy (implicit models are not supported by "
                                "continuation yet)")
