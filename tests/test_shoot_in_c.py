@@ -162,6 +162,72 @@ def test_corrector_in_c_matches_python_corrector(ks, monkeypatch):
     assert len(out.run.events) == len(ev.events)
 
 
+def test_corrector_samples_are_the_flow_samples(ks):
+    """The corrected orbit's samples made in the corrector's C call equal what the Python path
+    computes for a branch point (System.flow without the monodromy on the same grid, then the
+    switching functions and mesh deflections at the samples), and taking them leaves the
+    corrected point's run (its events, residual, monodromy) as it was."""
+    from gearsym.engine.shoot import correct_in_c
+    from gearsym.sensitivity import directions
+
+    o = ks.periodic_orbit(params={"Omega": 0.9})
+    assert o.rattle_state >= 1  # contact loss: events along the orbit
+    rtol, atol = 1e-10, 1e-12
+    p0 = ks.param_vector({"Omega": 0.9})
+    z = np.concatenate([o.x0, [0.9]])
+    row = np.zeros(3)
+    row[-1] = 1.0
+    kw = dict(tol=1e-6, max_iter=5, min_damping=0.125, periods=1.0, lam0=0.9, p0=p0,
+              D=directions(ks, ["Omega"], p0)[:, 0], atol=atol, t0=0.0, method=METHODS["adams"], rtol=rtol,
+              max_steps=0)
+    eng = ks.derivative_engine()
+    plain = correct_in_c(eng, z, row, 0.9, np.ones(3), np.ones(2), **kw)
+    n = 257
+    out = correct_in_c(eng, z, row, 0.9, np.ones(3), np.ones(2), n_samples=n, **kw)
+    assert plain.converged and out.converged and plain.samples is None and out.samples is not None
+    # the corrected point's own run is untouched by the sampling run
+    assert np.array_equal(out.z, plain.z) and np.array_equal(out.R, plain.R)
+    assert np.array_equal(out.monodromy, plain.monodromy)
+    assert np.array_equal(out.run.events.t, plain.run.events.t) and len(out.run.events) >= 2
+    assert np.array_equal(out.run.x_final, plain.run.x_final)
+    # the samples: the Python path's System.flow on the same grid
+    x, lam = out.z[:2], float(out.z[2])
+    T = ks.period({"Omega": lam})
+    fl = ks.flow(x, 0.0, T, ks.param_vector({"Omega": lam}), rtol=rtol, atol=atol, monodromy=False,
+                 method="adams", max_step=T / 8, n_samples=n)
+    smp = out.samples
+    assert np.array_equal(smp.t, np.linspace(0.0, T, n))
+    assert np.max(np.abs(smp.y - fl.samples)) <= 1e-14 * np.abs(fl.samples).max()
+    assert np.array_equal(smp.y[0], x)
+    assert np.array_equal(smp.g, ks.switching(smp.t, smp.y, p=ks.param_vector({"Omega": lam})))
+    H = ks.mesh_deflections(smp.t, smp.y, ks.param_vector({"Omega": lam}))
+    assert H.shape == smp.mesh.shape and H.shape[1] >= 1 and np.array_equal(smp.mesh, H)
+
+
+def test_branch_points_from_c_samples_equal_the_python_points(ks, monkeypatch):
+    """A branch point built from the corrector's C samples carries what the Python path gives
+    (extrema, surface extrema, mesh deflection extrema, rattle state) for the same orbit."""
+    import gearsym.analysis.corrector as corrector_mod
+
+    br_c = gearsym.continuation(ks, "Omega", 0.85, 0.95, progress=False)
+    orig = corrector_mod.Continuer._correct_in_c
+
+    def without_samples(self, z, row, target):
+        out = orig(self, z, row, target)
+        if out is not None:
+            out[1].samples = None
+        return out
+
+    monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", without_samples)
+    br_py = gearsym.continuation(ks, "Omega", 0.85, 0.95, progress=False)
+    assert len(br_c.points) == len(br_py.points) > 10
+    for a, b in zip(br_c.points, br_py.points, strict=True):
+        assert a.value == b.value and np.array_equal(a.x0, b.x0)
+        assert a.max == b.max and a.min == b.min and a.rattle_state == b.rattle_state
+        assert a.surface_extrema == b.surface_extrema and a.meshes == b.meshes
+    assert {p.rattle_state for p in br_c.points} >= {0, 1}  # both sides of the contact-loss boundary
+
+
 def test_python_iteration_resumes_from_the_last_c_iterate(ks, monkeypatch):
     """When the C iteration gives up after accepted steps (here: its budget cut to one step),
     the Python iteration takes over from its last accepted iterate, with its history, and ends

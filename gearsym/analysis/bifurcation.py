@@ -25,6 +25,7 @@ unstable orbits; only their sign and continuity matter.
 
 from __future__ import annotations
 
+import cmath
 import functools
 import math
 from collections.abc import Callable, Sequence
@@ -41,20 +42,29 @@ def count_unstable(mu: np.ndarray, tol: float = 0.0) -> int:
     return int(np.sum(np.abs(np.asarray(mu)) > 1.0 + tol))
 
 
+def _tau_shift(mu: np.ndarray, shift: float) -> float:
+    """``Re prod (mu_i + shift) / (1 + |mu_i|)`` (NaN for no or non-finite multipliers); in Python
+    arithmetic for the few multipliers of a small model, where numpy's per-call cost dominates."""
+    vals = np.asarray(mu, complex).tolist()
+    if not vals or not all(cmath.isfinite(v) for v in vals):
+        return math.nan
+    if len(vals) > 32:
+        a = np.asarray(vals)
+        return float(np.real(np.prod((a + shift) / (1.0 + np.abs(a)))))
+    prod = complex(1.0)
+    for v in vals:
+        prod *= (v + shift) / (1.0 + abs(v))
+    return float(prod.real)
+
+
 def tau_period_doubling(mu: np.ndarray) -> float:
     """Sign-carrying test function of a real multiplier through -1."""
-    mu = np.asarray(mu, complex)
-    if len(mu) == 0 or not np.all(np.isfinite(mu)):
-        return math.nan
-    return float(np.real(np.prod((mu + 1.0) / (1.0 + np.abs(mu)))))
+    return _tau_shift(mu, 1.0)
 
 
 def tau_branch_point(mu: np.ndarray) -> float:
     """Sign-carrying test function of a real multiplier through +1 (``det(M - I)``)."""
-    mu = np.asarray(mu, complex)
-    if len(mu) == 0 or not np.all(np.isfinite(mu)):
-        return math.nan
-    return float(np.real(np.prod((mu - 1.0) / (1.0 + np.abs(mu)))))
+    return _tau_shift(mu, -1.0)
 
 
 @functools.lru_cache(maxsize=64)

@@ -10,6 +10,7 @@ with its test functions.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -243,10 +244,12 @@ class Continuer:
         if setup is None:
             return None
         res = self.res
+        # the converged orbit's samples in the same call (make_node's dense output; single shooting)
+        n_samples = max(8, int(math.ceil(self.n_dense * res.periods))) + 1
         out = correct_in_c(setup["engine"], z, row, target, self.S, self.Rs, tol=self.tol, max_iter=self.max_newton,
                            min_damping=0.125, periods=res.periods, lam0=setup["lam0"], p0=setup["p0"],
                            D=setup["D"], atol=float(res.atol), t0=res.t0, method=setup["method"], rtol=res.rtol,
-                           max_steps=setup["max_steps"])
+                           max_steps=setup["max_steps"], n_samples=n_samples)
         res.n_evals += out.n_runs
         res.n_integrations += out.n_runs
         # the failures the Python iteration would meet the same way are raised as it raises them
@@ -263,7 +266,8 @@ class Continuer:
             return None
         ev_log = out.run.events
         ev = Evaluation(out.R, segment_jacobian([out.monodromy]), out.f_lambda, monodromy=out.monodromy,
-                        events=log_events(res.system, ev_log.t, ev_log.surface, ev_log.direction))
+                        events=log_events(res.system, ev_log.t, ev_log.surface, ev_log.direction),
+                        samples=out.samples)
         return out.z, ev, out.iterations
 
     def tangent(self, ev: Evaluation, t_ref: np.ndarray, lam: float | None = None) -> np.ndarray:
@@ -306,23 +310,31 @@ class Continuer:
         u, lam = z[:-1], float(z[-1])
         fq = floquet(ev.monodromy, res.rtol, res.rigid_basis(lam))
         mu = fq.multipliers
-        t_dense, Y = res.dense(u, lam, self.n_dense)
+        smp = ev.samples
+        G = H = g0 = None
+        x0 = res.x0_of(u)
+        params = res.params(lam)
+        if smp is not None:  # from the corrector's C call: the period's samples, end excluded
+            t_dense, Y, G, H = smp.t[:-1], smp.y[:-1], smp.g[:-1].T, smp.mesh[:-1]
+            if np.array_equal(Y[0], x0):
+                g0 = smp.g[0]
+        else:
+            t_dense, Y = res.dense(u, lam, self.n_dense)
         y = Y[:, self.state]
         i_max, i_min = int(np.argmax(y)), int(np.argmin(y))
-        params = res.params(lam)
         ext: dict[str, tuple[float, float]] = {}
         if self.surfaces:
-            G = res.system.switching(t_dense, Y, p=res.system.param_vector(params)).reshape(len(t_dense), -1).T
+            if G is None:
+                G = res.system.switching(t_dense, Y, p=res.system.param_vector(params)).reshape(len(t_dense), -1).T
             for j, name in enumerate(self.surfaces):
                 g = G[j]
                 ext[name] = (_periodic_extremum(g, int(np.argmin(g)), +1.0),
                              _periodic_extremum(g, int(np.argmax(g)), -1.0))
-        x0 = res.x0_of(u)
         try:
-            rss = mesh_rattle_states(res.system, x0, res.t0, ev.events, params)
+            rss = mesh_rattle_states(res.system, x0, res.t0, ev.events, params, g0=g0)
         except Exception:  # noqa: BLE001 - the classification is informative only
             rss = {}
-        meshes = mesh_point(res.system, t_dense, Y, params, rss)
+        meshes = mesh_point(res.system, t_dense, Y, params, rss, deflections=H)
         t = self.tangent(ev, t_ref, lam)
         if res.natural_steps and ref is not None and graph_like(mu, ref.point.multipliers) \
                 and ref.t[-1] * t[-1] < 0:

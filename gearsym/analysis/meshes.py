@@ -144,11 +144,17 @@ def mesh_flanks(system: System, t: Sequence[float], Y: np.ndarray, deflections: 
 
 
 def mesh_point(system: System, t: np.ndarray, Y: np.ndarray, params: Mapping[str, float],
-               rattle: Mapping[str, int]) -> dict[str, dict[str, Any]]:
+               rattle: Mapping[str, int], deflections: np.ndarray | None = None) -> dict[str, dict[str, Any]]:
     """Per mesh: rattle state and extrema of the dynamic deflection over one period sampled at ``t``
-    (end excluded; a branch point of :func:`gearsym.continuation`)."""
+    (end excluded; a branch point of :func:`gearsym.continuation`).  ``deflections``: the
+    deflections at the samples when already evaluated (shape (len(t), number of meshes))."""
     try:
-        ext = mesh_extrema({k: np.append(d, d[:1]) for k, d in mesh_deflections(system, t, Y, params).items()})
+        names = mesh_names(system)
+        if deflections is not None and deflections.shape == (len(t), len(names)):
+            defl = {name: deflections[:, i] for i, name in enumerate(names)}
+        else:
+            defl = mesh_deflections(system, t, Y, params)
+        ext = mesh_extrema({k: np.append(d, d[:1]) for k, d in defl.items()})
     except Exception:  # noqa: BLE001 - informative only
         ext = {}
     return {name: {"rattle_state": rattle.get(name), **{k: float(v) for k, v in e.items()}}

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -47,6 +47,9 @@ class Evaluation:
         The monodromy of the orbit (product of the segment monodromies).
     events : list of Event
         Surface crossings along one period.
+    samples : OrbitSamples or None
+        The orbit sampled over one period (:class:`gearsym.engine.shoot.OrbitSamples`) when the
+        evaluation came with it (the corrector in C), else ``None``.
     """
 
     R: np.ndarray
@@ -54,6 +57,7 @@ class Evaluation:
     Flam: np.ndarray | None
     monodromy: np.ndarray | None = None
     events: list = field(default_factory=list)
+    samples: Any = None
 
 
 class PeriodicOrbitProblem:

@@ -315,7 +315,8 @@ def _switching_values(system: Any, traj: Trajectory, t: float, x: Sequence[float
 
 def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequence[Any],
                        params: Mapping[str, float] | None = None,
-                       samples: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, int]:
+                       samples: tuple[np.ndarray, np.ndarray] | None = None,
+                       g0: np.ndarray | None = None) -> dict[str, int]:
     """Rattle state of every backlash mesh along a periodic orbit.
 
     Uses the contact surfaces of the compiled model (``kind`` drive/back, as the
@@ -325,6 +326,8 @@ def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequ
     With ``samples = (t, Y)`` (states ``Y[k]`` at times ``t[k]`` along the orbit, e.g.
     from a harmonic series) the sides are taken at the samples instead of from the
     events (approximate: a contact shorter than the sampling step can be missed).
+
+    ``g0``, when given, is the switching functions at ``(t0, x0)`` (already evaluated).
 
     Returns
     -------
@@ -337,7 +340,7 @@ def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequ
     if not any(k in ("drive", "back") for k, _ in kinds.values()):
         return {}
     p = system.param_vector(params)
-    g = system.switching(float(t0), x0, p=p)
+    g = system.switching(float(t0), x0, p=p) if g0 is None else np.asarray(g0, float)
     G = None
     if samples is not None:
         ts, Y = np.asarray(samples[0], float), np.asarray(samples[1], float)

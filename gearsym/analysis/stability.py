@@ -178,7 +178,39 @@ def norm2(M: np.ndarray) -> float:
     M = np.asarray(M, float)
     if M.size == 0:
         return 0.0
+    if M.ndim == 2 and M.dtype == np.float64:
+        from scipy.linalg import lapack
+
+        _, sv, _, info = lapack.dgesdd(M, compute_uv=0)
+        if info == 0:
+            return float(sv[0])
     return float(np.linalg.svd(M, compute_uv=False)[0])
+
+
+def _eig_kappa(M: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Eigenvalues of a real square ``M`` and their condition numbers ``kappa_i = 1 / |y_i^H x_i|``
+    (unit left / right eigenvectors) from one LAPACK ``dgeev`` call; ``None`` if it fails.
+
+    ``dgeev`` stores a complex pair's vectors as two real columns ``a +- i b`` (each of unit
+    norm as a complex vector), so ``y^H x = (a_l . a_r + b_l . b_r) + i (a_l . b_r - b_l . a_r)``.
+    """
+    from scipy.linalg import lapack
+
+    wr, wi, vl, vr, info = lapack.dgeev(M, compute_vl=1, compute_vr=1)
+    if info != 0:
+        return None
+    den = np.abs((vl * vr).sum(axis=0))
+    first = np.flatnonzero(wi > 0)  # a complex pair: columns j (positive imaginary part) and j + 1
+    first = first[first + 1 < len(wr)]
+    if len(first):
+        a_l, b_l, a_r, b_r = vl[:, first], vl[:, first + 1], vr[:, first], vr[:, first + 1]
+        d = np.hypot((a_l * a_r + b_l * b_r).sum(axis=0), (a_l * b_r - b_l * a_r).sum(axis=0))
+        den[first] = d
+        den[first + 1] = d
+    kappa = np.full(len(wr), np.inf)
+    nz = den > 0
+    kappa[nz] = 1.0 / den[nz]
+    return wr + 1j * wi, kappa
 
 
 def multiplier_tolerances(M: np.ndarray, rtol: float) -> tuple[np.ndarray, np.ndarray, float]:
@@ -203,19 +235,10 @@ def multiplier_tolerances(M: np.ndarray, rtol: float) -> tuple[np.ndarray, np.nd
     M = balance(M)[0]
     nM = norm2(M)
     delta = ERROR_FACTOR * max(float(rtol), _EPS) * max(1.0, nM)
-    kappa = None
-    if M.shape[0] <= 64:
-        # small matrices: numpy's eig without scipy's per-call overhead; the left eigenvectors
-        # are the rows of inv(V), so v_l^H v_r = 1 and kappa_i = |row_i of inv(V)| |column_i of V|
-        mu, vr = np.linalg.eig(M)
-        try:
-            W = np.linalg.inv(vr)
-        except np.linalg.LinAlgError:
-            pass
-        else:
-            if np.all(np.isfinite(W)):
-                kappa = np.linalg.norm(W, axis=1) * np.linalg.norm(vr, axis=0)
-    if kappa is None:
+    ek = _eig_kappa(M)
+    if ek is not None:
+        mu, kappa = ek
+    else:
         mu, vl, vr = scipy.linalg.eig(M, left=True, right=True)
         den = np.abs(np.sum(np.conj(vl) * vr, axis=0))
         num = np.linalg.norm(vl, axis=0) * np.linalg.norm(vr, axis=0)

@@ -2646,6 +2646,84 @@ static int correct_eval(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c, co
   return 0;
 }
 
+/* The samples of the corrected orbit z (see gs_correct_args.n_samples): one run without the
+ * variational equations, as System.flow(x, t0, t0 + P, p, monodromy=False, n_samples=n) makes
+ * it, then the switching functions and mesh deflections at the samples.  The run description,
+ * event log and final state of `a` are restored afterwards.  Returns 1 on success. */
+static int correct_samples(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c, const double* z, double* p) {
+  int nx = c->nx, n = c->n_samples, np = ws->U.np, nsw = ws->U.nsw, k, ok = 0, rc;
+  int n_keep = a->n_events < a->max_events_out ? a->n_events : a->max_events_out;
+  double lam = z[nx], T, step;
+  const double* in[1];
+  char msg[256];
+  gs_sim_args saved;
+  double *ev = NULL, *xf = NULL;
+  int* evi = NULL;
+  if (n < 2 || !c->t_samples || !c->Y_samples || n_keep < 0) return 0;
+  for (k = 0; k < np; ++k) p[k] = c->p0[k] + (lam - c->lam0) * c->D[k];
+  in[0] = np ? p : ws->U.dummy;
+  if (gs_call(&ws->U, &ws->U.period, in, 1, &T) || !isfinite(T) || T <= 0.0) return 0;
+  ev = (double*)malloc(sizeof(double) * (size_t)(2 * n_keep + 1));
+  evi = (int*)malloc(sizeof(int) * (size_t)(2 * n_keep + 1));
+  xf = (double*)malloc(sizeof(double) * (size_t)(nx + nsw + 1));
+  if (!ev || !evi || !xf) goto done;
+  memcpy(&saved, a, sizeof(saved));
+  if (n_keep) {
+    memcpy(ev, a->ev_t, sizeof(double) * (size_t)n_keep);
+    memcpy(ev + n_keep, a->ev_speed, sizeof(double) * (size_t)n_keep);
+    memcpy(evi, a->ev_surface, sizeof(int) * (size_t)n_keep);
+    memcpy(evi + n_keep, a->ev_dir, sizeof(int) * (size_t)n_keep);
+  }
+  memcpy(xf, a->x_final, sizeof(double) * (size_t)nx);
+  if (nsw && a->sigma_final) memcpy(xf + nx, a->sigma_final, sizeof(double) * (size_t)nsw);
+  /* the grid of numpy.linspace(t0, t0 + P, n) */
+  a->t_end = a->t0 + c->periods * T;
+  step = (a->t_end - a->t0) / (double)(n - 1);
+  for (k = 0; k < n; ++k) c->t_samples[k] = (double)k * step + a->t0;
+  c->t_samples[n - 1] = a->t_end;
+  a->x0 = z;
+  a->p = np ? p : NULL;
+  a->max_step = T / 8.0;
+  a->want_monodromy = 0;
+  a->n_sens = 0;
+  a->sens_dir = a->sens_dt0 = a->sens_dt1 = NULL;
+  a->sens_final = a->sens_out = NULL;
+  a->atol_vec = NULL;
+  a->atol = c->atol;
+  a->n_out = n;
+  a->t_out = c->t_samples;
+  a->y_out = c->Y_samples;
+  rc = gs_simulate_ws(ws, a);
+  if (rc == 0 && a->n_events <= a->max_events_out) {
+    ok = 1;
+    if (nsw && c->G_samples && gs_eval(ws, GS_EVAL_SW, n, c->t_samples, c->Y_samples, a->p, NULL, c->G_samples, msg,
+                                       (int)sizeof(msg)))
+      ok = 0;
+    if (ok && ws->n_mesh_fn > 0 && c->H_samples &&
+        gs_eval(ws, GS_EVAL_MESH, n, c->t_samples, c->Y_samples, a->p, NULL, c->H_samples, msg, (int)sizeof(msg)))
+      ok = 0;
+  }
+  rc = (rc == GS_ERR_INTERRUPTED);
+  memcpy(a, &saved, sizeof(saved));
+  if (rc) {
+    a->status = GS_ERR_INTERRUPTED;
+    ok = -1;
+  }
+  if (n_keep) {
+    memcpy(a->ev_t, ev, sizeof(double) * (size_t)n_keep);
+    memcpy(a->ev_speed, ev + n_keep, sizeof(double) * (size_t)n_keep);
+    memcpy(a->ev_surface, evi, sizeof(int) * (size_t)n_keep);
+    memcpy(a->ev_dir, evi + n_keep, sizeof(int) * (size_t)n_keep);
+  }
+  memcpy(a->x_final, xf, sizeof(double) * (size_t)nx);
+  if (nsw && a->sigma_final) memcpy(a->sigma_final, xf + nx, sizeof(double) * (size_t)nsw);
+done:
+  free(ev);
+  free(evi);
+  free(xf);
+  return ok;
+}
+
 int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
   int nx, n1, i, j, rc = 0, it = 0, piv[GS_SHOOT_MAXN + 1];
   double *p = NULL, *atolv = NULL, *A = NULL, *M = NULL, *zt = NULL;
@@ -2654,6 +2732,7 @@ int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
   if (!a || !c) return GS_ERR_INPUT;
   c->iterations = 0;
   c->n_runs = 0;
+  c->samples_ok = 0;
   c->outcome = GS_SHOOT_GAVE_UP_OTHER;
   if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
   if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
@@ -2761,6 +2840,14 @@ int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
     }
     c->iterations = it;
     c->residual = r;
+    c->samples_ok = 0;
+    if (c->outcome == GS_SHOOT_CONVERGED && c->n_samples >= 2) {
+      c->samples_ok = correct_samples(ws, a, c, z, p);
+      if (c->samples_ok < 0) {
+        c->samples_ok = 0;
+        rc = GS_ERR_INTERRUPTED;
+      }
+    }
     memcpy(c->z, z, sizeof(double) * (size_t)n1);
     memcpy(c->R_out, R, sizeof(double) * (size_t)nx);
     memcpy(c->Flam_out, Fl, sizeof(double) * (size_t)nx);

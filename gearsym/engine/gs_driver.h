@@ -212,6 +212,18 @@ typedef struct gs_correct_args {
   int     iterations;   /* out: Newton steps taken                                         */
   int     n_runs;       /* out: integrations made                                          */
   int     outcome;      /* out: GS_SHOOT_*                                                 */
+  /* after a converged outcome, with n_samples >= 2: one more run of the corrected orbit      */
+  /* without variational equations (what System.flow(..., monodromy=False) gives), sampled   */
+  /* at n_samples evenly spaced times from t0 to t0 + P, plus the switching functions and    */
+  /* the mesh deflections at the samples (as gs_eval); the event log, x_final and the        */
+  /* statistics of `a` still describe the corrected point's run.  Any failure of this run    */
+  /* only leaves samples_ok = 0.                                                              */
+  int     n_samples;
+  double* t_samples;    /* [n_samples] out: the sample times                                 */
+  double* Y_samples;    /* [n_samples*nx] out: the states, row-major                         */
+  double* G_samples;    /* [n_samples*nsw] out: the switching functions (may be NULL)        */
+  double* H_samples;    /* [n_samples*nmesh] out: the mesh deflections (may be NULL)         */
+  int     samples_ok;   /* out: 1 when the four arrays hold the samples                       */
 } gs_correct_args;
 
 /* The corrector with the run described by `a` (method, tolerances, t0, max_steps, event log,

@@ -24,7 +24,7 @@ from .sim_args import GsShootArgs
 if TYPE_CHECKING:  # pragma: no cover
     from .driver import Engine, RunResult
 
-__all__ = ["MAX_STATES", "OUTCOMES", "CorrectOutcome", "ShootOutcome", "correct_in_c", "shoot_in_c"]
+__all__ = ["MAX_STATES", "OUTCOMES", "CorrectOutcome", "OrbitSamples", "ShootOutcome", "correct_in_c", "shoot_in_c"]
 
 #: Largest model the C iterations take (``GS_SHOOT_MAXN`` in gs_driver.c); larger ones iterate in Python.
 MAX_STATES = 256
@@ -177,6 +177,8 @@ class CorrectOutcome:
         Newton steps taken and integrations made.
     code : int
         The outcome code (:data:`OUTCOMES`).
+    samples : OrbitSamples or None
+        The corrected orbit sampled over one period, when asked for and obtained.
     """
 
     converged: bool
@@ -190,18 +192,43 @@ class CorrectOutcome:
     iterations: int
     n_runs: int
     code: int = 0
+    samples: OrbitSamples | None = None
+
+
+@dataclass(frozen=True)
+class OrbitSamples:
+    """A periodic orbit sampled at ``n`` evenly spaced times over one period (both ends included).
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,)
+        The times, ``numpy.linspace(t0, t0 + P, n)``.
+    y : ndarray, shape (n, nx)
+        The states: the same integration as :meth:`gearsym.System.flow` without the monodromy.
+    g : ndarray, shape (n, nsw)
+        The switching functions at the samples.
+    mesh : ndarray, shape (n, nmesh)
+        The dynamic deflection of every mesh at the samples (as :meth:`gearsym.System.mesh_deflections`).
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    g: np.ndarray
+    mesh: np.ndarray
 
 
 def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
                  tol: float, max_iter: int, min_damping: float, periods: float, lam0: float, p0: np.ndarray,
                  D: np.ndarray, atol: float, t0: float, method: int, rtol: float, max_steps: int,
-                 max_events_out: int = 4096) -> CorrectOutcome:
+                 max_events_out: int = 4096, n_samples: int = 0) -> CorrectOutcome:
     """The continuation's pseudo-arclength corrector for single shooting in one driver call.
 
     ``F(x, lambda) = phi(t0 + P(lambda); t0, x, p(lambda)) - x`` with ``p(lambda) = p0 +
     (lambda - lam0) D`` and ``P = periods * T(p)``, plus ``row . (z / S) = target``; see
     ``gs_correct_args`` in gs_driver.h and :meth:`gearsym.analysis.corrector.Continuer.correct`,
     whose iteration it mirrors.  ``engine`` must be a build with the parameter derivatives.
+    With ``n_samples >= 2`` the converged orbit is also sampled (:class:`OrbitSamples`) in the
+    same call; ``samples`` is ``None`` when that run failed.
 
     Raises
     ------
@@ -234,10 +261,18 @@ def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, 
     c.tol, c.max_iter, c.min_damping, c.periods = float(tol), int(max_iter), float(min_damping), float(periods)
     c.lam0, c.p0, c.D, c.atol = float(lam0), p0a.ctypes.data if p0a.size else None, Da.ctypes.data, float(atol)
     c.R_out, c.M_out, c.Flam_out = R.ctypes.data, M.ctypes.data, Fl.ctypes.data
+    n_s = int(n_samples) if int(n_samples) >= 2 else 0
+    if n_s:
+        ts, Ys = np.empty(n_s), np.empty((n_s, nx))
+        Gs, Hs = np.empty((n_s, engine.nsw)), np.empty((n_s, max(engine.n_meshes(), 0)))
+        c.n_samples, c.t_samples, c.Y_samples = n_s, ts.ctypes.data, Ys.ctypes.data
+        c.G_samples = Gs.ctypes.data if Gs.size else None
+        c.H_samples = Hs.ctypes.data if Hs.size else None
     engine._call(engine._lib.gs_correct_ws, a, C.byref(c))
     converged = int(c.outcome) == 0
     run = engine._result(a, buf) if converged else None
     if isinstance(run, int):
         run, converged = None, False
+    samples = OrbitSamples(ts, Ys, Gs, Hs) if converged and n_s and int(c.samples_ok) == 1 else None
     return CorrectOutcome(converged, OUTCOMES.get(int(c.outcome), "unknown"), za, R, M, Fl, run, float(c.residual),
-                          int(c.iterations), int(c.n_runs), int(c.outcome))
+                          int(c.iterations), int(c.n_runs), int(c.outcome), samples)

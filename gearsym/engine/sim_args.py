@@ -118,4 +118,10 @@ class GsCorrectArgs(C.Structure):
         ("iterations", C.c_int),
         ("n_runs", C.c_int),
         ("outcome", C.c_int),
+        ("n_samples", C.c_int),
+        ("t_samples", _PD),
+        ("Y_samples", _PD),
+        ("G_samples", _PD),
+        ("H_samples", _PD),
+        ("samples_ok", C.c_int),
     ]
