@@ -192,6 +192,30 @@ def test_continuation_with_vanishing_states(system4):
     assert [p.rattle_state for p in br.points] == [1, 1, 1]
 
 
+def test_default_atol_with_vanishing_states(system4, gen_dir, tmp_path):
+    """The centre translations of the 4-planet set vanish on the orbit (round-off, 1e-19 m):
+    the default atol (rtol * 1e-2 * the smallest state magnitude) was 1.5e-26, with which one
+    period took 10 million steps and the continuation failed.  The scene's [simulate] atol is
+    the default then; without one a ParameterError names the vanishing states."""
+    br = continuation(system4, "f_m", 1300.0, 1310.0, max_points=3, progress=False)
+    assert br.info["atol"] == system4.defaults["atol"] == 1e-14
+    assert len(br.points) == 3 and all(p.stability == "asymptotically_stable" for p in br.points)
+    last = br.points[-1]
+    ref = system4.periodic_orbit(x0=last.x0, params={"f_m": float(last.value)}, atol=1e-14, rtol=1e-10)
+    scale = np.max(np.abs(ref.trajectory().y), axis=0)
+    assert np.all(np.abs(last.x0 - ref.x0) <= 1e-6 * scale + 1e-12)
+    # the same scene without [simulate] atol: the caller must choose
+    text = (ROOT / "scenes" / "planetary_n4.toml").read_text()
+    text = text.replace('model = "../models/planetary_n4.toml"',
+                        f'model = "{(ROOT / "models" / "planetary_n4.toml").as_posix()}"')
+    text = "\n".join(line for line in text.splitlines() if not line.startswith("atol"))
+    (tmp_path / "no_atol.toml").write_text(text)
+    bare = gearsym.load_scene(tmp_path / "no_atol.toml").compile(generated_dir=gen_dir)
+    assert "atol" not in bare.defaults
+    with pytest.raises(gearsym.errors.ParameterError, match=r"atol: the states x_s, .* vanish on this orbit"):
+        continuation(bare, "f_m", 1300.0, 1310.0, max_points=3, progress=False)
+
+
 def test_modes_of_the_benchmark_oscillator(gen_dir):
     """A model that is not planetary: x'' + 2 zeta x' + (1 + eps cos(Omega t)) f(x) = Fm +
     Fa Omega^2 cos(Omega t) has the mean stiffness 1 (f the dead zone, in contact): w = 1,

@@ -156,7 +156,11 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
         magnitude on the first orbit; a state that is identically zero there (the
         trivial orbit ``x = 0``) takes its magnitude from the scene instead: the
         largest entry of its initial state, else the magnitude its ``[simulate]``
-        tolerances imply (``atol / (1e-2 * rtol)``), else 1.
+        tolerances imply (``atol / (1e-2 * rtol)``), else 1.  When some states vanish
+        on the orbit while others do not (at most 1e-9 of the largest magnitude:
+        round-off, e.g. the centre translations of a planetary set with equally spaced
+        planets), the scene's ``[simulate]`` ``atol`` is the default, and without one
+        :class:`~gearsym.errors.ParameterError` asks for ``atol``.
     max_newton
         Newton steps per correction.
     detect
@@ -270,7 +274,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
         x_start, state_scale = _first_orbit_shooting(system, param, start, p_start, base, periods, x0, orbit,
                                                      segments, t0, rtol, atol, tol, transient)
         if atol is None:
-            atol = _default_atol(rtol, state_scale)
+            atol = _default_atol(rtol, state_scale, system)
         res: PeriodicOrbitProblem = ShootingResidual(system, param, periods, base, segments, t0, rtol, atol,
                                           fd_step=_fd_step(start, stop, rtol))
         u0 = res.u_from_orbit(x_start, start)  # type: ignore[attr-defined]
@@ -280,7 +284,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
                                      rtol=rtol, atol=atol or 1e-12, defect_tol=defect_tol)
         state_scale = _state_scale(system, orbit.x0, t0, float(orbit.period), p_start, rtol, atol or 1e-12)
         if atol is None:
-            atol = _default_atol(rtol, state_scale)
+            atol = _default_atol(rtol, state_scale, system)
         H = int(harmonics or orbit.harmonics or 16)
         res = HBResidual(system, param, H, periods, base, t0, rtol=rtol, atol=atol, fd_step=_fd_step(start, stop, rtol))
         u0 = res.u_from_orbit(orbit, start)  # type: ignore[attr-defined]
@@ -338,9 +342,38 @@ def _zero_orbit_scale(system: System) -> float:
     return 1.0
 
 
-def _default_atol(rtol: float, state_scale: np.ndarray) -> float:
-    """``rtol * 1e-2 *`` the smallest state magnitude (positive by construction of the scales)."""
-    return float(rtol * 1e-2 * np.min(state_scale))
+#: A state whose magnitude over the first orbit is at most this fraction of the largest one's
+#: is round-off (it vanishes on the orbit, e.g. by symmetry); the shipped scenes' smallest
+#: genuine magnitudes are above 3e-7 of their largest, their vanishing ones near 1e-12.
+VANISHING = 1e-9
+
+
+def _default_atol(rtol: float, state_scale: np.ndarray, system: System) -> float:
+    """``rtol * 1e-2 *`` the smallest state magnitude (positive by construction of the scales).
+
+    With states that vanish on the orbit (:data:`VANISHING`) that rule would set ``atol`` at
+    the round-off of those states (1.5e-26 for ``planetary_n4``, whose centre translations
+    only round-off excites): the integrator then spent 10 million steps on one period.  The
+    scene's ``[simulate]`` ``atol`` is taken instead, and without one the caller must choose.
+    """
+    sc = np.asarray(state_scale, float)
+    top = float(np.max(sc))
+    vanishing = sc <= VANISHING * top
+    if not np.any(vanishing):
+        return float(rtol * 1e-2 * np.min(sc))
+    try:
+        scene_atol = float(system.defaults["atol"])
+    except (KeyError, TypeError, ValueError):
+        scene_atol = math.nan
+    if math.isfinite(scene_atol) and scene_atol > 0:
+        return scene_atol
+    names = [n for n, v in zip(system.state_names, vanishing, strict=True) if v]
+    shown = ", ".join(names[:6]) + (f" and {len(names) - 6} more" if len(names) > 6 else "")
+    raise ParameterError(
+        f"atol: the states {shown} vanish on this orbit (at most {VANISHING:g} of the largest state "
+        f"magnitude {top:.3g}: round-off), so the default atol (rtol * 1e-2 * the smallest magnitude) "
+        f"would make the integrator chase round-off; give atol (in the states' units, e.g. the [simulate] "
+        f"atol of the scene) or declare one in [simulate]")
 
 
 def _first_orbit_shooting(system: System, param: str, start: float, p_start: dict[str, float],
@@ -370,7 +403,7 @@ def _first_orbit_shooting(system: System, param: str, start: float, p_start: dic
             guess = system.simulate(t_end=t0, t0=t0 - n * T, x0=guess, rtol=max(rtol, 1e-9),
                                     atol=max(atol or 1e-12, 1e-14), n_out=2, params=p_start).x_final
     scale = _state_scale(system, guess, t0, P, p_start, max(rtol, 1e-9), atol or 1e-12)
-    a_tol = atol if atol is not None else _default_atol(rtol, scale)
+    a_tol = atol if atol is not None else _default_atol(rtol, scale, system)
     res = ShootingResidual(system, param, periods, base, segments, t0, rtol, a_tol, fd_step=1e-6)
     C = Continuer(res, lam_scale=1.0, tol=tol, max_newton=25, state=0, n_dense=64, detect=())
     C.set_state_scale(scale)
