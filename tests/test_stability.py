@@ -69,6 +69,35 @@ def test_verdict_does_not_depend_on_the_units_of_the_states():
     assert np.allclose(a.tolerances, b.tolerances, rtol=1e-6)
 
 
+def test_eigenvalue_condition_numbers_match_the_left_right_vector_definition():
+    """``kappa_i = |y_i| |x_i| / |y_i^H x_i|`` from scipy's left and right eigenvectors (the
+    definition) against the one-``dgeev`` computation of the rule, on matrices with real
+    eigenvalues and complex pairs, n = 1 .. 40; and a Jordan block's tolerance is the cap."""
+    import scipy.linalg
+
+    from gearsym.analysis.stability import ERROR_FACTOR, _eig_kappa
+
+    rng = np.random.default_rng(7)
+    n_pairs = 0
+    for n in (1, 2, 3, 6, 13, 40):
+        for _ in range(10):
+            M = rng.standard_normal((n, n)) * np.exp(rng.uniform(-3, 3, n))[None, :]
+            mu, kappa = _eig_kappa(M)
+            w, vl, vr = scipy.linalg.eig(M, left=True, right=True)
+            ref = np.linalg.norm(vl, axis=0) * np.linalg.norm(vr, axis=0) / np.abs(np.sum(np.conj(vl) * vr, axis=0))
+            n_pairs += int(np.sum(np.abs(w.imag) > 0))
+            for m, k in zip(mu, kappa, strict=True):
+                j = int(np.argmin(np.abs(w - m)))
+                assert abs(w[j] - m) <= 1e-12 * max(1.0, abs(m))
+                assert k == pytest.approx(ref[j], rel=1e-8)
+    assert n_pairs > 50
+    J = np.array([[1.0, 1.0], [0.0, 1.0]])
+    mu, tol, delta = multiplier_tolerances(J, 1e-10)
+    assert np.allclose(mu, 1.0, atol=1e-7)
+    assert tol == pytest.approx(np.full(2, math.sqrt(delta * max(1.0, np.linalg.norm(J, 2)))), rel=1e-12)
+    assert delta == pytest.approx(ERROR_FACTOR * 1e-10 * np.linalg.norm(J, 2), rel=1e-12)
+
+
 def test_tolerance_of_a_defective_pair_is_the_square_root_bound():
     # a Jordan block at -1: kappa is infinite, the bound is sqrt(delta * ||M||)
     M = np.array([[-1.0, 1.0], [0.0, -1.0]])
