@@ -76,7 +76,7 @@ from .detection import detect_types
 from .hb_problem import HBResidual
 from .hbm import harmonic_balance
 from .options import ContinuationOptions, resolve_options
-from .orbit import PeriodicOrbit
+from .orbit import VANISHING, PeriodicOrbit
 from .periodic import ORBIT_METHODS
 from .problems import PeriodicOrbitProblem, ShootingResidual
 from .shooting import _check_tolerances, shoot
@@ -340,12 +340,6 @@ def _zero_orbit_scale(system: System) -> float:
     except (KeyError, TypeError, ValueError):
         pass
     return 1.0
-
-
-#: A state whose magnitude over the first orbit is at most this fraction of the largest one's
-#: is round-off (it vanishes on the orbit, e.g. by symmetry); the shipped scenes' smallest
-#: genuine magnitudes are above 3e-7 of their largest, their vanishing ones near 1e-12.
-VANISHING = 1e-9
 
 
 def _default_atol(rtol: float, state_scale: np.ndarray, system: System) -> float:

@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import ConvergenceError, GearsymError, ParameterError
 from .hbm_sets import carriers_of, excitation_harmonics, growth_sets
 from .isolation import isolation
-from .orbit import PeriodicOrbit, finish_orbit
+from .orbit import VANISHING, PeriodicOrbit, finish_orbit
 from .rattle import mesh_rattle_states as rattle_states
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -72,10 +72,15 @@ def series_from_samples(y: np.ndarray, H: int) -> np.ndarray:
 
 def state_sizes(Y: np.ndarray) -> np.ndarray:
     """Size of every state on an orbit: its peak-to-peak, at least 1e-6 of its magnitude
-    (a state that does not move is measured against its value), never zero."""
+    (a state that does not move is measured against its value), at least
+    :data:`~gearsym.analysis.orbit.VANISHING` of the largest state's size (a state that
+    vanishes on the orbit is round-off: its defect relative to its own size was ~1, and
+    harmonic balance of the 4-planet set failed at 64 harmonics), never zero."""
     ptp = np.ptp(Y, axis=0)
     mag = np.max(np.abs(Y), axis=0)
-    return np.maximum(np.maximum(ptp, 1e-6 * mag), 1e-300)
+    size = np.maximum(ptp, 1e-6 * mag)
+    top = float(np.max(size)) if size.size else 0.0
+    return np.maximum(size, max(VANISHING * top, 1e-300))
 
 
 def time_defect(system: System, x_start: np.ndarray, t0: float, period: float, params: Mapping[str, float] | None,

@@ -25,7 +25,14 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..results import Event, Trajectory
     from ..system import System
 
-__all__ = ["PeriodicOrbit", "finish_orbit"]
+__all__ = ["VANISHING", "PeriodicOrbit", "finish_orbit"]
+
+#: A state whose magnitude over an orbit is at most this fraction of the largest state's
+#: vanishes on it: it is round-off (e.g. the centre translations of a planetary set with
+#: equally spaced planets, which only round-off excites), and nothing may be measured relative
+#: to its own size.  The shipped scenes' smallest genuine magnitudes are above 3e-7 of their
+#: largest, their vanishing ones near 1e-12.
+VANISHING = 1e-9
 
 @dataclass(frozen=True, eq=False)
 class PeriodicOrbit:
