@@ -116,6 +116,17 @@ def test_floquet_multipliers_ida_vs_cvode(pair):
                                atol=1e-6 * np.max(np.abs(oc.monodromy)))
 
 
+def test_harmonic_balance_refuses_the_dae_and_names_shooting(pair):
+    """Harmonic balance needs x' = f(t, x): on the DAE it says so (it failed with the engine's
+    "the compiled model has no gs_rhs"), and the CLI exits 2 with that message."""
+    from gearsym.cli import main
+
+    dae, _ = pair
+    with pytest.raises(ParameterError, match=r"explicit model .* DAE: use shooting"):
+        dae.periodic_orbit(method="hbm")
+    assert main(["orbit", str(SCENE), "--method", "hbm"]) == 2
+
+
 # ------------------------------------------------------------------ bad input
 
 def _model(edit) -> dict:

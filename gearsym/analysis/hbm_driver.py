@@ -104,6 +104,9 @@ def run(hb_cls, system: System, period: float | None, periods: float, x0: Sequen
     from .shooting import _check_tolerances
 
     _check_tolerances(tol=tol, rtol=rtol, atol=atol, defect_tol=defect_tol, aft_tol=aft_tol)
+    if system.generated.implicit:
+        raise ParameterError("harmonic balance needs an explicit model (x' = f(t, x)); this one is in implicit "
+                             "(residual) form, a DAE: use shooting (method='shooting')")
     T = system.period(params)
     if period is None:
         if not T and system.has_forcing_period:
