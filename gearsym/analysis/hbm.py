@@ -448,7 +448,8 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
         See ``samples``.
     defect_tol
         One period integrated from the balanced ``x(t0)`` must close to ``defect_tol`` of
-        every state's peak-to-peak (``info["defect_relative"]``): the automatic growth
+        every state's peak-to-peak (``info["defect_relative"]``; a state that vanishes on the
+        orbit, below 1e-9 of the largest, counts as 1e-9 of the largest): the automatic growth
         stops there, and a balance grown automatically that does not reach it has not
         converged.  With fixed ``harmonics`` the defect is reported, not enforced.
     floor_rel
