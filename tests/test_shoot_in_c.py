@@ -115,15 +115,15 @@ def test_corrector_in_c_matches_python_corrector(ks, monkeypatch):
     calls = []
     orig = corrector_mod.Continuer._correct_in_c
 
-    def counting(self, z, row, target):
-        out = orig(self, z, row, target)
+    def counting(self, z, row, target, t_ref=None):
+        out = orig(self, z, row, target, t_ref)
         calls.append(out is not None)
         return out
 
     monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", counting)
     br_c = gearsym.continuation(ks, "Omega", 0.8, 1.0, progress=False)
     assert sum(calls) >= 0.9 * len(calls) and len(calls) > 20  # the C corrector did the work
-    monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", lambda self, z, row, target: None)
+    monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", lambda self, z, row, target, t_ref=None: None)
     br_py = gearsym.continuation(ks, "Omega", 0.8, 1.0, progress=False)
     kinds = lambda br: sorted((b.type, round(b.value, 6)) for b in br.bifurcations)  # noqa: E731
     assert kinds(br_c) == kinds(br_py) and len(br_c.bifurcations) >= 3
@@ -202,6 +202,52 @@ def test_corrector_samples_are_the_flow_samples(ks):
     assert np.array_equal(smp.g, ks.switching(smp.t, smp.y, p=ks.param_vector({"Omega": lam})))
     H = ks.mesh_deflections(smp.t, smp.y, ks.param_vector({"Omega": lam}))
     assert H.shape == smp.mesh.shape and H.shape[1] >= 1 and np.array_equal(smp.mesh, H)
+    # their statistics, made in the same call: numpy's reductions of the samples (end excluded)
+    st, Y, G = out.samples.stats, smp.y[:-1], smp.g[:-1]
+    assert st is not None and plain.samples is None
+    assert np.array_equal(st.max, Y.max(axis=0)) and np.array_equal(st.min, Y.min(axis=0))
+    assert np.array_equal(st.argmax, Y.argmax(axis=0)) and np.array_equal(st.argmin, Y.argmin(axis=0))
+    assert np.allclose(st.sum_squares, (Y ** 2).sum(axis=0), rtol=1e-13, atol=0)
+    assert np.array_equal(st.g_argmin, G.argmin(axis=0)) and np.array_equal(st.g_argmax, G.argmax(axis=0))
+    assert st.mesh_argmin == list(H[:-1].argmin(axis=0)) and st.mesh_argmax == list(H[:-1].argmax(axis=0))
+    assert out.period == T == plain.period
+
+
+def test_corrector_tangent_in_c_is_the_python_tangent(ks):
+    """The tangent the corrector in C solves for at the converged point is the one
+    Continuer.tangent computes from the same point's Jacobian (numpy's solve of the bordered
+    system), for a tangent reference along the parameter and a skew one, with unequal scales."""
+    from gearsym.analysis.corrector import Continuer
+    from gearsym.analysis.problems import Evaluation, segment_jacobian
+    from gearsym.engine.shoot import correct_in_c
+    from gearsym.sensitivity import directions
+
+    o = ks.periodic_orbit(params={"Omega": 0.9})
+    p0 = ks.param_vector({"Omega": 0.9})
+    z = np.concatenate([o.x0, [0.9]])
+    S, Rs = np.array([3e-1, 2.0, 0.5]), np.array([0.7, 4.0])
+    kw = dict(tol=1e-8, max_iter=5, min_damping=0.125, periods=1.0, lam0=0.9, p0=p0,
+              D=directions(ks, ["Omega"], p0)[:, 0], atol=1e-12, t0=0.0, method=METHODS["adams"], rtol=1e-10,
+              max_steps=0)
+    eng = ks.derivative_engine()
+    row = np.array([0.0, 0.0, 1.0])
+    for t_ref in (row, np.array([0.3, -0.8, 0.52])):
+        out = correct_in_c(eng, z, row, 0.9 / S[-1], S, Rs, t_ref=t_ref, **kw)
+        assert out.converged and out.tangent is not None
+        no_ref = correct_in_c(eng, z, row, 0.9 / S[-1], S, Rs, **kw)
+        assert no_ref.tangent is None and np.array_equal(no_ref.z, out.z)
+        # the Python tangent from the same Jacobian, without the C solution
+        C = Continuer.__new__(Continuer)
+        C.S, C.Rs = S, Rs
+        C.scaled_anchor = lambda lam: None
+        ev = Evaluation(out.R, segment_jacobian([out.monodromy]), out.f_lambda, monodromy=out.monodromy)
+        t_py = C.tangent(ev, t_ref, float(out.z[-1]))
+        ev.tangent = (t_ref, out.tangent)
+        t_c = C.tangent(ev, t_ref, float(out.z[-1]))
+        assert np.max(np.abs(t_c - t_py)) < 1e-13 and abs(np.linalg.norm(t_c) - 1) < 1e-15
+        # and it solves the bordered system: J_s t = 0, t_ref . t > 0
+        Js = np.hstack([out.monodromy - np.eye(2), out.f_lambda[:, None]]) * S[None, :] / Rs[:, None]
+        assert np.max(np.abs(Js @ t_c)) < 1e-12 * np.abs(Js).max() and t_c @ t_ref > 0
 
 
 def test_branch_points_from_c_samples_equal_the_python_points(ks, monkeypatch):
@@ -212,8 +258,8 @@ def test_branch_points_from_c_samples_equal_the_python_points(ks, monkeypatch):
     br_c = gearsym.continuation(ks, "Omega", 0.85, 0.95, progress=False)
     orig = corrector_mod.Continuer._correct_in_c
 
-    def without_samples(self, z, row, target):
-        out = orig(self, z, row, target)
+    def without_samples(self, z, row, target, t_ref=None):
+        out = orig(self, z, row, target, t_ref)
         if out is not None:
             out[1].samples = None
         return out

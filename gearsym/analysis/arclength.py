@@ -17,9 +17,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConvergenceError, GearsymError
-from .bifurcation import tau_branch_point
 from .branch import Bifurcation, Branch, ContinuationSetup
-from .corrector import Continuer, Node, graph_like, rescale
+from .corrector import Continuer, Node, distance_to_one, graph_like, rescale
 from .detection import boundary_node, detect_between
 from .problems import PeriodicOrbitProblem
 from .stability import neutral_step_limit
@@ -92,13 +91,13 @@ def run(res: PeriodicOrbitProblem, u0: np.ndarray, start: float, stop: float, *,
         row = np.zeros(n + 1)
         row[-1] = 1.0
         z0 = np.concatenate([u0, [start]])
-        z, ev, it = C.correct(z0, row, start / C.S[-1])
         t_ref = np.zeros(n + 1)
         t_ref[-1] = 1.0 if stop > start else -1.0
+        z, ev, it = C.correct(z0, row, start / C.S[-1], t_ref=t_ref)
         node = C.make_node(z, ev, t_ref, it)
     else:
         z_first, t_first = first
-        z, ev, it = C.correct(z_first, t_first, float(t_first @ (z_first / C.S)))
+        z, ev, it = C.correct(z_first, t_first, float(t_first @ (z_first / C.S)), t_ref=t_first)
         node = C.make_node(z, ev, t_first, it)
     # scale from the first orbit, then re-express the tangent
     C, node = rescale(C, node, force=True)
@@ -124,7 +123,7 @@ def run(res: PeriodicOrbitProblem, u0: np.ndarray, start: float, stop: float, *,
             # contracting map at fixed parameter is robust even when the branch is kinked by
             # many grazing impacts
             natural = (res.natural_steps and A.graph and abs(A.t[-1]) < 0.7 and not force_arc
-                       and np.min(np.abs(A.point.multipliers - 1.0)) > 0.2)
+                       and distance_to_one(A.point.multipliers) > 0.2)
             h = h_nat if natural else h_arc
             try:
                 if natural:
@@ -133,14 +132,14 @@ def run(res: PeriodicOrbitProblem, u0: np.ndarray, start: float, stop: float, *,
                     dl = math.copysign(h, A.t[-1])
                     w_pred = wA.copy()
                     w_pred[-1] += dl
-                    z, ev, it = C.correct(w_pred * C.S, row, float(wA[-1]) + dl)
+                    z, ev, it = C.correct(w_pred * C.S, row, float(wA[-1]) + dl, t_ref=A.t)
                 else:
                     row = A.t
-                    z, ev, it = C.correct((wA + h * A.t) * C.S, A.t, float(A.t @ wA) + h)
+                    z, ev, it = C.correct((wA + h * A.t) * C.S, A.t, float(A.t @ wA) + h, t_ref=A.t)
                 B = C.make_node(z, ev, A.t, it, ref=A)
-                B.graph = res.natural_steps and graph_like(B.point.multipliers, A.point.multipliers)
-                if natural and (tau_branch_point(B.point.multipliers) > 0) != (tau_branch_point(
-                        A.point.multipliers) > 0):
+                B.graph = res.natural_steps and (B.graph_ref if B.graph_ref is not None else graph_like(
+                    B.point.multipliers, A.point.multipliers))
+                if natural and (B.tau.get("branch_point", math.nan) > 0) != (A.tau.get("branch_point", math.nan) > 0):
                     force_arc = True  # a real multiplier crossed +1: a fold may be near, use the arclength
                     raise ConvergenceError("a multiplier crossed +1 in a parameter step")
                 cosang = float(B.t @ A.t)
@@ -189,7 +188,7 @@ def run(res: PeriodicOrbitProblem, u0: np.ndarray, start: float, stop: float, *,
                     complete = True
                     break
                 merge_ref = max(merge_ref, d)
-            stalled = stalled_branch([(float(nd.z[-1]), nd.size, nd.point.multipliers) for nd in
+            stalled = stalled_branch([nd.stall_key or (float(nd.z[-1]), nd.size, nd.point.multipliers) for nd in
                                       nodes[-max(stall_points, QUICK_STALL[0]) - 1:]], stall_points,
                                      stall_tol * lam_scale, lam_scale, getattr(res, "rtol", 1e-10))
             if stalled:

@@ -80,8 +80,18 @@ def tau_neimark_sacker(mu: np.ndarray) -> float:
     """Sign-carrying test function of a pair with ``mu_i mu_j = 1`` (complex pair on the circle)."""
     mu = np.asarray(mu, complex)
     n = len(mu)
-    if n < 2 or not np.all(np.isfinite(mu)):
-        return math.nan if n and not np.all(np.isfinite(mu)) else 1.0
+    if n <= 32:  # Python arithmetic (as _tau_shift)
+        vals = mu.tolist()
+        if not all(cmath.isfinite(v) for v in vals):
+            return math.nan
+        prod = complex(1.0)
+        for a in range(n):
+            for b in range(a + 1, n):
+                q = vals[a] * vals[b]
+                prod *= (q - 1.0) / (1.0 + abs(q))
+        return float(prod.real)
+    if not np.all(np.isfinite(mu)):
+        return math.nan
     i, j = _pairs(n)
     q = mu[i] * mu[j]
     return float(np.real(np.prod((q - 1.0) / (1.0 + np.abs(q)))))

@@ -25,7 +25,7 @@ from .problems import Evaluation, PeriodicOrbitProblem
 from .rattle import mesh_rattle_states
 from .stability import floquet
 
-__all__ = ["Continuer", "Node", "graph_like", "rescale"]
+__all__ = ["Continuer", "Node", "distance_to_one", "graph_like", "rescale"]
 
 
 def _periodic_extremum(y: np.ndarray, i: int, sign: float) -> float:
@@ -51,6 +51,8 @@ class Node:
     scale: np.ndarray | None = None
     size: float = float("nan")  # max of scale (the stall test reads it at every step)
     graph: bool = False    # the branch is a graph over the parameter between the previous point and this
+    graph_ref: bool | None = None  # graph_like(this, the ref point make_node was given), when computed
+    stall_key: tuple | None = None  # (parameter, size, multipliers): what the stall tests read
 
 
 class Continuer:
@@ -112,9 +114,12 @@ class Continuer:
         return cache[key]
 
     # ------------------------------------------------------------ corrector
-    def correct(self, z_guess: np.ndarray, row: np.ndarray, target: float, Flam: np.ndarray | None = None
-                ) -> tuple[np.ndarray, Evaluation, int]:
+    def correct(self, z_guess: np.ndarray, row: np.ndarray, target: float, Flam: np.ndarray | None = None,
+                t_ref: np.ndarray | None = None) -> tuple[np.ndarray, Evaluation, int]:
         """Newton on ``F(z) = 0``, ``row . (z / S) = target``.
+
+        ``t_ref``: the reference direction :meth:`make_node` will orient the point's tangent
+        along (the corrector in C then solves for the tangent in the same call).
 
         ``F_lambda``, where it is a finite difference (the costly column), is computed at
         the first iterate and kept (chord) until convergence, then recomputed at the
@@ -129,7 +134,7 @@ class Continuer:
             No convergence (step to be rejected).
         """
         z = np.asarray(z_guess, float).copy()
-        fast = self._correct_in_c(z, row, target)
+        fast = self._correct_in_c(z, row, target, t_ref)
         if fast is not None:
             return fast
         # F_lambda integrated with the residual (exact sensitivities) is nearly free: then it is
@@ -233,23 +238,26 @@ class Continuer:
         return {"engine": engine, "method": METHODS[method], "lam0": float(lam), "p0": p0, "D": D,
                 "max_steps": int(system.defaults.get("max_steps", 0))}
 
-    def _correct_in_c(self, z: np.ndarray, row: np.ndarray, target: float
+    def _correct_in_c(self, z: np.ndarray, row: np.ndarray, target: float, t_ref: np.ndarray | None = None
                       ) -> tuple[np.ndarray, Evaluation, int] | None:
         """:meth:`correct` in one C call where it applies (see :meth:`_c_setup`); ``None`` where it
         does not or where the C iteration gave up (the Python iteration then starts from ``z``)."""
-        from ..engine.shoot import correct_in_c
+        from ..engine.shoot import Corrector
         from .problems import log_events, segment_jacobian
 
         setup = self._c_setup(float(z[-1]))
         if setup is None:
             return None
         res = self.res
-        # the converged orbit's samples in the same call (make_node's dense output; single shooting)
-        n_samples = max(8, int(math.ceil(self.n_dense * res.periods))) + 1
-        out = correct_in_c(setup["engine"], z, row, target, self.S, self.Rs, tol=self.tol, max_iter=self.max_newton,
-                           min_damping=0.125, periods=res.periods, lam0=setup["lam0"], p0=setup["p0"],
-                           D=setup["D"], atol=float(res.atol), t0=res.t0, method=setup["method"], rtol=res.rtol,
-                           max_steps=setup["max_steps"], n_samples=n_samples)
+        corrector = setup.get("corrector")
+        if corrector is None:
+            # the converged orbit's samples in the same call (make_node's dense output; single shooting)
+            n_samples = max(8, int(math.ceil(self.n_dense * res.periods))) + 1
+            corrector = setup["corrector"] = Corrector(
+                setup["engine"], tol=self.tol, max_iter=self.max_newton, min_damping=0.125, periods=res.periods,
+                lam0=setup["lam0"], p0=setup["p0"], D=setup["D"], atol=float(res.atol), t0=res.t0,
+                method=setup["method"], rtol=res.rtol, max_steps=setup["max_steps"], n_samples=n_samples)
+        out = corrector(z, row, target, self.S, self.Rs, t_ref=t_ref)
         res.n_evals += out.n_runs
         res.n_integrations += out.n_runs
         # the failures the Python iteration would meet the same way are raised as it raises them
@@ -267,13 +275,20 @@ class Continuer:
         ev_log = out.run.events
         ev = Evaluation(out.R, segment_jacobian([out.monodromy]), out.f_lambda, monodromy=out.monodromy,
                         events=log_events(res.system, ev_log.t, ev_log.surface, ev_log.direction),
-                        samples=out.samples)
+                        samples=out.samples, tangent=None if out.tangent is None else (t_ref, out.tangent),
+                        period=out.period if math.isfinite(out.period) else None)
         return out.z, ev, out.iterations
 
     def tangent(self, ev: Evaluation, t_ref: np.ndarray, lam: float | None = None) -> np.ndarray:
         """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0`` (and, with
         rigid-body modes, no component along their shift: anchor rows at ``lam``)."""
         anchor = self.scaled_anchor(lam) if lam is not None else None
+        if anchor is None and ev.tangent is not None and ev.tangent[0] is t_ref:
+            t = ev.tangent[1]  # the same solve, made by the corrector in C
+            tl = t.tolist()
+            if all(map(math.isfinite, tl)) and any(tl):
+                t = t / math.sqrt(float(t @ t))
+                return -t if t @ t_ref < 0 else t
         A = np.vstack([self.scaled_jacobian(ev)] + ([anchor] if anchor is not None else []) + [t_ref[None, :]])
         b = np.zeros(A.shape[0])
         b[-1] = 1.0
@@ -320,55 +335,81 @@ class Continuer:
                 g0 = smp.g[0]
         else:
             t_dense, Y = res.dense(u, lam, self.n_dense)
+        st = smp.stats if smp is not None else None  # the reductions below, made in the same C call
         y = Y[:, self.state]
-        i_max, i_min = int(np.argmax(y)), int(np.argmin(y))
+        if st is not None:
+            i_max, i_min = st.argmax[self.state], st.argmin[self.state]
+        else:
+            i_max, i_min = int(np.argmax(y)), int(np.argmin(y))
         ext: dict[str, tuple[float, float]] = {}
         if self.surfaces:
             if G is None:
                 G = res.system.switching(t_dense, Y, p=res.system.param_vector(params)).reshape(len(t_dense), -1).T
             for j, name in enumerate(self.surfaces):
                 g = G[j]
-                ext[name] = (_periodic_extremum(g, int(np.argmin(g)), +1.0),
-                             _periodic_extremum(g, int(np.argmax(g)), -1.0))
+                jmin, jmax = (st.g_argmin[j], st.g_argmax[j]) if st is not None else \
+                    (int(np.argmin(g)), int(np.argmax(g)))
+                ext[name] = (_periodic_extremum(g, jmin, +1.0), _periodic_extremum(g, jmax, -1.0))
         try:
             rss = mesh_rattle_states(res.system, x0, res.t0, ev.events, params, g0=g0)
         except Exception:  # noqa: BLE001 - the classification is informative only
             rss = {}
-        meshes = mesh_point(res.system, t_dense, Y, params, rss, deflections=H)
+        meshes = mesh_point(res.system, t_dense, Y, params, rss, deflections=H,
+                            extrema_at=None if st is None else (st.mesh_argmin, st.mesh_argmax))
         t = self.tangent(ev, t_ref, lam)
-        if res.natural_steps and ref is not None and graph_like(mu, ref.point.multipliers) \
-                and ref.t[-1] * t[-1] < 0:
-            t = -t
+        tau_mu: dict[str, float] = {}
+        if len(mu):
+            tau_mu = {"period_doubling": tau_period_doubling(mu), "neimark_sacker": tau_neimark_sacker(mu),
+                      "branch_point": tau_branch_point(mu)}
+        graph = None
+        if res.natural_steps and ref is not None:
+            graph = graph_like(mu, ref.point.multipliers, tau_b=tau_mu.get("branch_point", math.nan),
+                               tau_a=ref.tau.get("branch_point", math.nan))
+            if graph and ref.t[-1] * t[-1] < 0:
+                t = -t
+        period = float(res.periods) * ev.period if ev.period is not None else res.period(lam)
+        rms = math.sqrt(float(st.sum_squares[self.state]) / len(y)) if st is not None else float(np.sqrt(np.mean(y ** 2)))
         pt = BranchPoint(
-            value=lam, x0=np.asarray(x0, float), period=res.period(lam), periods=res.periods, multipliers=mu,
+            value=lam, x0=np.asarray(x0, float), period=period, periods=res.periods, multipliers=mu,
             stable=fq.stable, n_unstable=fq.n_unstable,
             max=_periodic_extremum(y, i_max, -1.0), min=_periodic_extremum(y, i_min, +1.0),
-            rms=float(np.sqrt(np.mean(y ** 2))), rattle_state=max(rss.values()) if rss else None,
+            rms=rms, rattle_state=max(rss.values()) if rss else None,
             n_events=len(ev.events),
             surface_extrema=ext, tangent=t, residual=float(np.max(np.abs(self.scaled_residual(ev)))),
             iterations=iterations, u=np.asarray(u, float).copy(), monodromy=ev.monodromy,
             stability=fq.stability, trivial_multipliers=fq.trivial, multiplier_tolerances=fq.tolerances,
             meshes=meshes)
-        tau: dict[str, float] = {"fold": float(t[-1])}
-        if len(mu):
-            tau["period_doubling"] = tau_period_doubling(mu)
-            tau["neimark_sacker"] = tau_neimark_sacker(mu)
-            tau["branch_point"] = tau_branch_point(mu)
+        tau: dict[str, float] = {"fold": float(t[-1]), **tau_mu}
         for name, (gmin, gmax) in ext.items():
             tau[f"grazing|{name}|min"] = gmin
             tau[f"grazing|{name}|max"] = gmax
-        scale = np.maximum(np.max(np.abs(Y), axis=0), np.ptp(Y, axis=0))
-        return Node(z=np.asarray(z, float).copy(), ev=ev, point=pt, t=t, tau=tau, iterations=iterations,
-                    scale=scale, size=float(np.max(scale)))
+        if st is not None:
+            scale = np.maximum(np.maximum(st.max, -st.min), st.max - st.min)
+        else:
+            scale = np.maximum(np.max(np.abs(Y), axis=0), np.ptp(Y, axis=0))
+        z = np.array(z, float)
+        size = float(np.max(scale))
+        return Node(z=z, ev=ev, point=pt, t=t, tau=tau, iterations=iterations, scale=scale, size=size,
+                    graph_ref=graph, stall_key=(lam, size, mu))
 
 
-def graph_like(mu_b: np.ndarray, mu_a: np.ndarray, margin: float = 0.05) -> bool:
-    """No multiplier within ``margin`` of +1 at either point and none crossed +1 in between."""
+def distance_to_one(mu: np.ndarray) -> float:
+    """``min |mu_i - 1|`` (NaN if a multiplier is not finite, as numpy's ``min``)."""
+    d = [abs(m - 1.0) for m in np.asarray(mu, complex).tolist()]
+    return math.nan if any(math.isnan(v) for v in d) else min(d)
+
+
+def graph_like(mu_b: np.ndarray, mu_a: np.ndarray, margin: float = 0.05, *, tau_b: float | None = None,
+               tau_a: float | None = None) -> bool:
+    """No multiplier within ``margin`` of +1 at either point and none crossed +1 in between
+    (``tau_b``, ``tau_a``: the points' ``tau_branch_point`` when already known)."""
     if len(mu_a) == 0 or len(mu_b) == 0:
         return False
-    if np.min(np.abs(mu_a - 1.0)) <= margin or np.min(np.abs(mu_b - 1.0)) <= margin:
+    if distance_to_one(mu_a) <= margin or distance_to_one(mu_b) <= margin:
         return False
-    return (tau_branch_point(mu_a) > 0) == (tau_branch_point(mu_b) > 0)
+    tau_a = tau_branch_point(mu_a) if tau_a is None else tau_a
+    tau_b = tau_branch_point(mu_b) if tau_b is None else tau_b
+    return (tau_a > 0) == (tau_b > 0)
 
 
 def rescale(C: Continuer, node: Node, force: bool = False) -> tuple[Continuer, Node]:

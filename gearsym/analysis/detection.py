@@ -35,7 +35,7 @@ def boundary_node(C: Continuer, A: Node, B: Node, bound: float) -> Node:
     z_guess[-1] = bound
     row = np.zeros(len(A.z))
     row[-1] = 1.0
-    z, ev, it = C.correct(z_guess, row, bound / C.S[-1])
+    z, ev, it = C.correct(z_guess, row, bound / C.S[-1], t_ref=A.t)
     return C.make_node(z, ev, A.t, it, ref=A)
 
 
@@ -47,7 +47,7 @@ def _node_at(C: Continuer, A: Node, B: Node, sigma: float, sigma_B: float, cache
         return nd
     f = sigma / sigma_B if sigma_B else 0.0
     z_guess = A.z + f * (B.z - A.z)
-    z, ev, it = C.correct(z_guess, row, float(row @ (A.z / C.S)) + sigma)
+    z, ev, it = C.correct(z_guess, row, float(row @ (A.z / C.S)) + sigma, t_ref=A.t)
     nd = C.make_node(z, ev, A.t, it, ref=A)
     cache[sigma] = nd
     return nd

@@ -58,6 +58,17 @@ def _refined(y: np.ndarray, sign: float) -> float:
     return float(sign * z[i])
 
 
+def _refined_periodic(d: np.ndarray, i: int, sign: float) -> float:
+    """:func:`_refined` of ``append(d, d[0])`` (one period, its end the start again) at its
+    extremum ``i`` (the first argmax of ``sign * d``)."""
+    if i > 0:
+        a, b, c = sign * float(d[i - 1]), sign * float(d[i]), sign * float(d[i + 1] if i + 1 < len(d) else d[0])
+        den = a - 2 * b + c
+        if den < 0:
+            return float(sign * (b - 0.125 * (c - a) ** 2 / den))
+    return float(d[i])
+
+
 def mesh_extrema(deflections: Mapping[str, np.ndarray]) -> dict[str, dict[str, float]]:
     """``{mesh: {"min", "max", "peak_to_peak"}}`` of sampled deflections (parabolic refinement)."""
     out = {}
@@ -144,12 +155,22 @@ def mesh_flanks(system: System, t: Sequence[float], Y: np.ndarray, deflections: 
 
 
 def mesh_point(system: System, t: np.ndarray, Y: np.ndarray, params: Mapping[str, float],
-               rattle: Mapping[str, int], deflections: np.ndarray | None = None) -> dict[str, dict[str, Any]]:
+               rattle: Mapping[str, int], deflections: np.ndarray | None = None,
+               extrema_at: tuple[Sequence[int], Sequence[int]] | None = None) -> dict[str, dict[str, Any]]:
     """Per mesh: rattle state and extrema of the dynamic deflection over one period sampled at ``t``
     (end excluded; a branch point of :func:`gearsym.continuation`).  ``deflections``: the
-    deflections at the samples when already evaluated (shape (len(t), number of meshes))."""
+    deflections at the samples when already evaluated (shape (len(t), number of meshes));
+    ``extrema_at``: with them, the first argmin and argmax of each column when already known."""
     try:
         names = mesh_names(system)
+        if deflections is not None and extrema_at is not None and deflections.shape == (len(t), len(names)) \
+                and len(extrema_at[0]) == len(extrema_at[1]) == len(names):
+            ext = {}
+            for k, name in enumerate(names):
+                d = deflections[:, k]
+                lo, hi = _refined_periodic(d, extrema_at[0][k], -1.0), _refined_periodic(d, extrema_at[1][k], +1.0)
+                ext[name] = {"min": lo, "max": hi, "peak_to_peak": hi - lo}
+            return {name: {"rattle_state": rattle.get(name), **e} for name, e in ext.items()}
         if deflections is not None and deflections.shape == (len(t), len(names)):
             defl = {name: deflections[:, i] for i, name in enumerate(names)}
         else:

@@ -50,6 +50,11 @@ class Evaluation:
     samples : OrbitSamples or None
         The orbit sampled over one period (:class:`gearsym.engine.shoot.OrbitSamples`) when the
         evaluation came with it (the corrector in C), else ``None``.
+    tangent : tuple (ndarray, ndarray) or None
+        ``(t_ref, t)``: the unnormalised solution ``t`` of ``[J_s; t_ref] t = e_n`` (the
+        continuation's tangent along ``t_ref``) when the corrector in C computed it.
+    period : float or None
+        The forcing period at the point when the evaluation came with it.
     """
 
     R: np.ndarray
@@ -58,6 +63,8 @@ class Evaluation:
     monodromy: np.ndarray | None = None
     events: list = field(default_factory=list)
     samples: Any = None
+    tangent: tuple[np.ndarray, np.ndarray] | None = None
+    period: float | None = None
 
 
 class PeriodicOrbitProblem:

@@ -339,7 +339,7 @@ def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequ
     kinds = {s["name"]: (s.get("kind"), int(s.get("contact_sign", 0))) for s in surfaces}
     if not any(k in ("drive", "back") for k, _ in kinds.values()):
         return {}
-    p = system.param_vector(params)
+    p = system.param_vector(params) if g0 is None or samples is not None else None
     g = system.switching(float(t0), x0, p=p) if g0 is None else np.asarray(g0, float)
     G = None
     if samples is not None:

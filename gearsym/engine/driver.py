@@ -523,8 +523,9 @@ class Engine:
             msg = a.errmsg.decode("utf-8", errors="replace")
             raise error_for_status(int(status), msg, float(a.t_reached))
 
-    def _result(self, a: GsSimArgs, buf: dict[str, Any]) -> RunResult | int:
-        """The result of a successful run (or the event count when the log was too small)."""
+    def _result(self, a: GsSimArgs, buf: dict[str, Any], copy: bool = False) -> RunResult | int:
+        """The result of a successful run (or the event count when the log was too small);
+        ``copy``: its arrays are copies of the buffers (which are reused)."""
         n_ev = int(a.n_events)
         if n_ev > buf["cap"]:
             return n_ev
@@ -543,17 +544,20 @@ class Engine:
             "n_reinit": int(a.n_reinit),
             "n_events": n_ev,
         }
+        def own(x: np.ndarray | None) -> np.ndarray | None:
+            return x.copy() if copy and x is not None else x
+
         return RunResult(
             t=buf["tout"].copy(),
-            y=buf["y"],
-            x_final=buf["x_final"],
+            y=own(buf["y"]),
+            x_final=own(buf["x_final"]),
             sigma_final=buf["sigma_final"][: self.nsw].copy(),
-            monodromy=buf["mono"],
+            monodromy=own(buf["mono"]),
             events=events,
             stats=stats,
             t_reached=float(a.t_reached),
-            sensitivity=buf["s_final"],
-            sensitivity_out=buf["s_out"],
+            sensitivity=own(buf["s_final"]),
+            sensitivity_out=own(buf["s_out"]),
         )
 
 

@@ -2646,6 +2646,57 @@ static int correct_eval(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c, co
   return 0;
 }
 
+/* Per-column maximum, minimum, sum of squares and first argmax / argmin of the n - 1 samples
+ * (end excluded) of the states, and the first argmin / argmax of the switching functions
+ * and of the mesh deflections (gs_correct_args.col_stats / col_args); stats_ok stays 0 on a
+ * non-finite sample. */
+static void sample_stats(gs_correct_args* c, int n, int nx, int nsw, int nmesh) {
+  int m = n - 1, j, k;
+  c->stats_ok = 0;
+  if (!c->col_stats || !c->col_args || m < 1 || (nsw && !c->G_samples) || (nmesh > 0 && !c->H_samples)) return;
+  for (j = 0; j < nx; ++j) {
+    double vmax = c->Y_samples[j], vmin = vmax, ss = 0.0;
+    int imax = 0, imin = 0;
+    for (k = 0; k < m; ++k) {
+      double v = c->Y_samples[(size_t)k * nx + j];
+      if (!isfinite(v)) return;
+      if (v > vmax) { vmax = v; imax = k; }
+      if (v < vmin) { vmin = v; imin = k; }
+      ss += v * v;
+    }
+    c->col_stats[j] = vmax;
+    c->col_stats[nx + j] = vmin;
+    c->col_stats[2 * nx + j] = ss;
+    c->col_args[j] = imax;
+    c->col_args[nx + j] = imin;
+  }
+  for (j = 0; j < nsw; ++j) {
+    double gmin = c->G_samples[j], gmax = gmin;
+    int imin = 0, imax = 0;
+    for (k = 0; k < m; ++k) {
+      double g = c->G_samples[(size_t)k * nsw + j];
+      if (!isfinite(g)) return;
+      if (g < gmin) { gmin = g; imin = k; }
+      if (g > gmax) { gmax = g; imax = k; }
+    }
+    c->col_args[2 * nx + j] = imin;
+    c->col_args[2 * nx + nsw + j] = imax;
+  }
+  for (j = 0; j < nmesh; ++j) {
+    double hmin = c->H_samples[j], hmax = hmin;
+    int imin = 0, imax = 0;
+    for (k = 0; k < m; ++k) {
+      double h = c->H_samples[(size_t)k * nmesh + j];
+      if (!isfinite(h)) return;
+      if (h < hmin) { hmin = h; imin = k; }
+      if (h > hmax) { hmax = h; imax = k; }
+    }
+    c->col_args[2 * nx + 2 * nsw + j] = imin;
+    c->col_args[2 * nx + 2 * nsw + nmesh + j] = imax;
+  }
+  c->stats_ok = 1;
+}
+
 /* The samples of the corrected orbit z (see gs_correct_args.n_samples): one run without the
  * variational equations, as System.flow(x, t0, t0 + P, p, monodromy=False, n_samples=n) makes
  * it, then the switching functions and mesh deflections at the samples.  The run description,
@@ -2703,6 +2754,7 @@ static int correct_samples(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c,
         gs_eval(ws, GS_EVAL_MESH, n, c->t_samples, c->Y_samples, a->p, NULL, c->H_samples, msg, (int)sizeof(msg)))
       ok = 0;
   }
+  if (ok) sample_stats(c, n, nx, nsw, c->H_samples ? ws->n_mesh_fn : 0);
   rc = (rc == GS_ERR_INTERRUPTED);
   memcpy(a, &saved, sizeof(saved));
   if (rc) {
@@ -2733,6 +2785,9 @@ int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
   c->iterations = 0;
   c->n_runs = 0;
   c->samples_ok = 0;
+  c->stats_ok = 0;
+  c->tangent_ok = 0;
+  c->period_out = NAN;
   c->outcome = GS_SHOOT_GAVE_UP_OTHER;
   if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
   if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
@@ -2840,6 +2895,33 @@ int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
     }
     c->iterations = it;
     c->residual = r;
+    if (c->outcome == GS_SHOOT_CONVERGED) {
+      /* the forcing period at z (as correct_eval evaluates it) */
+      const double* in[1];
+      double T;
+      for (j = 0; j < ws->U.np; ++j) p[j] = c->p0[j] + (z[nx] - c->lam0) * c->D[j];
+      in[0] = ws->U.np ? p : ws->U.dummy;
+      if (gs_call(&ws->U, &ws->U.period, in, 1, &T) == 0 && isfinite(T)) c->period_out = T;
+      if (c->t_ref && c->tangent_out) {
+        /* Continuer.tangent: [J_s; t_ref] t = e_nx, J_s as the bordered step scales it */
+        for (i = 0; i < nx; ++i) {
+          for (j = 0; j < nx; ++j)
+            A[(size_t)i * n1 + j] = (M[(size_t)i * nx + j] - (i == j ? 1.0 : 0.0)) * c->S[j] / c->Rs[i];
+          A[(size_t)i * n1 + nx] = Fl[i] * c->S[nx] / c->Rs[i];
+          dw[i] = 0.0;
+        }
+        for (j = 0; j < n1; ++j) A[(size_t)nx * n1 + j] = c->t_ref[j];
+        dw[nx] = 1.0;
+        if (shoot_lu(n1, A, piv, 0.0) == 0) {
+          shoot_lu_solve(n1, A, piv, dw);
+          c->tangent_ok = 1;
+          for (j = 0; j < n1; ++j) {
+            if (!isfinite(dw[j])) c->tangent_ok = 0;
+            c->tangent_out[j] = dw[j];
+          }
+        }
+      }
+    }
     c->samples_ok = 0;
     if (c->outcome == GS_SHOOT_CONVERGED && c->n_samples >= 2) {
       c->samples_ok = correct_samples(ws, a, c, z, p);

@@ -224,6 +224,20 @@ typedef struct gs_correct_args {
   double* G_samples;    /* [n_samples*nsw] out: the switching functions (may be NULL)        */
   double* H_samples;    /* [n_samples*nmesh] out: the mesh deflections (may be NULL)         */
   int     samples_ok;   /* out: 1 when the four arrays hold the samples                       */
+  /* with samples_ok and all samples finite: their statistics over the period, the last       */
+  /* sample (t0 + P, the first one again) excluded -- what make_node reads off the samples     */
+  double* col_stats;    /* [3*nx] out (may be NULL): per state max, min, sum of squares      */
+  int*    col_args;     /* [2*nx + 2*nsw + 2*nmesh] out: per state the first argmax, the     */
+                        /* first argmin; per switching function and per mesh deflection the  */
+                        /* first argmin, the first argmax                                     */
+  int     stats_ok;     /* out: 1 when col_stats / col_args hold them                        */
+  /* after a converged outcome, with t_ref given: the solution t of [J_s; t_ref] t = e_nx,     */
+  /* J_s = [F_u, F_lambda] at the point in the scaled variables (rows / Rs, columns * S):    */
+  /* the unnormalised tangent along t_ref                                                     */
+  const double* t_ref;  /* [nx+1] in (may be NULL)                                           */
+  double* tangent_out;  /* [nx+1] out                                                        */
+  int     tangent_ok;   /* out: 1 when tangent_out holds a finite solution                   */
+  double  period_out;   /* out: T(p(lambda)) at the returned z (one forcing period)          */
 } gs_correct_args;
 
 /* The corrector with the run described by `a` (method, tolerances, t0, max_steps, event log,

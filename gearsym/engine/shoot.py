@@ -24,7 +24,7 @@ from .sim_args import GsShootArgs
 if TYPE_CHECKING:  # pragma: no cover
     from .driver import Engine, RunResult
 
-__all__ = ["MAX_STATES", "OUTCOMES", "CorrectOutcome", "OrbitSamples", "ShootOutcome", "correct_in_c", "shoot_in_c"]
+__all__ = ["MAX_STATES", "OUTCOMES", "CorrectOutcome", "Corrector", "OrbitSamples", "SampleStats", "ShootOutcome", "correct_in_c", "shoot_in_c"]
 
 #: Largest model the C iterations take (``GS_SHOOT_MAXN`` in gs_driver.c); larger ones iterate in Python.
 MAX_STATES = 256
@@ -179,6 +179,11 @@ class CorrectOutcome:
         The outcome code (:data:`OUTCOMES`).
     samples : OrbitSamples or None
         The corrected orbit sampled over one period, when asked for and obtained.
+    tangent : ndarray or None
+        With ``t_ref``: the solution ``t`` of ``[J_s; t_ref] t = e_n`` at ``z`` (``J_s`` the
+        scaled ``[F_u, F_lambda]``), unnormalised; ``None`` when not asked for or singular.
+    period : float
+        The forcing period ``T(p(lambda))`` at ``z`` (NaN when not converged).
     """
 
     converged: bool
@@ -193,6 +198,36 @@ class CorrectOutcome:
     n_runs: int
     code: int = 0
     samples: OrbitSamples | None = None
+    tangent: np.ndarray | None = None
+    period: float = float("nan")
+
+
+@dataclass(frozen=True)
+class SampleStats:
+    """Statistics of an orbit's samples over one period, the last sample (the first again)
+    excluded; first indices of the extrema, as ``numpy.argmax`` / ``argmin`` give them.
+
+    Attributes
+    ----------
+    max, min, sum_squares : ndarray, shape (nx,)
+        Per state.
+    argmax, argmin : list of int, length nx
+        Per state.
+    g_argmin, g_argmax : list of int, length nsw
+        Per switching function.
+    mesh_argmin, mesh_argmax : list of int, length nmesh
+        Per mesh deflection.
+    """
+
+    max: np.ndarray
+    min: np.ndarray
+    sum_squares: np.ndarray
+    argmax: list[int]
+    argmin: list[int]
+    g_argmin: list[int]
+    g_argmax: list[int]
+    mesh_argmin: list[int]
+    mesh_argmax: list[int]
 
 
 @dataclass(frozen=True)
@@ -209,18 +244,22 @@ class OrbitSamples:
         The switching functions at the samples.
     mesh : ndarray, shape (n, nmesh)
         The dynamic deflection of every mesh at the samples (as :meth:`gearsym.System.mesh_deflections`).
+    stats : SampleStats or None
+        Their statistics, computed in the same C call (``None`` when not).
     """
 
     t: np.ndarray
     y: np.ndarray
     g: np.ndarray
     mesh: np.ndarray
+    stats: SampleStats | None = None
 
 
 def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
                  tol: float, max_iter: int, min_damping: float, periods: float, lam0: float, p0: np.ndarray,
                  D: np.ndarray, atol: float, t0: float, method: int, rtol: float, max_steps: int,
-                 max_events_out: int = 4096, n_samples: int = 0) -> CorrectOutcome:
+                 max_events_out: int = 4096, n_samples: int = 0, t_ref: np.ndarray | None = None
+                 ) -> CorrectOutcome:
     """The continuation's pseudo-arclength corrector for single shooting in one driver call.
 
     ``F(x, lambda) = phi(t0 + P(lambda); t0, x, p(lambda)) - x`` with ``p(lambda) = p0 +
@@ -228,51 +267,103 @@ def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, 
     ``gs_correct_args`` in gs_driver.h and :meth:`gearsym.analysis.corrector.Continuer.correct`,
     whose iteration it mirrors.  ``engine`` must be a build with the parameter derivatives.
     With ``n_samples >= 2`` the converged orbit is also sampled (:class:`OrbitSamples`) in the
-    same call; ``samples`` is ``None`` when that run failed.
+    same call; ``samples`` is ``None`` when that run failed.  With ``t_ref`` (``nx + 1``
+    entries) the point's unnormalised tangent along it comes back too (``tangent``).
+    One call of a :class:`Corrector` made for it (a continuation keeps one and calls it at
+    every point).
 
     Raises
     ------
     EngineInputError
-        An engine without the corrector or the derivatives.
+        An engine without the corrector or the derivatives, or arrays of the wrong size.
     KeyboardInterrupt
         Ctrl-C during an integration.
     """
-    if engine.implicit or engine.nalg or not hasattr(engine._lib, "gs_correct_ws"):
-        raise EngineInputError("the corrector in C needs an explicit model built with this gearsym")
-    from .sim_args import GsCorrectArgs
+    corrector = Corrector(engine, tol=tol, max_iter=max_iter, min_damping=min_damping, periods=periods, lam0=lam0,
+                          p0=p0, D=D, atol=atol, t0=t0, method=method, rtol=rtol, max_steps=max_steps,
+                          max_events_out=max_events_out, n_samples=n_samples)
+    return corrector(z, row, target, S, Rs, t_ref=t_ref)
 
-    nx = engine.nx
-    za = np.array(z, dtype=float).reshape(-1)
-    rowa = np.ascontiguousarray(row, dtype=float).reshape(-1)
-    Sa, Rsa = np.ascontiguousarray(S, dtype=float).reshape(-1), np.ascontiguousarray(Rs, dtype=float).reshape(-1)
-    p0a, Da = np.ascontiguousarray(p0, dtype=float).reshape(-1), np.ascontiguousarray(D, dtype=float).reshape(-1)
-    _check_sizes(engine, z=(za, nx + 1), row=(rowa, nx + 1), S=(Sa, nx + 1), Rs=(Rsa, nx), p0=(p0a, engine.np),
-                 D=(Da, engine.np))
-    if nx > MAX_STATES or engine.np > MAX_STATES or int(max_iter) < 0:
-        raise EngineInputError(f"the corrector in C needs nx, np <= {MAX_STATES} and max_iter >= 0")
-    sens = (Da, 1, None, None, False)
-    a, buf = engine._prepare(za[:nx].copy(), p0a, float(t0), float(t0) + 1.0, np.empty(0), int(method), float(rtol),
-                             float(atol), None, True, int(max_steps), 0.0, 0.0, 0, 0, 0.0, int(max_events_out),
-                             0, 0, None, sens)
-    R, M, Fl = np.empty(nx), np.empty((nx, nx)), np.empty(nx)
-    c = GsCorrectArgs()
-    c.nx = nx
-    c.z, c.row, c.target, c.S, c.Rs = za.ctypes.data, rowa.ctypes.data, float(target), Sa.ctypes.data, Rsa.ctypes.data
-    c.tol, c.max_iter, c.min_damping, c.periods = float(tol), int(max_iter), float(min_damping), float(periods)
-    c.lam0, c.p0, c.D, c.atol = float(lam0), p0a.ctypes.data if p0a.size else None, Da.ctypes.data, float(atol)
-    c.R_out, c.M_out, c.Flam_out = R.ctypes.data, M.ctypes.data, Fl.ctypes.data
-    n_s = int(n_samples) if int(n_samples) >= 2 else 0
-    if n_s:
-        ts, Ys = np.empty(n_s), np.empty((n_s, nx))
-        Gs, Hs = np.empty((n_s, engine.nsw)), np.empty((n_s, max(engine.n_meshes(), 0)))
-        c.n_samples, c.t_samples, c.Y_samples = n_s, ts.ctypes.data, Ys.ctypes.data
-        c.G_samples = Gs.ctypes.data if Gs.size else None
-        c.H_samples = Hs.ctypes.data if Hs.size else None
-    engine._call(engine._lib.gs_correct_ws, a, C.byref(c))
-    converged = int(c.outcome) == 0
-    run = engine._result(a, buf) if converged else None
-    if isinstance(run, int):
-        run, converged = None, False
-    samples = OrbitSamples(ts, Ys, Gs, Hs) if converged and n_s and int(c.samples_ok) == 1 else None
-    return CorrectOutcome(converged, OUTCOMES.get(int(c.outcome), "unknown"), za, R, M, Fl, run, float(c.residual),
-                          int(c.iterations), int(c.n_runs), int(c.outcome), samples)
+
+class Corrector:
+    """The arguments of :func:`correct_in_c` that stay fixed along a continuation, with the
+    driver's argument structs and buffers made once (setting up the ``ctypes`` structs and
+    buffer addresses of a call cost about a fifth of the corrector's time outside C)."""
+
+    def __init__(self, engine: Engine, *, tol: float, max_iter: int, min_damping: float, periods: float, lam0: float,
+                 p0: np.ndarray, D: np.ndarray, atol: float, t0: float, method: int, rtol: float, max_steps: int,
+                 max_events_out: int = 4096, n_samples: int = 0):
+        if engine.implicit or engine.nalg or not hasattr(engine._lib, "gs_correct_ws"):
+            raise EngineInputError("the corrector in C needs an explicit model built with this gearsym")
+        from .sim_args import GsCorrectArgs
+
+        nx, nsw = engine.nx, engine.nsw
+        self.engine, self.nx = engine, nx
+        self.p0 = np.array(p0, dtype=float).reshape(-1)
+        self.D = np.array(D, dtype=float).reshape(-1)
+        _check_sizes(engine, p0=(self.p0, engine.np), D=(self.D, engine.np))
+        if nx > MAX_STATES or engine.np > MAX_STATES or int(max_iter) < 0:
+            raise EngineInputError(f"the corrector in C needs nx, np <= {MAX_STATES} and max_iter >= 0")
+        # inputs copied in at every call, outputs read out
+        self.z, self.row, self.S, self.t_ref = (np.empty(nx + 1) for _ in range(4))
+        self.Rs, self.R, self.Fl = np.empty(nx), np.empty(nx), np.empty(nx)
+        self.M = np.empty((nx, nx))
+        self.tangent = np.empty(nx + 1)
+        sens = (self.D, 1, None, None, False)
+        self.a, self.buf = engine._prepare(np.zeros(nx), self.p0, float(t0), float(t0) + 1.0, np.empty(0),
+                                           int(method), float(rtol), float(atol), None, True, int(max_steps), 0.0,
+                                           0.0, 0, 0, 0.0, int(max_events_out), 0, 0, None, sens)
+        c = self.c = GsCorrectArgs()
+        c.nx = nx
+        c.z, c.row, c.S, c.Rs = self.z.ctypes.data, self.row.ctypes.data, self.S.ctypes.data, self.Rs.ctypes.data
+        c.tol, c.max_iter, c.min_damping, c.periods = float(tol), int(max_iter), float(min_damping), float(periods)
+        c.lam0, c.p0, c.D, c.atol = float(lam0), self.p0.ctypes.data if self.p0.size else None, self.D.ctypes.data, \
+            float(atol)
+        c.R_out, c.M_out, c.Flam_out = self.R.ctypes.data, self.M.ctypes.data, self.Fl.ctypes.data
+        self._t_ref_ptr, self._tangent_ptr = self.t_ref.ctypes.data, self.tangent.ctypes.data
+        self.n_samples = n_s = int(n_samples) if int(n_samples) >= 2 else 0
+        if n_s:
+            self.ts, self.Ys = np.empty(n_s), np.empty((n_s, nx))
+            self.Gs, self.Hs = np.empty((n_s, nsw)), np.empty((n_s, max(engine.n_meshes(), 0)))
+            self.stats = np.empty(3 * nx)
+            self.args = np.empty(2 * nx + 2 * nsw + 2 * self.Hs.shape[1], dtype=np.intc)
+            c.n_samples, c.t_samples, c.Y_samples = n_s, self.ts.ctypes.data, self.Ys.ctypes.data
+            c.G_samples = self.Gs.ctypes.data if self.Gs.size else None
+            c.H_samples = self.Hs.ctypes.data if self.Hs.size else None
+            c.col_stats, c.col_args = self.stats.ctypes.data, self.args.ctypes.data
+
+    def __call__(self, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
+                 t_ref: np.ndarray | None = None) -> CorrectOutcome:
+        """Correct ``z`` (see :func:`correct_in_c`); the outcome's arrays are its own copies."""
+        nx, c, engine = self.nx, self.c, self.engine
+        for name, dst, src in (("z", self.z, z), ("row", self.row, row), ("S", self.S, S), ("Rs", self.Rs, Rs),
+                               ("t_ref", self.t_ref, t_ref)):
+            if src is None and name == "t_ref":
+                continue
+            if np.shape(src) != dst.shape:
+                raise EngineInputError(f"{name} has {np.size(src)} entries, the C iteration needs {dst.size} "
+                                       f"(model: nx={engine.nx}, np={engine.np})")
+            dst[:] = src
+        c.target = float(target)
+        if t_ref is not None:
+            c.t_ref, c.tangent_out = self._t_ref_ptr, self._tangent_ptr
+        else:
+            c.t_ref = c.tangent_out = None
+        engine._call(engine._lib.gs_correct_ws, self.a, C.byref(c))
+        converged = int(c.outcome) == 0
+        run = engine._result(self.a, self.buf, copy=True) if converged else None  # (the buffers are reused)
+        if isinstance(run, int):
+            run, converged = None, False
+        samples = None
+        if converged and self.n_samples and int(c.samples_ok) == 1:
+            st = None
+            if int(c.stats_ok) == 1:
+                nsw, nm, stats, args = engine.nsw, self.Hs.shape[1], self.stats.copy(), self.args.tolist()
+                g, h = 2 * nx, 2 * nx + 2 * nsw
+                st = SampleStats(stats[:nx], stats[nx:2 * nx], stats[2 * nx:], args[:nx], args[nx:g],
+                                 args[g:g + nsw], args[g + nsw:h], args[h:h + nm], args[h + nm:])
+            samples = OrbitSamples(self.ts.copy(), self.Ys.copy(), self.Gs.copy(), self.Hs.copy(), st)
+        tangent = self.tangent.copy() if converged and t_ref is not None and int(c.tangent_ok) == 1 else None
+        return CorrectOutcome(converged, OUTCOMES.get(int(c.outcome), "unknown"), self.z.copy(), self.R.copy(),
+                              self.M.copy(), self.Fl.copy(), run, float(c.residual), int(c.iterations),
+                              int(c.n_runs), int(c.outcome), samples, tangent, float(c.period_out))

@@ -124,4 +124,11 @@ class GsCorrectArgs(C.Structure):
         ("G_samples", _PD),
         ("H_samples", _PD),
         ("samples_ok", C.c_int),
+        ("col_stats", _PD),
+        ("col_args", _PD),
+        ("stats_ok", C.c_int),
+        ("t_ref", _PD),
+        ("tangent_out", _PD),
+        ("tangent_ok", C.c_int),
+        ("period_out", C.c_double),
     ]
