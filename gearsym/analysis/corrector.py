@@ -257,7 +257,7 @@ class Continuer:
                 setup["engine"], tol=self.tol, max_iter=self.max_newton, min_damping=0.125, periods=res.periods,
                 lam0=setup["lam0"], p0=setup["p0"], D=setup["D"], atol=float(res.atol), t0=res.t0,
                 method=setup["method"], rtol=res.rtol, max_steps=setup["max_steps"], n_samples=n_samples)
-        out = corrector(z, row, target, self.S, self.Rs, t_ref=t_ref)
+        out = corrector(z, row, target, self.S, self.Rs, t_ref=t_ref, want_run=False)
         res.n_evals += out.n_runs
         res.n_integrations += out.n_runs
         # the failures the Python iteration would meet the same way are raised as it raises them
@@ -272,7 +272,7 @@ class Continuer:
             raise ConvergenceError("corrector: non-finite residual")
         if not out.converged:
             return None
-        ev_log = out.run.events
+        ev_log = out.events
         ev = Evaluation(out.R, segment_jacobian([out.monodromy]), out.f_lambda, monodromy=out.monodromy,
                         events=log_events(res.system, ev_log.t, ev_log.surface, ev_log.direction),
                         samples=out.samples, tangent=None if out.tangent is None else (t_ref, out.tangent),
@@ -331,7 +331,7 @@ class Continuer:
         params = res.params(lam)
         if smp is not None:  # from the corrector's C call: the period's samples, end excluded
             t_dense, Y, G, H = smp.t[:-1], smp.y[:-1], smp.g[:-1].T, smp.mesh[:-1]
-            if np.array_equal(Y[0], x0):
+            if Y[0].tolist() == np.asarray(x0, float).tolist():
                 g0 = smp.g[0]
         else:
             t_dense, Y = res.dense(u, lam, self.n_dense)
@@ -375,7 +375,7 @@ class Continuer:
             max=_periodic_extremum(y, i_max, -1.0), min=_periodic_extremum(y, i_min, +1.0),
             rms=rms, rattle_state=max(rss.values()) if rss else None,
             n_events=len(ev.events),
-            surface_extrema=ext, tangent=t, residual=float(np.max(np.abs(self.scaled_residual(ev)))),
+            surface_extrema=ext, tangent=t, residual=max(map(abs, self.scaled_residual(ev).tolist())),
             iterations=iterations, u=np.asarray(u, float).copy(), monodromy=ev.monodromy,
             stability=fq.stability, trivial_multipliers=fq.trivial, multiplier_tolerances=fq.tolerances,
             meshes=meshes)

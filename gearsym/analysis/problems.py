@@ -132,6 +132,8 @@ class PeriodicOrbitProblem:
 
     def rigid_basis(self, lam: float) -> np.ndarray | None:
         """The rigid-body subspace of the state at ``lambda`` (``None`` without rigid-body modes)."""
+        if not getattr(self.system.generated, "rigid_modes", None):
+            return None  # (what rigid_state_basis answers; asked at every branch point)
         return rigid_state_basis(self.system, self.params(lam))
 
     def anchor_rows(self, lam: float) -> np.ndarray | None:
@@ -331,6 +333,10 @@ def segment_jacobian(Ms: list[np.ndarray]) -> np.ndarray:
     """
     N = len(Ms)
     nx = Ms[0].shape[0]
+    if N == 1:  # M - I
+        J = np.array(Ms[0], float)
+        J.flat[::nx + 1] -= 1.0
+        return J
     J = np.zeros((N * nx, N * nx))
     eye = np.eye(nx)
     for i in range(N):

@@ -57,7 +57,7 @@ def stalled_branch(points: Sequence[tuple[float, np.ndarray | None, np.ndarray]]
     def window(k: int) -> tuple[list[float], list[float]]:
         pts = points[-k - 1:]
         return ([float(p[0]) for p in pts],
-                [math.nan if p[1] is None else
+                [p[1] if type(p[1]) is float else math.nan if p[1] is None else
                  (float(p[1]) if isinstance(p[1], (float, int)) or np.ndim(p[1]) == 0 else float(np.max(p[1])))
                  for p in pts])
 

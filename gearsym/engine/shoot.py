@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .driver import EventLog
 from .errors import EngineInputError
 from .sim_args import GsShootArgs
 
@@ -184,6 +185,8 @@ class CorrectOutcome:
         scaled ``[F_u, F_lambda]``), unnormalised; ``None`` when not asked for or singular.
     period : float
         The forcing period ``T(p(lambda))`` at ``z`` (NaN when not converged).
+    events : EventLog or None
+        The event log of the run at ``z`` when converged (also ``run.events``).
     """
 
     converged: bool
@@ -200,6 +203,7 @@ class CorrectOutcome:
     samples: OrbitSamples | None = None
     tangent: np.ndarray | None = None
     period: float = float("nan")
+    events: EventLog | None = None
 
 
 @dataclass(frozen=True)
@@ -333,8 +337,9 @@ class Corrector:
             c.col_stats, c.col_args = self.stats.ctypes.data, self.args.ctypes.data
 
     def __call__(self, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
-                 t_ref: np.ndarray | None = None) -> CorrectOutcome:
-        """Correct ``z`` (see :func:`correct_in_c`); the outcome's arrays are its own copies."""
+                 t_ref: np.ndarray | None = None, want_run: bool = True) -> CorrectOutcome:
+        """Correct ``z`` (see :func:`correct_in_c`); the outcome's arrays are its own copies.
+        ``want_run=False``: no ``run`` (its ``events`` only)."""
         nx, c, engine = self.nx, self.c, self.engine
         for name, dst, src in (("z", self.z, z), ("row", self.row, row), ("S", self.S, S), ("Rs", self.Rs, Rs),
                                ("t_ref", self.t_ref, t_ref)):
@@ -351,9 +356,17 @@ class Corrector:
             c.t_ref = c.tangent_out = None
         engine._call(engine._lib.gs_correct_ws, self.a, C.byref(c))
         converged = int(c.outcome) == 0
-        run = engine._result(self.a, self.buf, copy=True) if converged else None  # (the buffers are reused)
-        if isinstance(run, int):
-            run, converged = None, False
+        run = events = None
+        if converged:
+            n_ev, buf = int(self.a.n_events), self.buf
+            if n_ev > buf["cap"]:  # the event log overflowed (the C side gives up first; kept for safety)
+                converged = False
+            elif want_run:
+                run = engine._result(self.a, buf, copy=True)  # (the buffers are reused)
+                events = run.events
+            else:
+                events = EventLog(t=buf["ev_t"][:n_ev].copy(), surface=buf["ev_s"][:n_ev].astype(int),
+                                  direction=buf["ev_d"][:n_ev].astype(int), speed=buf["ev_v"][:n_ev].copy())
         samples = None
         if converged and self.n_samples and int(c.samples_ok) == 1:
             st = None
@@ -366,4 +379,4 @@ class Corrector:
         tangent = self.tangent.copy() if converged and t_ref is not None and int(c.tangent_ok) == 1 else None
         return CorrectOutcome(converged, OUTCOMES.get(int(c.outcome), "unknown"), self.z.copy(), self.R.copy(),
                               self.M.copy(), self.Fl.copy(), run, float(c.residual), int(c.iterations),
-                              int(c.n_runs), int(c.outcome), samples, tangent, float(c.period_out))
+                              int(c.n_runs), int(c.outcome), samples, tangent, float(c.period_out), events)
