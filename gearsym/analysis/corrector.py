@@ -414,6 +414,9 @@ def graph_like(mu_b: np.ndarray, mu_a: np.ndarray, margin: float = 0.05, *, tau_
 
 def rescale(C: Continuer, node: Node, force: bool = False) -> tuple[Continuer, Node]:
     """Grow the state scales when the orbit outgrows them; re-express the tangent."""
+    if not force and not any(a > 2 * b for a, b in zip(np.asarray(node.scale, float).tolist(),
+                                                        C.state_scale.tolist())):
+        return C, node  # (the common case, on Python floats)
     old = C.S.copy()
     cur = C.state_scale
     new_scale = np.asarray(node.scale, float)

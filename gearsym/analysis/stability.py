@@ -283,7 +283,7 @@ def multiplier_tolerances(M: np.ndarray, rtol: float) -> tuple[np.ndarray, np.nd
         tol = np.array([max(min(k * delta, cap), 16 * _EPS) for k in kappa.tolist()])
     else:
         tol = np.maximum(np.minimum(kappa * delta, cap), 16 * _EPS)
-    return mu.astype(complex), tol, delta
+    return np.asarray(mu, complex), tol, delta
 
 
 def floquet(monodromy: np.ndarray | None, rtol: float, basis: np.ndarray | None = None) -> FloquetResult:
@@ -303,10 +303,10 @@ def floquet(monodromy: np.ndarray | None, rtol: float, basis: np.ndarray | None 
     FloquetResult
         Without a (finite) monodromy: no verdict, ``stability = "unknown"``, ``stable`` False.
     """
-    if monodromy is None or np.asarray(monodromy).size == 0:
+    M = None if monodromy is None else np.asarray(monodromy, float)
+    if M is None or M.size == 0:
         return FloquetResult(np.zeros(0, complex), np.zeros(0, complex), np.zeros(0), "unknown", False, 0, 0,
                              math.nan, 0.0, {"rigid_split": "none"})
-    M = np.asarray(monodromy, float)
     if not _finite(M):
         nan = np.full(M.shape[0], complex(math.nan, math.nan))
         return FloquetResult(nan, np.zeros(0, complex), np.full(M.shape[0], math.nan), "unknown", False, 0, 0,

@@ -345,7 +345,7 @@ class Corrector:
                                ("t_ref", self.t_ref, t_ref)):
             if src is None and name == "t_ref":
                 continue
-            if np.shape(src) != dst.shape:
+            if getattr(src, "shape", None) != dst.shape and np.shape(src) != dst.shape:
                 raise EngineInputError(f"{name} has {np.size(src)} entries, the C iteration needs {dst.size} "
                                        f"(model: nx={engine.nx}, np={engine.np})")
             dst[:] = src
