@@ -268,3 +268,33 @@ def test_duffing_hbm_continuation_passes_both_folds_with_defaults(tmp_path):
     f_sh = sorted(b.value for b in sh.of_type("fold"))
     assert len(f_hb) == len(f_sh) == 2
     assert f_hb == pytest.approx(f_sh, abs=1e-4)
+
+
+def test_growth_gives_up_when_the_defect_blows_up(ks, monkeypatch):
+    """The harmonic growth stops, and says why, at a set whose time-domain defect is more than
+    DEFECT_BLOWUP times the smallest one before it (a balance that moved away from the orbit:
+    the free two-stage train's 128-harmonic set, 0.067 -> 41, then minutes more for the next
+    set); a growth whose defects only fall is not stopped (the same call unpatched converges)."""
+    from gearsym.analysis import hbm_driver
+
+    ok = harmonic_balance(ks, initial_guess="simulation", max_harmonics=64)
+    seen = [g["harmonics"] for g in ok.info["harmonic_growth"]]
+    assert ok.converged and len(seen) >= 3  # several sets, the defects falling to defect_tol
+    real = hbm_driver.time_defect
+
+    def bad_third_set(system, x, t0, period, params, sizes, rtol, atol, **kw):
+        d_rel, d_abs, tr = real(system, x, t0, period, params, sizes, rtol, atol, **kw)
+        calls.append(d_rel)
+        return (d_rel * 1e3, d_abs * 1e3, tr) if len(calls) == 3 else (d_rel, d_abs, tr)
+
+    calls: list[float] = []
+    monkeypatch.setattr(hbm_driver, "time_defect", bad_third_set)
+    with pytest.raises(gearsym.ConvergenceError, match="moved the balance away from the orbit") as err:
+        harmonic_balance(ks, initial_guess="simulation", max_harmonics=64)
+    assert len(calls) == 3  # no set after the third
+    best = min(calls[:2])
+    assert f"went from {best:.3g} ({seen[calls.index(best)]} harmonics)" in str(err.value)
+    assert f"to {calls[2] * 1e3:.3g} ({seen[2]} harmonics)" in str(err.value)
+    calls.clear()
+    orbit = harmonic_balance(ks, initial_guess="simulation", max_harmonics=64, raise_on_failure=False)
+    assert not orbit.converged and orbit.info["harmonic_growth"][-1]["note"] == "growth stopped: the defect grew"
