@@ -323,3 +323,31 @@ def test_wrong_sizes_are_refused_before_c_reads_them(ks):
         correct_in_c(ks.derivative_engine(), np.zeros(3), np.zeros(2), 0.0, np.ones(3), np.ones(2), **ckw)
     with pytest.raises(EngineInputError, match="Rs has 3 entries"):
         correct_in_c(ks.derivative_engine(), np.zeros(3), np.zeros(3), 0.0, np.ones(3), np.ones(3), **ckw)
+
+
+def test_reused_corrector_outcomes_do_not_share_its_buffers(ks):
+    """A Corrector reuses its ctypes structs and buffers across calls: an outcome must keep its
+    own arrays (equal to a fresh corrector's for the same point) after later calls."""
+    from gearsym.engine.shoot import Corrector, correct_in_c
+    from gearsym.sensitivity import directions
+
+    p0 = ks.param_vector({"Omega": 0.9})
+    kw = dict(tol=1e-8, max_iter=8, min_damping=0.125, periods=1.0, lam0=0.9, p0=p0,
+              D=directions(ks, ["Omega"], p0)[:, 0], atol=1e-12, t0=0.0, method=METHODS["adams"], rtol=1e-10,
+              max_steps=0, n_samples=65)
+    S, Rs, row = np.ones(3), np.ones(2), np.array([0.0, 0.0, 1.0])
+    corr = Corrector(ks.derivative_engine(), **kw)
+    o = ks.periodic_orbit(params={"Omega": 0.9})
+    first = corr(np.concatenate([o.x0, [0.9]]), row, 0.9, S, Rs, t_ref=row)
+    kept = {k: np.array(getattr(first, k), copy=True) for k in ("z", "R", "monodromy", "f_lambda", "tangent")}
+    kept["y"], kept["ev_t"] = first.samples.y.copy(), first.events.t.copy()
+    o2 = ks.periodic_orbit(params={"Omega": 0.95})
+    second = corr(np.concatenate([o2.x0, [0.95]]), row, 0.95, S, Rs, t_ref=row)
+    assert first.converged and second.converged and abs(second.z[-1] - 0.95) < 1e-12
+    assert not np.allclose(second.samples.y, kept["y"])  # a different orbit went through the buffers
+    for k in ("z", "R", "monodromy", "f_lambda", "tangent"):
+        assert np.array_equal(getattr(first, k), kept[k]), k
+    assert np.array_equal(first.samples.y, kept["y"]) and np.array_equal(first.events.t, kept["ev_t"])
+    fresh = correct_in_c(ks.derivative_engine(), np.concatenate([o.x0, [0.9]]), row, 0.9, S, Rs, t_ref=row, **kw)
+    assert np.array_equal(fresh.z, first.z) and np.array_equal(fresh.samples.y, first.samples.y)
+    assert np.array_equal(fresh.tangent, first.tangent) and fresh.period == first.period
