@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import test_shooting
-from test_shooting import P0, SCENE, ref_flow
+from test_shooting import P0, ROOT, SCENE, ref_flow
 
 import gearsym
 import gearsym.analysis.shooting as shooting_mod
@@ -351,3 +351,32 @@ def test_reused_corrector_outcomes_do_not_share_its_buffers(ks):
     fresh = correct_in_c(ks.derivative_engine(), np.concatenate([o.x0, [0.9]]), row, 0.9, S, Rs, t_ref=row, **kw)
     assert np.array_equal(fresh.z, first.z) and np.array_equal(fresh.samples.y, first.samples.y)
     assert np.array_equal(fresh.tangent, first.tangent) and fresh.period == first.period
+
+
+@pytest.mark.parametrize("scene, param", [("kahraman_singh", "Omega"), ("yu_constant_backlash", "Omega")])
+def test_corrector_multipliers_in_c_are_the_stability_rule_s(scene, param):
+    """The multipliers and tolerances the corrector computes in C (scipy's LAPACK through
+    cython_lapack) are multiplier_tolerances' for the same monodromy: the 2-state benchmark
+    and the 10-state six-degree-of-freedom pair (complex pairs, unequal state units)."""
+    from gearsym.analysis.stability import floquet, multiplier_tolerances, verdict
+    from gearsym.engine.shoot import correct_in_c, lapack_pointers
+    from gearsym.sensitivity import directions
+
+    assert set(lapack_pointers()) == {"dgebal", "dgesdd", "dgeev"}
+    s = gearsym.load_scene(ROOT / "scenes" / f"{scene}.toml").compile()
+    o = s.periodic_orbit()
+    nx, lam, p0 = s.generated.nx, float(s.params[param]), s.param_vector()
+    row = np.zeros(nx + 1)
+    row[-1] = 1.0
+    out = correct_in_c(s.derivative_engine(), np.concatenate([o.x0, [lam]]), row, lam, np.ones(nx + 1), np.ones(nx),
+                       tol=1e-6, max_iter=5, min_damping=0.125, periods=1.0, lam0=lam, p0=p0,
+                       D=directions(s, [param], p0)[:, 0], atol=1e-12, t0=0.0, method=METHODS["bdf"], rtol=1e-10,
+                       max_steps=0)
+    assert out.converged and out.multipliers is not None
+    mu, tol, delta = out.multipliers
+    mu_py, tol_py, delta_py = multiplier_tolerances(out.monodromy, 1e-10)
+    assert np.sum(np.abs(mu.imag) > 0) >= 2  # complex pairs: the pair branch of the condition numbers
+    assert np.allclose(mu, mu_py, rtol=1e-13, atol=1e-15) and np.allclose(tol, tol_py, rtol=1e-12, atol=0)
+    assert delta == pytest.approx(delta_py, rel=1e-13)
+    a, b = verdict(mu, tol, delta), floquet(out.monodromy, 1e-10)
+    assert a.stability == b.stability and a.n_unstable == b.n_unstable and np.allclose(a.multipliers, b.multipliers)

@@ -23,7 +23,7 @@ from .meshes import mesh_point
 from .newton import NewtonPolicy, damped_newton
 from .problems import Evaluation, PeriodicOrbitProblem
 from .rattle import mesh_rattle_states
-from .stability import floquet
+from .stability import floquet, verdict
 
 __all__ = ["Continuer", "Node", "distance_to_one", "graph_like", "rescale"]
 
@@ -276,7 +276,7 @@ class Continuer:
         ev = Evaluation(out.R, segment_jacobian([out.monodromy]), out.f_lambda, monodromy=out.monodromy,
                         events=log_events(res.system, ev_log.t, ev_log.surface, ev_log.direction),
                         samples=out.samples, tangent=None if out.tangent is None else (t_ref, out.tangent),
-                        period=out.period if math.isfinite(out.period) else None)
+                        period=out.period if math.isfinite(out.period) else None, multipliers=out.multipliers)
         return out.z, ev, out.iterations
 
     def tangent(self, ev: Evaluation, t_ref: np.ndarray, lam: float | None = None) -> np.ndarray:
@@ -323,7 +323,11 @@ class Continuer:
         """
         res = self.res
         u, lam = z[:-1], float(z[-1])
-        fq = floquet(ev.monodromy, res.rtol, res.rigid_basis(lam))
+        basis = res.rigid_basis(lam)
+        if ev.multipliers is not None and basis is None:  # computed in the corrector's C call
+            fq = verdict(*ev.multipliers)
+        else:
+            fq = floquet(ev.monodromy, res.rtol, basis)
         mu = fq.multipliers
         smp = ev.samples
         G = H = g0 = None

@@ -55,6 +55,10 @@ class Evaluation:
         continuation's tangent along ``t_ref``) when the corrector in C computed it.
     period : float or None
         The forcing period at the point when the evaluation came with it.
+    multipliers : tuple or None
+        ``(mu, tolerances, delta)`` of the monodromy (as
+        :func:`~gearsym.analysis.stability.multiplier_tolerances`) when the corrector in C
+        computed them.
     """
 
     R: np.ndarray
@@ -65,6 +69,7 @@ class Evaluation:
     samples: Any = None
     tangent: tuple[np.ndarray, np.ndarray] | None = None
     period: float | None = None
+    multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
 
 
 class PeriodicOrbitProblem:

@@ -53,7 +53,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
 
 __all__ = ["ERROR_FACTOR", "STABILITY", "FloquetResult", "balance", "complex_sides", "floquet", "multiplier_tolerances", "norm2",
-           "neutral_step_limit", "rigid_state_basis", "split_trivial"]
+           "neutral_step_limit", "rigid_state_basis", "split_trivial", "verdict"]
 
 #: The three verdicts.
 STABILITY = ("asymptotically_stable", "neutral", "unstable")
@@ -327,6 +327,15 @@ def floquet(monodromy: np.ndarray | None, rtol: float, basis: np.ndarray | None 
             info["rigid_split"] = (f"not done: the rigid-body subspace is not invariant under the monodromy "
                                    f"(defect {defect:.3g} > {limit:.3g})")
     mu, tol, delta = multiplier_tolerances(Mq, rtol)
+    return verdict(mu, tol, delta, trivial, defect, info)
+
+
+def verdict(mu: np.ndarray, tol: np.ndarray, delta: float, trivial: np.ndarray | None = None,
+            defect: float = 0.0, info: dict[str, Any] | None = None) -> FloquetResult:
+    """Rule 3 on multipliers and tolerances (:func:`multiplier_tolerances`' outputs, or the same
+    computed by the driver): sorted by decreasing modulus, counted, judged."""
+    trivial = np.zeros(0, complex) if trivial is None else trivial
+    info = {"rigid_split": "none"} if info is None else info
     if len(mu) <= SMALL and all(map(cmath.isfinite, mu.tolist())):
         # as _sort and the counts below, on Python numbers (a stable sort by -|mu|, then -Im mu)
         ml, tl = mu.tolist(), tol.tolist()

@@ -238,6 +238,20 @@ typedef struct gs_correct_args {
   double* tangent_out;  /* [nx+1] out                                                        */
   int     tangent_ok;   /* out: 1 when tangent_out holds a finite solution                   */
   double  period_out;   /* out: T(p(lambda)) at the returned z (one forcing period)          */
+  /* after a converged outcome, with the three LAPACK routines given (scipy's cython_lapack  */
+  /* dgebal, dgesdd, dgeev: C functions taking Fortran's arguments): the multipliers of the  */
+  /* monodromy and their tolerances as gearsym.analysis.stability.multiplier_tolerances     */
+  /* computes them (balance, 2-norm, delta = 100 max(rtol, eps) max(1, |M|), eigenvalue      */
+  /* condition numbers from the left and right vectors); unsorted, LAPACK's order            */
+  void*   lapack_dgebal;
+  void*   lapack_dgesdd;
+  void*   lapack_dgeev;
+  double  rtol_mono;    /* in: the rtol the monodromy's error is estimated from              */
+  double* mu_re;        /* [nx] out                                                          */
+  double* mu_im;        /* [nx] out                                                          */
+  double* mu_tol;       /* [nx] out                                                          */
+  double  mono_delta;   /* out: delta, the monodromy's estimated absolute error              */
+  int     multipliers_ok; /* out: 1 when the three arrays hold them                          */
 } gs_correct_args;
 
 /* The corrector with the run described by `a` (method, tolerances, t0, max_steps, event log,

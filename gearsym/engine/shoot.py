@@ -187,6 +187,10 @@ class CorrectOutcome:
         The forcing period ``T(p(lambda))`` at ``z`` (NaN when not converged).
     events : EventLog or None
         The event log of the run at ``z`` when converged (also ``run.events``).
+    multipliers : tuple or None
+        ``(mu, tolerances, delta)`` of the monodromy at ``z``, unsorted, as
+        :func:`gearsym.analysis.stability.multiplier_tolerances` returns them (computed in the
+        driver with scipy's LAPACK; ``None`` where that was not possible).
     """
 
     converged: bool
@@ -204,6 +208,7 @@ class CorrectOutcome:
     tangent: np.ndarray | None = None
     period: float = float("nan")
     events: EventLog | None = None
+    multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -289,6 +294,30 @@ def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, 
     return corrector(z, row, target, S, Rs, t_ref=t_ref)
 
 
+_LAPACK: dict[str, int] | None = None
+
+
+def lapack_pointers() -> dict[str, int]:
+    """Addresses of scipy's ``cython_lapack`` ``dgebal``, ``dgesdd`` and ``dgeev`` (C functions
+    with Fortran's by-reference arguments), for the driver's multipliers; empty if unavailable."""
+    global _LAPACK
+    if _LAPACK is None:
+        out: dict[str, int] = {}
+        try:
+            from scipy.linalg import cython_lapack
+
+            get_name, get_ptr = C.pythonapi.PyCapsule_GetName, C.pythonapi.PyCapsule_GetPointer
+            get_name.restype, get_name.argtypes = C.c_char_p, [C.py_object]
+            get_ptr.restype, get_ptr.argtypes = C.c_void_p, [C.py_object, C.c_char_p]
+            for name in ("dgebal", "dgesdd", "dgeev"):
+                cap = cython_lapack.__pyx_capi__[name]
+                out[name] = int(get_ptr(cap, get_name(cap)))
+        except Exception:  # noqa: BLE001 - the multipliers are then computed in Python
+            out = {}
+        _LAPACK = out if len(out) == 3 and all(out.values()) else {}
+    return _LAPACK
+
+
 class Corrector:
     """The arguments of :func:`correct_in_c` that stay fixed along a continuation, with the
     driver's argument structs and buffers made once (setting up the ``ctypes`` structs and
@@ -325,6 +354,13 @@ class Corrector:
             float(atol)
         c.R_out, c.M_out, c.Flam_out = self.R.ctypes.data, self.M.ctypes.data, self.Fl.ctypes.data
         self._t_ref_ptr, self._tangent_ptr = self.t_ref.ctypes.data, self.tangent.ctypes.data
+        # the multipliers of the converged point's monodromy, with LAPACK from scipy
+        self.mu_re, self.mu_im, self.mu_tol = np.empty(nx), np.empty(nx), np.empty(nx)
+        lap = lapack_pointers()
+        if lap:
+            c.lapack_dgebal, c.lapack_dgesdd, c.lapack_dgeev = lap["dgebal"], lap["dgesdd"], lap["dgeev"]
+            c.rtol_mono = float(rtol)
+            c.mu_re, c.mu_im, c.mu_tol = self.mu_re.ctypes.data, self.mu_im.ctypes.data, self.mu_tol.ctypes.data
         self.n_samples = n_s = int(n_samples) if int(n_samples) >= 2 else 0
         if n_s:
             self.ts, self.Ys = np.empty(n_s), np.empty((n_s, nx))
@@ -377,6 +413,10 @@ class Corrector:
                                  args[g:g + nsw], args[g + nsw:h], args[h:h + nm], args[h + nm:])
             samples = OrbitSamples(self.ts.copy(), self.Ys.copy(), self.Gs.copy(), self.Hs.copy(), st)
         tangent = self.tangent.copy() if converged and t_ref is not None and int(c.tangent_ok) == 1 else None
+        multipliers = None
+        if converged and int(c.multipliers_ok) == 1:
+            multipliers = (self.mu_re + 1j * self.mu_im, self.mu_tol.copy(), float(c.mono_delta))
         return CorrectOutcome(converged, OUTCOMES.get(int(c.outcome), "unknown"), self.z.copy(), self.R.copy(),
                               self.M.copy(), self.Fl.copy(), run, float(c.residual), int(c.iterations),
-                              int(c.n_runs), int(c.outcome), samples, tangent, float(c.period_out), events)
+                              int(c.n_runs), int(c.outcome), samples, tangent, float(c.period_out), events,
+                              multipliers)

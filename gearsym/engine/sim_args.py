@@ -131,4 +131,13 @@ class GsCorrectArgs(C.Structure):
         ("tangent_out", _PD),
         ("tangent_ok", C.c_int),
         ("period_out", C.c_double),
+        ("lapack_dgebal", C.c_void_p),
+        ("lapack_dgesdd", C.c_void_p),
+        ("lapack_dgeev", C.c_void_p),
+        ("rtol_mono", C.c_double),
+        ("mu_re", _PD),
+        ("mu_im", _PD),
+        ("mu_tol", _PD),
+        ("mono_delta", C.c_double),
+        ("multipliers_ok", C.c_int),
     ]
