@@ -2650,50 +2650,41 @@ static int correct_eval(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c, co
  * (end excluded) of the states, and the first argmin / argmax of the switching functions
  * and of the mesh deflections (gs_correct_args.col_stats / col_args); stats_ok stays 0 on a
  * non-finite sample. */
+/* First argmin / argmax of column j of the row-major m x ncol array X; 1 on a non-finite entry. */
+static int column_argext(const double* X, int m, int ncol, int j, int* imin, int* imax) {
+  double vmin = X[j], vmax = vmin;
+  int k;
+  *imin = *imax = 0;
+  for (k = 0; k < m; ++k) {
+    double v = X[(size_t)k * ncol + j];
+    if (!isfinite(v)) return 1;
+    if (v < vmin) { vmin = v; *imin = k; }
+    if (v > vmax) { vmax = v; *imax = k; }
+  }
+  return 0;
+}
+
 static void sample_stats(gs_correct_args* c, int n, int nx, int nsw, int nmesh) {
   int m = n - 1, j, k;
   c->stats_ok = 0;
   if (!c->col_stats || !c->col_args || m < 1 || (nsw && !c->G_samples) || (nmesh > 0 && !c->H_samples)) return;
   for (j = 0; j < nx; ++j) {
-    double vmax = c->Y_samples[j], vmin = vmax, ss = 0.0;
-    int imax = 0, imin = 0;
-    for (k = 0; k < m; ++k) {
-      double v = c->Y_samples[(size_t)k * nx + j];
-      if (!isfinite(v)) return;
-      if (v > vmax) { vmax = v; imax = k; }
-      if (v < vmin) { vmin = v; imin = k; }
-      ss += v * v;
-    }
-    c->col_stats[j] = vmax;
-    c->col_stats[nx + j] = vmin;
+    double ss = 0.0;
+    int imax, imin;
+    if (column_argext(c->Y_samples, m, nx, j, &imin, &imax)) return;
+    for (k = 0; k < m; ++k) ss += c->Y_samples[(size_t)k * nx + j] * c->Y_samples[(size_t)k * nx + j];
+    c->col_stats[j] = c->Y_samples[(size_t)imax * nx + j];
+    c->col_stats[nx + j] = c->Y_samples[(size_t)imin * nx + j];
     c->col_stats[2 * nx + j] = ss;
     c->col_args[j] = imax;
     c->col_args[nx + j] = imin;
   }
-  for (j = 0; j < nsw; ++j) {
-    double gmin = c->G_samples[j], gmax = gmin;
-    int imin = 0, imax = 0;
-    for (k = 0; k < m; ++k) {
-      double g = c->G_samples[(size_t)k * nsw + j];
-      if (!isfinite(g)) return;
-      if (g < gmin) { gmin = g; imin = k; }
-      if (g > gmax) { gmax = g; imax = k; }
-    }
-    c->col_args[2 * nx + j] = imin;
-    c->col_args[2 * nx + nsw + j] = imax;
-  }
-  for (j = 0; j < nmesh; ++j) {
-    double hmin = c->H_samples[j], hmax = hmin;
-    int imin = 0, imax = 0;
-    for (k = 0; k < m; ++k) {
-      double h = c->H_samples[(size_t)k * nmesh + j];
-      if (!isfinite(h)) return;
-      if (h < hmin) { hmin = h; imin = k; }
-      if (h > hmax) { hmax = h; imax = k; }
-    }
-    c->col_args[2 * nx + 2 * nsw + j] = imin;
-    c->col_args[2 * nx + 2 * nsw + nmesh + j] = imax;
-  }
+  for (j = 0; j < nsw; ++j)
+    if (column_argext(c->G_samples, m, nsw, j, &c->col_args[2 * nx + j], &c->col_args[2 * nx + nsw + j])) return;
+  for (j = 0; j < nmesh; ++j)
+    if (column_argext(c->H_samples, m, nmesh, j, &c->col_args[2 * nx + 2 * nsw + j],
+                      &c->col_args[2 * nx + 2 * nsw + nmesh + j]))
+      return;
   c->stats_ok = 1;
 }
 
