@@ -380,3 +380,30 @@ def test_corrector_multipliers_in_c_are_the_stability_rule_s(scene, param):
     assert delta == pytest.approx(delta_py, rel=1e-13)
     a, b = verdict(mu, tol, delta), floquet(out.monodromy, 1e-10)
     assert a.stability == b.stability and a.n_unstable == b.n_unstable and np.allclose(a.multipliers, b.multipliers)
+
+
+@pytest.mark.parametrize("scene", ["kahraman_singh", "yu_constant_backlash"])
+def test_shooting_multipliers_in_c_are_the_stability_rule_s(scene, monkeypatch):
+    """The orbit solve's multipliers come from its C call (scipy's LAPACK): the same numbers as
+    multiplier_tolerances of the orbit's monodromy, and the orbit's verdict is floquet's; on the
+    benchmark and the 10-state pair."""
+    from gearsym.analysis.stability import floquet, multiplier_tolerances
+
+    s = gearsym.load_scene(ROOT / "scenes" / f"{scene}.toml").compile()
+    seen = []
+    orig = shooting_mod._newton_in_c
+
+    def spy(*a, **k):
+        out = orig(*a, **k)
+        seen.append(out)
+        return out
+
+    monkeypatch.setattr(shooting_mod, "_newton_in_c", spy)
+    o = s.periodic_orbit()
+    assert seen and seen[-1].converged and seen[-1].multipliers is not None
+    mu, tol, delta = seen[-1].multipliers
+    mu_py, tol_py, _ = multiplier_tolerances(o.monodromy, o.info["rtol"])
+    assert np.allclose(mu, mu_py, rtol=1e-13, atol=1e-15) and np.allclose(tol, tol_py, rtol=1e-12, atol=0)
+    ref = floquet(o.monodromy, o.info["rtol"])
+    assert o.stability == ref.stability and np.allclose(o.multipliers, ref.multipliers, rtol=1e-13, atol=1e-15)
+    assert np.allclose(o.multiplier_tolerances, ref.tolerances, rtol=1e-12, atol=0)

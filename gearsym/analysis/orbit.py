@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import ParameterError
 from .fourier import synthesize
 from .rattle import RATTLE_STATES, mesh_rattle_states
-from .stability import floquet, rigid_state_basis
+from .stability import floquet, rigid_state_basis, verdict
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..results import Event, Trajectory
@@ -387,18 +387,25 @@ def _refined_min(y: np.ndarray) -> float:
 def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: float, t0: float,
                  monodromy: np.ndarray | None, iterations: int, residual: float, converged: bool,
                  method: str, params: Mapping[str, float], events: Sequence[Event],
-                 samples: tuple[np.ndarray, np.ndarray] | None = None, **extra: Any) -> PeriodicOrbit:
+                 samples: tuple[np.ndarray, np.ndarray] | None = None,
+                 multipliers: tuple[np.ndarray, np.ndarray, float] | None = None, **extra: Any) -> PeriodicOrbit:
     """Assemble a :class:`PeriodicOrbit` (multipliers, verdict, rattle state).
 
     The multipliers are judged by :func:`gearsym.analysis.stability.floquet` with the
     integration tolerance ``extra["info"]["monodromy_rtol"]`` (else ``["rtol"]``) and the
-    model's rigid-body subspace.
+    model's rigid-body subspace.  ``multipliers``: ``(mu, tolerances, delta)`` of the whole
+    monodromy as :func:`~gearsym.analysis.stability.multiplier_tolerances` gives them, already
+    computed (by the driver); used for a model without rigid-body modes or algebraic states.
     """
     info = extra.get("info") or {}
     rtol = float(info.get("monodromy_rtol", info.get("rtol", 1e-10)))
     nd = getattr(system, "differential_states", None)  # DAE: the multipliers of the differential states
-    fq = floquet(None if monodromy is None else np.asarray(monodromy)[:nd, :nd], rtol,
-                 rigid_state_basis(system, params))
+    basis = rigid_state_basis(system, params)
+    if multipliers is not None and basis is None and monodromy is not None and \
+            nd in (None, np.shape(monodromy)[0]) and len(multipliers[0]) == np.shape(monodromy)[0]:
+        fq = verdict(*multipliers)
+    else:
+        fq = floquet(None if monodromy is None else np.asarray(monodromy)[:nd, :nd], rtol, basis)
     info.update({"monodromy_error": fq.monodromy_error, "rigid_split": fq.info.get("rigid_split"),
                  "invariance_defect": fq.invariance_defect})
     rss = mesh_rattle_states(system, x0, t0, events, params, samples=samples)

@@ -2434,6 +2434,101 @@ fail:
  * run after the first, an event log too small, or the iteration budget.  The caller then
  * runs the Python iteration from its own start.  One C call in place of one ctypes call,
  * numpy step and bookkeeping per iterate. */
+/* LAPACK through scipy's cython_lapack (C functions with Fortran's by-reference arguments). */
+typedef void (*gs_dgebal_t)(char*, int*, double*, int*, int*, int*, double*, int*);
+typedef void (*gs_dgesdd_t)(char*, int*, int*, double*, int*, double*, double*, int*, double*, int*, double*,
+                            int*, int*, int*);
+typedef void (*gs_dgeev_t)(char*, char*, int*, double*, int*, double*, double*, double*, int*, double*, int*,
+                           double*, int*, int*);
+
+/* The multipliers of the row-major n x n monodromy M and their tolerances, as
+ * gearsym.analysis.stability.multiplier_tolerances computes them: balance (dgebal, 'S'), the
+ * 2-norm of the balanced matrix (dgesdd, singular values only), delta = 100 max(rtol, eps)
+ * max(1, |M|), the eigenvalues and left / right vectors (dgeev), kappa_i = 1 / |y_i^H x_i|
+ * (a complex pair's vectors are the columns a +- i b), tol_i = max(min(kappa_i delta,
+ * sqrt(delta max(1, |M|))), 16 eps).  Returns 0, or 1 when a routine failed (the caller then
+ * computes them in Python, with its fallbacks). */
+static int lapack_multipliers(void* p_dgebal, void* p_dgesdd, void* p_dgeev, double rtol, int n, const double* M,
+                              double* mu_re, double* mu_im, double* mu_tol, double* mono_delta) {
+  gs_dgebal_t dgebal = (gs_dgebal_t)p_dgebal;
+  gs_dgesdd_t dgesdd = (gs_dgesdd_t)p_dgesdd;
+  gs_dgeev_t dgeev = (gs_dgeev_t)p_dgeev;
+  int i, j, k, info = 0, ilo, ihi, lda = n, one = 1, lwork, lw_sdd, rc = 1;
+  size_t nn = (size_t)n * (size_t)n;
+  double *A = NULL, *B = NULL, *vl = NULL, *vr = NULL, *work = NULL, *scale = NULL, *sv = NULL, *wr, *wi;
+  double dummy = 0.0, q = 0.0, nM, delta, cap, eps = DBL_EPSILON;
+  int* iwork = NULL;
+  char job_s = 'S', job_n = 'N', job_v = 'V';
+  if (n < 1 || !dgebal || !dgesdd || !dgeev || !mu_re || !mu_im || !mu_tol) return 1;
+  for (i = 0; i < n * n; ++i)
+    if (!isfinite(M[i])) return 1; /* floquet's "non-finite monodromy" verdict is Python's */
+  A = (double*)malloc(sizeof(double) * nn * 4);
+  scale = (double*)malloc(sizeof(double) * (size_t)n * 2);
+  iwork = (int*)malloc(sizeof(int) * (size_t)n * 8);
+  if (!A || !scale || !iwork) goto done;
+  B = A + nn;
+  vl = B + nn;
+  vr = vl + nn;
+  sv = scale + n;
+  for (i = 0; i < n; ++i)
+    for (j = 0; j < n; ++j) A[i + (size_t)j * n] = M[(size_t)i * n + j]; /* column-major */
+  dgebal(&job_s, &n, A, &lda, &ilo, &ihi, scale, &info);
+  if (info != 0) goto done;
+  /* the 2-norm: the largest singular value of the balanced matrix */
+  memcpy(B, A, sizeof(double) * nn);
+  lwork = -1;
+  dgesdd(&job_n, &n, &n, B, &lda, sv, &dummy, &one, &dummy, &one, &q, &lwork, iwork, &info);
+  if (info != 0) goto done;
+  lw_sdd = (int)q > 1 ? (int)q : 1;
+  lwork = lw_sdd > 4 * n ? lw_sdd : 4 * n;
+  work = (double*)malloc(sizeof(double) * (size_t)lwork);
+  if (!work) goto done;
+  dgesdd(&job_n, &n, &n, B, &lda, sv, &dummy, &one, &dummy, &one, work, &lw_sdd, iwork, &info);
+  if (info != 0) goto done;
+  nM = sv[0];
+  delta = 100.0 * fmax(rtol, eps) * fmax(1.0, nM);
+  /* eigenvalues and vectors of the balanced matrix (scipy's default workspace, 4 n) */
+  memcpy(B, A, sizeof(double) * nn);
+  wr = mu_re;
+  wi = mu_im;
+  lw_sdd = 4 * n;
+  dgeev(&job_v, &job_v, &n, B, &lda, wr, wi, vl, &lda, vr, &lda, work, &lw_sdd, &info);
+  if (info != 0) goto done;
+  cap = sqrt(delta * fmax(1.0, nM));
+  for (j = 0; j < n;) {
+    double kap = HUGE_VAL, d;
+    if (wi[j] > 0 && j + 1 < n) { /* a complex pair: columns j and j + 1 */
+      const double *al = vl + (size_t)j * n, *bl = al + n, *ar = vr + (size_t)j * n, *br = ar + n;
+      double s1 = 0.0, s2 = 0.0, s3 = 0.0, s4 = 0.0;
+      for (k = 0; k < n; ++k) {
+        s1 += al[k] * ar[k];
+        s2 += bl[k] * br[k];
+        s3 += al[k] * br[k];
+        s4 += bl[k] * ar[k];
+      }
+      d = hypot(s1 + s2, s3 - s4);
+      if (d > 0) kap = 1.0 / d;
+      mu_tol[j] = mu_tol[j + 1] = fmax(fmin(kap * delta, cap), 16.0 * eps);
+      j += 2;
+      continue;
+    }
+    d = 0.0;
+    for (k = 0; k < n; ++k) d += vl[(size_t)j * n + k] * vr[(size_t)j * n + k];
+    d = fabs(d);
+    if (d > 0) kap = 1.0 / d;
+    mu_tol[j] = fmax(fmin(kap * delta, cap), 16.0 * eps);
+    j += 1;
+  }
+  *mono_delta = delta;
+  rc = 0;
+done:
+  free(A);
+  free(scale);
+  free(iwork);
+  free(work);
+  return rc;
+}
+
 #define GS_SHOOT_MAXN 256
 
 static int shoot_lu(int n, double* A, int* piv, double pivot_tol) {
@@ -2522,6 +2617,7 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
   s->iterations = 0;
   s->n_hist = 0;
   s->note = 0;
+  s->multipliers_ok = 0;
   s->outcome = GS_SHOOT_GAVE_UP_OTHER;
   if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
   if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
@@ -2590,6 +2686,10 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
   }
   s->iterations = it;
   memcpy(s->x, x, sizeof(double) * (size_t)nx);
+  if (s->outcome == GS_SHOOT_CONVERGED && s->lapack_dgeev &&
+      lapack_multipliers(s->lapack_dgebal, s->lapack_dgesdd, s->lapack_dgeev, s->rtol_mono, nx, a->monodromy,
+                         s->mu_re, s->mu_im, s->mu_tol, &s->mono_delta) == 0)
+    s->multipliers_ok = 1;
 done:
   a->x0 = NULL; /* points at this frame */
   free(J);
@@ -2767,100 +2867,6 @@ done:
   return ok;
 }
 
-/* LAPACK through scipy's cython_lapack (C functions with Fortran's by-reference arguments). */
-typedef void (*gs_dgebal_t)(char*, int*, double*, int*, int*, int*, double*, int*);
-typedef void (*gs_dgesdd_t)(char*, int*, int*, double*, int*, double*, double*, int*, double*, int*, double*,
-                            int*, int*, int*);
-typedef void (*gs_dgeev_t)(char*, char*, int*, double*, int*, double*, double*, double*, int*, double*, int*,
-                           double*, int*, int*);
-
-/* The multipliers of the row-major n x n monodromy M and their tolerances, as
- * gearsym.analysis.stability.multiplier_tolerances computes them: balance (dgebal, 'S'), the
- * 2-norm of the balanced matrix (dgesdd, singular values only), delta = 100 max(rtol, eps)
- * max(1, |M|), the eigenvalues and left / right vectors (dgeev), kappa_i = 1 / |y_i^H x_i|
- * (a complex pair's vectors are the columns a +- i b), tol_i = max(min(kappa_i delta,
- * sqrt(delta max(1, |M|))), 16 eps).  Returns 0, or 1 when a routine failed (the caller then
- * computes them in Python, with its fallbacks). */
-static int correct_multipliers(gs_correct_args* c, int n, const double* M) {
-  gs_dgebal_t dgebal = (gs_dgebal_t)c->lapack_dgebal;
-  gs_dgesdd_t dgesdd = (gs_dgesdd_t)c->lapack_dgesdd;
-  gs_dgeev_t dgeev = (gs_dgeev_t)c->lapack_dgeev;
-  int i, j, k, info = 0, ilo, ihi, lda = n, one = 1, lwork, lw_sdd, rc = 1;
-  size_t nn = (size_t)n * (size_t)n;
-  double *A = NULL, *B = NULL, *vl = NULL, *vr = NULL, *work = NULL, *scale = NULL, *sv = NULL, *wr, *wi;
-  double dummy = 0.0, q = 0.0, nM, delta, cap, eps = DBL_EPSILON;
-  int* iwork = NULL;
-  char job_s = 'S', job_n = 'N', job_v = 'V';
-  if (n < 1 || !dgebal || !dgesdd || !dgeev || !c->mu_re || !c->mu_im || !c->mu_tol) return 1;
-  for (i = 0; i < n * n; ++i)
-    if (!isfinite(M[i])) return 1; /* floquet's "non-finite monodromy" verdict is Python's */
-  A = (double*)malloc(sizeof(double) * nn * 4);
-  scale = (double*)malloc(sizeof(double) * (size_t)n * 2);
-  iwork = (int*)malloc(sizeof(int) * (size_t)n * 8);
-  if (!A || !scale || !iwork) goto done;
-  B = A + nn;
-  vl = B + nn;
-  vr = vl + nn;
-  sv = scale + n;
-  for (i = 0; i < n; ++i)
-    for (j = 0; j < n; ++j) A[i + (size_t)j * n] = M[(size_t)i * n + j]; /* column-major */
-  dgebal(&job_s, &n, A, &lda, &ilo, &ihi, scale, &info);
-  if (info != 0) goto done;
-  /* the 2-norm: the largest singular value of the balanced matrix */
-  memcpy(B, A, sizeof(double) * nn);
-  lwork = -1;
-  dgesdd(&job_n, &n, &n, B, &lda, sv, &dummy, &one, &dummy, &one, &q, &lwork, iwork, &info);
-  if (info != 0) goto done;
-  lw_sdd = (int)q > 1 ? (int)q : 1;
-  lwork = lw_sdd > 4 * n ? lw_sdd : 4 * n;
-  work = (double*)malloc(sizeof(double) * (size_t)lwork);
-  if (!work) goto done;
-  dgesdd(&job_n, &n, &n, B, &lda, sv, &dummy, &one, &dummy, &one, work, &lw_sdd, iwork, &info);
-  if (info != 0) goto done;
-  nM = sv[0];
-  delta = 100.0 * fmax(c->rtol_mono, eps) * fmax(1.0, nM);
-  /* eigenvalues and vectors of the balanced matrix (scipy's default workspace, 4 n) */
-  memcpy(B, A, sizeof(double) * nn);
-  wr = c->mu_re;
-  wi = c->mu_im;
-  lw_sdd = 4 * n;
-  dgeev(&job_v, &job_v, &n, B, &lda, wr, wi, vl, &lda, vr, &lda, work, &lw_sdd, &info);
-  if (info != 0) goto done;
-  cap = sqrt(delta * fmax(1.0, nM));
-  for (j = 0; j < n;) {
-    double kap = HUGE_VAL, d;
-    if (wi[j] > 0 && j + 1 < n) { /* a complex pair: columns j and j + 1 */
-      const double *al = vl + (size_t)j * n, *bl = al + n, *ar = vr + (size_t)j * n, *br = ar + n;
-      double s1 = 0.0, s2 = 0.0, s3 = 0.0, s4 = 0.0;
-      for (k = 0; k < n; ++k) {
-        s1 += al[k] * ar[k];
-        s2 += bl[k] * br[k];
-        s3 += al[k] * br[k];
-        s4 += bl[k] * ar[k];
-      }
-      d = hypot(s1 + s2, s3 - s4);
-      if (d > 0) kap = 1.0 / d;
-      c->mu_tol[j] = c->mu_tol[j + 1] = fmax(fmin(kap * delta, cap), 16.0 * eps);
-      j += 2;
-      continue;
-    }
-    d = 0.0;
-    for (k = 0; k < n; ++k) d += vl[(size_t)j * n + k] * vr[(size_t)j * n + k];
-    d = fabs(d);
-    if (d > 0) kap = 1.0 / d;
-    c->mu_tol[j] = fmax(fmin(kap * delta, cap), 16.0 * eps);
-    j += 1;
-  }
-  c->mono_delta = delta;
-  rc = 0;
-done:
-  free(A);
-  free(scale);
-  free(iwork);
-  free(work);
-  return rc;
-}
-
 int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
   int nx, n1, i, j, rc = 0, it = 0, piv[GS_SHOOT_MAXN + 1];
   double *p = NULL, *atolv = NULL, *A = NULL, *M = NULL, *zt = NULL;
@@ -2988,7 +2994,9 @@ int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
       for (j = 0; j < ws->U.np; ++j) p[j] = c->p0[j] + (z[nx] - c->lam0) * c->D[j];
       in[0] = ws->U.np ? p : ws->U.dummy;
       if (gs_call(&ws->U, &ws->U.period, in, 1, &T) == 0 && isfinite(T)) c->period_out = T;
-      if (c->lapack_dgeev && correct_multipliers(c, nx, M) == 0) c->multipliers_ok = 1;
+      if (c->lapack_dgeev && lapack_multipliers(c->lapack_dgebal, c->lapack_dgesdd, c->lapack_dgeev, c->rtol_mono, nx,
+                                                M, c->mu_re, c->mu_im, c->mu_tol, &c->mono_delta) == 0)
+        c->multipliers_ok = 1;
       if (c->t_ref && c->tangent_out) {
         /* Continuer.tangent: [J_s; t_ref] t = e_nx, J_s as the bordered step scales it */
         for (i = 0; i < nx; ++i) {

@@ -177,6 +177,17 @@ typedef struct gs_shoot_args {
   int     note;         /* out: 0 residual <= tol; 1 full step below tol, residual <= 100 tol; */
                         /* 2 a last step below 10 tol applied without integrating           */
   int     outcome;      /* out: GS_SHOOT_*                                                  */
+  /* after a converged outcome, with the LAPACK routines given: the multipliers of the last   */
+  /* evaluation's monodromy and their tolerances (as gs_correct_args describes them)          */
+  void*   lapack_dgebal;
+  void*   lapack_dgesdd;
+  void*   lapack_dgeev;
+  double  rtol_mono;
+  double* mu_re;        /* [nx] out                                                          */
+  double* mu_im;        /* [nx] out                                                          */
+  double* mu_tol;       /* [nx] out                                                          */
+  double  mono_delta;   /* out                                                               */
+  int     multipliers_ok; /* out                                                             */
 } gs_shoot_args;
 
 /* Newton on x(t_end; t0, x) = x with the run described by `a` (want_monodromy = 1, an output

@@ -76,6 +76,10 @@ class ShootOutcome:
     code : int
         The outcome code (:data:`OUTCOMES`).  When the iteration gave up after ``iterations``
         accepted full steps, ``x`` is the last accepted iterate.
+    multipliers : tuple or None
+        ``(mu, tolerances, delta)`` of ``run.monodromy`` when converged, as
+        :func:`gearsym.analysis.stability.multiplier_tolerances` returns them (computed in the
+        driver with scipy's LAPACK; ``None`` where that was not possible).
     """
 
     converged: bool
@@ -88,6 +92,7 @@ class ShootOutcome:
     iterations: int
     note: int
     code: int = 0
+    multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
 
 
 def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, grid: np.ndarray, *,
@@ -146,14 +151,22 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
     s.x = xa.ctypes.data
     s.scale = scale.ctypes.data
     s.hist_abs, s.hist_rel = h_abs.ctypes.data, h_rel.ctypes.data
+    mu_re, mu_im, mu_tol = np.empty(nx), np.empty(nx), np.empty(nx)
+    lap = lapack_pointers()
+    if lap:  # the converged orbit's multipliers in the same call
+        s.lapack_dgebal, s.lapack_dgesdd, s.lapack_dgeev = lap["dgebal"], lap["dgesdd"], lap["dgeev"]
+        s.rtol_mono = float(rtol)
+        s.mu_re, s.mu_im, s.mu_tol = mu_re.ctypes.data, mu_im.ctypes.data, mu_tol.ctypes.data
     engine._call(engine._lib.gs_shoot_ws, a, C.byref(s))
     n = int(s.n_hist)
     converged = int(s.outcome) == 0
     run = engine._result(a, buf) if converged else None
     if isinstance(run, int):  # the event log overflowed (the C side gives up first; kept for safety)
         run, converged = None, False
+    multipliers = (mu_re + 1j * mu_im, mu_tol, float(s.mono_delta)) \
+        if converged and int(s.multipliers_ok) == 1 else None
     return ShootOutcome(converged, OUTCOMES.get(int(s.outcome), "unknown"), xa, run, scale, h_abs[:n].copy(),
-                        h_rel[:n].copy(), int(s.iterations), int(s.note), int(s.outcome))
+                        h_rel[:n].copy(), int(s.iterations), int(s.note), int(s.outcome), multipliers)
 
 
 @dataclass(frozen=True)

@@ -89,6 +89,15 @@ class GsShootArgs(C.Structure):
         ("iterations", C.c_int),
         ("note", C.c_int),
         ("outcome", C.c_int),
+        ("lapack_dgebal", C.c_void_p),
+        ("lapack_dgesdd", C.c_void_p),
+        ("lapack_dgeev", C.c_void_p),
+        ("rtol_mono", C.c_double),
+        ("mu_re", _PD),
+        ("mu_im", _PD),
+        ("mu_tol", _PD),
+        ("mono_delta", C.c_double),
+        ("multipliers_ok", C.c_int),
     ]
 
 
