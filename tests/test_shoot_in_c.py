@@ -407,3 +407,19 @@ def test_shooting_multipliers_in_c_are_the_stability_rule_s(scene, monkeypatch):
     ref = floquet(o.monodromy, o.info["rtol"])
     assert o.stability == ref.stability and np.allclose(o.multipliers, ref.multipliers, rtol=1e-13, atol=1e-15)
     assert np.allclose(o.multiplier_tolerances, ref.tolerances, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("mirror, struct", [("GsShootArgs", "gs_shoot_args"), ("GsCorrectArgs", "gs_correct_args")])
+def test_newton_struct_mirrors_are_size_checked_at_load(ks, monkeypatch, mirror, struct):
+    """The Newton iterations' argument structs grow with the driver: a ctypes mirror one field
+    short of the C struct is refused when the engine loads (it would be read out of bounds)."""
+    import ctypes
+
+    import gearsym.engine.driver as drv
+    from gearsym.engine.errors import EngineABIError
+
+    drv.load_engine(ks.engine.path)  # the real mirrors load
+    short = type("Short", (ctypes.Structure,), {"_fields_": getattr(drv, mirror)._fields_[:-1]})
+    monkeypatch.setattr(drv, mirror, short)
+    with pytest.raises(EngineABIError, match=f"sizeof\\({struct}\\) is"):
+        drv.load_engine(ks.engine.path)

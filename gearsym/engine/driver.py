@@ -19,7 +19,7 @@ import numpy as np
 
 from gearsym.engine import interrupt as _interrupt
 from gearsym.engine.errors import EngineABIError, EngineInputError, error_for_status
-from gearsym.engine.sim_args import GsSimArgs
+from gearsym.engine.sim_args import GsCorrectArgs, GsShootArgs, GsSimArgs
 
 __all__ = ["EVAL_FUNCTIONS", "Engine", "GsSimArgs", "LINEAR_SOLVERS", "METHODS", "NONLINEAR", "RunResult",
            "load_engine"]
@@ -652,12 +652,18 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
         if hasattr(lib, name):
             getattr(lib, name).restype = C.c_int
             getattr(lib, name).argtypes = [C.c_void_p, C.POINTER(GsSimArgs), C.c_void_p]
-    size_c = lib.gs_sizeof_args()
-    if size_c != C.sizeof(GsSimArgs):
-        raise EngineABIError(
-            f"{path}: sizeof(gs_sim_args) is {size_c} in C but {C.sizeof(GsSimArgs)} in the ctypes "
-            "mirror (gearsym/engine/driver.py out of sync with gs_driver.h)"
-        )
+    for fn, struct, mirror in (("gs_sizeof_args", "gs_sim_args", GsSimArgs),
+                               ("gs_sizeof_shoot_args", "gs_shoot_args", GsShootArgs),
+                               ("gs_sizeof_correct_args", "gs_correct_args", GsCorrectArgs)):
+        if not hasattr(lib, fn):  # (the Newton structs' checks are absent from objects built before them)
+            continue
+        getattr(lib, fn).restype, getattr(lib, fn).argtypes = C.c_int, []
+        size_c = getattr(lib, fn)()
+        if size_c != C.sizeof(mirror):
+            raise EngineABIError(
+                f"{path}: sizeof({struct}) is {size_c} in C but {C.sizeof(mirror)} in the ctypes "
+                "mirror (gearsym/engine/sim_args.py out of sync with gs_driver.h)"
+            )
     buf = C.create_string_buffer(256)
     if lib.gs_check_abi(buf, 256) != 0:
         raise EngineABIError(f"{path}: SUNDIALS runtime check failed: {buf.value.decode(errors='replace')}")

@@ -1306,6 +1306,8 @@ static int resolve_zero_surfaces(gs_ud* ud, gs_evlog* L, double t, double* yv, c
  * gs_simulate
  * -------------------------------------------------------------------------- */
 int gs_sizeof_args(void) { return (int)sizeof(gs_sim_args); }
+int gs_sizeof_shoot_args(void) { return (int)sizeof(gs_shoot_args); }
+int gs_sizeof_correct_args(void) { return (int)sizeof(gs_correct_args); }
 
 /* Layout check of the linear-solver operations table (used by the
  * block-diagonal solver): every slot gets a probe that records its own number
@@ -2441,27 +2443,26 @@ typedef void (*gs_dgesdd_t)(char*, int*, int*, double*, int*, double*, double*, 
 typedef void (*gs_dgeev_t)(char*, char*, int*, double*, int*, double*, double*, double*, int*, double*, int*,
                            double*, int*, int*);
 
-/* The multipliers of the row-major n x n monodromy M and their tolerances, as
- * gearsym.analysis.stability.multiplier_tolerances computes them: balance (dgebal, 'S'), the
- * 2-norm of the balanced matrix (dgesdd, singular values only), delta = 100 max(rtol, eps)
- * max(1, |M|), the eigenvalues and left / right vectors (dgeev), kappa_i = 1 / |y_i^H x_i|
- * (a complex pair's vectors are the columns a +- i b), tol_i = max(min(kappa_i delta,
- * sqrt(delta max(1, |M|))), 16 eps).  Returns 0, or 1 when a routine failed (the caller then
- * computes them in Python, with its fallbacks). */
-static int lapack_multipliers(void* p_dgebal, void* p_dgesdd, void* p_dgeev, double rtol, int n, const double* M,
-                              double* mu_re, double* mu_im, double* mu_tol, double* mono_delta) {
-  gs_dgebal_t dgebal = (gs_dgebal_t)p_dgebal;
-  gs_dgesdd_t dgesdd = (gs_dgesdd_t)p_dgesdd;
-  gs_dgeev_t dgeev = (gs_dgeev_t)p_dgeev;
+/* The multipliers of the row-major n x n monodromy M and their tolerances into m (see
+ * gs_multipliers in gs_driver.h): balance (dgebal, 'S'), the 2-norm of the balanced matrix
+ * (dgesdd, singular values only), delta, the eigenvalues and left / right vectors (dgeev),
+ * kappa_i = 1 / |y_i^H x_i| (a complex pair's vectors are the columns a +- i b), tol_i =
+ * max(min(kappa_i delta, sqrt(delta max(1, |M|))), 16 eps).  Sets m->ok. */
+static void lapack_multipliers(gs_multipliers* m, int n, const double* M) {
+  gs_dgebal_t dgebal = (gs_dgebal_t)m->lapack_dgebal;
+  gs_dgesdd_t dgesdd = (gs_dgesdd_t)m->lapack_dgesdd;
+  gs_dgeev_t dgeev = (gs_dgeev_t)m->lapack_dgeev;
+  double *mu_re = m->mu_re, *mu_im = m->mu_im, *mu_tol = m->mu_tol;
   int i, j, k, info = 0, ilo, ihi, lda = n, one = 1, lwork, lw_sdd, rc = 1;
   size_t nn = (size_t)n * (size_t)n;
   double *A = NULL, *B = NULL, *vl = NULL, *vr = NULL, *work = NULL, *scale = NULL, *sv = NULL, *wr, *wi;
   double dummy = 0.0, q = 0.0, nM, delta, cap, eps = DBL_EPSILON;
   int* iwork = NULL;
   char job_s = 'S', job_n = 'N', job_v = 'V';
-  if (n < 1 || !dgebal || !dgesdd || !dgeev || !mu_re || !mu_im || !mu_tol) return 1;
+  m->ok = 0;
+  if (n < 1 || !dgebal || !dgesdd || !dgeev || !mu_re || !mu_im || !mu_tol) return;
   for (i = 0; i < n * n; ++i)
-    if (!isfinite(M[i])) return 1; /* floquet's "non-finite monodromy" verdict is Python's */
+    if (!isfinite(M[i])) return; /* floquet's "non-finite monodromy" verdict is Python's */
   A = (double*)malloc(sizeof(double) * nn * 4);
   scale = (double*)malloc(sizeof(double) * (size_t)n * 2);
   iwork = (int*)malloc(sizeof(int) * (size_t)n * 8);
@@ -2486,7 +2487,7 @@ static int lapack_multipliers(void* p_dgebal, void* p_dgesdd, void* p_dgeev, dou
   dgesdd(&job_n, &n, &n, B, &lda, sv, &dummy, &one, &dummy, &one, work, &lw_sdd, iwork, &info);
   if (info != 0) goto done;
   nM = sv[0];
-  delta = 100.0 * fmax(rtol, eps) * fmax(1.0, nM);
+  delta = 100.0 * fmax(m->rtol, eps) * fmax(1.0, nM);
   /* eigenvalues and vectors of the balanced matrix (scipy's default workspace, 4 n) */
   memcpy(B, A, sizeof(double) * nn);
   wr = mu_re;
@@ -2519,14 +2520,14 @@ static int lapack_multipliers(void* p_dgebal, void* p_dgesdd, void* p_dgeev, dou
     mu_tol[j] = fmax(fmin(kap * delta, cap), 16.0 * eps);
     j += 1;
   }
-  *mono_delta = delta;
+  m->delta = delta;
   rc = 0;
 done:
   free(A);
   free(scale);
   free(iwork);
   free(work);
-  return rc;
+  m->ok = rc == 0;
 }
 
 #define GS_SHOOT_MAXN 256
@@ -2617,7 +2618,7 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
   s->iterations = 0;
   s->n_hist = 0;
   s->note = 0;
-  s->multipliers_ok = 0;
+  s->mult.ok = 0;
   s->outcome = GS_SHOOT_GAVE_UP_OTHER;
   if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
   if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
@@ -2686,10 +2687,7 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
   }
   s->iterations = it;
   memcpy(s->x, x, sizeof(double) * (size_t)nx);
-  if (s->outcome == GS_SHOOT_CONVERGED && s->lapack_dgeev &&
-      lapack_multipliers(s->lapack_dgebal, s->lapack_dgesdd, s->lapack_dgeev, s->rtol_mono, nx, a->monodromy,
-                         s->mu_re, s->mu_im, s->mu_tol, &s->mono_delta) == 0)
-    s->multipliers_ok = 1;
+  if (s->outcome == GS_SHOOT_CONVERGED) lapack_multipliers(&s->mult, nx, a->monodromy);
 done:
   a->x0 = NULL; /* points at this frame */
   free(J);
@@ -2879,7 +2877,7 @@ int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
   c->stats_ok = 0;
   c->tangent_ok = 0;
   c->period_out = NAN;
-  c->multipliers_ok = 0;
+  c->mult.ok = 0;
   c->outcome = GS_SHOOT_GAVE_UP_OTHER;
   if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
   if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
@@ -2994,9 +2992,7 @@ int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
       for (j = 0; j < ws->U.np; ++j) p[j] = c->p0[j] + (z[nx] - c->lam0) * c->D[j];
       in[0] = ws->U.np ? p : ws->U.dummy;
       if (gs_call(&ws->U, &ws->U.period, in, 1, &T) == 0 && isfinite(T)) c->period_out = T;
-      if (c->lapack_dgeev && lapack_multipliers(c->lapack_dgebal, c->lapack_dgesdd, c->lapack_dgeev, c->rtol_mono, nx,
-                                                M, c->mu_re, c->mu_im, c->mu_tol, &c->mono_delta) == 0)
-        c->multipliers_ok = 1;
+      lapack_multipliers(&c->mult, nx, M);
       if (c->t_ref && c->tangent_out) {
         /* Continuer.tangent: [J_s; t_ref] t = e_nx, J_s as the bordered step scales it */
         for (i = 0; i < nx; ++i) {

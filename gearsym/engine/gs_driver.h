@@ -153,6 +153,8 @@ int gs_check_abi(char* msg, int len);
 
 /* sizeof(gs_sim_args), so that the Python side can verify its ctypes layout. */
 int gs_sizeof_args(void);
+int gs_sizeof_shoot_args(void);   /* sizeof(gs_shoot_args): the ctypes mirror's check */
+int gs_sizeof_correct_args(void); /* sizeof(gs_correct_args) */
 
 /* ---- Newton's method for a periodic orbit, in C (see gs_shoot_ws in gs_driver.c) ---- */
 #define GS_SHOOT_CONVERGED        0
@@ -161,6 +163,24 @@ int gs_sizeof_args(void);
 #define GS_SHOOT_GAVE_UP_SINGULAR 3  /* a (nearly) singular Newton matrix                  */
 #define GS_SHOOT_GAVE_UP_RUN      4  /* an integration after the first failed              */
 #define GS_SHOOT_GAVE_UP_EVENTS   5  /* more events than the event log holds               */
+/* ---- multipliers of a monodromy, computed by the Newton iterations in C once they converge ---- */
+/* With the three LAPACK routines given (scipy's cython_lapack dgebal, dgesdd, dgeev: C functions */
+/* taking Fortran's arguments): the multipliers and their tolerances as                           */
+/* gearsym.analysis.stability.multiplier_tolerances computes them (balance, 2-norm, delta = 100   */
+/* max(rtol, eps) max(1, |M|), eigenvalue condition numbers from the left and right vectors);     */
+/* unsorted, LAPACK's order.  Any routine failing leaves ok = 0 (Python computes them then).     */
+typedef struct gs_multipliers {
+  void*   lapack_dgebal;
+  void*   lapack_dgesdd;
+  void*   lapack_dgeev;
+  double  rtol;         /* in: the rtol the monodromy's error is estimated from              */
+  double* mu_re;        /* [nx] out                                                          */
+  double* mu_im;        /* [nx] out                                                          */
+  double* mu_tol;       /* [nx] out                                                          */
+  double  delta;        /* out: the monodromy's estimated absolute error                     */
+  int     ok;           /* out: 1 when the three arrays hold them                            */
+} gs_multipliers;
+
 #define GS_SHOOT_GAVE_UP_OTHER    6  /* a non-finite residual                              */
 
 typedef struct gs_shoot_args {
@@ -177,17 +197,7 @@ typedef struct gs_shoot_args {
   int     note;         /* out: 0 residual <= tol; 1 full step below tol, residual <= 100 tol; */
                         /* 2 a last step below 10 tol applied without integrating           */
   int     outcome;      /* out: GS_SHOOT_*                                                  */
-  /* after a converged outcome, with the LAPACK routines given: the multipliers of the last   */
-  /* evaluation's monodromy and their tolerances (as gs_correct_args describes them)          */
-  void*   lapack_dgebal;
-  void*   lapack_dgesdd;
-  void*   lapack_dgeev;
-  double  rtol_mono;
-  double* mu_re;        /* [nx] out                                                          */
-  double* mu_im;        /* [nx] out                                                          */
-  double* mu_tol;       /* [nx] out                                                          */
-  double  mono_delta;   /* out                                                               */
-  int     multipliers_ok; /* out                                                             */
+  gs_multipliers mult;  /* the multipliers of the last evaluation's monodromy when converged */
 } gs_shoot_args;
 
 /* Newton on x(t_end; t0, x) = x with the run described by `a` (want_monodromy = 1, an output
@@ -249,20 +259,7 @@ typedef struct gs_correct_args {
   double* tangent_out;  /* [nx+1] out                                                        */
   int     tangent_ok;   /* out: 1 when tangent_out holds a finite solution                   */
   double  period_out;   /* out: T(p(lambda)) at the returned z (one forcing period)          */
-  /* after a converged outcome, with the three LAPACK routines given (scipy's cython_lapack  */
-  /* dgebal, dgesdd, dgeev: C functions taking Fortran's arguments): the multipliers of the  */
-  /* monodromy and their tolerances as gearsym.analysis.stability.multiplier_tolerances     */
-  /* computes them (balance, 2-norm, delta = 100 max(rtol, eps) max(1, |M|), eigenvalue      */
-  /* condition numbers from the left and right vectors); unsorted, LAPACK's order            */
-  void*   lapack_dgebal;
-  void*   lapack_dgesdd;
-  void*   lapack_dgeev;
-  double  rtol_mono;    /* in: the rtol the monodromy's error is estimated from              */
-  double* mu_re;        /* [nx] out                                                          */
-  double* mu_im;        /* [nx] out                                                          */
-  double* mu_tol;       /* [nx] out                                                          */
-  double  mono_delta;   /* out: delta, the monodromy's estimated absolute error              */
-  int     multipliers_ok; /* out: 1 when the three arrays hold them                          */
+  gs_multipliers mult;  /* the multipliers of the converged point's monodromy               */
 } gs_correct_args;
 
 /* The corrector with the run described by `a` (method, tolerances, t0, max_steps, event log,

@@ -151,20 +151,14 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
     s.x = xa.ctypes.data
     s.scale = scale.ctypes.data
     s.hist_abs, s.hist_rel = h_abs.ctypes.data, h_rel.ctypes.data
-    mu_re, mu_im, mu_tol = np.empty(nx), np.empty(nx), np.empty(nx)
-    lap = lapack_pointers()
-    if lap:  # the converged orbit's multipliers in the same call
-        s.lapack_dgebal, s.lapack_dgesdd, s.lapack_dgeev = lap["dgebal"], lap["dgesdd"], lap["dgeev"]
-        s.rtol_mono = float(rtol)
-        s.mu_re, s.mu_im, s.mu_tol = mu_re.ctypes.data, mu_im.ctypes.data, mu_tol.ctypes.data
+    mult = MultiplierBuffers(s.mult, nx, rtol)  # the converged orbit's multipliers in the same call
     engine._call(engine._lib.gs_shoot_ws, a, C.byref(s))
     n = int(s.n_hist)
     converged = int(s.outcome) == 0
     run = engine._result(a, buf) if converged else None
     if isinstance(run, int):  # the event log overflowed (the C side gives up first; kept for safety)
         run, converged = None, False
-    multipliers = (mu_re + 1j * mu_im, mu_tol, float(s.mono_delta)) \
-        if converged and int(s.multipliers_ok) == 1 else None
+    multipliers = mult.read() if converged else None
     return ShootOutcome(converged, OUTCOMES.get(int(s.outcome), "unknown"), xa, run, scale, h_abs[:n].copy(),
                         h_rel[:n].copy(), int(s.iterations), int(s.note), int(s.outcome), multipliers)
 
@@ -331,6 +325,26 @@ def lapack_pointers() -> dict[str, int]:
     return _LAPACK
 
 
+class MultiplierBuffers:
+    """The output arrays of a ``gs_multipliers`` struct (gs_driver.h), pointed at once with
+    scipy's LAPACK routines; :meth:`read` gives ``(mu, tolerances, delta)`` or ``None``."""
+
+    def __init__(self, m: C.Structure, nx: int, rtol: float):
+        self.m = m
+        self.re, self.im, self.tol = np.empty(nx), np.empty(nx), np.empty(nx)
+        lap = lapack_pointers()
+        if lap:  # else the struct's routines stay NULL and the driver computes nothing
+            m.lapack_dgebal, m.lapack_dgesdd, m.lapack_dgeev = lap["dgebal"], lap["dgesdd"], lap["dgeev"]
+            m.rtol = float(rtol)
+            m.mu_re, m.mu_im, m.mu_tol = self.re.ctypes.data, self.im.ctypes.data, self.tol.ctypes.data
+
+    def read(self) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """The multipliers of the last call (copies), ``None`` when it did not compute them."""
+        if int(self.m.ok) != 1:
+            return None
+        return self.re + 1j * self.im, self.tol.copy(), float(self.m.delta)
+
+
 class Corrector:
     """The arguments of :func:`correct_in_c` that stay fixed along a continuation, with the
     driver's argument structs and buffers made once (setting up the ``ctypes`` structs and
@@ -367,13 +381,7 @@ class Corrector:
             float(atol)
         c.R_out, c.M_out, c.Flam_out = self.R.ctypes.data, self.M.ctypes.data, self.Fl.ctypes.data
         self._t_ref_ptr, self._tangent_ptr = self.t_ref.ctypes.data, self.tangent.ctypes.data
-        # the multipliers of the converged point's monodromy, with LAPACK from scipy
-        self.mu_re, self.mu_im, self.mu_tol = np.empty(nx), np.empty(nx), np.empty(nx)
-        lap = lapack_pointers()
-        if lap:
-            c.lapack_dgebal, c.lapack_dgesdd, c.lapack_dgeev = lap["dgebal"], lap["dgesdd"], lap["dgeev"]
-            c.rtol_mono = float(rtol)
-            c.mu_re, c.mu_im, c.mu_tol = self.mu_re.ctypes.data, self.mu_im.ctypes.data, self.mu_tol.ctypes.data
+        self.mult = MultiplierBuffers(c.mult, nx, rtol)  # the converged point's multipliers
         self.n_samples = n_s = int(n_samples) if int(n_samples) >= 2 else 0
         if n_s:
             self.ts, self.Ys = np.empty(n_s), np.empty((n_s, nx))
@@ -426,9 +434,7 @@ class Corrector:
                                  args[g:g + nsw], args[g + nsw:h], args[h:h + nm], args[h + nm:])
             samples = OrbitSamples(self.ts.copy(), self.Ys.copy(), self.Gs.copy(), self.Hs.copy(), st)
         tangent = self.tangent.copy() if converged and t_ref is not None and int(c.tangent_ok) == 1 else None
-        multipliers = None
-        if converged and int(c.multipliers_ok) == 1:
-            multipliers = (self.mu_re + 1j * self.mu_im, self.mu_tol.copy(), float(c.mono_delta))
+        multipliers = self.mult.read() if converged else None
         return CorrectOutcome(converged, OUTCOMES.get(int(c.outcome), "unknown"), self.z.copy(), self.R.copy(),
                               self.M.copy(), self.Fl.copy(), run, float(c.residual), int(c.iterations),
                               int(c.n_runs), int(c.outcome), samples, tangent, float(c.period_out), events,

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import ctypes as C
 
-__all__ = ["GsCorrectArgs", "GsShootArgs", "GsSimArgs"]
+__all__ = ["GsCorrectArgs", "GsMultipliers", "GsShootArgs", "GsSimArgs"]
 
 # Pointer members are declared c_void_p (same layout as double*/int*) so that
 # numpy buffers can be passed as plain addresses (fast: no ctypes casts).
@@ -73,6 +73,22 @@ class GsSimArgs(C.Structure):
     ]
 
 
+class GsMultipliers(C.Structure):
+    """ctypes mirror of ``struct gs_multipliers`` (gs_driver.h); keep in sync."""
+
+    _fields_ = [
+        ("lapack_dgebal", C.c_void_p),
+        ("lapack_dgesdd", C.c_void_p),
+        ("lapack_dgeev", C.c_void_p),
+        ("rtol", C.c_double),
+        ("mu_re", _PD),
+        ("mu_im", _PD),
+        ("mu_tol", _PD),
+        ("delta", C.c_double),
+        ("ok", C.c_int),
+    ]
+
+
 class GsShootArgs(C.Structure):
     """ctypes mirror of ``struct gs_shoot_args`` (gs_driver.h); keep in sync."""
 
@@ -89,15 +105,7 @@ class GsShootArgs(C.Structure):
         ("iterations", C.c_int),
         ("note", C.c_int),
         ("outcome", C.c_int),
-        ("lapack_dgebal", C.c_void_p),
-        ("lapack_dgesdd", C.c_void_p),
-        ("lapack_dgeev", C.c_void_p),
-        ("rtol_mono", C.c_double),
-        ("mu_re", _PD),
-        ("mu_im", _PD),
-        ("mu_tol", _PD),
-        ("mono_delta", C.c_double),
-        ("multipliers_ok", C.c_int),
+        ("mult", GsMultipliers),
     ]
 
 
@@ -140,13 +148,5 @@ class GsCorrectArgs(C.Structure):
         ("tangent_out", _PD),
         ("tangent_ok", C.c_int),
         ("period_out", C.c_double),
-        ("lapack_dgebal", C.c_void_p),
-        ("lapack_dgesdd", C.c_void_p),
-        ("lapack_dgeev", C.c_void_p),
-        ("rtol_mono", C.c_double),
-        ("mu_re", _PD),
-        ("mu_im", _PD),
-        ("mu_tol", _PD),
-        ("mono_delta", C.c_double),
-        ("multipliers_ok", C.c_int),
+        ("mult", GsMultipliers),
     ]
