@@ -137,8 +137,9 @@ def run(res: PeriodicOrbitProblem, u0: np.ndarray, start: float, stop: float, *,
                     row = A.t
                     z, ev, it = C.correct((wA + h * A.t) * C.S, A.t, float(A.t @ wA) + h, t_ref=A.t)
                 B = C.make_node(z, ev, A.t, it, ref=A)
-                B.graph = res.natural_steps and (B.graph_ref if B.graph_ref is not None else graph_like(
-                    B.point.multipliers, A.point.multipliers))
+                B.graph = res.natural_steps and graph_like(B.point.multipliers, A.point.multipliers,
+                                                           tau_b=B.tau.get("branch_point", math.nan),
+                                                           tau_a=A.tau.get("branch_point", math.nan))
                 if natural and (B.tau.get("branch_point", math.nan) > 0) != (A.tau.get("branch_point", math.nan) > 0):
                     force_arc = True  # a real multiplier crossed +1: a fold may be near, use the arclength
                     raise ConvergenceError("a multiplier crossed +1 in a parameter step")
@@ -188,7 +189,7 @@ def run(res: PeriodicOrbitProblem, u0: np.ndarray, start: float, stop: float, *,
                     complete = True
                     break
                 merge_ref = max(merge_ref, d)
-            stalled = stalled_branch([nd.stall_key or (float(nd.z[-1]), nd.size, nd.point.multipliers) for nd in
+            stalled = stalled_branch([(nd.point.value, nd.size, nd.point.multipliers) for nd in
                                       nodes[-max(stall_points, QUICK_STALL[0]) - 1:]], stall_points,
                                      stall_tol * lam_scale, lam_scale, getattr(res, "rtol", 1e-10))
             if stalled:

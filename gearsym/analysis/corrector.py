@@ -51,8 +51,6 @@ class Node:
     scale: np.ndarray | None = None
     size: float = float("nan")  # max of scale (the stall test reads it at every step)
     graph: bool = False    # the branch is a graph over the parameter between the previous point and this
-    graph_ref: bool | None = None  # graph_like(this, the ref point make_node was given), when computed
-    stall_key: tuple | None = None  # (parameter, size, multipliers): what the stall tests read
 
 
 class Continuer:
@@ -365,12 +363,10 @@ class Continuer:
         if len(mu):
             tau_mu = {"period_doubling": tau_period_doubling(mu), "neimark_sacker": tau_neimark_sacker(mu),
                       "branch_point": tau_branch_point(mu)}
-        graph = None
-        if res.natural_steps and ref is not None:
-            graph = graph_like(mu, ref.point.multipliers, tau_b=tau_mu.get("branch_point", math.nan),
-                               tau_a=ref.tau.get("branch_point", math.nan))
-            if graph and ref.t[-1] * t[-1] < 0:
-                t = -t
+        if res.natural_steps and ref is not None and ref.t[-1] * t[-1] < 0 and graph_like(
+                mu, ref.point.multipliers, tau_b=tau_mu.get("branch_point", math.nan),
+                tau_a=ref.tau.get("branch_point", math.nan)):
+            t = -t
         period = float(res.periods) * ev.period if ev.period is not None else res.period(lam)
         rms = math.sqrt(float(st.sum_squares[self.state]) / len(y)) if st is not None else float(np.sqrt(np.mean(y ** 2)))
         pt = BranchPoint(
@@ -391,10 +387,8 @@ class Continuer:
             scale = np.maximum(np.maximum(st.max, -st.min), st.max - st.min)
         else:
             scale = np.maximum(np.max(np.abs(Y), axis=0), np.ptp(Y, axis=0))
-        z = np.array(z, float)
-        size = float(np.max(scale))
-        return Node(z=z, ev=ev, point=pt, t=t, tau=tau, iterations=iterations, scale=scale, size=size,
-                    graph_ref=graph, stall_key=(lam, size, mu))
+        return Node(z=np.array(z, float), ev=ev, point=pt, t=t, tau=tau, iterations=iterations, scale=scale,
+                    size=float(np.max(scale)))
 
 
 def distance_to_one(mu: np.ndarray) -> float:

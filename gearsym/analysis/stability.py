@@ -196,7 +196,7 @@ def norm2(M: np.ndarray) -> float:
     return float(np.linalg.svd(M, compute_uv=False)[0])
 
 
-#: Up to this many multipliers the per-multiplier arithmetic is done on Python floats: numpy's
+#: Up to this many multipliers the verdict and the test functions work on Python floats: numpy's
 #: per-call cost (microseconds per operation) was nine tenths of a small monodromy's stability rule.
 SMALL = 32
 
@@ -213,26 +213,6 @@ def _eig_kappa(M: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     wr, wi, vl, vr, info = lapack.dgeev(M, compute_vl=1, compute_vr=1)
     if info != 0:
         return None
-    n = len(wr)
-    if n <= SMALL:
-        wil = wi.tolist()
-        L, Rv = vl.T.tolist(), vr.T.tolist()  # the columns
-        kap = [math.inf] * n
-        j = 0
-        while j < n:
-            if wil[j] > 0 and j + 1 < n:  # a complex pair: columns j and j + 1
-                al, bl, ar, br = L[j], L[j + 1], Rv[j], Rv[j + 1]
-                d = math.hypot(sum(a * b for a, b in zip(al, ar)) + sum(a * b for a, b in zip(bl, br)),
-                               sum(a * b for a, b in zip(al, br)) - sum(a * b for a, b in zip(bl, ar)))
-                if d > 0:
-                    kap[j] = kap[j + 1] = 1.0 / d
-                j += 2
-                continue
-            d = abs(sum(a * b for a, b in zip(L[j], Rv[j])))
-            if d > 0:
-                kap[j] = 1.0 / d
-            j += 1
-        return wr + 1j * wi, np.array(kap)
     den = np.abs((vl * vr).sum(axis=0))
     first = np.flatnonzero(wi > 0)  # a complex pair: columns j (positive imaginary part) and j + 1
     first = first[first + 1 < len(wr)]
@@ -279,10 +259,7 @@ def multiplier_tolerances(M: np.ndarray, rtol: float) -> tuple[np.ndarray, np.nd
         with np.errstate(divide="ignore", invalid="ignore"):
             kappa = np.where(den > 0, num / den, np.inf)
     cap = math.sqrt(delta * max(1.0, nM))
-    if len(kappa) <= SMALL:
-        tol = np.array([max(min(k * delta, cap), 16 * _EPS) for k in kappa.tolist()])
-    else:
-        tol = np.maximum(np.minimum(kappa * delta, cap), 16 * _EPS)
+    tol = np.maximum(np.minimum(kappa * delta, cap), 16 * _EPS)
     return np.asarray(mu, complex), tol, delta
 
 
