@@ -2,7 +2,7 @@
 
 The engine integrates ``S = d x(t) / d lambda`` for directions ``D = d p / d lambda`` in
 the space of the generated parameter vector (``S' = J S + (df/dp) D``, with the
-event-time and breakpoint-time jumps derived in ``gearsym/engine/gs_driver.c``).  This
+event-time and breakpoint-time jumps derived at the top of ``gearsym/engine/gs_driver.c``).  This
 module turns the names users give (run-time inputs of a :class:`~gearsym.system.System`)
 into those directions:
 

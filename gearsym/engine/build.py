@@ -32,6 +32,7 @@ from gearsym.engine.errors import EngineABIError, EngineBuildError, SundialsNotF
 
 __all__ = [
     "CFLAGS",
+    "DRIVER_C_FILES",
     "ENGINE_DIR",
     "SundialsLibs",
     "build_shared_object",
@@ -44,8 +45,8 @@ __all__ = [
     "toolchain_identity",
 ]
 
-#: Directory holding the driver sources (gs_driver.c, gs_driver.h,
-#: gs_model_abi.h, sundials7.h) -- package data.
+#: Directory holding the driver sources (:data:`DRIVER_C_FILES`, gs_driver.h,
+#: gs_internal.h, gs_model_abi.h, sundials7.h) -- package data.
 ENGINE_DIR = Path(__file__).resolve().parent
 
 #: Library stems needed by the driver, in dependency order (each needs only the
@@ -72,8 +73,20 @@ DRIVER_CFLAGS: tuple[str, ...] = ("-O3", "-fPIC", "-c")
 LARGE_MODEL_BYTES = 400_000
 _LDLIBS: tuple[str, ...] = ("-lm",)
 
+#: The driver's translation units (in :data:`ENGINE_DIR`): the integration loop
+#: (gs_driver.c) and the parts it is split into, which share ``gs_internal.h``.
+DRIVER_C_FILES: tuple[str, ...] = (
+    "gs_driver.c",
+    "gs_util.c",
+    "gs_callbacks.c",
+    "gs_events.c",
+    "gs_workspace.c",
+    "gs_eval.c",
+    "gs_shoot.c",
+    "gs_correct.c",
+)
 #: Files of this package whose bytes change the binary of every build.
-_DRIVER_FILES = ("gs_driver.c", "gs_driver.h", "gs_model_abi.h", "sundials7.h", "build.py")
+_DRIVER_FILES = (*DRIVER_C_FILES, "gs_driver.h", "gs_internal.h", "gs_model_abi.h", "sundials7.h", "build.py")
 
 
 @dataclass(frozen=True)
@@ -313,13 +326,16 @@ def driver_cache_dir(fallback: str | os.PathLike[str]) -> Path:
 
 
 def driver_object(folder: str | os.PathLike[str], cc: str | None = None) -> Path:
-    """The driver compiled to a position-independent object, once per driver version.
+    """The driver compiled to one position-independent object, once per driver version.
 
-    ``gs_driver.c`` is about 1,800 lines; compiling it into every model cost 70-80 %
-    of a small model's cold compile.  The object is named by a SHA-256 over the
-    driver sources, the compiler identity and :data:`DRIVER_CFLAGS`, made under a
-    file lock in a private temporary file and renamed into place, so concurrent
-    builders share one compile.
+    The driver (:data:`DRIVER_C_FILES`, about 2,800 lines) compiled into every model cost
+    70-80 % of a small model's cold compile.  Its files are compiled concurrently (one
+    compiler per CPU) and joined by a relocatable link (``cc -nostdlib -r``) into one
+    object, named by a SHA-256 over the driver sources, the compiler identity and
+    :data:`DRIVER_CFLAGS`, made under a file lock in a private temporary folder and
+    renamed into place, so concurrent builders share one compile.  The helpers the files
+    share have hidden visibility (``gs_internal.h``): a model's shared object exports only
+    the entry points of ``gs_driver.h``.
 
     Parameters
     ----------
@@ -336,7 +352,7 @@ def driver_object(folder: str | os.PathLike[str], cc: str | None = None) -> Path
     Raises
     ------
     EngineBuildError
-        If the compiler fails.
+        If the compiler or the relocatable link fails.
     """
     import fcntl
 
@@ -355,30 +371,57 @@ def driver_object(folder: str | os.PathLike[str], cc: str | None = None) -> Path
         try:
             if obj.is_file():  # made by another process while we waited
                 return obj
-            fd, tmp_name = tempfile.mkstemp(prefix=f".{obj.name}.", suffix=".tmp", dir=folder)
-            os.close(fd)
-            tmp = Path(tmp_name)
-            cmd = [cc, *DRIVER_CFLAGS, f"-I{ENGINE_DIR}", "gs_driver.c", "-o", str(tmp)]
-            try:
-                try:
-                    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ENGINE_DIR)
-                except OSError as exc:
-                    raise EngineBuildError(f"cannot run the C compiler {cc}: {exc}") from exc
-                if proc.returncode != 0:
-                    raise EngineBuildError(f"compiling the driver failed (exit {proc.returncode}):\n"
-                                           f"{' '.join(cmd)}\n{proc.stderr.strip()}")
+            with tempfile.TemporaryDirectory(prefix=f".{obj.name}.", dir=folder) as td:
+                tmp = Path(td) / "driver.o"
+                (Path(td) / "units").mkdir()
+                _compile_driver(cc, Path(td) / "units", tmp)
                 with open(tmp, "rb") as f:
                     head = f.read(18)
                 # an ELF relocatable object (e_type ET_REL = 1), never a damaged file, goes in the cache
                 if head[:4] != b"\x7fELF" or int.from_bytes(head[16:18], "little") != 1:
                     raise EngineBuildError(f"the compiler {cc} wrote an invalid ELF object for the driver")
                 os.replace(tmp, obj)
-            finally:
-                if tmp.exists():
-                    tmp.unlink()
         finally:
             fcntl.flock(lk.fileno(), fcntl.LOCK_UN)
     return obj
+
+
+def _run_compiler(cmds: list[list[str]], what: str) -> None:
+    """Run compiler command lines, at most one per CPU at a time; raise on the first failure."""
+    width = max(1, min(len(cmds), os.cpu_count() or 1))
+    pending = list(cmds)
+    running: list[tuple[list[str], subprocess.Popen]] = []
+    failure: tuple[list[str], int, str] | None = None
+    try:
+        while pending or running:
+            while pending and len(running) < width and failure is None:
+                cmd = pending.pop(0)
+                try:
+                    running.append((cmd, subprocess.Popen(cmd, cwd=ENGINE_DIR, stdout=subprocess.PIPE,
+                                                          stderr=subprocess.PIPE, text=True)))
+                except OSError as exc:
+                    raise EngineBuildError(f"cannot run the C compiler {cmd[0]}: {exc}") from exc
+            if not running:
+                break
+            cmd, proc = running.pop(0)
+            _, err = proc.communicate()
+            if proc.returncode != 0 and failure is None:
+                failure = (cmd, proc.returncode, err)
+    finally:
+        for _, proc in running:
+            proc.kill()
+            proc.wait()
+    if failure is not None:
+        cmd, code, err = failure
+        raise EngineBuildError(f"{what} failed (exit {code}):\n{' '.join(cmd)}\n{err.strip()}")
+
+
+def _compile_driver(cc: str, workdir: Path, out: Path) -> None:
+    """Compile :data:`DRIVER_C_FILES` into ``workdir`` and link them into the relocatable ``out``."""
+    objs = [workdir / (Path(src).stem + ".o") for src in DRIVER_C_FILES]
+    _run_compiler([[cc, *DRIVER_CFLAGS, f"-I{ENGINE_DIR}", src, "-o", str(o)]
+                   for src, o in zip(DRIVER_C_FILES, objs)], "compiling the driver")
+    _run_compiler([[cc, "-nostdlib", "-r", *map(str, objs), "-o", str(out)]], "linking the driver object")
 
 
 def driver_sources() -> tuple[list[Path], list[Path]]:
@@ -387,10 +430,10 @@ def driver_sources() -> tuple[list[Path], list[Path]]:
     Returns
     -------
     sources, include_dirs
-        ``[ENGINE_DIR / "gs_driver.c"]`` and ``[ENGINE_DIR]``.  The model build
+        The files of :data:`DRIVER_C_FILES` and ``[ENGINE_DIR]``.  The model build
         must also provide ``gs_model.h`` on its include path.
     """
-    return [ENGINE_DIR / "gs_driver.c"], [ENGINE_DIR]
+    return [ENGINE_DIR / name for name in DRIVER_C_FILES], [ENGINE_DIR]
 
 
 def content_hash(paths: list[Path], extra: str = "") -> str:

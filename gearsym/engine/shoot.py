@@ -27,7 +27,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["MAX_STATES", "OUTCOMES", "CorrectOutcome", "Corrector", "OrbitSamples", "SampleStats", "ShootOutcome", "correct_in_c", "shoot_in_c"]
 
-#: Largest model the C iterations take (``GS_SHOOT_MAXN`` in gs_driver.c); larger ones iterate in Python.
+#: Largest model the C iterations take (``GS_SHOOT_MAXN`` in gs_internal.h); larger ones iterate in Python.
 MAX_STATES = 256
 
 #: ``gs_shoot_args.outcome`` codes (gs_driver.h) -> meaning.

@@ -1,8 +1,8 @@
 """``gearsym export SCENE --c DIR``: a self-contained C project of a scene.
 
 The folder holds the generated model (``gs_model.c/h``), gearsym's driver
-(``gs_driver.c/h``, ``gs_model_abi.h``, ``sundials7.h``, copied from
-:mod:`gearsym.engine`), the exported metadata (``gs_export_data.h``), a command-line
+(``gs_driver.c/h`` and the ``gs_*.c`` / ``gs_internal.h`` it is split into,
+``gs_model_abi.h``, ``sundials7.h``, copied from :mod:`gearsym.engine`), the exported metadata (``gs_export_data.h``), a command-line
 ``main.c``, a ``Makefile`` with ``find_sundials.sh`` and a ``README.md`` that says how to
 build and run it without Python.
 """
@@ -24,7 +24,8 @@ __all__ = ["write_c_project"]
 
 def driver_files() -> list[str]:
     """The driver's C sources and headers (every ``*.c`` / ``*.h`` of :mod:`gearsym.engine`:
-    ``gs_driver.c``, ``gs_driver.h``, ``gs_model_abi.h``, ``sundials7.h``)."""
+    ``gs_driver.c`` and the ``gs_*.c`` files it is split into, ``gs_driver.h``,
+    ``gs_internal.h``, ``gs_model_abi.h``, ``sundials7.h``)."""
     return sorted(p.name for p in ENGINE_DIR.iterdir() if p.suffix in (".c", ".h"))
 
 
@@ -153,7 +154,8 @@ Effects compiled in: {effects}.  Exported by gearsym {em.gearsym_version}.  This
 runs without Python: `gs_model.c` is the generated model (right-hand side, Jacobian, switching
 functions, schedules, forcing period, outputs), `gs_driver.c` gearsym's integration driver
 (SUNDIALS CVODE/IDA with root finding on the switching surfaces, the mode switch, exact stops at
-scheduled breakpoints), `main.c` the command-line program.
+scheduled breakpoints; the other `gs_*.c` files are its parts, sharing `gs_internal.h`), `main.c`
+the command-line program.
 
 ## Build
 

@@ -80,7 +80,7 @@ def compile_model(
     (out_dir / "gs_info.c").write_text(INFO_C.format(vals=", ".join(str(v) for v in vals)))
     dsrc, dinc = driver_sources()
     srcs = [out_dir / "gs_model.c", out_dir / "gs_info.c", *dsrc]
-    h = content_hash([*srcs, out_dir / "gs_model.h", ENGINE_DIR / "gs_driver.h", ENGINE_DIR / "sundials7.h"])
+    h = content_hash([*srcs, out_dir / "gs_model.h", *(ENGINE_DIR / f for f in ("gs_driver.h", "gs_internal.h", "sundials7.h"))])
     so = build_shared_object(srcs, [out_dir, *dinc], out_dir / f"model_{h}.so")
     return load_engine(so)
 

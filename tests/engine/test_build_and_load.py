@@ -7,7 +7,13 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from gearsym.engine.build import ENGINE_DIR, build_shared_object, content_hash, find_sundials_libs
+from gearsym.engine.build import (
+    DRIVER_C_FILES,
+    ENGINE_DIR,
+    build_shared_object,
+    content_hash,
+    find_sundials_libs,
+)
 from gearsym.engine.driver import GsSimArgs, load_engine
 from gearsym.engine.errors import EngineABIError, EngineBuildError
 from gearsym.errors import CompileError
@@ -22,8 +28,10 @@ def test_find_sundials_libs():
 
 
 def test_driver_sources_are_package_files():
-    for f in ("gs_driver.c", "gs_driver.h", "gs_model_abi.h", "sundials7.h"):
+    for f in (*DRIVER_C_FILES, "gs_driver.h", "gs_internal.h", "gs_model_abi.h", "sundials7.h"):
         assert (ENGINE_DIR / f).is_file()
+    # every C file of the engine folder is a driver unit (the C project exporter copies them all)
+    assert sorted(p.name for p in ENGINE_DIR.glob("*.c")) == sorted(DRIVER_C_FILES)
 
 
 def test_build_failure_reports_compiler_stderr(tmp_path):
@@ -104,3 +112,17 @@ def test_sundials_symbols_stay_out_of_the_global_scope(backlash_engine):
     process = ctypes.CDLL(None)
     for name in ("CVodeCreate", "SUNContext_Create", "N_VNew_Serial"):
         assert not hasattr(process, name), name
+
+
+def test_driver_helpers_are_not_exported(backlash_engine):
+    """The driver is split into several files that share helpers through gs_internal.h;
+    those have hidden visibility, so a model's shared object exports the API of gs_driver.h
+    and nothing with the helpers' generic names (which could clash with another library)."""
+    lib = backlash_engine._lib
+    for name in ("gs_simulate", "gs_simulate_ws", "gs_shoot_ws", "gs_correct_ws", "gs_check_abi"):
+        assert hasattr(lib, name), name
+    internal = (ENGINE_DIR / "gs_internal.h").read_text()
+    hidden = ("set_err", "lu_solve", "eval_rhs", "cv_rhs", "ws_model_setup", "lapack_multipliers")
+    for name in hidden:
+        assert f" {name}(" in internal, name  # still a shared helper
+        assert not hasattr(lib, name), name

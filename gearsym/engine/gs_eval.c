@@ -1,0 +1,176 @@
+/*
+ * gs_eval.c -- part of the gearsym driver (gs_driver.c; shared declarations in gs_internal.h):
+ * evaluating the generated functions without integrating (forcing period, outputs, switching
+ * functions, right-hand side, Jacobian).
+ */
+#include "gs_internal.h"
+
+/* --------------------------------------------------------------------------
+ * Evaluating the generated functions from the caller (no integration): the
+ * forcing period, and switching functions, outputs, right-hand side or
+ * Jacobian at many points with the mode the driver would use there (sides
+ * from the signs of g unless given, schedule segment from t).  Lets Python
+ * avoid CasADi's own Python calls on hot paths.
+ * -------------------------------------------------------------------------- */
+static int ws_ready(gs_workspace* ws, char* msg, int len) {
+  gs_sim_args a;
+  if (!ws) {
+    snprintf(msg, (size_t)len, "no workspace");
+    return -1;
+  }
+  if (ws->ready) return 0;
+  memset(&a, 0, sizeof(a));
+  if (ws_model_setup(ws, &a)) {
+    snprintf(msg, (size_t)len, "%s", a.errmsg);
+    return -1;
+  }
+  return 0;
+}
+
+int gs_eval_period(gs_workspace* ws, const double* p, double* T, char* msg, int len) {
+  gs_ud* ud;
+  const double* in[1];
+  if (ws_ready(ws, msg, len)) return -1;
+  ud = &ws->U;
+  if (!ud->period.present) {
+    *T = NAN;
+    return 0; /* no forcing period (an autonomous or test model) */
+  }
+  in[0] = ud->np ? p : ud->dummy;
+  if (gs_call(ud, &ud->period, in, 1, T)) {
+    snprintf(msg, (size_t)len, "gs_period failed");
+    return -1;
+  }
+  return 0;
+}
+
+int gs_eval_period_grad(gs_workspace* ws, const double* p, double* dT, char* msg, int len) {
+  gs_ud* ud;
+  const double* in[1];
+  if (ws_ready(ws, msg, len)) return -1;
+  ud = &ws->U;
+  if (!ud->periodp.present) {
+    snprintf(msg, (size_t)len, "the compiled model has no gs_periodp (built by an older gearsym; rebuild it)");
+    return -1;
+  }
+  if (ud->np == 0) return 0;
+  in[0] = p;
+  if (gs_call(ud, &ud->periodp, in, 1, dT)) {
+    snprintf(msg, (size_t)len, "gs_periodp failed");
+    return -1;
+  }
+  return 0;
+}
+
+int gs_n_outputs(gs_workspace* ws) {
+  char msg[256];
+  if (ws_ready(ws, msg, (int)sizeof(msg))) return -1;
+  return ws->n_out_fn;
+}
+
+int gs_n_meshes(gs_workspace* ws) {
+  char msg[256];
+  if (ws_ready(ws, msg, (int)sizeof(msg))) return -1;
+  return ws->n_mesh_fn;
+}
+
+/* Schedule part of the mode at time t (n_k, seg_k) from the schedule vector s. */
+static void sched_modes_at(gs_workspace* ws, const double* s, double t, double* m) {
+  gs_ud* ud = &ws->U;
+  int k, off = 0;
+  for (k = 0; k < ud->nsched; ++k) {
+    gs_sched_data sd;
+    int nbk = ws->nb[k], zero = 0;
+    sd.nsched = 1;
+    sd.nb = &nbk;
+    sd.off = &zero;
+    sd.s = s + off;
+    sched_mode_at(&sd, 0, t, &m[2 * k], &m[2 * k + 1]);
+    off += 1 + nbk;
+  }
+}
+
+int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p, const double* sigma,
+            double* out, char* msg, int len) {
+  gs_ud* ud;
+  int i, j, nx, nsw, nout;
+  double* m;
+  double* s;
+  const double* in[4];
+  const gs_fn* f;
+  if (ws_ready(ws, msg, len)) return -1;
+  ud = &ws->U;
+  nx = ud->nx;
+  nsw = ud->nsw;
+  if (fn == GS_EVAL_SW) {
+    f = &ud->sw;
+    nout = nsw;
+  } else if (fn == GS_EVAL_OUT) {
+    f = &ud->out;
+    nout = ws->n_out_fn;
+  } else if (fn == GS_EVAL_RHS) {
+    f = &ud->rhs;
+    nout = nx;
+  } else if (fn == GS_EVAL_JAC) {
+    f = &ud->jac;
+    nout = nx * nx;
+  } else if (fn == GS_EVAL_MODE) {
+    f = NULL;
+    nout = ud->nm;
+  } else if (fn == GS_EVAL_MESH) {
+    f = &ud->mesh;
+    nout = ws->n_mesh_fn;
+  } else {
+    snprintf(msg, (size_t)len, "unknown function code %d", fn);
+    return -1;
+  }
+  if (f && !f->present) {
+    snprintf(msg, (size_t)len, "the compiled model has no %s", f->name ? f->name : "such function");
+    return -1;
+  }
+  if (n < 0 || !t || !x || (ud->np > 0 && !p) || (nout > 0 && !out)) {
+    snprintf(msg, (size_t)len, "bad arguments");
+    return -1;
+  }
+  ud->p = p; /* eval_swfn reads the parameters from ud */
+  s = ws->sched_s;
+  if (ws->nsched_total > 0) {
+    in[0] = ud->np ? p : ud->dummy;
+    if (gs_call(ud, &ud->sched, in, 1, s)) {
+      snprintf(msg, (size_t)len, "gs_sched failed");
+      return -1;
+    }
+  }
+  m = ud->m_alt;
+  for (i = 0; i < n; ++i) {
+    const double* xi = x + (size_t)i * nx;
+    double ti = t[i];
+    if (fn == GS_EVAL_SW) {
+      if (eval_swfn(ud, &ud->sw, ti, xi, out + (size_t)i * nsw)) goto fail;
+      continue;
+    }
+    /* mode at (t_i, x_i): sides given or from the signs of g, schedule segment from t */
+    if (nsw > 0) {
+      if (sigma) {
+        for (j = 0; j < nsw; ++j) m[j] = sigma[(size_t)i * nsw + j];
+      } else {
+        if (eval_swfn(ud, &ud->sw, ti, xi, ud->g)) goto fail;
+        for (j = 0; j < nsw; ++j) m[j] = ud->g[j] >= 0.0 ? 1.0 : -1.0;
+      }
+    }
+    sched_modes_at(ws, s, ti, m + nsw);
+    if (fn == GS_EVAL_MODE) {
+      memcpy(out + (size_t)i * nout, m, sizeof(double) * (size_t)nout);
+      continue;
+    }
+    in[0] = &ti;
+    in[1] = xi;
+    in[2] = ud->np ? p : ud->dummy;
+    in[3] = ud->nm ? m : ud->dummy;
+    if (gs_call(ud, f, in, 4, out + (size_t)i * nout)) goto fail;
+  }
+  return 0;
+fail:
+  snprintf(msg, (size_t)len, "evaluation of %s failed at point %d", f ? f->name : "the mode", i);
+  return -1;
+}
