@@ -16,7 +16,7 @@ SHIPPED = {"gearsym.data.models": "models", "gearsym.data.scenes": "scenes"}
 DATA = {
     "gearsym.engine": ["*.c", "*.h"],
     "gearsym.templates": ["*.toml"],
-    "gearsym.export.templates": ["*.c", "*.sh", "*.in"],
+    "gearsym.export.templates": ["*.c", "*.h", "*.sh", "*.in"],
     "gearsym.export.templates.fmi2": ["*.h"],
     **{pkg: ["*.toml"] for pkg in SHIPPED},
 }

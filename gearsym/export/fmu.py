@@ -4,8 +4,10 @@ The FMU holds ``modelDescription.xml`` (states, derivatives, tunable parameters 
 and descriptions, outputs, the side of each switching surface and the event count as
 discrete outputs, one event indicator per switching function), the linux64 binary built at
 export, and its sources (``sources/`` with ``buildDescription.xml``).  The runtime
-(``templates/fmu.c``) applies gearsym's mode-switch rule in ``fmi2NewDiscreteStates`` and
-announces the scheduled breakpoints as time events.  The importer integrates the states.
+(``templates/fmu.c``: instance, event update, lifecycle; ``templates/fmu_access.c``: values,
+directional derivatives, the Model Exchange calls; ``templates/fmu_internal.h`` between them)
+applies gearsym's mode-switch rule in ``fmi2NewDiscreteStates`` and announces the scheduled
+breakpoints as time events.  The importer integrates the states.
 """
 
 from __future__ import annotations
@@ -31,7 +33,9 @@ from .targets import check_target_file
 __all__ = ["write_fmu", "model_description"]
 
 _FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
-_SOURCES = ("fmu.c", "gs_model.c", "gsx_outx.c")
+#: the FMU runtime: the same files for every model, copied from templates/ into sources/
+_RUNTIME = ("fmu.c", "fmu_access.c", "fmu_internal.h")
+_SOURCES = ("fmu.c", "fmu_access.c", "gs_model.c", "gsx_outx.c")
 
 
 def _outx_source(em: ExportModel) -> tuple[str, str] | None:
@@ -233,7 +237,7 @@ def write_fmu(em: ExportModel, path: str | Path, force: bool = False) -> dict:
     model_c = (em.generated_dir / "gs_model.c").read_text()
     guid = guid_of(model_c, data_header(em, "", outx), repr([(q.name, q.value) for q in em.params]))
     files: dict[str, str] = {
-        "fmu.c": template("fmu.c"),
+        **{name: template(name) for name in _RUNTIME},
         "gs_model.c": model_c,
         "gs_model.h": (em.generated_dir / "gs_model.h").read_text(),
         "gs_export_data.h": data_header(em, guid, outx),

@@ -5,7 +5,7 @@ Python computes today (parameter values in SI units, bound functions such as the
 backlash height ``wm_mean_height``, the forcing period, the scene's simulation
 defaults) and returns an :class:`ExportModel`, which :func:`data_header` writes as
 ``gs_export_data.h``: the sizes, names, units, default values and value references the
-C program (``main.c``) and the FMU runtime (``fmu.c``) are compiled with.
+C program (``main.c``) and the FMU runtime (``fmu.c``, ``fmu_access.c``) are compiled with.
 """
 
 from __future__ import annotations
