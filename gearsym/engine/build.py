@@ -375,10 +375,8 @@ def driver_object(folder: str | os.PathLike[str], cc: str | None = None) -> Path
                 tmp = Path(td) / "driver.o"
                 (Path(td) / "units").mkdir()
                 _compile_driver(cc, Path(td) / "units", tmp)
-                with open(tmp, "rb") as f:
-                    head = f.read(18)
-                # an ELF relocatable object (e_type ET_REL = 1), never a damaged file, goes in the cache
-                if head[:4] != b"\x7fELF" or int.from_bytes(head[16:18], "little") != 1:
+                # an ELF relocatable object, never a damaged file, goes in the cache
+                if not _is_elf_relocatable(tmp):
                     raise EngineBuildError(f"the compiler {cc} wrote an invalid ELF object for the driver")
                 os.replace(tmp, obj)
         finally:
@@ -416,11 +414,21 @@ def _run_compiler(cmds: list[list[str]], what: str) -> None:
         raise EngineBuildError(f"{what} failed (exit {code}):\n{' '.join(cmd)}\n{err.strip()}")
 
 
+def _is_elf_relocatable(path: Path) -> bool:
+    """Whether ``path`` starts like an ELF relocatable object (e_type ET_REL = 1)."""
+    with open(path, "rb") as f:
+        head = f.read(18)
+    return head[:4] == b"\x7fELF" and int.from_bytes(head[16:18], "little") == 1
+
+
 def _compile_driver(cc: str, workdir: Path, out: Path) -> None:
     """Compile :data:`DRIVER_C_FILES` into ``workdir`` and link them into the relocatable ``out``."""
     objs = [workdir / (Path(src).stem + ".o") for src in DRIVER_C_FILES]
     _run_compiler([[cc, *DRIVER_CFLAGS, f"-I{ENGINE_DIR}", src, "-o", str(o)]
                    for src, o in zip(DRIVER_C_FILES, objs)], "compiling the driver")
+    for src, o in zip(DRIVER_C_FILES, objs):
+        if not _is_elf_relocatable(o):
+            raise EngineBuildError(f"the compiler {cc} wrote an invalid ELF object for the driver's {src}")
     _run_compiler([[cc, "-nostdlib", "-r", *map(str, objs), "-o", str(out)]], "linking the driver object")
 
 
