@@ -407,6 +407,19 @@ def test_shooting_multipliers_in_c_are_the_stability_rule_s(scene, monkeypatch):
     ref = floquet(o.monodromy, o.info["rtol"])
     assert o.stability == ref.stability and np.allclose(o.multipliers, ref.multipliers, rtol=1e-13, atol=1e-15)
     assert np.allclose(o.multiplier_tolerances, ref.tolerances, rtol=1e-12, atol=0)
+    # the isolation verdict comes from the same call: isolation()'s numbers for the orbit's
+    # monodromy in the orbit's scales (numpy's svd)
+    from gearsym.analysis.isolation import isolation
+
+    assert seen[-1].isolation is not None
+    iso = isolation(o.monodromy, np.array(o.info["state_scales"]), o.info["rtol"])
+    got = o.info["isolation"]
+    assert got["isolated"] and iso.isolated and got["n_trivial"] == 0
+    assert got["sigma_min"] == pytest.approx(iso.sigma, rel=1e-12)
+    assert got["threshold"] == pytest.approx(iso.threshold, rel=1e-12)
+    direction = seen[-1].isolation[2]
+    assert min(np.max(np.abs(direction - iso.direction)), np.max(np.abs(direction + iso.direction))) \
+        <= 1e-10 * np.max(np.abs(iso.direction))
 
 
 @pytest.mark.parametrize("mirror, struct", [("GsShootArgs", "gs_shoot_args"), ("GsCorrectArgs", "gs_correct_args")])

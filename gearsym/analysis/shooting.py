@@ -42,7 +42,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, GearsymError, ParameterError
 from .floquet import monodromy_product
-from .isolation import Isolation, isolation, truncated_solve
+from .isolation import Isolation, isolation, monodromy_error, truncated_solve
 from .newton import NewtonPolicy, damped_newton
 from .options import ShootingOptions, resolve_options
 from .orbit import PeriodicOrbit, finish_orbit
@@ -373,7 +373,12 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
             from .stability import rigid_state_basis
 
             trivial = rigid_state_basis(system, params)
-        iso = isolation(mono, scales(), rtol, trivial)
+        if trivial is None and fast is not None and fast.isolation is not None:
+            sigma, norm_s, direction = fast.isolation  # computed by the driver, in the same scales
+            threshold = monodromy_error(norm_s, rtol)
+            iso = Isolation(sigma, threshold, sigma > threshold, direction, 0)
+        else:
+            iso = isolation(mono, scales(), rtol, trivial)
     wall = time.perf_counter() - wall
     if not converged and raise_on_failure:
         hist = ", ".join(f"{h['residual']:.3g}" for h in history[-12:])
@@ -417,7 +422,6 @@ def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.n
     it does not apply (implicit models, a build without it)."""
     from ..engine.driver import METHODS
     from ..engine.shoot import MAX_STATES, shoot_in_c
-    from .isolation import monodromy_error
 
     gen = system.generated
     if gen.implicit or gen.nx > MAX_STATES or not hasattr(system.engine._lib, "gs_shoot_ws"):

@@ -183,6 +183,19 @@ typedef struct gs_multipliers {
 
 #define GS_SHOOT_GAVE_UP_OTHER    6  /* a non-finite residual                              */
 
+/* ---- is the converged orbit isolated?  (gearsym.analysis.isolation.isolation without trivial ---- */
+/* directions): in the variables scaled by the orbit's state magnitudes d (entries that are not  */
+/* finite and > 0 count as 1), Ms = D^-1 M D; `norm` is the 2-norm of Ms, `sigma` the smallest    */
+/* singular value of Ms - I and direction = d * v its right singular vector (dgesdd, the routine  */
+/* numpy's svd calls, through the dgesdd pointer of the gs_multipliers beside it).  Python        */
+/* compares sigma with the monodromy's error level.  Any failure leaves ok = 0.                   */
+typedef struct gs_isolation {
+  double* direction;    /* [nx] out; NULL: not computed                                     */
+  double  sigma;        /* out                                                              */
+  double  norm;         /* out                                                              */
+  int     ok;           /* out: 1 when the three outputs hold them                          */
+} gs_isolation;
+
 typedef struct gs_shoot_args {
   double  tol;          /* converged: max_i |R_i| / scale_i <= tol (or the noise rules)     */
   double  scale_floor;  /* scale_i = max(max_k |x_i(t_out[k])|, 1e-9 max_j(...), floor)    */
@@ -198,6 +211,7 @@ typedef struct gs_shoot_args {
                         /* 2 a last step below 10 tol applied without integrating           */
   int     outcome;      /* out: GS_SHOOT_*                                                  */
   gs_multipliers mult;  /* the multipliers of the last evaluation's monodromy when converged */
+  gs_isolation iso;     /* its isolation, in the scales s->scale, when converged            */
 } gs_shoot_args;
 
 /* Newton on x(t_end; t0, x) = x with the run described by `a` (want_monodromy = 1, an output

@@ -110,6 +110,61 @@ done:
   m->ok = rc == 0;
 }
 
+/* The isolation of the orbit with the row-major n x n monodromy M in the scales d (see
+ * gs_isolation in gs_driver.h): the same arithmetic as gearsym.analysis.isolation.isolation
+ * with no trivial directions (numpy's svd: dgesdd, jobz 'N' for the norm, 'A' for M_s - I). */
+void lapack_isolation(gs_isolation* iso, const gs_multipliers* m, int n, const double* M, const double* d_in) {
+  gs_dgesdd_t dgesdd = (gs_dgesdd_t)m->lapack_dgesdd;
+  int i, j, info = 0, lda = n, one = 1, lwork = -1, lw;
+  size_t nn = (size_t)n * (size_t)n;
+  double *A = NULL, *B = NULL, *U = NULL, *VT = NULL, *sv = NULL, *d = NULL, *work = NULL, q = 0.0, dummy = 0.0;
+  int* iwork = NULL;
+  char job_n = 'N', job_a = 'A';
+  iso->ok = 0;
+  if (n < 1 || !dgesdd || !iso->direction) return;
+  A = (double*)malloc(sizeof(double) * nn * 4);
+  sv = (double*)malloc(sizeof(double) * (size_t)n * 2);
+  iwork = (int*)malloc(sizeof(int) * (size_t)n * 8);
+  if (!A || !sv || !iwork) goto done;
+  B = A + nn;
+  U = B + nn;
+  VT = U + nn;
+  d = sv + n;
+  for (i = 0; i < n; ++i) d[i] = isfinite(d_in[i]) && d_in[i] > 0 ? d_in[i] : 1.0;
+  for (i = 0; i < n; ++i)
+    for (j = 0; j < n; ++j) {
+      double v = M[(size_t)i * n + j] * d[j] / d[i]; /* numpy: M * d[None, :] / d[:, None] */
+      if (!isfinite(v)) goto done;                   /* the Python function's verdicts */
+      A[i + (size_t)j * n] = v;                      /* column-major */
+    }
+  /* workspace: the larger of the two queries */
+  memcpy(B, A, sizeof(double) * nn);
+  dgesdd(&job_a, &n, &n, B, &lda, sv, U, &lda, VT, &lda, &q, &lwork, iwork, &info);
+  if (info != 0) goto done;
+  lw = (int)q > 1 ? (int)q : 1;
+  dgesdd(&job_n, &n, &n, B, &lda, sv, &dummy, &one, &dummy, &one, &q, &lwork, iwork, &info);
+  if (info != 0) goto done;
+  if ((int)q > lw) lw = (int)q;
+  work = (double*)malloc(sizeof(double) * (size_t)lw);
+  if (!work) goto done;
+  lwork = lw;
+  dgesdd(&job_n, &n, &n, B, &lda, sv, &dummy, &one, &dummy, &one, work, &lwork, iwork, &info);
+  if (info != 0) goto done;
+  iso->norm = sv[0];
+  memcpy(B, A, sizeof(double) * nn);
+  for (i = 0; i < n; ++i) B[i + (size_t)i * n] -= 1.0; /* Ms - I */
+  dgesdd(&job_a, &n, &n, B, &lda, sv, U, &lda, VT, &lda, work, &lwork, iwork, &info);
+  if (info != 0) goto done;
+  iso->sigma = sv[n - 1];
+  for (j = 0; j < n; ++j) iso->direction[j] = d[j] * VT[(n - 1) + (size_t)j * n]; /* row n-1 of V^T */
+  iso->ok = 1;
+done:
+  free(A);
+  free(sv);
+  free(iwork);
+  free(work);
+}
+
 int shoot_lu(int n, double* A, int* piv, double pivot_tol) {
   /* in-place LU with partial pivoting of the row-major n x n matrix A; 1: (nearly) singular */
   int i, j, k;
@@ -197,6 +252,7 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
   s->n_hist = 0;
   s->note = 0;
   s->mult.ok = 0;
+  s->iso.ok = 0;
   s->outcome = GS_SHOOT_GAVE_UP_OTHER;
   if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
   if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
@@ -265,7 +321,10 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
   }
   s->iterations = it;
   memcpy(s->x, x, sizeof(double) * (size_t)nx);
-  if (s->outcome == GS_SHOOT_CONVERGED) lapack_multipliers(&s->mult, nx, a->monodromy);
+  if (s->outcome == GS_SHOOT_CONVERGED) {
+    lapack_multipliers(&s->mult, nx, a->monodromy);
+    lapack_isolation(&s->iso, &s->mult, nx, a->monodromy, s->scale);
+  }
 done:
   a->x0 = NULL; /* points at this frame */
   free(J);

@@ -25,7 +25,7 @@ from .sim_args import GsShootArgs
 if TYPE_CHECKING:  # pragma: no cover
     from .driver import Engine, RunResult
 
-__all__ = ["MAX_STATES", "OUTCOMES", "CorrectOutcome", "Corrector", "OrbitSamples", "SampleStats", "ShootOutcome", "correct_in_c", "shoot_in_c"]
+__all__ = ["MAX_STATES", "OUTCOMES", "CorrectOutcome", "Corrector", "OrbitSamples", "SampleStats", "ShootOutcome", "Shooter", "correct_in_c", "shoot_in_c"]
 
 #: Largest model the C iterations take (``GS_SHOOT_MAXN`` in gs_internal.h); larger ones iterate in Python.
 MAX_STATES = 256
@@ -80,6 +80,11 @@ class ShootOutcome:
         ``(mu, tolerances, delta)`` of ``run.monodromy`` when converged, as
         :func:`gearsym.analysis.stability.multiplier_tolerances` returns them (computed in the
         driver with scipy's LAPACK; ``None`` where that was not possible).
+    isolation : tuple or None
+        ``(sigma, norm, direction)`` of the converged orbit in the scales ``scale``, as
+        :func:`gearsym.analysis.isolation.isolation` computes them without trivial
+        directions (``norm``: the 2-norm of the scaled monodromy, from which the caller
+        takes the error level); ``None`` where the driver could not compute them.
     """
 
     converged: bool
@@ -93,6 +98,7 @@ class ShootOutcome:
     note: int
     code: int = 0
     multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
+    isolation: tuple[float, float, np.ndarray] | None = None
 
 
 def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, grid: np.ndarray, *,
@@ -135,32 +141,67 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
     if engine.implicit or engine.nalg or not hasattr(engine._lib, "gs_shoot_ws"):
         raise EngineInputError("shooting in C needs an explicit model built with this gearsym")
     nx = engine.nx
-    xa = np.array(x0, dtype=float).reshape(-1)
-    tout = np.ascontiguousarray(grid, dtype=float).reshape(-1)
-    p = np.ascontiguousarray(p, dtype=float).reshape(-1)
+    xa = np.asarray(x0, dtype=float).reshape(-1)
+    tout = np.asarray(grid, dtype=float).reshape(-1)
+    p = np.asarray(p, dtype=float).reshape(-1)
     _check_sizes(engine, x0=(xa, nx), p=(p, engine.np))
     if tout.shape[0] < 2 or nx > MAX_STATES or int(max_iter) < 0:
         raise EngineInputError(f"shooting in C needs >= 2 sample times, nx <= {MAX_STATES} and max_iter >= 0")
-    a, buf = engine._prepare(xa, p, float(t0), float(t1), tout, int(method), float(rtol), float(atol), None, True,
-                             int(max_steps), float(max_step), 0.0, 0, 0, 0.0, int(max_events_out))
-    scale = np.empty(nx)
-    h_abs = np.empty(max_iter + 1)
-    h_rel = np.empty(max_iter + 1)
-    s = GsShootArgs()
-    s.tol, s.scale_floor, s.pivot_tol, s.max_iter = float(tol), float(scale_floor), float(pivot_tol), int(max_iter)
-    s.x = xa.ctypes.data
-    s.scale = scale.ctypes.data
-    s.hist_abs, s.hist_rel = h_abs.ctypes.data, h_rel.ctypes.data
-    mult = MultiplierBuffers(s.mult, nx, rtol)  # the converged orbit's multipliers in the same call
-    engine._call(engine._lib.gs_shoot_ws, a, C.byref(s))
-    n = int(s.n_hist)
-    converged = int(s.outcome) == 0
-    run = engine._result(a, buf) if converged else None
-    if isinstance(run, int):  # the event log overflowed (the C side gives up first; kept for safety)
-        run, converged = None, False
-    multipliers = mult.read() if converged else None
-    return ShootOutcome(converged, OUTCOMES.get(int(s.outcome), "unknown"), xa, run, scale, h_abs[:n].copy(),
-                        h_rel[:n].copy(), int(s.iterations), int(s.note), int(s.outcome), multipliers)
+    key = (int(method), float(rtol), float(atol), float(max_step), int(max_steps), int(tout.shape[0]), float(tol),
+           float(scale_floor), float(pivot_tol), int(max_iter), int(max_events_out))
+    # one Shooter per settings and thread (its buffers are reused; the workspace is per thread too)
+    cache = engine._tls.__dict__.setdefault("shooters", {})
+    shooter = cache.get(key)
+    if shooter is None:
+        if len(cache) >= 8:
+            cache.pop(next(iter(cache)))
+        shooter = cache[key] = Shooter(engine, *key)
+    return shooter(xa, p, float(t0), float(t1), tout)
+
+
+class Shooter:
+    """The driver's argument structs and buffers of :func:`shoot_in_c` for one set of settings,
+    made once (building the ``ctypes`` structs and buffer addresses of a call cost about a
+    sixth of a warm orbit solve's time outside C)."""
+
+    def __init__(self, engine: Engine, method: int, rtol: float, atol: float, max_step: float, max_steps: int,
+                 n_grid: int, tol: float, scale_floor: float, pivot_tol: float, max_iter: int,
+                 max_events_out: int):
+        nx = engine.nx
+        self.engine, self.nx = engine, nx
+        self.x, self.p, self.tout = np.empty(nx), np.empty(engine.np), np.empty(n_grid)
+        self.a, self.buf = engine._prepare(self.x, self.p, 0.0, 1.0, self.tout, method, rtol, atol, None, True,
+                                           max_steps, max_step, 0.0, 0, 0, 0.0, max_events_out)
+        self.scale, self.h_abs, self.h_rel = np.empty(nx), np.empty(max_iter + 1), np.empty(max_iter + 1)
+        self.direction = np.empty(nx)
+        s = self.s = GsShootArgs()
+        s.tol, s.scale_floor, s.pivot_tol, s.max_iter = tol, scale_floor, pivot_tol, max_iter
+        s.x, s.scale = self.x.ctypes.data, self.scale.ctypes.data
+        s.hist_abs, s.hist_rel = self.h_abs.ctypes.data, self.h_rel.ctypes.data
+        self.mult = MultiplierBuffers(s.mult, nx, rtol)  # the converged orbit's multipliers in the same call
+        s.iso.direction = self.direction.ctypes.data  # and its isolation
+
+    def __call__(self, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, tout: np.ndarray) -> ShootOutcome:
+        """One iteration from ``x0`` (sizes checked by :func:`shoot_in_c`); the outcome's arrays
+        are its own copies."""
+        engine, a, s, buf = self.engine, self.a, self.s, self.buf
+        self.x[:] = x0
+        self.p[:] = p
+        self.tout[:] = tout
+        a.t0, a.t_end = t0, t1
+        a.n_events = 0
+        engine._call(engine._lib.gs_shoot_ws, a, C.byref(s))
+        n = int(s.n_hist)
+        converged = int(s.outcome) == 0
+        run = engine._result(a, buf, copy=True) if converged else None
+        if isinstance(run, int):  # the event log overflowed (the C side gives up first; kept for safety)
+            run, converged = None, False
+        multipliers = self.mult.read() if converged else None
+        iso = (float(s.iso.sigma), float(s.iso.norm), self.direction.copy()) \
+            if converged and int(s.iso.ok) == 1 else None
+        return ShootOutcome(converged, OUTCOMES.get(int(s.outcome), "unknown"), self.x.copy(), run,
+                            self.scale.copy(), self.h_abs[:n].copy(), self.h_rel[:n].copy(), int(s.iterations),
+                            int(s.note), int(s.outcome), multipliers, iso)
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import ctypes as C
 
-__all__ = ["GsCorrectArgs", "GsMultipliers", "GsShootArgs", "GsSimArgs"]
+__all__ = ["GsCorrectArgs", "GsIsolation", "GsMultipliers", "GsShootArgs", "GsSimArgs"]
 
 # Pointer members are declared c_void_p (same layout as double*/int*) so that
 # numpy buffers can be passed as plain addresses (fast: no ctypes casts).
@@ -89,6 +89,17 @@ class GsMultipliers(C.Structure):
     ]
 
 
+class GsIsolation(C.Structure):
+    """ctypes mirror of ``struct gs_isolation`` (gs_driver.h); keep in sync."""
+
+    _fields_ = [
+        ("direction", _PD),
+        ("sigma", C.c_double),
+        ("norm", C.c_double),
+        ("ok", C.c_int),
+    ]
+
+
 class GsShootArgs(C.Structure):
     """ctypes mirror of ``struct gs_shoot_args`` (gs_driver.h); keep in sync."""
 
@@ -106,6 +117,7 @@ class GsShootArgs(C.Structure):
         ("note", C.c_int),
         ("outcome", C.c_int),
         ("mult", GsMultipliers),
+        ("iso", GsIsolation),
     ]
 
 
