@@ -219,8 +219,16 @@ class System(Evaluations, SensitivityMethods):
         ParameterError
             An unknown or non-finite override.
         """
+        if not params:  # the system's own values never change: computed once
+            p0 = self.__dict__.get("_p_default")
+            if p0 is None:
+                p0 = self._p_default = self._param_vector({})
+            return p0.copy()
+        return self._param_vector(params)
+
+    def _param_vector(self, params: Mapping[str, float]) -> np.ndarray:
         values = dict(self._si)
-        for k, v in (params or {}).items():
+        for k, v in params.items():
             if k not in values:
                 raise ParameterError(
                     f"'{k}' is not a run-time parameter of this system (have: "
@@ -232,6 +240,31 @@ class System(Evaluations, SensitivityMethods):
         for name, (fn, args) in self.generated.bound.items():
             values[name] = evaluate_bound(fn, [values[a] for a in args])
         return np.array([values[k] for k in self.generated.param_names], dtype=float)
+
+    def run_params(self, params: Mapping[str, float] | None = None) -> dict[str, float]:
+        """The run-time parameter values of a run with these overrides, keyed like :attr:`params`
+        (declared units; bound parameters excluded): what a result records as its ``params``.
+
+        Parameters
+        ----------
+        params
+            Overrides by name (declared units).
+
+        Returns
+        -------
+        dict
+            A new dict.
+        """
+        if not params:  # the system's own values never change: computed once
+            used = self.__dict__.get("_run_params_default")
+            if used is None:
+                used = self._run_params_default = self._run_params({})
+            return dict(used)
+        return self._run_params(params)
+
+    def _run_params(self, params: Mapping[str, float]) -> dict[str, float]:
+        used, inputs = self.param_dict(self.param_vector(params)), self.params
+        return {k: v for k, v in used.items() if k in inputs}
 
     def period(self, params: Mapping[str, float] | None = None) -> float | None:
         """The forcing period at these parameters.

@@ -417,6 +417,8 @@ def test_shooting_multipliers_in_c_are_the_stability_rule_s(scene, monkeypatch):
     assert got["isolated"] and iso.isolated and got["n_trivial"] == 0
     assert got["sigma_min"] == pytest.approx(iso.sigma, rel=1e-12)
     assert got["threshold"] == pytest.approx(iso.threshold, rel=1e-12)
+    # and the switching functions at the orbit's start (its rattle state), gs_eval's numbers
+    assert np.array_equal(seen[-1].g0, s.switching(0.0, o.x0).ravel())
     direction = seen[-1].isolation[2]
     assert min(np.max(np.abs(direction - iso.direction)), np.max(np.abs(direction + iso.direction))) \
         <= 1e-10 * np.max(np.abs(iso.direction))

@@ -467,7 +467,7 @@ def modal_analysis(system: System, params: Mapping[str, float] | None = None, *,
         mult[g] = len(g)
     names = system.state_names[:n]
     times, T = _sample_times(system, params, samples, t0)
-    p_used = {k: v for k, v in system.param_dict(system.param_vector(params)).items() if k in system.params}
+    p_used = system.run_params(params)
     return ModalAnalysis(
         coordinate_names=names, equilibrium=q, frequencies_hz=f, shapes=shapes, multiplicities=mult,
         groups=groups, damping_ratios=zeta, symmetric=m is not None, mass=m, stiffness=A, damping=D,

@@ -8,6 +8,7 @@ its default takes the object's value).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, fields, replace
 from typing import Any, TypeVar
@@ -162,8 +163,13 @@ def resolve_options(options: T | None, cls: type[T], **keywords: Any) -> T:
     """
     if options is not None and not isinstance(options, cls):
         raise ParameterError(f"options must be a {cls.__name__}, got {type(options).__name__}")
-    base = options if options is not None else cls()
-    default = cls()
-    names = {f.name for f in fields(cls)}
+    default, names = _defaults(cls)
+    base = options if options is not None else default
     changes = {k: v for k, v in keywords.items() if k in names and not _same(v, getattr(default, k))}
     return replace(base, **changes) if changes else base
+
+
+@functools.cache
+def _defaults(cls: type[T]) -> tuple[T, frozenset[str]]:
+    """The default instance of an options class (frozen: one can be shared) and its field names."""
+    return cls(), frozenset(f.name for f in fields(cls))

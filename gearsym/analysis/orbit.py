@@ -388,7 +388,8 @@ def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: floa
                  monodromy: np.ndarray | None, iterations: int, residual: float, converged: bool,
                  method: str, params: Mapping[str, float], events: Sequence[Event],
                  samples: tuple[np.ndarray, np.ndarray] | None = None,
-                 multipliers: tuple[np.ndarray, np.ndarray, float] | None = None, **extra: Any) -> PeriodicOrbit:
+                 multipliers: tuple[np.ndarray, np.ndarray, float] | None = None,
+                 g0: np.ndarray | None = None, **extra: Any) -> PeriodicOrbit:
     """Assemble a :class:`PeriodicOrbit` (multipliers, verdict, rattle state).
 
     The multipliers are judged by :func:`gearsym.analysis.stability.floquet` with the
@@ -396,6 +397,7 @@ def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: floa
     model's rigid-body subspace.  ``multipliers``: ``(mu, tolerances, delta)`` of the whole
     monodromy as :func:`~gearsym.analysis.stability.multiplier_tolerances` gives them, already
     computed (by the driver); used for a model without rigid-body modes or algebraic states.
+    ``g0``: the switching functions at ``(t0, x0)``, already evaluated (by the driver).
     """
     info = extra.get("info") or {}
     rtol = float(info.get("monodromy_rtol", info.get("rtol", 1e-10)))
@@ -408,7 +410,7 @@ def finish_orbit(system: System, *, x0: np.ndarray, period: float, periods: floa
         fq = floquet(None if monodromy is None else np.asarray(monodromy)[:nd, :nd], rtol, basis)
     info.update({"monodromy_error": fq.monodromy_error, "rigid_split": fq.info.get("rigid_split"),
                  "invariance_defect": fq.invariance_defect})
-    rss = mesh_rattle_states(system, x0, t0, events, params, samples=samples)
+    rss = mesh_rattle_states(system, x0, t0, events, params, samples=samples, g0=g0)
     return PeriodicOrbit(x0=np.asarray(x0, float), period=float(period), periods=float(periods),
                          t0=float(t0), monodromy=monodromy, multipliers=fq.multipliers, stable=fq.stable,
                          iterations=int(iterations), residual=float(residual), converged=bool(converged),

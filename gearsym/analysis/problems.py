@@ -325,6 +325,8 @@ class ShootingResidual(PeriodicOrbitProblem):
 
 def segment_times(t0: float, P: float, segments: int) -> np.ndarray:
     """Boundaries ``s_0 = t0 < s_1 < ... < s_N = t0 + P`` of ``segments`` equal shooting segments."""
+    if segments == 1:
+        return np.array([t0, t0 + P])
     s = t0 + P * np.arange(segments + 1) / segments
     s[-1] = t0 + P
     return s

@@ -335,9 +335,8 @@ def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequ
         Mesh name -> 0 (no contact loss), 1 (contact loss only) or 2 (back-side
         contact); empty if the model has no contact surfaces.
     """
-    surfaces = system.generated.surfaces
-    kinds = {s["name"]: (s.get("kind"), int(s.get("contact_sign", 0))) for s in surfaces}
-    if not any(k in ("drive", "back") for k, _ in kinds.values()):
+    table = _contact_table(system.generated.surfaces)
+    if not table:
         return {}
     p = system.param_vector(params) if g0 is None or samples is not None else None
     g = system.switching(float(t0), x0, p=p) if g0 is None else np.asarray(g0, float)
@@ -345,16 +344,14 @@ def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequ
     if samples is not None:
         ts, Y = np.asarray(samples[0], float), np.asarray(samples[1], float)
         G = system.switching(ts, Y, p=p).reshape(len(ts), -1).T
+    g = g.tolist()
+    hit = {e.surface for e in events}
     meshes: dict[str, dict[str, bool]] = {}
-    for j, s in enumerate(surfaces):
-        kind, sign = kinds[s["name"]]
-        if kind not in ("drive", "back"):
-            continue
-        mesh = s["name"].rsplit(".", 1)[0]
+    for j, name, mesh, kind, sign in table:
         st = meshes.setdefault(mesh, {"drive_in": False, "drive_crossed": False, "back_in": False,
                                       "back_crossed": False})
         in_contact = (g[j] > 0) if sign > 0 else (g[j] < 0)
-        crossed = any(e.surface == s["name"] for e in events)
+        crossed = name in hit
         if G is not None:
             side = (G[j] > 0) if sign > 0 else (G[j] < 0)
             in_contact = bool(np.all(side)) if kind == "drive" else bool(np.any(side))
@@ -362,6 +359,23 @@ def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequ
         st[f"{kind}_in"] = bool(in_contact)
         st[f"{kind}_crossed"] = bool(crossed)
     return {mesh: classify(**st) for mesh, st in meshes.items()}
+
+
+_CONTACT_TABLES: dict[int, tuple[list[dict], tuple[tuple[int, str, str, str, int], ...]]] = {}
+
+
+def _contact_table(surfaces: list[dict]) -> tuple[tuple[int, str, str, str, int], ...]:
+    """``(index, name, mesh, kind, contact_sign)`` of every drive / back contact surface,
+    made once per model (keyed by the identity of its surface list, which is kept alive)."""
+    hit = _CONTACT_TABLES.get(id(surfaces))
+    if hit is not None and hit[0] is surfaces:
+        return hit[1]
+    table = tuple((j, s["name"], s["name"].rsplit(".", 1)[0], s.get("kind"), int(s.get("contact_sign", 0)))
+                  for j, s in enumerate(surfaces) if s.get("kind") in ("drive", "back"))
+    if len(_CONTACT_TABLES) > 64:
+        _CONTACT_TABLES.clear()
+    _CONTACT_TABLES[id(surfaces)] = (surfaces, table)
+    return table
 
 
 def classify(drive_in: bool, back_in: bool, drive_crossed: bool, back_crossed: bool) -> int:

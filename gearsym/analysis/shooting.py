@@ -33,6 +33,7 @@ cannot be removed is reported as "no isolated periodic orbit: a Floquet multipli
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -398,9 +399,9 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         failure = f"{iso.reason()}; {failure}"
     orbit = finish_orbit(
         system, x0=X[0].copy(), period=period, periods=periods, t0=t0, monodromy=mono, iterations=it,
-        residual=rnorm, converged=converged, method="shooting", params=_params_used(system, params),
+        residual=rnorm, converged=converged, method="shooting", params=system.run_params(params),
         events=evs, segments=segments, segment_states=X.copy(),
-        multipliers=fast.multipliers if fast is not None else None,
+        multipliers=fast.multipliers if fast is not None else None, g0=fast.g0 if fast is not None else None,
         segment_monodromies=[np.asarray(M) for M in Ms if M is not None], history=history,
         info={"rtol": rtol, "atol": atol, "tol": tol, "wall_s": wall, "failure": failure or None,
               "monodromy_rtol": max(rtol / 1e-6, 1e-12) if system.generated.implicit else rtol,
@@ -432,7 +433,8 @@ def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.n
     max_steps = int(system.defaults.get("max_steps", 0))
     if max_step and (t1 - t0) / max_step > (max_steps or 10_000_000):
         return None  # the Python path raises the step-budget error
-    grid = np.linspace(t0, t1, max(int(n_amp), 2))
+    n = max(int(n_amp), 2)
+    grid = _steps(n) * ((t1 - t0) / (n - 1)) + t0  # np.linspace(t0, t1, n)'s arithmetic
     grid[-1] = t1
     # the Python step drops singular values of the scaled M - I below monodromy_error; give up
     # when a pivot gets within a factor 10 of that level (a stricter factor, 1e3, sent
@@ -442,6 +444,14 @@ def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.n
                      max_step=max_step, max_steps=max_steps, tol=tol, scale_floor=atol / tol,
                      pivot_tol=pivot_tol, max_iter=max_iter)
     return out
+
+
+@functools.lru_cache(maxsize=64)
+def _steps(n: int) -> np.ndarray:
+    """``0, 1, ..., n - 1`` (read-only, shared)."""
+    a = np.arange(n, dtype=float)
+    a.flags.writeable = False
+    return a
 
 
 def _anchor_rows(system: System, params: Mapping[str, float] | None, segments: int) -> np.ndarray | None:
@@ -472,8 +482,3 @@ def _check_tolerances(**tols: float) -> None:
     if "rtol" in tols and float(tols["rtol"]) < 1e-15:
         raise ParameterError(f"rtol={tols['rtol']:g} is below what double precision can deliver (1e-15)")
 
-
-def _params_used(system: System, params: Mapping[str, float] | None) -> dict[str, float]:
-    """Parameter values of a run, keyed like ``system.params`` (declared units, bound values excluded)."""
-    used, inputs = system.param_dict(system.param_vector(params)), system.params
-    return {k: v for k, v in used.items() if k in inputs}

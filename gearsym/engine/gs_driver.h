@@ -212,6 +212,9 @@ typedef struct gs_shoot_args {
   int     outcome;      /* out: GS_SHOOT_*                                                  */
   gs_multipliers mult;  /* the multipliers of the last evaluation's monodromy when converged */
   gs_isolation iso;     /* its isolation, in the scales s->scale, when converged            */
+  double* g0_out;       /* [nsw] out (NULL: not wanted): the switching functions at        */
+                        /* (t0, x) of the converged orbit, as gs_eval gives them            */
+  int     g0_ok;        /* out: 1 when g0_out holds them                                    */
 } gs_shoot_args;
 
 /* Newton on x(t_end; t0, x) = x with the run described by `a` (want_monodromy = 1, an output

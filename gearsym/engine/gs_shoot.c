@@ -253,6 +253,7 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
   s->note = 0;
   s->mult.ok = 0;
   s->iso.ok = 0;
+  s->g0_ok = 0;
   s->outcome = GS_SHOOT_GAVE_UP_OTHER;
   if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
   if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
@@ -324,6 +325,10 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
   if (s->outcome == GS_SHOOT_CONVERGED) {
     lapack_multipliers(&s->mult, nx, a->monodromy);
     lapack_isolation(&s->iso, &s->mult, nx, a->monodromy, s->scale);
+    if (s->g0_out && ws->U.nsw > 0) { /* the sides at the orbit's start (its rattle state) */
+      char msg[256];
+      s->g0_ok = gs_eval(ws, GS_EVAL_SW, 1, &a->t0, x, a->p, NULL, s->g0_out, msg, (int)sizeof(msg)) == 0;
+    }
   }
 done:
   a->x0 = NULL; /* points at this frame */

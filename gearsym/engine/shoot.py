@@ -85,6 +85,9 @@ class ShootOutcome:
         :func:`gearsym.analysis.isolation.isolation` computes them without trivial
         directions (``norm``: the 2-norm of the scaled monodromy, from which the caller
         takes the error level); ``None`` where the driver could not compute them.
+    g0 : ndarray or None
+        The switching functions at ``(t0, x)`` of the converged orbit (``gs_eval``'s values);
+        ``None`` when not converged or not computed.
     """
 
     converged: bool
@@ -99,6 +102,7 @@ class ShootOutcome:
     code: int = 0
     multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
     isolation: tuple[float, float, np.ndarray] | None = None
+    g0: np.ndarray | None = None
 
 
 def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, grid: np.ndarray, *,
@@ -180,6 +184,9 @@ class Shooter:
         s.hist_abs, s.hist_rel = self.h_abs.ctypes.data, self.h_rel.ctypes.data
         self.mult = MultiplierBuffers(s.mult, nx, rtol)  # the converged orbit's multipliers in the same call
         s.iso.direction = self.direction.ctypes.data  # and its isolation
+        self.g0 = np.empty(engine.nsw)
+        if engine.nsw:  # and the switching functions at its start
+            s.g0_out = self.g0.ctypes.data
 
     def __call__(self, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, tout: np.ndarray) -> ShootOutcome:
         """One iteration from ``x0`` (sizes checked by :func:`shoot_in_c`); the outcome's arrays
@@ -199,9 +206,10 @@ class Shooter:
         multipliers = self.mult.read() if converged else None
         iso = (float(s.iso.sigma), float(s.iso.norm), self.direction.copy()) \
             if converged and int(s.iso.ok) == 1 else None
+        g0 = self.g0.copy() if converged and (int(s.g0_ok) == 1 or not self.g0.size) else None
         return ShootOutcome(converged, OUTCOMES.get(int(s.outcome), "unknown"), self.x.copy(), run,
                             self.scale.copy(), self.h_abs[:n].copy(), self.h_rel[:n].copy(), int(s.iterations),
-                            int(s.note), int(s.outcome), multipliers, iso)
+                            int(s.note), int(s.outcome), multipliers, iso, g0)
 
 
 @dataclass(frozen=True)

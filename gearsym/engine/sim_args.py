@@ -118,6 +118,8 @@ class GsShootArgs(C.Structure):
         ("outcome", C.c_int),
         ("mult", GsMultipliers),
         ("iso", GsIsolation),
+        ("g0_out", _PD),
+        ("g0_ok", C.c_int),
     ]
 
 
