@@ -282,7 +282,12 @@ class System(Evaluations, SensitivityMethods):
             ``None`` if the scene has none, or if it is not finite and positive at these
             values (:meth:`require_period` says which).
         """
-        T = self.engine.period(self.param_vector(params))
+        if not params:  # the system's own values never change: evaluated once
+            T = self.__dict__.get("_period_default")
+            if T is None:
+                T = self._period_default = self.engine.period(self.param_vector())
+        else:
+            T = self.engine.period(self.param_vector(params))
         return T if math.isfinite(T) and T > 0 else None
 
     def period_of(self, p: np.ndarray) -> float | None:

@@ -163,6 +163,27 @@ def resolve_options(options: T | None, cls: type[T], **keywords: Any) -> T:
     """
     if options is not None and not isinstance(options, cls):
         raise ParameterError(f"options must be a {cls.__name__}, got {type(options).__name__}")
+    if options is None:  # the same keywords give the same (frozen) options: kept for reuse
+        try:
+            key = (cls, *((k, type(v), v) for k, v in keywords.items()))
+            hit = _RESOLVED.get(key)
+        except TypeError:  # an unhashable value (an array)
+            key = hit = None
+        if hit is not None:
+            return hit
+        out = _resolve(None, cls, keywords)
+        if key is not None:
+            if len(_RESOLVED) >= 256:
+                _RESOLVED.clear()
+            _RESOLVED[key] = out
+        return out
+    return _resolve(options, cls, keywords)
+
+
+_RESOLVED: dict[tuple, Any] = {}
+
+
+def _resolve(options: T | None, cls: type[T], keywords: dict[str, Any]) -> T:
     default, names = _defaults(cls)
     base = options if options is not None else default
     changes = {k: v for k, v in keywords.items() if k in names and not _same(v, getattr(default, k))}

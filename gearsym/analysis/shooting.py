@@ -41,6 +41,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..engine.driver import METHODS
+from ..engine.shoot import MAX_STATES, shoot_in_c
 from ..errors import ConvergenceError, GearsymError, ParameterError
 from .floquet import monodromy_product
 from .isolation import Isolation, isolation, monodromy_error, truncated_solve
@@ -48,6 +50,7 @@ from .newton import NewtonPolicy, damped_newton
 from .options import ShootingOptions, resolve_options
 from .orbit import PeriodicOrbit, finish_orbit
 from .problems import flow_events, log_events, segment_jacobian, segment_times
+from .stability import rigid_state_basis
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
@@ -338,9 +341,9 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
             it_offset[0] = fast.iterations
         fast = None
     if fast is not None:
-        ev_log = fast.run.events
+        ev_log = fast.events
         evs = log_events(system, ev_log.t, ev_log.surface, ev_log.direction)
-        X, Ms, it, converged = fast.x[None, :].copy(), [fast.run.monodromy], fast.iterations, True
+        X, Ms, it, converged = fast.x[None, :].copy(), [fast.monodromy], fast.iterations, True
         note = _C_NOTES[fast.note]
         scale_box[0] = fast.scale
         history.extend({"iteration": i, "residual": float(fast.history_abs[i]), "relative": float(fast.history_rel[i]),
@@ -369,10 +372,8 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
                        else out.failure)
     mono = monodromy_product(Ms) if all(M is not None for M in Ms) else None
     iso: Isolation | None = None
-    if mono is not None and np.all(np.isfinite(mono)):
+    if mono is not None and np.isfinite(mono).all():
         if trivial is None:  # the model's rigid-body subspace, found by the symbolic layer
-            from .stability import rigid_state_basis
-
             trivial = rigid_state_basis(system, params)
         if trivial is None and fast is not None and fast.isolation is not None:
             sigma, norm_s, direction = fast.isolation  # computed by the driver, in the same scales
@@ -421,9 +422,6 @@ def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.n
     """The full-step Newton iteration of :func:`shoot` in one C call
     (:func:`gearsym.engine.shoot.shoot_in_c`; its outcome, converged or not), or ``None`` where
     it does not apply (implicit models, a build without it)."""
-    from ..engine.driver import METHODS
-    from ..engine.shoot import MAX_STATES, shoot_in_c
-
     gen = system.generated
     if gen.implicit or gen.nx > MAX_STATES or not hasattr(system.engine._lib, "gs_shoot_ws"):
         return None
@@ -442,7 +440,7 @@ def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.n
     pivot_tol = 10 * monodromy_error(1.0, rtol)
     out = shoot_in_c(system.engine, x, pvec, t0, t1, grid, method=METHODS[method], rtol=rtol, atol=atol,
                      max_step=max_step, max_steps=max_steps, tol=tol, scale_floor=atol / tol,
-                     pivot_tol=pivot_tol, max_iter=max_iter)
+                     pivot_tol=pivot_tol, max_iter=max_iter, want_run=False)
     return out
 
 
@@ -457,8 +455,6 @@ def _steps(n: int) -> np.ndarray:
 def _anchor_rows(system: System, params: Mapping[str, float] | None, segments: int) -> np.ndarray | None:
     """Rows ``[R^T 0 ... 0]`` that pin the rigid-body coordinates of the first segment's
     state in a Newton step (``None`` without rigid-body modes)."""
-    from .stability import rigid_state_basis
-
     V = rigid_state_basis(system, params)
     if V is None:
         return None

@@ -88,6 +88,8 @@ class ShootOutcome:
     g0 : ndarray or None
         The switching functions at ``(t0, x)`` of the converged orbit (``gs_eval``'s values);
         ``None`` when not converged or not computed.
+    events, monodromy : EventLog or None, ndarray or None
+        The converged orbit's events and monodromy (also without ``run``).
     """
 
     converged: bool
@@ -103,11 +105,14 @@ class ShootOutcome:
     multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
     isolation: tuple[float, float, np.ndarray] | None = None
     g0: np.ndarray | None = None
+    events: EventLog | None = None
+    monodromy: np.ndarray | None = None
 
 
 def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, grid: np.ndarray, *,
                method: int, rtol: float, atol: float, max_step: float, max_steps: int, tol: float,
-               scale_floor: float, pivot_tol: float, max_iter: int, max_events_out: int = 4096) -> ShootOutcome:
+               scale_floor: float, pivot_tol: float, max_iter: int, max_events_out: int = 4096,
+               want_run: bool = True) -> ShootOutcome:
     """Single-shooting Newton for ``x(t1; t0, x) = x`` in one driver call.
 
     Parameters
@@ -130,6 +135,9 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
         See ``gs_shoot_args`` in gs_driver.h.
     max_events_out
         Capacity of the event log (the iteration gives up if a run has more).
+    want_run
+        ``False``: the outcome's ``run`` is ``None`` (its ``events`` and ``monodromy`` are
+        still given).
 
     Returns
     -------
@@ -160,7 +168,7 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
         if len(cache) >= 8:
             cache.pop(next(iter(cache)))
         shooter = cache[key] = Shooter(engine, *key)
-    return shooter(xa, p, float(t0), float(t1), tout)
+    return shooter(xa, p, float(t0), float(t1), tout, want_run)
 
 
 class Shooter:
@@ -188,7 +196,8 @@ class Shooter:
         if engine.nsw:  # and the switching functions at its start
             s.g0_out = self.g0.ctypes.data
 
-    def __call__(self, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, tout: np.ndarray) -> ShootOutcome:
+    def __call__(self, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, tout: np.ndarray,
+                 want_run: bool = True) -> ShootOutcome:
         """One iteration from ``x0`` (sizes checked by :func:`shoot_in_c`); the outcome's arrays
         are its own copies."""
         engine, a, s, buf = self.engine, self.a, self.s, self.buf
@@ -200,16 +209,25 @@ class Shooter:
         engine._call(engine._lib.gs_shoot_ws, a, C.byref(s))
         n = int(s.n_hist)
         converged = int(s.outcome) == 0
-        run = engine._result(a, buf, copy=True) if converged else None
-        if isinstance(run, int):  # the event log overflowed (the C side gives up first; kept for safety)
-            run, converged = None, False
+        run = events = mono = None
+        if converged:
+            n_ev = int(a.n_events)
+            if n_ev > buf["cap"]:  # the event log overflowed (the C side gives up first; kept for safety)
+                converged = False
+            elif want_run:
+                run = engine._result(a, buf, copy=True)
+                events, mono = run.events, run.monodromy
+            else:
+                events = EventLog(t=buf["ev_t"][:n_ev].copy(), surface=buf["ev_s"][:n_ev].astype(int),
+                                  direction=buf["ev_d"][:n_ev].astype(int), speed=buf["ev_v"][:n_ev].copy())
+                mono = buf["mono"].copy()
         multipliers = self.mult.read() if converged else None
         iso = (float(s.iso.sigma), float(s.iso.norm), self.direction.copy()) \
             if converged and int(s.iso.ok) == 1 else None
         g0 = self.g0.copy() if converged and (int(s.g0_ok) == 1 or not self.g0.size) else None
         return ShootOutcome(converged, OUTCOMES.get(int(s.outcome), "unknown"), self.x.copy(), run,
                             self.scale.copy(), self.h_abs[:n].copy(), self.h_rel[:n].copy(), int(s.iterations),
-                            int(s.note), int(s.outcome), multipliers, iso, g0)
+                            int(s.note), int(s.outcome), multipliers, iso, g0, events, mono)
 
 
 @dataclass(frozen=True)
