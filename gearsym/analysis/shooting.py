@@ -372,15 +372,15 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
                        else out.failure)
     mono = monodromy_product(Ms) if all(M is not None for M in Ms) else None
     iso: Isolation | None = None
-    if mono is not None and np.isfinite(mono).all():
-        if trivial is None:  # the model's rigid-body subspace, found by the symbolic layer
-            trivial = rigid_state_basis(system, params)
-        if trivial is None and fast is not None and fast.isolation is not None:
-            sigma, norm_s, direction = fast.isolation  # computed by the driver, in the same scales
-            threshold = monodromy_error(norm_s, rtol)
-            iso = Isolation(sigma, threshold, sigma > threshold, direction, 0)
-        else:
-            iso = isolation(mono, scales(), rtol, trivial)
+    if trivial is None:  # the model's rigid-body subspace, found by the symbolic layer
+        trivial = rigid_state_basis(system, params)
+    if mono is not None and trivial is None and fast is not None and fast.isolation is not None:
+        # computed by the driver, in the same scales (it also found the monodromy finite)
+        sigma, norm_s, direction = fast.isolation
+        threshold = monodromy_error(norm_s, rtol)
+        iso = Isolation(sigma, threshold, sigma > threshold, direction, 0)
+    elif mono is not None and np.isfinite(mono).all():
+        iso = isolation(mono, scales(), rtol, trivial)
     wall = time.perf_counter() - wall
     if not converged and raise_on_failure:
         hist = ", ".join(f"{h['residual']:.3g}" for h in history[-12:])

@@ -409,7 +409,9 @@ class MultiplierBuffers:
         """The multipliers of the last call (copies), ``None`` when it did not compute them."""
         if int(self.m.ok) != 1:
             return None
-        return self.re + 1j * self.im, self.tol.copy(), float(self.m.delta)
+        mu = np.empty(self.re.shape[0], complex)
+        mu.real, mu.imag = self.re, self.im
+        return mu, self.tol.copy(), float(self.m.delta)
 
 
 class Corrector:
