@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
@@ -219,12 +220,17 @@ class System(Evaluations, SensitivityMethods):
         ParameterError
             An unknown or non-finite override.
         """
-        if not params:  # the system's own values never change: computed once
-            p0 = self.__dict__.get("_p_default")
-            if p0 is None:
-                p0 = self._p_default = self._param_vector({})
-            return p0.copy()
+        if not params:
+            return self._at_own_values("param_vector", self._param_vector).copy()
         return self._param_vector(params)
+
+    def _at_own_values(self, what: str, compute: Callable[[dict], Any]) -> Any:
+        """``compute({})``, made once: the system's own parameter values never change (its
+        parameter vector, run parameters and forcing period sit on hot paths)."""
+        cache = self.__dict__.setdefault("_own_values", {})
+        if what not in cache:
+            cache[what] = compute({})
+        return cache[what]
 
     def _param_vector(self, params: Mapping[str, float]) -> np.ndarray:
         values = dict(self._si)
@@ -255,11 +261,8 @@ class System(Evaluations, SensitivityMethods):
         dict
             A new dict.
         """
-        if not params:  # the system's own values never change: computed once
-            used = self.__dict__.get("_run_params_default")
-            if used is None:
-                used = self._run_params_default = self._run_params({})
-            return dict(used)
+        if not params:
+            return dict(self._at_own_values("run_params", self._run_params))
         return self._run_params(params)
 
     def _run_params(self, params: Mapping[str, float]) -> dict[str, float]:
@@ -282,10 +285,8 @@ class System(Evaluations, SensitivityMethods):
             ``None`` if the scene has none, or if it is not finite and positive at these
             values (:meth:`require_period` says which).
         """
-        if not params:  # the system's own values never change: evaluated once
-            T = self.__dict__.get("_period_default")
-            if T is None:
-                T = self._period_default = self.engine.period(self.param_vector())
+        if not params:
+            T = self._at_own_values("period", lambda _: self.engine.period(self.param_vector()))
         else:
             T = self.engine.period(self.param_vector(params))
         return T if math.isfinite(T) and T > 0 else None
