@@ -264,6 +264,31 @@ def test_undamped_resonance_is_not_a_converged_orbit(work, osc, method):
         assert not o.info["isolation"]["isolated"]
 
 
+def test_a_converged_residual_at_an_undamped_resonance_is_no_orbit(work):
+    """The backlash oscillator without damping, forced at its resonance, with a backlash of 1e-9
+    (linear for any amplitude that matters): Newton reaches a residual below tol at |x0| ~ 1e8,
+    the periodic orbit of the integrator's numerical damping.  Before: exit 0, "converged",
+    neutral, with only info["isolation"] saying it is not isolated."""
+    root = Path(__file__).resolve().parents[1]
+    scene = root / "scenes" / "kahraman_singh.toml"
+    sets = ("--set", "zeta=0", "--set", "Omega=1", "--set", "eps=0", "--set", "b=1e-9")
+    r = _cli(work, "orbit", scene, *sets, "--json")
+    assert r.returncode == 1, (r.stdout[-500:], r.stderr)
+    assert r.stdout == "" and "Traceback" not in r.stderr
+    assert "no isolated periodic orbit" in r.stderr and "is not an orbit" in r.stderr
+    ks = gearsym.load_scene(scene).compile(generated_dir=work[1])
+    params = {"zeta": 0.0, "Omega": 1.0, "eps": 0.0, "b": 1e-9}
+    o = ks.periodic_orbit(params=params, raise_on_failure=False)
+    assert not o.converged and not o.info["isolation"]["isolated"]
+    assert o.info["relative_residual"] <= 100 * o.info["tol"]  # Newton's own test was met (the noise rule)
+    assert "does not determine" in o.info["failure"]
+    # the same scene damped (zeta 0.05) or detuned (Omega 0.7: not 1/k either, where the free
+    # oscillation has the forcing period too and the orbit is again not isolated) converges
+    for change in ({"zeta": 0.05}, {"Omega": 0.7}):
+        o = ks.periodic_orbit(params={**params, **change})
+        assert o.converged and o.info["isolation"]["isolated"]
+
+
 @pytest.mark.parametrize("zeta, Omega, accuracy", [(1e-3, 1.0, 1e-7), (1e-6, 1.0, 1e-4), (0.0, 1.001, 1e-7),
                                                    (0.05, 0.7, 1e-7)])
 @pytest.mark.parametrize("method", ["shooting", "hbm"])

@@ -382,14 +382,22 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     elif mono is not None and np.isfinite(mono).all():
         iso = isolation(mono, scales(), rtol, trivial)
     wall = time.perf_counter() - wall
+    spurious = converged and iso is not None and not iso.isolated
+    if spurious:
+        # a residual below tol is no orbit where the monodromy cannot pin the state down: at an
+        # undamped resonance Newton can "converge" at a huge amplitude, on the periodic orbit of
+        # the integrator's own numerical damping
+        converged = False
+        failure = (f"the residual fell below tol at max |x0| = {float(np.max(np.abs(X[0]))):.3g}, but along a "
+                   f"direction the monodromy does not determine")
     if not converged and raise_on_failure:
         hist = ", ".join(f"{h['residual']:.3g}" for h in history[-12:])
         if iso is not None and not iso.isolated:
+            what = "the state shooting reached is not an orbit" if spurious else "shooting cannot remove the residual"
             raise ConvergenceError(
-                f"{iso.reason()}: shooting cannot remove the residual of the orbit of period {period:.6g} "
-                f"({periods:g} forcing period(s)): {failure}. Residual history (max |phi(T,x0)-x0|): [{hist}]. "
-                f"Add damping, move the forcing off the resonance, or tighten rtol (now {rtol:g}) if the "
-                f"system is lightly damped.")
+                f"{iso.reason()}: {what} of period {period:.6g} ({periods:g} forcing period(s)): {failure}. "
+                f"Residual history (max |phi(T,x0)-x0|): [{hist}]. Add damping, move the forcing off the "
+                f"resonance, or tighten rtol (now {rtol:g}) if the system is lightly damped.")
         raise ConvergenceError(
             f"shooting did not converge for the orbit of period {period:.6g} ({periods:g} forcing "
             f"period(s), {segments} segment(s)): {failure}. Residual history (max |phi(T,x0)-x0|): "
