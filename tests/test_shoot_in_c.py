@@ -362,7 +362,7 @@ def test_corrector_multipliers_in_c_are_the_stability_rule_s(scene, param):
     from gearsym.engine.shoot import correct_in_c, lapack_pointers
     from gearsym.sensitivity import directions
 
-    assert set(lapack_pointers()) == {"dgebal", "dgesdd", "dgeev"}
+    assert set(lapack_pointers()) == {"dgebal", "dgesdd", "dgeev", "dgelsd"}
     s = gearsym.load_scene(ROOT / "scenes" / f"{scene}.toml").compile()
     o = s.periodic_orbit()
     nx, lam, p0 = s.generated.nx, float(s.params[param]), s.param_vector()

@@ -198,6 +198,36 @@ def test_continuation_of_the_free_train_covers_the_speed_range(free):
     assert graz[0].point.meshes["mesh1"]["min"] == pytest.approx(30e-6, abs=1e-10)
 
 
+def test_free_train_corrector_in_c_is_the_anchored_python_corrector(free, monkeypatch):
+    """Rigid-body modes: the corrector in C solves the anchored bordered systems by least squares
+    (dgelsd, with the anchor rows of Continuer.scaled_anchor) as the Python corrector does
+    (numpy's lstsq).  The same branch with either; every C point is an orbit of the free train."""
+    import gearsym.analysis.corrector as corrector_mod
+
+    calls = []
+    orig = corrector_mod.Continuer._correct_in_c
+
+    def counting(self, z, row, target, t_ref=None):
+        out = orig(self, z, row, target, t_ref)
+        calls.append(out is not None)
+        return out
+
+    monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", counting)
+    br_c = gearsym.continuation(free, "n_in", 3500, 3560, progress=False, rtol=1e-9, ds_max=0.1)
+    assert len(calls) > 5 and sum(calls) >= 0.9 * len(calls)  # the C corrector did the work
+    monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", lambda self, z, row, target, t_ref=None: None)
+    br_py = gearsym.continuation(free, "n_in", 3500, 3560, progress=False, rtol=1e-9, ds_max=0.1)
+    graz = [(b.type, b.info.get("surface")) for b in br_c.bifurcations]
+    assert graz == [(b.type, b.info.get("surface")) for b in br_py.bifurcations] == [("grazing", "mesh1.drive")]
+    assert br_c.bifurcations[0].value == pytest.approx(br_py.bifurcations[0].value, rel=1e-9)
+    assert [p.stability for p in br_c.points] == [p.stability for p in br_py.points]
+    assert all(len(p.trivial_multipliers) == 2 for p in br_c.points)
+    scale = np.max(np.abs(br_c.points[0].x0))
+    for p in br_c.points[::3]:
+        o = free.periodic_orbit(x0=p.x0, params={"n_in": p.value}, transient=0)  # anchored shooting
+        assert np.max(np.abs(o.x0 - p.x0)) <= 1e-8 * scale
+
+
 def test_cli_reports_rigid_modes_trivial_multipliers_and_meshes(capsys, tmp_path, reduced_model):
     from gearsym.cli import main
     from gearsym.inspection import inspect_structure

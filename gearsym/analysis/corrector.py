@@ -194,7 +194,7 @@ class Continuer:
         """What the corrector in C needs (:func:`gearsym.engine.shoot.correct_in_c`), or ``None``
         where it does not apply: not single shooting, no exact parameter derivatives, a parameter
         that does not enter the parameter vector linearly (an argument of a bound parameter),
-        rigid-body modes (anchored least squares), implicit models.  Decided once."""
+        anchor rows (rigid-body modes) that change with the parameter, implicit models.  Decided once."""
         if "_c_setup_cache" in self.__dict__:
             return self.__dict__["_c_setup_cache"]
         try:
@@ -218,8 +218,15 @@ class Continuer:
         if res.param not in gen.param_names or res.param in gen.bound or any(
                 res.param in args for _, args in gen.bound.values()):
             return None
-        if not getattr(res, "flam_with_residual", lambda lam: False)(lam) or self.scaled_anchor(lam) is not None:
+        if not getattr(res, "flam_with_residual", lambda lam: False)(lam):
             return None
+        anchor = res.anchor_rows(lam)
+        if anchor is not None:
+            # the C iteration keeps the anchor rows of its start; they must not move with lambda
+            for d in (1.0, -0.5):
+                other = res.anchor_rows(lam + d * max(1.0, abs(lam)))
+                if other is None or other.shape != anchor.shape or np.max(np.abs(other - anchor)) > 1e-12:
+                    return None
         engine = system.derivative_engine()
         if not hasattr(engine._lib, "gs_correct_ws"):
             return None
@@ -234,7 +241,7 @@ class Continuer:
             if np.max(np.abs(pl - (p0 + d * max(1.0, abs(lam)) * D))) > 1e-12 * max(1.0, float(np.max(np.abs(pl)))):
                 return None
         return {"engine": engine, "method": METHODS[method], "lam0": float(lam), "p0": p0, "D": D,
-                "max_steps": int(system.defaults.get("max_steps", 0))}
+                "max_steps": int(system.defaults.get("max_steps", 0)), "anchor": anchor}
 
     def _correct_in_c(self, z: np.ndarray, row: np.ndarray, target: float, t_ref: np.ndarray | None = None
                       ) -> tuple[np.ndarray, Evaluation, int] | None:
@@ -254,8 +261,10 @@ class Continuer:
             corrector = setup["corrector"] = Corrector(
                 setup["engine"], tol=self.tol, max_iter=self.max_newton, min_damping=0.125, periods=res.periods,
                 lam0=setup["lam0"], p0=setup["p0"], D=setup["D"], atol=float(res.atol), t0=res.t0,
-                method=setup["method"], rtol=res.rtol, max_steps=setup["max_steps"], n_samples=n_samples)
-        out = corrector(z, row, target, self.S, self.Rs, t_ref=t_ref, want_run=False)
+                method=setup["method"], rtol=res.rtol, max_steps=setup["max_steps"], n_samples=n_samples,
+                n_anchor=0 if setup["anchor"] is None else len(setup["anchor"]))
+        anchor = None if setup["anchor"] is None else self.scaled_anchor(float(z[-1]))
+        out = corrector(z, row, target, self.S, self.Rs, t_ref=t_ref, want_run=False, anchor=anchor)
         res.n_evals += out.n_runs
         res.n_integrations += out.n_runs
         # the failures the Python iteration would meet the same way are raised as it raises them
@@ -281,8 +290,8 @@ class Continuer:
         """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0`` (and, with
         rigid-body modes, no component along their shift: anchor rows at ``lam``)."""
         anchor = self.scaled_anchor(lam) if lam is not None else None
-        if anchor is None and ev.tangent is not None and ev.tangent[0] is t_ref:
-            t = ev.tangent[1]  # the same solve, made by the corrector in C
+        if ev.tangent is not None and ev.tangent[0] is t_ref:
+            t = ev.tangent[1]  # the same solve (least squares with anchor rows), made by the corrector in C
             tl = t.tolist()
             if all(map(math.isfinite, tl)) and any(tl):
                 t = t / math.sqrt(float(t @ t))

@@ -175,9 +175,23 @@ done:
   return ok;
 }
 
+/* The anchored system of a bordered one: the nx rows of A (row-major, n1 = nx + 1 columns) and
+ * their right-hand side b, the anchor rows with right-hand side 0, then A's last row and b's
+ * last entry (Continuer.correct / Continuer.tangent stack them in this order). */
+static void anchored_system(const gs_correct_args* c, int nx, int na, const double* A, const double* b, double* Aa,
+                            double* ba) {
+  int n1 = nx + 1, i;
+  memcpy(Aa, A, sizeof(double) * (size_t)nx * n1);
+  memcpy(Aa + (size_t)nx * n1, c->anchor, sizeof(double) * (size_t)na * n1);
+  memcpy(Aa + (size_t)(nx + na) * n1, A + (size_t)nx * n1, sizeof(double) * (size_t)n1);
+  for (i = 0; i < nx; ++i) ba[i] = b[i];
+  for (i = 0; i < na; ++i) ba[nx + i] = 0.0;
+  ba[nx + na] = b[nx];
+}
+
 int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
-  int nx, n1, i, j, rc = 0, it = 0, piv[GS_SHOOT_MAXN + 1];
-  double *p = NULL, *atolv = NULL, *A = NULL, *M = NULL, *zt = NULL;
+  int nx, n1, i, j, rc = 0, it = 0, piv[GS_SHOOT_MAXN + 1], na, ma;
+  double *p = NULL, *atolv = NULL, *A = NULL, *M = NULL, *zt = NULL, *Aa = NULL, *ba = NULL;
   double R[GS_SHOOT_MAXN], Fl[GS_SHOOT_MAXN], Rt[GS_SHOOT_MAXN], Flt[GS_SHOOT_MAXN], dw[GS_SHOOT_MAXN + 1];
   double r, r_prev = HUGE_VAL, size = HUGE_VAL, zero = 0.0;
   if (!a || !c) return GS_ERR_INPUT;
@@ -198,12 +212,20 @@ int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
       !c->z || !c->row || !c->S || !c->Rs || !c->p0 || !c->D || !c->R_out || !c->M_out || !c->Flam_out)
     return set_err(a, GS_ERR_INPUT, "gs_correct_ws: needs an explicit model with gs_period and gs_periodp, the "
                    "monodromy, one sensitivity direction and the buffers (nx <= %d)", GS_SHOOT_MAXN);
+  na = c->n_anchor > 0 ? c->n_anchor : 0;
+  ma = nx + na + 1; /* rows of the anchored system */
+  if (na && (na > nx || !c->anchor || !c->lapack_dgelsd))
+    return set_err(a, GS_ERR_INPUT, "gs_correct_ws: anchor rows need 1 <= n_anchor <= nx, the rows and dgelsd");
   p = (double*)malloc(sizeof(double) * (size_t)(ws->U.np > 0 ? ws->U.np : 1));
   atolv = (double*)malloc(sizeof(double) * (size_t)nx * (size_t)(nx + 2));
   A = (double*)malloc(sizeof(double) * (size_t)n1 * (size_t)n1);
   M = (double*)malloc(sizeof(double) * (size_t)nx * (size_t)nx * 2);
   zt = (double*)malloc(sizeof(double) * (size_t)n1 * 2);
-  if (!p || !atolv || !A || !M || !zt) {
+  if (na) {
+    Aa = (double*)malloc(sizeof(double) * (size_t)ma * (size_t)n1);
+    ba = (double*)malloc(sizeof(double) * (size_t)ma);
+  }
+  if (!p || !atolv || !A || !M || !zt || (na && (!Aa || !ba))) {
     rc = set_err(a, GS_ERR_INPUT, "out of memory");
     goto done;
   }
@@ -249,8 +271,13 @@ int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
       }
       for (j = 0; j < n1; ++j) A[(size_t)nx * n1 + j] = c->row[j];
       dw[nx] = -cval;
-      if (shoot_lu(n1, A, piv, 0.0)) { c->outcome = GS_SHOOT_GAVE_UP_SINGULAR; break; }
-      shoot_lu_solve(n1, A, piv, dw);
+      if (na) { /* rigid-body modes: keep their coordinates where they are (least squares) */
+        anchored_system(c, nx, na, A, dw, Aa, ba);
+        if (lapack_lstsq(c->lapack_dgelsd, ma, n1, Aa, ba, dw)) { c->outcome = GS_SHOOT_GAVE_UP_SINGULAR; break; }
+      } else {
+        if (shoot_lu(n1, A, piv, 0.0)) { c->outcome = GS_SHOOT_GAVE_UP_SINGULAR; break; }
+        shoot_lu_solve(n1, A, piv, dw);
+      }
       size = 0.0;
       for (j = 0; j < n1; ++j) {
         if (!isfinite(dw[j])) size = HUGE_VAL;
@@ -313,8 +340,9 @@ int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c) {
         }
         for (j = 0; j < n1; ++j) A[(size_t)nx * n1 + j] = c->t_ref[j];
         dw[nx] = 1.0;
-        if (shoot_lu(n1, A, piv, 0.0) == 0) {
-          shoot_lu_solve(n1, A, piv, dw);
+        if (na) anchored_system(c, nx, na, A, dw, Aa, ba);
+        if (na ? lapack_lstsq(c->lapack_dgelsd, ma, n1, Aa, ba, dw) == 0 : shoot_lu(n1, A, piv, 0.0) == 0) {
+          if (!na) shoot_lu_solve(n1, A, piv, dw);
           c->tangent_ok = 1;
           for (j = 0; j < n1; ++j) {
             if (!isfinite(dw[j])) c->tangent_ok = 0;
@@ -346,5 +374,7 @@ done:
   free(A);
   free(M);
   free(zt);
+  free(Aa);
+  free(ba);
   return rc;
 }

@@ -277,6 +277,12 @@ typedef struct gs_correct_args {
   int     tangent_ok;   /* out: 1 when tangent_out holds a finite solution                   */
   double  period_out;   /* out: T(p(lambda)) at the returned z (one forcing period)          */
   gs_multipliers mult;  /* the multipliers of the converged point's monodromy               */
+  /* rigid-body modes: anchor rows pin the rigid coordinates; the bordered step and the       */
+  /* tangent are then the minimum-norm least-squares solutions of [J_s; anchor; row] w = rhs  */
+  /* (rhs 0 on the anchor rows), by dgelsd with numpy.linalg.lstsq's rcond (eps max(m, n))   */
+  int     n_anchor;     /* 0: none (LU as above)                                            */
+  const double* anchor; /* [n_anchor*(nx+1)] row-major, in the scaled unknowns z / S        */
+  void*   lapack_dgelsd;/* scipy's cython_lapack dgelsd (needed with n_anchor > 0)         */
 } gs_correct_args;
 
 /* The corrector with the run described by `a` (method, tolerances, t0, max_steps, event log,

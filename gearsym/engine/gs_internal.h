@@ -311,6 +311,7 @@ int ws_model_setup(gs_workspace* ws, gs_sim_args* a);
 /* gs_shoot.c */
 void lapack_multipliers(gs_multipliers* m, int n, const double* M);
 void lapack_isolation(gs_isolation* iso, const gs_multipliers* m, int n, const double* M, const double* d_in);
+int lapack_lstsq(void* dgelsd_ptr, int m, int n, const double* A, const double* b, double* x);
 int shoot_lu(int n, double* A, int* piv, double pivot_tol);
 void shoot_lu_solve(int n, const double* LU, const int* piv, double* b);
 #pragma GCC visibility pop

@@ -20,6 +20,8 @@
 typedef void (*gs_dgebal_t)(char*, int*, double*, int*, int*, int*, double*, int*);
 typedef void (*gs_dgesdd_t)(char*, int*, int*, double*, int*, double*, double*, int*, double*, int*, double*,
                             int*, int*, int*);
+typedef void (*gs_dgelsd_t)(int*, int*, int*, double*, int*, double*, int*, double*, double*, int*, double*,
+                            int*, int*, int*);
 typedef void (*gs_dgeev_t)(char*, char*, int*, double*, int*, double*, double*, double*, int*, double*, int*,
                            double*, int*, int*);
 
@@ -163,6 +165,41 @@ done:
   free(sv);
   free(iwork);
   free(work);
+}
+
+/* The minimum-norm least-squares solution x (n) of the row-major m x n system A x = b by dgelsd
+ * (numpy.linalg.lstsq's routine and default rcond, eps * max(m, n)).  Returns 0 on success. */
+int lapack_lstsq(void* dgelsd_ptr, int m, int n, const double* A, const double* b, double* x) {
+  gs_dgelsd_t dgelsd = (gs_dgelsd_t)dgelsd_ptr;
+  int i, j, info = 0, nrhs = 1, lda = m, ldb = m > n ? m : n, lwork = -1, liwork, rank = 0, rc = 1;
+  double *Af = NULL, *B = NULL, *sv = NULL, *work = NULL, q = 0.0, rcond;
+  int* iwork = NULL;
+  int qi = 0;
+  if (!dgelsd || m < 1 || n < 1) return 1;
+  rcond = DBL_EPSILON * (double)(m > n ? m : n);
+  Af = (double*)malloc(sizeof(double) * ((size_t)m * n + (size_t)ldb + (size_t)(m < n ? m : n)));
+  if (!Af) return 1;
+  B = Af + (size_t)m * n;
+  sv = B + ldb;
+  for (i = 0; i < m; ++i)
+    for (j = 0; j < n; ++j) Af[i + (size_t)j * m] = A[(size_t)i * n + j]; /* column-major */
+  for (i = 0; i < ldb; ++i) B[i] = i < m ? b[i] : 0.0;
+  dgelsd(&m, &n, &nrhs, Af, &lda, B, &ldb, sv, &rcond, &rank, &q, &lwork, &qi, &info);
+  if (info != 0) goto done;
+  lwork = (int)q > 1 ? (int)q : 1;
+  liwork = qi > 1 ? qi : 1;
+  work = (double*)malloc(sizeof(double) * (size_t)lwork);
+  iwork = (int*)malloc(sizeof(int) * (size_t)liwork);
+  if (!work || !iwork) goto done;
+  dgelsd(&m, &n, &nrhs, Af, &lda, B, &ldb, sv, &rcond, &rank, work, &lwork, iwork, &info);
+  if (info != 0) goto done;
+  for (j = 0; j < n; ++j) x[j] = B[j];
+  rc = 0;
+done:
+  free(Af);
+  free(work);
+  free(iwork);
+  return rc;
 }
 
 int shoot_lu(int n, double* A, int* piv, double pivot_tol) {

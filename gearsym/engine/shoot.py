@@ -371,9 +371,13 @@ def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, 
 _LAPACK: dict[str, int] | None = None
 
 
+_LAPACK_ROUTINES = ("dgebal", "dgesdd", "dgeev", "dgelsd")
+
+
 def lapack_pointers() -> dict[str, int]:
-    """Addresses of scipy's ``cython_lapack`` ``dgebal``, ``dgesdd`` and ``dgeev`` (C functions
-    with Fortran's by-reference arguments), for the driver's multipliers; empty if unavailable."""
+    """Addresses of scipy's ``cython_lapack`` ``dgebal``, ``dgesdd``, ``dgeev`` and ``dgelsd`` (C
+    functions with Fortran's by-reference arguments), for the driver's multipliers, isolation
+    and anchored least squares; empty if unavailable."""
     global _LAPACK
     if _LAPACK is None:
         out: dict[str, int] = {}
@@ -383,12 +387,12 @@ def lapack_pointers() -> dict[str, int]:
             get_name, get_ptr = C.pythonapi.PyCapsule_GetName, C.pythonapi.PyCapsule_GetPointer
             get_name.restype, get_name.argtypes = C.c_char_p, [C.py_object]
             get_ptr.restype, get_ptr.argtypes = C.c_void_p, [C.py_object, C.c_char_p]
-            for name in ("dgebal", "dgesdd", "dgeev"):
+            for name in _LAPACK_ROUTINES:
                 cap = cython_lapack.__pyx_capi__[name]
                 out[name] = int(get_ptr(cap, get_name(cap)))
         except Exception:  # noqa: BLE001 - the multipliers are then computed in Python
             out = {}
-        _LAPACK = out if len(out) == 3 and all(out.values()) else {}
+        _LAPACK = out if len(out) == len(_LAPACK_ROUTINES) and all(out.values()) else {}
     return _LAPACK
 
 
@@ -421,7 +425,7 @@ class Corrector:
 
     def __init__(self, engine: Engine, *, tol: float, max_iter: int, min_damping: float, periods: float, lam0: float,
                  p0: np.ndarray, D: np.ndarray, atol: float, t0: float, method: int, rtol: float, max_steps: int,
-                 max_events_out: int = 4096, n_samples: int = 0):
+                 max_events_out: int = 4096, n_samples: int = 0, n_anchor: int = 0):
         if engine.implicit or engine.nalg or not hasattr(engine._lib, "gs_correct_ws"):
             raise EngineInputError("the corrector in C needs an explicit model built with this gearsym")
         from .sim_args import GsCorrectArgs
@@ -451,6 +455,12 @@ class Corrector:
         c.R_out, c.M_out, c.Flam_out = self.R.ctypes.data, self.M.ctypes.data, self.Fl.ctypes.data
         self._t_ref_ptr, self._tangent_ptr = self.t_ref.ctypes.data, self.tangent.ctypes.data
         self.mult = MultiplierBuffers(c.mult, nx, rtol)  # the converged point's multipliers
+        self.anchor = np.zeros((int(n_anchor), nx + 1))
+        if n_anchor:  # rigid-body modes: the anchored least-squares steps (dgelsd)
+            lap = lapack_pointers()
+            if not lap or not 1 <= int(n_anchor) <= nx:
+                raise EngineInputError("anchor rows need scipy's LAPACK and 1 <= n_anchor <= nx")
+            c.n_anchor, c.anchor, c.lapack_dgelsd = int(n_anchor), self.anchor.ctypes.data, lap["dgelsd"]
         self.n_samples = n_s = int(n_samples) if int(n_samples) >= 2 else 0
         if n_s:
             self.ts, self.Ys = np.empty(n_s), np.empty((n_s, nx))
@@ -463,13 +473,18 @@ class Corrector:
             c.col_stats, c.col_args = self.stats.ctypes.data, self.args.ctypes.data
 
     def __call__(self, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
-                 t_ref: np.ndarray | None = None, want_run: bool = True) -> CorrectOutcome:
+                 t_ref: np.ndarray | None = None, want_run: bool = True,
+                 anchor: np.ndarray | None = None) -> CorrectOutcome:
         """Correct ``z`` (see :func:`correct_in_c`); the outcome's arrays are its own copies.
-        ``want_run=False``: no ``run`` (its ``events`` only)."""
+        ``want_run=False``: no ``run`` (its ``events`` only).  ``anchor``: the ``n_anchor`` rows
+        (in the scaled unknowns ``z / S``) that pin the rigid-body coordinates, required when the
+        corrector was made with ``n_anchor > 0``."""
         nx, c, engine = self.nx, self.c, self.engine
+        if self.anchor.shape[0] and anchor is None:
+            raise EngineInputError(f"this corrector takes {self.anchor.shape[0]} anchor rows")
         for name, dst, src in (("z", self.z, z), ("row", self.row, row), ("S", self.S, S), ("Rs", self.Rs, Rs),
-                               ("t_ref", self.t_ref, t_ref)):
-            if src is None and name == "t_ref":
+                               ("t_ref", self.t_ref, t_ref), ("anchor", self.anchor, anchor)):
+            if src is None and name in ("t_ref", "anchor"):
                 continue
             if getattr(src, "shape", None) != dst.shape and np.shape(src) != dst.shape:
                 raise EngineInputError(f"{name} has {np.size(src)} entries, the C iteration needs {dst.size} "

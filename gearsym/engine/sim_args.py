@@ -163,4 +163,7 @@ class GsCorrectArgs(C.Structure):
         ("tangent_ok", C.c_int),
         ("period_out", C.c_double),
         ("mult", GsMultipliers),
+        ("n_anchor", C.c_int),
+        ("anchor", _PD),
+        ("lapack_dgelsd", C.c_void_p),
     ]
