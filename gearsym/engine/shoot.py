@@ -168,19 +168,19 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
         if len(cache) >= 8:
             cache.pop(next(iter(cache)))
         shooter = cache[key] = Shooter(engine, *key)
-    return shooter(xa, p, float(t0), float(t1), tout, want_run)
+    return shooter(engine, xa, p, float(t0), float(t1), tout, want_run)
 
 
 class Shooter:
     """The driver's argument structs and buffers of :func:`shoot_in_c` for one set of settings,
     made once (building the ``ctypes`` structs and buffer addresses of a call cost about a
-    sixth of a warm orbit solve's time outside C)."""
+    sixth of a warm orbit solve's time outside C).  Kept in the engine's thread-local storage,
+    so it holds no reference to the engine (no cycle keeps an engine's workspaces alive)."""
 
     def __init__(self, engine: Engine, method: int, rtol: float, atol: float, max_step: float, max_steps: int,
                  n_grid: int, tol: float, scale_floor: float, pivot_tol: float, max_iter: int,
                  max_events_out: int):
-        nx = engine.nx
-        self.engine, self.nx = engine, nx
+        nx = self.nx = engine.nx
         self.x, self.p, self.tout = np.empty(nx), np.empty(engine.np), np.empty(n_grid)
         self.a, self.buf = engine._prepare(self.x, self.p, 0.0, 1.0, self.tout, method, rtol, atol, None, True,
                                            max_steps, max_step, 0.0, 0, 0, 0.0, max_events_out)
@@ -196,11 +196,11 @@ class Shooter:
         if engine.nsw:  # and the switching functions at its start
             s.g0_out = self.g0.ctypes.data
 
-    def __call__(self, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, tout: np.ndarray,
+    def __call__(self, engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, tout: np.ndarray,
                  want_run: bool = True) -> ShootOutcome:
-        """One iteration from ``x0`` (sizes checked by :func:`shoot_in_c`); the outcome's arrays
-        are its own copies."""
-        engine, a, s, buf = self.engine, self.a, self.s, self.buf
+        """One iteration from ``x0`` on ``engine`` (the one it was made for; sizes checked by
+        :func:`shoot_in_c`); the outcome's arrays are its own copies."""
+        a, s, buf = self.a, self.s, self.buf
         self.x[:] = x0
         self.p[:] = p
         self.tout[:] = tout
