@@ -438,3 +438,22 @@ def test_newton_struct_mirrors_are_size_checked_at_load(ks, monkeypatch, mirror,
     monkeypatch.setattr(drv, mirror, short)
     with pytest.raises(EngineABIError, match=f"sizeof\\({struct}\\) is"):
         drv.load_engine(ks.engine.path)
+
+
+def test_an_orbit_solve_leaves_no_cycle_that_keeps_the_engine_alive():
+    """The shooting arguments are cached per engine and thread (Shooter); they must not keep
+    the engine, and so its C workspaces, alive after the system is gone (freed at once by
+    reference counting, without a garbage collection)."""
+    import gc
+    import weakref
+
+    gc.disable()
+    try:
+        s = gearsym.load_scene(ROOT / "scenes" / "kahraman_singh.toml").compile()
+        o = s.periodic_orbit()
+        assert o.history[-1].get("engine") == "C"  # the cached C path was taken
+        ref = weakref.ref(s.engine)
+        del s, o
+        assert ref() is None
+    finally:
+        gc.enable()
