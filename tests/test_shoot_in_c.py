@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import test_shooting
+from _corrector_spy import python_corrector_only, spy_on_c_corrector
 from test_shooting import P0, ROOT, SCENE, ref_flow
 
 import gearsym
@@ -109,21 +110,12 @@ def test_corrector_in_c_matches_python_corrector(ks, monkeypatch):
     """The benchmark's frequency response with the corrector in C and in Python: the same special
     points (to 1e-8) and the same orbits; F_lambda and the residual at a corrected point equal
     the Python path's (System.flow with the parameter sensitivity)."""
-    import gearsym.analysis.corrector as corrector_mod
     from gearsym.analysis.parameter_derivative import exact_f_lambda
 
-    calls = []
-    orig = corrector_mod.Continuer._correct_in_c
-
-    def counting(self, z, row, target, t_ref=None):
-        out = orig(self, z, row, target, t_ref)
-        calls.append(out is not None)
-        return out
-
-    monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", counting)
+    calls = spy_on_c_corrector(monkeypatch)
     br_c = gearsym.continuation(ks, "Omega", 0.8, 1.0, progress=False)
     assert sum(calls) >= 0.9 * len(calls) and len(calls) > 20  # the C corrector did the work
-    monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", lambda self, z, row, target, t_ref=None: None)
+    python_corrector_only(monkeypatch)
     br_py = gearsym.continuation(ks, "Omega", 0.8, 1.0, progress=False)
     kinds = lambda br: sorted((b.type, round(b.value, 6)) for b in br.bifurcations)  # noqa: E731
     assert kinds(br_c) == kinds(br_py) and len(br_c.bifurcations) >= 3

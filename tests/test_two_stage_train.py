@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+from _corrector_spy import python_corrector_only, spy_on_c_corrector
 
 import gearsym
 from gearsym.analysis.meshes import mesh_deflections
@@ -202,20 +203,10 @@ def test_free_train_corrector_in_c_is_the_anchored_python_corrector(free, monkey
     """Rigid-body modes: the corrector in C solves the anchored bordered systems by least squares
     (dgelsd, with the anchor rows of Continuer.scaled_anchor) as the Python corrector does
     (numpy's lstsq).  The same branch with either; every C point is an orbit of the free train."""
-    import gearsym.analysis.corrector as corrector_mod
-
-    calls = []
-    orig = corrector_mod.Continuer._correct_in_c
-
-    def counting(self, z, row, target, t_ref=None):
-        out = orig(self, z, row, target, t_ref)
-        calls.append(out is not None)
-        return out
-
-    monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", counting)
+    calls = spy_on_c_corrector(monkeypatch)
     br_c = gearsym.continuation(free, "n_in", 3500, 3560, progress=False, rtol=1e-9, ds_max=0.1)
     assert len(calls) > 5 and sum(calls) >= 0.9 * len(calls)  # the C corrector did the work
-    monkeypatch.setattr(corrector_mod.Continuer, "_correct_in_c", lambda self, z, row, target, t_ref=None: None)
+    python_corrector_only(monkeypatch)
     br_py = gearsym.continuation(free, "n_in", 3500, 3560, progress=False, rtol=1e-9, ds_max=0.1)
     graz = [(b.type, b.info.get("surface")) for b in br_c.bifurcations]
     assert graz == [(b.type, b.info.get("surface")) for b in br_py.bifurcations] == [("grazing", "mesh1.drive")]

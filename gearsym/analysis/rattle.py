@@ -335,7 +335,7 @@ def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequ
         Mesh name -> 0 (no contact loss), 1 (contact loss only) or 2 (back-side
         contact); empty if the model has no contact surfaces.
     """
-    table = _contact_table(system.generated.surfaces)
+    table = system.generated.contact_surfaces
     if not table:
         return {}
     p = system.param_vector(params) if g0 is None or samples is not None else None
@@ -359,23 +359,6 @@ def mesh_rattle_states(system: Any, x0: Sequence[float], t0: float, events: Sequ
         st[f"{kind}_in"] = bool(in_contact)
         st[f"{kind}_crossed"] = bool(crossed)
     return {mesh: classify(**st) for mesh, st in meshes.items()}
-
-
-_CONTACT_TABLES: dict[int, tuple[list[dict], tuple[tuple[int, str, str, str, int], ...]]] = {}
-
-
-def _contact_table(surfaces: list[dict]) -> tuple[tuple[int, str, str, str, int], ...]:
-    """``(index, name, mesh, kind, contact_sign)`` of every drive / back contact surface,
-    made once per model (keyed by the identity of its surface list, which is kept alive)."""
-    hit = _CONTACT_TABLES.get(id(surfaces))
-    if hit is not None and hit[0] is surfaces:
-        return hit[1]
-    table = tuple((j, s["name"], s["name"].rsplit(".", 1)[0], s.get("kind"), int(s.get("contact_sign", 0)))
-                  for j, s in enumerate(surfaces) if s.get("kind") in ("drive", "back"))
-    if len(_CONTACT_TABLES) > 64:
-        _CONTACT_TABLES.clear()
-    _CONTACT_TABLES[id(surfaces)] = (surfaces, table)
-    return table
 
 
 def classify(drive_in: bool, back_in: bool, drive_crossed: bool, back_crossed: bool) -> int:

@@ -7,6 +7,7 @@ generator; :mod:`gearsym.codegen.generate` re-exports both names.
 
 from __future__ import annotations
 
+import functools
 import json
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
@@ -98,6 +99,13 @@ class GeneratedModel:
     def nsw(self) -> int:
         """Number of switching functions."""
         return len(self.surfaces)
+
+    @functools.cached_property
+    def contact_surfaces(self) -> tuple[tuple[int, str, str, str, int], ...]:
+        """``(index, name, mesh, kind, contact_sign)`` of every drive / back contact surface
+        (``kind`` as the symbolic layer names it; ``mesh`` the name before the last dot)."""
+        return tuple((j, s["name"], s["name"].rsplit(".", 1)[0], s.get("kind"), int(s.get("contact_sign", 0)))
+                     for j, s in enumerate(self.surfaces) if s.get("kind") in ("drive", "back"))
 
     def casadi_function(self, name: str) -> ca.Function:
         """A generated function as a CasADi Function (e.g. ``gs_rhs``), for Python-side use."""
