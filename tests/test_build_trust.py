@@ -142,11 +142,15 @@ def test_planted_build_in_a_folder_named_on_purpose_never_runs(tmp_path, ks):
     # the user names the supplement's generated/ as the cache: its planted build, whatever its
     # meta.json says (even the signature copied from a real build), is rebuilt, never loaded
     sup, marker, planted = _supplement(tmp_path, ks)
+    (tmp_path / "outside").mkdir()
+    (tmp_path / "outside" / "thesis.tex").write_text("mine")
+    (planted / "data").symlink_to(tmp_path / "outside")  # removing the planted folder must not follow it
     r = _gearsym(["simulate", str(sup / "scenes" / KS_SCENE.name), "--periods", "2", "--json"],
                  GEARSYM_GENERATED=str(sup / "generated"))
     assert not marker.exists(), "the planted code ran"
     assert r.returncode == 0, r.stderr[-2000:]
     assert not (planted / "planted.c").exists()  # replaced by a build of ours
+    assert (tmp_path / "outside" / "thesis.tex").read_text() == "mine"
     gen = _lookup(sup / "generated", planted, ks[1])
     assert gen is not None and Path(gen.so_path).parent == planted
 
@@ -440,6 +444,29 @@ def test_planted_lock_symlink_is_never_followed(tmp_path, ks, victim_exists):
     with pytest.raises(CompileError, match="is a symbolic link"):
         gearsym.load_scene(KS_SCENE).generate(generated_dir=cache)
     assert victim.read_text() == "precious" if victim_exists else not victim.exists()
+
+
+def test_cache_clear_never_follows_a_planted_lock_symlink(tmp_path, ks):
+    build, key = ks
+    root = tmp_path / "c"
+    d = _copy(build, root)
+    victim = tmp_path / "victim"
+    (root / f".{d.name}.lock").symlink_to(victim)
+    assert BuildCache(root).clear() == []
+    assert not victim.exists() and d.is_dir()
+
+
+def test_cache_clear_never_follows_symlinked_leftovers(tmp_path, ks):
+    build, key = ks
+    root = tmp_path / "c"
+    _copy(build, root)
+    (tmp_path / "outside").mkdir()
+    (tmp_path / "outside" / "thesis.tex").write_text("mine")
+    for prefix in (".tmp", ".trash"):
+        (root / f"{prefix}-{build.name}-x").symlink_to(tmp_path / "outside")
+    (root / "x-0123456789abcdef").symlink_to(tmp_path / "outside")
+    assert [e.directory.name for e in BuildCache(root).clear()] == [build.name]
+    assert (tmp_path / "outside" / "thesis.tex").read_text() == "mine"
 
 
 def _driver_name() -> str:
