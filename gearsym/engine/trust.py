@@ -217,7 +217,7 @@ def open_secure_directory(path: str | os.PathLike[str], *, create: bool = False,
     if why:
         os.close(fd)
         raise UntrustedCacheError(f"refusing the {what} {p}: {why}; other users could plant code there "
-                                  "(use a folder only you can write: unset GEARSYM_GENERATED for ~/.cache/gearsym)")
+                                  "(choose a folder only you can write: GEARSYM_GENERATED, XDG_CACHE_HOME)")
     return fd, real
 
 
