@@ -15,24 +15,33 @@ from pathlib import Path
 from .catalog import find_scene
 from .codegen.cache import BuildCache, build_key
 from .codegen.generate import GeneratedModel, build_functions, write_and_compile
+from .engine.trust import user_cache_dir
 from .errors import GearsymError, SpecError
 from .spec.model import ModelSpec, load_model
 from .spec.scene import ResolvedScene, SceneSpec, load_scene_spec, resolve_scene
 from .symbolic.model import SymbolicModel
 
 
-def default_generated_dir(scene_path: str | Path) -> Path:
-    """Where compiled scenes go: ``$GEARSYM_GENERATED``, else ``generated/`` of the
-    project the scene belongs to (the nearest folder above the scene that has a
-    ``generated/`` folder), else ``~/.cache/gearsym``."""
+def default_generated_dir(scene_path: str | Path | None = None) -> Path:
+    """Where compiled scenes go: ``$GEARSYM_GENERATED`` if set, else the user cache
+    (``$XDG_CACHE_HOME/gearsym``, else ``~/.cache/gearsym``).
+
+    Never a folder found next to or above the scene: a folder that came from elsewhere
+    (a paper's supplement, a colleague's zip, a shared temporary folder) could hold
+    planted native code.  A project's own ``generated/`` folder is used only when named
+    on purpose (``GEARSYM_GENERATED=generated``, ``compile(generated_dir=...)``,
+    ``gearsym cache --dir``).  Whatever the folder, a build is loaded only if this
+    user's gearsym signed it (:mod:`gearsym.codegen.cache`).
+
+    Parameters
+    ----------
+    scene_path
+        Unused (the location does not depend on the scene); kept for callers.
+    """
     env = os.environ.get("GEARSYM_GENERATED")
     if env:
         return Path(env)
-    p = Path(scene_path).resolve().parent
-    for cand in (p, *p.parents):
-        if (cand / "generated").is_dir():
-            return cand / "generated"
-    return Path.home() / ".cache" / "gearsym"
+    return user_cache_dir()
 
 
 class Scene:
@@ -142,16 +151,16 @@ class Scene:
         """Generate and compile, returning the :class:`GeneratedModel` (cache-aware).
 
         The build is looked up by its key (:func:`gearsym.codegen.cache.build_key`) and
-        reused only if it verifies (key and SHA-256 of the shared object); otherwise
-        it is built in a private folder under a file lock and renamed into place, so
-        concurrent callers get one build.
+        reused only if it verifies (this user's signature, the key and the SHA-256 of its
+        files); otherwise it is built in a private folder under a file lock, signed and
+        renamed into place, so concurrent callers get one build.
 
         Parameters
         ----------
         generated_dir
             Root folder of the builds (default: :func:`default_generated_dir`).
         force
-            Rebuild even if a verified build exists.
+            Rebuild even if a verified build exists (and the shared driver object, too).
         dimensionless
             Generate the dimensionless form (default: the scene's ``[simulate] dimensionless``).
         derivatives
@@ -165,7 +174,9 @@ class Scene:
         Raises
         ------
         CompileError
-            If the build fails or its folder would lie outside ``generated_dir``.
+            If the build fails or its folder would lie outside ``generated_dir``; an
+            :class:`~gearsym.engine.trust.UntrustedCacheError` (exit code 2) if the cache
+            folder is one other users can change, or the signing key is not safe.
         """
         root = Path(generated_dir) if generated_dir else default_generated_dir(self.path)
         try:
@@ -192,6 +203,10 @@ class Scene:
                     gen = cache.lookup(entry, key)
                     if gen is not None:
                         return self._reused(gen)
+                if force:  # --force also rebuilds the shared driver object (damaged or not)
+                    from .engine import build as engine_build
+
+                    engine_build.driver_object(engine_build.driver_cache_dir(root / ".driver"), force=True)
                 model = self.model.dimensionless_system() if dimensionless else self.model
                 fns = build_functions(model, derivatives=derivatives)
                 with cache.staging(entry) as staging:

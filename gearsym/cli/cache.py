@@ -24,10 +24,11 @@ def add_cache_parser(sub: argparse._SubParsersAction) -> None:
     """Register the ``cache`` subcommand on the CLI's subparsers."""
     p = sub.add_parser(
         "cache", help="where compiled builds go; list or remove them",
-        description="Builds go to $GEARSYM_GENERATED if set, else to the generated/ folder of the "
-                    "project a scene belongs to (the nearest folder above the scene that has one), "
-                    "else to ~/.cache/gearsym.  Without SCENE or --dir, the folder is chosen the same "
-                    "way from the current directory.")
+        description="Builds go to $GEARSYM_GENERATED if set, else to the user cache "
+                    "($XDG_CACHE_HOME/gearsym, else ~/.cache/gearsym); never to a generated/ folder "
+                    "that happens to lie next to or above a scene (name a project's folder on purpose: "
+                    "GEARSYM_GENERATED=generated).  A build is loaded only if this user's gearsym signed "
+                    "it; 'clear' removes only such builds, never another folder.")
     p.add_argument("action", choices=["path", "list", "clear"],
                    help="path: print the build folder; list: the builds; clear: remove builds")
     p.add_argument("scene", nargs="?",
@@ -58,10 +59,8 @@ def _root_and_scene(args: argparse.Namespace):
             name = args.scene
     if args.dir:
         root = Path(args.dir)
-    elif scene is not None:
-        root = default_generated_dir(scene.path)
     else:
-        root = default_generated_dir(Path.cwd() / "_.toml")
+        root = default_generated_dir()
     return BuildCache(root), scene, name
 
 
@@ -89,7 +88,8 @@ def cmd_cache(args: argparse.Namespace) -> int:
         print(f"{cache.root}: {len(builds)} build(s), {_size(sum(b.size for b in builds))}")
         for b in builds:
             when = time.strftime("%Y-%m-%d %H:%M", time.localtime(b.built))
-            state = "" if b.complete else "  (incomplete or old format)"
+            state = ("" if b.complete else "  (damaged: rebuilt when used)") if b.verified else \
+                "  (not signed by your gearsym: never loaded, not removed by clear)"
             print(f"  {b.scene:28s} {b.model:24s} {_size(b.size):>10s}  {when}  {b.key[:16]}{state}")
         return 0
     removed = cache.clear(scene=name, older_than_days=args.older_than)

@@ -125,8 +125,11 @@ class GeneratedModel:
 
     @classmethod
     def from_json(cls, text: str) -> GeneratedModel:
-        """Load from :meth:`to_json` output."""
-        return cls(**json.loads(text))
+        """Load from :meth:`to_json` output (a build's ``meta.json``; its ``signature``, added
+        by :mod:`gearsym.codegen.cache` when the build is installed, is not a field)."""
+        d = json.loads(text)
+        d.pop("signature", None)
+        return cls(**d)
 
 
 _MAPPED: dict[tuple[str, str, int], object] = {}

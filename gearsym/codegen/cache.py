@@ -1,5 +1,5 @@
-"""The build cache: where compiled scenes live, how a build is named, verified and
-installed.
+"""The build cache: where compiled scenes live, how a build is named, signed, verified
+and installed.
 
 A build is the folder ``<root>/<scene>-<key[:16]>/`` holding ``gs_model.c``,
 ``gs_model.h``, ``gs_<sha256[:16]>.so`` and ``meta.json``.  Its key
@@ -8,26 +8,40 @@ file's text, the effect choices, the model form, the gearsym version and the
 sources of the spec, symbolic and codegen layers, the CasADi version and the
 toolchain (compiler path and ``--version``, flags, the SUNDIALS libraries' bytes,
 the driver sources: :func:`gearsym.engine.build.toolchain_identity`).  The key is
-compiled into the object (``gs_build_key()``) and recorded in ``meta.json`` with
-the object's SHA-256; a build is reused only if all of them agree
-(:meth:`BuildCache.lookup`, before any ``dlopen``).
+compiled into the object (``gs_build_key()``) and recorded in ``meta.json``.
+
+**Only this user's builds are loaded.**  When a build is installed, its ``meta.json``
+is signed with the user's secret key (:func:`gearsym.engine.trust.signing_key`, kept in
+the user cache, never in a build folder): an HMAC-SHA256 over the build key, the
+SHA-256 of the object and of the sources, and the whole ``meta.json``
+(:func:`build_signature`).  :meth:`BuildCache.lookup` reuses a build only if the
+signature verifies and every file has the SHA-256 it was signed with -- checked before
+any ``dlopen`` and before any serialised function is read -- so a build planted in a
+folder (whatever its ``meta.json`` says) or copied from another user's cache is never
+loaded, and ``cache clear`` removes only builds that verify.  Every cache folder is
+checked to be one no other user can change (:func:`gearsym.engine.trust.open_secure_directory`),
+and every file in it is opened relative to the folder's descriptor without following
+symbolic links, as a regular file of the user with one link, up to a size limit
+(:data:`META_LIMIT`, :data:`SO_LIMIT`).
 
 Builds are made in a private folder ``<root>/.tmp-<name>-*`` under a per-build file
-lock (``<root>/.<name>.lock``, :func:`fcntl.flock`) and renamed into place, so N
-processes compiling one new model produce one build and N successes, and a reader
-never sees a half-written build.  Lock files are removed when released (a waiter
-that locked a removed file retries), so an idle cache holds only builds.
+lock (``<root>/.<name>.lock``, :func:`gearsym.engine.trust.locked_file`) and renamed into
+place, so N processes compiling one new model produce one build and N successes, and
+a reader never sees a half-written build.  Lock files are removed when released (a
+waiter that locked a removed file retries), so an idle cache holds only builds.
+Staging and trash folders carry a signed marker: a leftover of a killed builder is
+removed only if gearsym made it.
 """
 
 from __future__ import annotations
 
-import fcntl
 import functools
 import hashlib
 import json
 import os
 import re
 import shutil
+import stat
 import tempfile
 import time
 from collections.abc import Iterator
@@ -37,9 +51,20 @@ from pathlib import Path
 
 import casadi as ca
 
+from ..engine.trust import (
+    UntrustedCacheError,
+    locked_file,
+    open_secure_directory,
+    read_file_at,
+    sign,
+    signing_key,
+    verify,
+    writable_by_others,
+)
 from ..errors import CompileError
 
-__all__ = ["BuildCache", "BuildEntry", "CacheEntry", "build_key", "safe_name"]
+__all__ = ["BuildCache", "BuildEntry", "CacheEntry", "UntrustedCacheError", "build_key", "build_signature",
+           "safe_name"]
 
 _PKG = Path(__file__).resolve().parent.parent
 #: Python sources whose changes change the generated code (the spec -> symbolic ->
@@ -48,6 +73,19 @@ _SOURCE_DIRS = ("spec", "symbolic", "codegen")
 #: Marker in front of the key in the object's read-only data (gs_build_key()).
 KEY_MARKER = b"gearsym-build-key:"
 _ENTRY_RE = re.compile(r"^(?P<name>[A-Za-z0-9_][A-Za-z0-9_.-]*)-(?P<key>[0-9a-f]{16})$")
+_SO_RE = re.compile(r"^gs_[0-9a-f]{16}\.so$")
+#: The sources of a build (signed with it; the exported C program and FMU copy them).
+_SOURCES = ("gs_model.c", "gs_model.h")
+#: Largest ``meta.json``, shared object and source read from a cache (a larger file is
+#: not read at all: it is not a build of ours).  The largest builds measured (130 states)
+#: are far below: a few MB of metadata, a few MB of object.
+META_LIMIT = 128 << 20
+SO_LIMIT = 512 << 20
+SOURCE_LIMIT = 256 << 20
+#: Signed marker file of staging and trash folders.
+_MARKER = ".gearsym-staging"
+_SIG_TAG = "gearsym build v1"
+_STAGE_TAG = "gearsym staging v1"
 
 
 def safe_name(name: str, limit: int = 64) -> str:
@@ -111,6 +149,74 @@ def build_key(model_text: str, effects: dict, form: str, *, cc: str | None = Non
     return key, parts
 
 
+def _canonical(obj: object) -> bytes:
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), ensure_ascii=True).encode()
+
+
+def build_signature(key: bytes, meta: dict, files: dict[str, str]) -> str:
+    """The HMAC of a build (:func:`gearsym.engine.trust.sign`): over its key, the shared
+    object's SHA-256, the SHA-256 of each of its files and the whole ``meta.json``
+    (without the signature)."""
+    return sign(key, _SIG_TAG, str(meta.get("build_key", "")), str(meta.get("so_sha256", "")),
+                _canonical(files), _canonical(meta))
+
+
+def _sha256_at(dir_fd: int, name: str, limit: int) -> tuple[str, bytes] | None:
+    data = read_file_at(dir_fd, name, limit)
+    return None if data is None else (hashlib.sha256(data).hexdigest(), data)
+
+
+def _open_dir_at(dir_fd: int, name: str) -> int | None:
+    """A descriptor of the folder ``name`` in ``dir_fd`` if it is a real folder (not a link) of
+    the user that no other user can write, else None."""
+    try:
+        fd = os.open(name, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW | os.O_CLOEXEC, dir_fd=dir_fd)
+    except OSError:
+        return None
+    st = os.fstat(fd)
+    if st.st_uid != os.geteuid() or writable_by_others(st):
+        os.close(fd)
+        return None
+    return fd
+
+
+def _read_signed(dir_fd: int, key: bytes | None) -> tuple[dict, dict[str, str]] | None:
+    """``(meta, files)`` of the build folder ``dir_fd`` if its ``meta.json`` carries this
+    user's signature, else None."""
+    if key is None:
+        return None
+    raw = read_file_at(dir_fd, "meta.json", META_LIMIT)
+    if raw is None:
+        return None
+    try:
+        meta = json.loads(raw)
+    except ValueError:
+        return None
+    sig = meta.pop("signature", None) if isinstance(meta, dict) else None
+    files = sig.get("files") if isinstance(sig, dict) else None
+    if not (isinstance(files, dict) and all(isinstance(v, str) for v in files.values())):
+        return None
+    if not verify(key, sig.get("hmac"), _SIG_TAG, str(meta.get("build_key", "")), str(meta.get("so_sha256", "")),
+                  _canonical(files), _canonical(meta)):
+        return None
+    return meta, files
+
+
+def _intact(dir_fd: int, meta: dict, files: dict[str, str], key: str) -> bool:
+    """Whether the files of a signed build have the SHA-256 it was signed with, and the
+    shared object carries ``key``."""
+    so_name = Path(str(meta.get("so_path", ""))).name
+    if not _SO_RE.match(so_name) or set(files) != {so_name, *_SOURCES} or files[so_name] != meta.get("so_sha256"):
+        return False
+    for name, digest in files.items():
+        got = _sha256_at(dir_fd, name, SO_LIMIT if name == so_name else SOURCE_LIMIT)
+        if got is None or got[0] != digest:
+            return False
+        if name == so_name and KEY_MARKER + key.encode() not in got[1]:
+            return False
+    return True
+
+
 @dataclass(frozen=True)
 class BuildEntry:
     """Where one build lives: ``directory`` (inside the cache root) and its lock file."""
@@ -123,7 +229,11 @@ class BuildEntry:
 
 @dataclass(frozen=True)
 class CacheEntry:
-    """One build found in a cache (for ``gearsym cache list``)."""
+    """One build found in a cache (for ``gearsym cache list``).
+
+    ``verified``: signed by this user's gearsym (only such builds are loaded or removed);
+    ``complete``: verified and its files intact.
+    """
 
     directory: Path
     scene: str
@@ -132,25 +242,48 @@ class CacheEntry:
     built: float
     key: str
     complete: bool
+    verified: bool = False
 
     def as_dict(self) -> dict:
         """JSON-serialisable form."""
         return {"directory": str(self.directory), "scene": self.scene, "model": self.model,
                 "size_bytes": self.size, "built": time.strftime("%Y-%m-%dT%H:%M:%S", time.localtime(self.built)),
-                "key": self.key, "complete": self.complete}
+                "key": self.key, "complete": self.complete, "verified": self.verified}
 
 
 class BuildCache:
-    """A folder of builds (``generated/``, ``$GEARSYM_GENERATED`` or ``~/.cache/gearsym``).
+    """A folder of builds (the user cache, ``$GEARSYM_GENERATED`` or a folder named explicitly).
+
+    Every use checks that no other user can change the folder
+    (:func:`gearsym.engine.trust.open_secure_directory`: an :class:`UntrustedCacheError`
+    names the folder and the reason otherwise) and opens what is in it relative to the
+    folder's descriptor without following symbolic links.
 
     Parameters
     ----------
     root
-        The cache folder (created on the first build).
+        The cache folder (created, mode 0700, on the first build).
     """
 
     def __init__(self, root: str | os.PathLike[str]):
         self.root = Path(root).absolute()
+
+    @contextmanager
+    def _opened(self, create: bool) -> Iterator[tuple[int, Path] | None]:
+        """``(descriptor, real path)`` of the verified root; None if it does not exist and not ``create``."""
+        try:
+            fd, real = open_secure_directory(self.root, create=create, what="build cache")
+        except FileNotFoundError:
+            if create:
+                raise CompileError(f"cannot create the build cache {self.root}") from None
+            fd = None
+        if fd is None:
+            yield None
+            return
+        try:
+            yield fd, real
+        finally:
+            os.close(fd)
 
     # ---------------------------------------------------------------- naming
     def entry(self, scene: str, key: str) -> BuildEntry:
@@ -164,8 +297,12 @@ class BuildCache:
         """
         name = f"{safe_name(scene)}-{key[:16]}"
         directory = self.root / name
-        root_r = self.root.resolve()
-        dir_r = directory.resolve()
+        try:
+            root_r = self.root.resolve()
+            dir_r = directory.resolve()
+        except (OSError, RuntimeError) as exc:  # a symbolic link loop
+            raise CompileError(f"the build folder {directory} cannot be resolved ({exc}); "
+                               "refusing to build there") from None
         if dir_r.parent != root_r or dir_r.name != name:
             raise CompileError(f"the build folder of scene {scene!r} would be {dir_r}, which is not a folder "
                                f"directly inside the build cache {root_r}; refusing to build there")
@@ -175,30 +312,41 @@ class BuildCache:
     def lookup(self, entry: BuildEntry, key: str):
         """The verified build of ``entry`` for ``key``, or None.
 
-        A build verifies if ``meta.json`` parses and records ``key``, and the shared
-        object's bytes have the SHA-256 recorded there and contain the key.  Nothing
-        is loaded (a truncated object would kill the process in ``dlopen``).
+        A build verifies if its ``meta.json`` carries this user's signature
+        (:func:`build_signature`) and records ``key``, and its files (shared object and
+        sources, regular files of the user with one link, read without following links
+        and up to a size limit) have the SHA-256 it was signed with, the object
+        containing the key.  Nothing is loaded.
 
         Returns
         -------
         GeneratedModel or None
+
+        Raises
+        ------
+        UntrustedCacheError
+            If the cache folder or the signing key is not safe to use.
         """
         from .artifact import GeneratedModel
 
+        key_bytes = signing_key(create=False)
+        with self._opened(create=False) as opened:
+            if opened is None or key_bytes is None:
+                return None
+            dfd = _open_dir_at(opened[0], entry.name)
+            if dfd is None:
+                return None
+            try:
+                signed = _read_signed(dfd, key_bytes)
+                if signed is None or signed[0].get("build_key") != key or not _intact(dfd, *signed, key):
+                    return None
+            finally:
+                os.close(dfd)
         try:
-            gen = GeneratedModel.from_json((entry.directory / "meta.json").read_text(encoding="utf-8"))
-        except (OSError, ValueError, TypeError, KeyError):
+            gen = GeneratedModel(**signed[0])
+        except TypeError:
             return None
-        if gen.build_key != key or not gen.so_sha256:
-            return None
-        so = entry.directory / Path(gen.so_path).name
-        try:
-            data = so.read_bytes()
-        except OSError:
-            return None
-        if hashlib.sha256(data).hexdigest() != gen.so_sha256 or KEY_MARKER + key.encode() not in data:
-            return None
-        gen.directory, gen.so_path = str(entry.directory), str(so)
+        gen.directory, gen.so_path = str(entry.directory), str(entry.directory / Path(gen.so_path).name)
         return gen
 
     # ---------------------------------------------------------------- build
@@ -206,109 +354,175 @@ class BuildCache:
     def locked(self, entry: BuildEntry) -> Iterator[None]:
         """Hold the build lock of ``entry`` (blocks while another process builds it).
 
-        The lock file is removed on release; a waiter that then holds a lock on the
-        removed file notices (the path no longer names its file) and retries.
+        The lock file is created without following links and removed on release
+        (:func:`gearsym.engine.trust.locked_file`).
 
         Raises
         ------
         CompileError
-            If the cache folder or the lock file cannot be created.
+            If the cache folder or the lock file cannot be created, or is not safe.
         """
-        try:
-            self.root.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise CompileError(f"cannot create the build cache {self.root}: {exc.strerror}") from None
-        while True:
-            try:
-                fd = os.open(entry.lock, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
-            except OSError as exc:
-                raise CompileError(f"cannot create the lock file {entry.lock}: {exc.strerror}") from None
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX)
-                st = os.fstat(fd)
-                try:
-                    cur = os.stat(entry.lock)
-                    same = (cur.st_dev, cur.st_ino) == (st.st_dev, st.st_ino)
-                except FileNotFoundError:
-                    same = False
-            except BaseException:
-                os.close(fd)
-                raise
-            if same:
-                break
-            os.close(fd)
-        try:
+        with self._opened(create=True) as (rfd, _), locked_file(rfd, entry.lock.name, self.root):
             yield
+
+    @staticmethod
+    def _mark(directory: str, key: bytes) -> None:
+        """Sign a staging or trash folder gearsym just made (so that it may remove it later)."""
+        fd = os.open(os.path.join(directory, _MARKER), os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW
+                     | os.O_CLOEXEC, 0o600)
+        try:
+            os.write(fd, sign(key, _STAGE_TAG, os.path.basename(directory)).encode())
         finally:
-            try:
-                os.unlink(entry.lock)
-            finally:
-                os.close(fd)
+            os.close(fd)
+
+    def _temp_dir(self, real: Path, prefix: str, key: bytes) -> str:
+        """A new signed private folder ``<prefix>*`` in the root (its name)."""
+        d = tempfile.mkdtemp(prefix=prefix, dir=real)
+        self._mark(d, key)
+        return os.path.basename(d)
+
+    @staticmethod
+    def _remove_leftover(rfd: int, name: str, key: bytes | None) -> bool:
+        """Remove a staging / trash folder if gearsym signed it (or it is empty)."""
+        dfd = _open_dir_at(rfd, name)
+        if dfd is None:
+            return False
+        try:
+            mark = read_file_at(dfd, _MARKER, 256)
+            ours = mark is not None and verify(key, mark.decode("ascii", "replace"), _STAGE_TAG, name)
+            empty = not os.listdir(dfd)
+        finally:
+            os.close(dfd)
+        try:
+            if ours:
+                shutil.rmtree(name, dir_fd=rfd)
+            elif empty:
+                os.rmdir(name, dir_fd=rfd)
+            else:
+                return False
+        except OSError:
+            return False
+        return True
 
     @contextmanager
     def staging(self, entry: BuildEntry) -> Iterator[Path]:
         """A private folder for a new build of ``entry`` (call with the lock held).
 
-        Stale staging folders of the same build (from a killed builder) are removed
-        first; the folder is removed on exit unless :meth:`install` moved it.
+        Leftover staging and trash folders of the same build (from a killed builder)
+        are removed first if gearsym signed them; the folder is removed on exit unless
+        :meth:`install` moved it.
         """
-        for old in self.root.glob(f".tmp-{entry.name}-*"):
-            shutil.rmtree(old, ignore_errors=True)
-        for old in self.root.glob(f".trash-{entry.name}-*"):
-            shutil.rmtree(old, ignore_errors=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{entry.name}-", dir=self.root))
+        key = signing_key()
+        with self._opened(create=True) as (rfd, real):
+            for name in os.listdir(rfd):
+                if name.startswith((f".tmp-{entry.name}-", f".trash-{entry.name}-")):
+                    self._remove_leftover(rfd, name, key)
+            tmp = self.root / self._temp_dir(real, f".tmp-{entry.name}-", key)
         try:
             yield tmp
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
 
-    def install(self, staged: Path, entry: BuildEntry) -> None:
-        """Move a complete staged build into place (call with the lock held).
+    @staticmethod
+    def _sign_staged(sfd: int, key: bytes, where: Path) -> None:
+        """Sign the build in the staging folder ``sfd``: no file writable by others, the
+        signature (:func:`build_signature`) written into its ``meta.json``."""
+        for name in os.listdir(sfd):
+            fd = os.open(name, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC, dir_fd=sfd)
+            try:
+                os.fchmod(fd, stat.S_IMODE(os.fstat(fd).st_mode) & ~0o022)
+            finally:
+                os.close(fd)
+        raw = read_file_at(sfd, "meta.json", META_LIMIT)
+        meta = json.loads(raw) if raw is not None else {}
+        meta.pop("signature", None)
+        so_name = Path(str(meta.get("so_path", ""))).name
+        files = {}
+        for name in (so_name, *_SOURCES):
+            got = _sha256_at(sfd, name, SO_LIMIT if name == so_name else SOURCE_LIMIT) if name else None
+            if got is None:
+                raise CompileError(f"the new build in {where} has no readable {name or 'shared object'}")
+            files[name] = got[0]
+        if files[so_name] != meta.get("so_sha256"):
+            raise CompileError(f"the shared object of the new build in {where} changed after it was checked")
+        meta["signature"] = {"files": files, "hmac": build_signature(key, meta, files)}
+        fd = os.open("meta.json.tmp", os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644,
+                     dir_fd=sfd)
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(json.dumps(meta, indent=1))
+        os.replace("meta.json.tmp", "meta.json", src_dir_fd=sfd, dst_dir_fd=sfd)
 
-        An existing folder (a build that did not verify, or one replaced by
-        ``force``) is first renamed away, so the new one appears in one rename.
+    def install(self, staged: Path, entry: BuildEntry) -> None:
+        """Sign a complete staged build and move it into place (call with the lock held).
+
+        An existing folder at the build's place (a build that did not verify, or one
+        replaced by ``force``) is first renamed into a signed trash folder, so the new
+        one appears in one rename.
         """
-        trash = None
-        if entry.directory.exists() or entry.directory.is_symlink():
-            trash = Path(tempfile.mkdtemp(prefix=f".trash-{entry.name}-", dir=self.root))
-            os.rename(entry.directory, trash / "old")
-        os.rename(staged, entry.directory)
-        if trash is not None:
-            shutil.rmtree(trash, ignore_errors=True)
+        key = signing_key()
+        with self._opened(create=True) as (rfd, real):
+            sfd = _open_dir_at(rfd, staged.name)
+            if sfd is None:
+                raise CompileError(f"the staging folder {staged} is gone or not yours")
+            try:
+                self._sign_staged(sfd, key, staged)
+                os.unlink(_MARKER, dir_fd=sfd)
+            finally:
+                os.close(sfd)
+            trash = None
+            if os.path.lexists(real / entry.name):
+                trash = self._temp_dir(real, f".trash-{entry.name}-", key)
+                os.rename(entry.name, f"{trash}/old", src_dir_fd=rfd, dst_dir_fd=rfd)
+            os.rename(staged.name, entry.name, src_dir_fd=rfd, dst_dir_fd=rfd)
+            if trash is not None:
+                shutil.rmtree(trash, dir_fd=rfd, ignore_errors=True)
 
     # ---------------------------------------------------------------- manage
+    @staticmethod
+    def _describe(dfd: int, d: Path, m: re.Match, key: bytes | None) -> CacheEntry:
+        size = 0
+        for name in os.listdir(dfd):
+            st = os.stat(name, dir_fd=dfd, follow_symlinks=False)
+            size += st.st_size if stat.S_ISREG(st.st_mode) else 0
+        signed = _read_signed(dfd, key)
+        if signed is None:
+            return CacheEntry(d, m["name"], "?", size, os.fstat(dfd).st_mtime, m["key"], False, False)
+        meta, files = signed
+        bkey = str(meta.get("build_key", ""))
+        built = meta.get("built")
+        return CacheEntry(d, str(meta.get("scene", m["name"])), str(meta.get("model", "?")), size,
+                          float(built) if isinstance(built, (int, float)) else os.fstat(dfd).st_mtime,
+                          bkey or m["key"], _intact(dfd, meta, files, bkey), True)
+
     def builds(self) -> list[CacheEntry]:
-        """The builds in the cache, oldest first (folders ``<name>-<16 hex>`` only)."""
+        """The builds in the cache, oldest first (folders ``<name>-<16 hex>`` of the user).
+
+        ``verified`` tells those signed by this user's gearsym; the others (copied from
+        elsewhere, made by another user, or by a gearsym before signatures) are never
+        loaded nor removed."""
+        key = signing_key(create=False)
         out = []
-        if not self.root.is_dir():
-            return out
-        for d in sorted(self.root.iterdir()):
-            m = _ENTRY_RE.match(d.name)
-            if not m or d.is_symlink() or not d.is_dir():
-                continue
-            files = [f for f in d.iterdir() if f.is_file()]
-            size = sum(f.stat().st_size for f in files)
-            meta_path = d / "meta.json"
-            scene, model, key, complete = m["name"], "?", m["key"], False
-            built = d.stat().st_mtime
-            try:
-                meta = json.loads(meta_path.read_text(encoding="utf-8"))
-                scene = str(meta.get("scene", scene))
-                model = str(meta.get("model", "?"))
-                key = str(meta.get("build_key") or meta.get("key") or key)
-                built = float(meta.get("built") or meta_path.stat().st_mtime)
-                complete = bool(meta.get("so_sha256")) and (d / Path(str(meta.get("so_path", ""))).name).is_file()
-            except (OSError, ValueError, TypeError, AttributeError):
-                pass
-            out.append(CacheEntry(d, scene, model, size, built, key, complete))
+        with self._opened(create=False) as opened:
+            if opened is None:
+                return out
+            for name in sorted(os.listdir(opened[0])):
+                m = _ENTRY_RE.match(name)
+                dfd = _open_dir_at(opened[0], name) if m else None
+                if dfd is None:
+                    continue
+                try:
+                    out.append(self._describe(dfd, self.root / name, m, key))
+                finally:
+                    os.close(dfd)
         return sorted(out, key=lambda e: e.built)
 
     def clear(self, *, scene: str | None = None, older_than_days: float | None = None) -> list[CacheEntry]:
         """Remove builds (all, those of one scene, or those built more than N days ago).
 
-        Only folders that look like builds (``<name>-<16 hex>``) and leftovers of
-        killed builders (``.tmp-*``, ``.trash-*`` whose build is not locked) are
-        removed; a build being made by another process right now is skipped.
+        Only builds this user's gearsym signed are removed (any other folder, even one
+        named like a build, is left alone), and, when clearing everything, leftovers of
+        killed builders (``.tmp-*``, ``.trash-*`` folders gearsym signed, whose build is
+        not locked); a build being made by another process right now is skipped.
 
         Returns
         -------
@@ -317,49 +531,39 @@ class BuildCache:
         """
         removed = []
         now = time.time()
-        for e in self.builds():
-            if scene is not None and e.scene != scene and safe_name(scene) != e.directory.name[:-17]:
-                continue
-            if older_than_days is not None and now - e.built < older_than_days * 86400.0:
-                continue
-            name = e.directory.name
-            lock = BuildEntry(self.root, name, e.directory, self.root / f".{name}.lock")
-            if not self._try_remove(lock):
-                continue
-            removed.append(e)
-        if scene is None and older_than_days is None:
-            for d in [*self.root.glob(".tmp-*"), *self.root.glob(".trash-*")]:
-                m = re.match(r"^\.(?:tmp|trash)-(.+-[0-9a-f]{16})-", d.name)
-                if m and d.is_dir() and not d.is_symlink():
-                    self._try_remove(BuildEntry(self.root, m[1], d, self.root / f".{m[1]}.lock"))
+        key = signing_key(create=False)
+        builds = self.builds()
+        with self._opened(create=False) as opened:
+            if opened is None or key is None:
+                return removed
+            rfd, real = opened
+            for e in builds:
+                if not e.verified:
+                    continue
+                if scene is not None and e.scene != scene and safe_name(scene) != e.directory.name[:-17]:
+                    continue
+                if older_than_days is not None and now - e.built < older_than_days * 86400.0:
+                    continue
+                if self._try_remove(rfd, real, e.directory.name, key):
+                    removed.append(e)
+            if scene is None and older_than_days is None:
+                for name in os.listdir(rfd):
+                    m = re.match(r"^\.(?:tmp|trash)-(.+-[0-9a-f]{16})-", name)
+                    if m:
+                        self._try_remove(rfd, real, m[1], key, leftover=name)
         return removed
 
-    def _try_remove(self, entry: BuildEntry) -> bool:
-        """Remove ``entry.directory`` if its build lock is free; False if in use."""
+    def _try_remove(self, rfd: int, real: Path, name: str, key: bytes, leftover: str | None = None) -> bool:
+        """Remove the build ``name`` (or its ``leftover`` folder) if its build lock is free."""
         try:
-            fd = os.open(entry.lock, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
-        except OSError:
+            with locked_file(rfd, f".{name}.lock", self.root, blocking=False) as held:
+                if not held:
+                    return False  # a build of it is being made right now
+                if leftover is not None:
+                    return self._remove_leftover(rfd, leftover, key)
+                trash = self._temp_dir(real, f".trash-{name}-", key)
+                os.rename(name, f"{trash}/old", src_dir_fd=rfd, dst_dir_fd=rfd)
+                shutil.rmtree(trash, dir_fd=rfd, ignore_errors=True)
+                return True
+        except (OSError, CompileError):
             return False
-        held = False
-        try:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                return False  # a build of it is being made right now
-            st, cur = os.fstat(fd), os.stat(entry.lock)
-            held = (cur.st_dev, cur.st_ino) == (st.st_dev, st.st_ino)
-            if not held:
-                return False
-            trash = Path(tempfile.mkdtemp(prefix=f".trash-{entry.name}-", dir=self.root))
-            os.rename(entry.directory, trash / "old")
-            shutil.rmtree(trash, ignore_errors=True)
-            return True
-        except OSError:
-            return False
-        finally:
-            if held:
-                try:
-                    os.unlink(entry.lock)
-                except OSError:
-                    pass
-            os.close(fd)

@@ -29,6 +29,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gearsym.engine.errors import EngineABIError, EngineBuildError, SundialsNotFoundError
+from gearsym.engine.trust import (
+    locked_file,
+    open_secure_directory,
+    read_file_at,
+    sign,
+    signing_key,
+    user_cache_dir,
+    verify,
+)
 
 __all__ = [
     "CFLAGS",
@@ -313,11 +322,14 @@ def driver_cache_dir(fallback: str | os.PathLike[str]) -> Path:
     """Where driver objects are kept: ``$GEARSYM_DRIVER_CACHE``, else
     ``$XDG_CACHE_HOME/gearsym/driver`` (``~/.cache/gearsym/driver``), shared by every build
     root of the user (objects are named by content hash); ``fallback`` if that folder
-    cannot be created."""
+    cannot be created.  :func:`driver_object` checks the folder (no other user can change
+    it) and verifies what it finds there."""
     env = os.environ.get("GEARSYM_DRIVER_CACHE")
-    base = Path(env) if env else Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "gearsym" / "driver"
+    if env:
+        return Path(env)
+    base = user_cache_dir() / "driver"
     try:
-        base.mkdir(parents=True, exist_ok=True)
+        base.mkdir(mode=0o700, parents=True, exist_ok=True)
         if os.access(base, os.W_OK):
             return base
     except OSError:
@@ -325,7 +337,36 @@ def driver_cache_dir(fallback: str | os.PathLike[str]) -> Path:
     return Path(fallback)
 
 
-def driver_object(folder: str | os.PathLike[str], cc: str | None = None) -> Path:
+#: Largest driver object read from the driver cache.
+_DRIVER_LIMIT = 256 << 20
+_DRIVER_TAG = "gearsym driver v1"
+
+
+def _driver_verified(dir_fd: int, name: str) -> bool:
+    """Whether the driver object ``name`` in ``dir_fd`` is an ELF relocatable object signed by
+    this user's gearsym (its ``.sig`` holds the HMAC of its name and SHA-256)."""
+    data = read_file_at(dir_fd, name, _DRIVER_LIMIT)
+    sig = read_file_at(dir_fd, name + ".sig", 256)
+    if data is None or sig is None or not _is_elf_relocatable_bytes(data):
+        return False
+    return verify(signing_key(create=False), sig.decode("ascii", "replace"), _DRIVER_TAG, name,
+                  hashlib.sha256(data).hexdigest())
+
+
+def _install_driver(dir_fd: int, tmpdir: str, name: str, key: bytes) -> None:
+    """Sign the new driver object ``<tmpdir>/driver.o`` and move it (then its signature) into place."""
+    obj = os.path.join(tmpdir, "driver.o")
+    os.chmod(obj, 0o644)
+    with open(obj, "rb") as f:
+        digest = hashlib.sha256(f.read()).hexdigest()
+    sig = os.path.join(tmpdir, "driver.sig")
+    with open(sig, "x", encoding="ascii") as f:
+        f.write(sign(key, _DRIVER_TAG, name, digest))
+    os.replace(obj, name, dst_dir_fd=dir_fd)
+    os.replace(sig, name + ".sig", dst_dir_fd=dir_fd)
+
+
+def driver_object(folder: str | os.PathLike[str], cc: str | None = None, *, force: bool = False) -> Path:
     """The driver compiled to one position-independent object, once per driver version.
 
     The driver (:data:`DRIVER_C_FILES`, about 2,800 lines) compiled into every model cost
@@ -337,12 +378,19 @@ def driver_object(folder: str | os.PathLike[str], cc: str | None = None) -> Path
     share have hidden visibility (``gs_internal.h``): a model's shared object exports only
     the entry points of ``gs_driver.h``.
 
+    Like a model build, the object is signed with the user's key (``<object>.sig``) and
+    used only if it verifies (an ELF relocatable object with the signed SHA-256, in a
+    folder no other user can change, read without following links); a damaged,
+    truncated, planted or unsigned object is rebuilt.
+
     Parameters
     ----------
     folder
-        Where driver objects are kept (the build cache's ``.driver/``).
+        Where driver objects are kept (:func:`driver_cache_dir`).
     cc
         Compiler (default: ``$CC`` or ``gcc``).
+    force
+        Rebuild it even if it verifies (``gearsym compile --force``).
 
     Returns
     -------
@@ -353,35 +401,33 @@ def driver_object(folder: str | os.PathLike[str], cc: str | None = None) -> Path
     ------
     EngineBuildError
         If the compiler or the relocatable link fails.
+    UntrustedCacheError
+        If the folder, its lock file or the signing key is not safe to use.
     """
-    import fcntl
-
     cc = resolve_compiler(cc)
     tc = toolchain_identity(cc)
     h = hashlib.sha256(json.dumps([tc["driver"], tc["compiler"], tc["compiler_version"],
                                    list(DRIVER_CFLAGS)]).encode())
-    folder = Path(folder)
-    obj = folder / f"gs_driver-{h.hexdigest()[:16]}.o"
-    if obj.is_file():
-        return obj
-    folder.mkdir(parents=True, exist_ok=True)
-    lock = folder / f".{obj.name}.lock"
-    with open(lock, "a+") as lk:
-        fcntl.flock(lk.fileno(), fcntl.LOCK_EX)
-        try:
-            if obj.is_file():  # made by another process while we waited
-                return obj
-            with tempfile.TemporaryDirectory(prefix=f".{obj.name}.", dir=folder) as td:
+    name = f"gs_driver-{h.hexdigest()[:16]}.o"
+    key = signing_key()
+    dir_fd, real = open_secure_directory(folder, create=True, what="driver cache")
+    try:
+        if not force and _driver_verified(dir_fd, name):
+            return real / name
+        with locked_file(dir_fd, f".{name}.lock", Path(folder)):
+            if not force and _driver_verified(dir_fd, name):  # made by another process while we waited
+                return real / name
+            with tempfile.TemporaryDirectory(prefix=f".{name}.", dir=real) as td:
                 tmp = Path(td) / "driver.o"
                 (Path(td) / "units").mkdir()
                 _compile_driver(cc, Path(td) / "units", tmp)
                 # an ELF relocatable object, never a damaged file, goes in the cache
                 if not _is_elf_relocatable(tmp):
                     raise EngineBuildError(f"the compiler {cc} wrote an invalid ELF object for the driver")
-                os.replace(tmp, obj)
-        finally:
-            fcntl.flock(lk.fileno(), fcntl.LOCK_UN)
-    return obj
+                _install_driver(dir_fd, td, name, key)
+        return real / name
+    finally:
+        os.close(dir_fd)
 
 
 def _run_compiler(cmds: list[list[str]], what: str) -> None:
@@ -414,11 +460,15 @@ def _run_compiler(cmds: list[list[str]], what: str) -> None:
         raise EngineBuildError(f"{what} failed (exit {code}):\n{' '.join(cmd)}\n{err.strip()}")
 
 
-def _is_elf_relocatable(path: Path) -> bool:
-    """Whether ``path`` starts like an ELF relocatable object (e_type ET_REL = 1)."""
-    with open(path, "rb") as f:
-        head = f.read(18)
+def _is_elf_relocatable_bytes(head: bytes) -> bool:
+    """Whether ``head`` starts like an ELF relocatable object (e_type ET_REL = 1)."""
     return head[:4] == b"\x7fELF" and int.from_bytes(head[16:18], "little") == 1
+
+
+def _is_elf_relocatable(path: Path) -> bool:
+    """Whether the file ``path`` starts like an ELF relocatable object."""
+    with open(path, "rb") as f:
+        return _is_elf_relocatable_bytes(f.read(18))
 
 
 def _compile_driver(cc: str, workdir: Path, out: Path) -> None:
