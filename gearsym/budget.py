@@ -1,0 +1,214 @@
+"""Bounded work: the limits of every count a user gives, in one place.
+
+A count typed by a user (``--samples 1000000000``, ``segments=10**6``, a 1e5 x 1e5 map)
+must be refused before any work, with a :class:`~gearsym.errors.ParameterError` (exit 2)
+naming the option and the limit, not end in a ``MemoryError`` after minutes or in an
+hour of computing.  The command line (:mod:`gearsym.cli.checks`, before the scene is
+loaded) and the library (:meth:`gearsym.system.System.simulate`, the orbit solvers,
+:func:`gearsym.continuation`, the maps, :func:`gearsym.analysis.modes.modal_analysis`,
+the options objects and the engine's Newton matrices) take their rules from here:
+
+* :data:`LIMITS`: the range of each count, by the name of its keyword argument;
+* memory of arrays whose size depends on the model as well (the output grid, a dense
+  Newton matrix): :data:`MAX_OUTPUT_VALUES` and :data:`MAX_MATRIX_VALUES` numbers,
+  :func:`check_values` and :func:`check_matrix`;
+* time of an integration: at most ``max_steps`` steps of the largest step allowed
+  (:func:`check_step_budget`).
+
+The limits are ceilings against typos and runaway requests, far above what any shipped
+scene uses (e.g. 32 samples per period for the modes, 5000 branch points).  The module
+imports nothing heavy (``gearsym --version`` stays light).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .errors import ParameterError
+
+__all__ = ["DEFAULT_MAX_STEPS", "LIMITS", "Limit", "MAX_MATRIX_VALUES", "MAX_OUTPUT_VALUES", "check_count",
+           "check_counts", "check_matrix", "check_output_grid", "check_step_budget", "check_values"]
+
+#: Largest output array (points x values): 2**28 doubles = 2 GiB (plots and outputs copy it again).
+MAX_OUTPUT_VALUES = 2 ** 28
+#: Largest dense matrix (entries) a solver builds: a harmonic-balance or multiple-shooting
+#: Jacobian, the engine's Newton matrix of the variational equations: 2**28 doubles = 2 GiB
+#: (and its LU costs about (2**14)**3 = 4e12 operations).
+MAX_MATRIX_VALUES = 2 ** 28
+#: The engine's internal step budget when none is given (``max_steps=0``).
+DEFAULT_MAX_STEPS = 10_000_000
+
+
+@dataclass(frozen=True)
+class Limit:
+    """The range of one count.
+
+    Attributes
+    ----------
+    low, high
+        Smallest and largest value accepted.
+    what
+        What the count is (for messages).
+    """
+
+    low: int
+    high: int
+    what: str
+
+
+#: The range of every count, by the name of its keyword argument (the command line's option
+#: without the dashes, ``-`` as ``_``).
+LIMITS: dict[str, Limit] = {
+    "samples": Limit(1, 100_000, "samples per forcing period of the averages (modes, static equilibrium)"),
+    "aft_samples": Limit(1, 1 << 20, "time samples per period of the harmonic balance"),
+    "harmonics": Limit(0, 4096, "harmonics of the harmonic balance"),
+    "max_harmonics": Limit(1, 4096, "harmonics of the harmonic balance"),
+    "segments": Limit(1, 10_000, "shooting segments"),
+    "max_iter": Limit(0, 100_000, "Newton iterations"),
+    "max_newton": Limit(1, 10_000, "Newton steps per branch point"),
+    "max_points": Limit(2, 1_000_000, "points of a branch"),
+    "stall_points": Limit(2, 1_000_000, "branch points of the stall test"),
+    "n_dense": Limit(2, 1 << 20, "samples per period of each branch point"),
+    "switch": Limit(0, 8, "levels of branch switching (each one can double the branches)"),
+    "map_points": Limit(1, 1_000_000, "points of a map (about 1 kB of memory each)"),
+    "map_axis": Limit(1, 1_000_000, "points of a map axis"),
+    "rows_per_task": Limit(1, 1_000_000, "map rows per task"),
+    "points_per_period": Limit(2, 100_000, "output points per forcing period"),
+    "rounds": Limit(0, 100, "timing rounds"),
+    "workers": Limit(1, 1024, "worker processes"),
+    "max_steps": Limit(1, 2 ** 62, "internal integrator steps"),
+}
+
+
+def check_count(name: str, value: object, *, rule: str | None = None, low: int | None = None) -> None:
+    """Refuse a count outside its range (:data:`LIMITS`).
+
+    Parameters
+    ----------
+    name
+        The option or keyword as the user wrote it (``"--samples"``, ``"samples"``): the
+        message names it.
+    value
+        The count (an integer; a float with an integral value counts as one).  ``None``
+        passes (not given).
+    rule
+        The entry of :data:`LIMITS` (default: ``name`` without leading dashes, ``-`` as ``_``).
+    low
+        Smallest value, instead of the rule's.
+
+    Raises
+    ------
+    ParameterError
+        Not an integer, or outside ``[low, high]``: naming ``name``, the value and the range.
+    """
+    if value is None:
+        return
+    limit = LIMITS[rule or name.lstrip("-").replace("-", "_")]
+    lo = limit.low if low is None else low
+    try:
+        integral = not isinstance(value, (bool, str, bytes)) and float(value) == int(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError, OverflowError):
+        integral = False
+    if not integral:
+        raise ParameterError(f"{name} must be an integer in [{lo}, {limit.high:,}], got {value!r}")
+    v = int(value)  # type: ignore[call-overload]
+    if v < lo or v > limit.high:
+        raise ParameterError(f"{name} must be an integer in [{lo}, {limit.high:,}], got {v}"
+                             + (f" (the limit on {limit.what} keeps memory and work bounded)" if v > limit.high
+                                else ""))
+
+
+def check_counts(**counts: object) -> None:
+    """:func:`check_count` for each keyword (its name is the rule's); ``None`` values pass."""
+    for name, value in counts.items():
+        check_count(name, value)
+
+
+def check_values(n_values: float, what: str, hint: str, limit: int = MAX_OUTPUT_VALUES) -> None:
+    """Refuse an array of more than ``limit`` numbers (8 bytes each) before it is allocated.
+
+    Parameters
+    ----------
+    n_values
+        Numbers the array would hold (a float: products of counts may be huge).
+    what
+        What the array is, with its shape (``"the output grid has 1e12 points x 3 values"``).
+    hint
+        What to change (``"use fewer periods"``).
+    limit
+        The budget (default :data:`MAX_OUTPUT_VALUES`).
+
+    Raises
+    ------
+    ParameterError
+    """
+    if not n_values <= limit:  # (NaN too)
+        raise ParameterError(f"{what} ({n_values * 8 / 2**30:.3g} GiB); the limit is {limit:.3g} values "
+                             f"({limit * 8 / 2**30:g} GiB): {hint}")
+
+
+def check_output_grid(n_points: float, width: int, hint: str) -> None:
+    """Refuse an output grid of ``n_points`` x ``width`` numbers above :data:`MAX_OUTPUT_VALUES`.
+
+    Parameters
+    ----------
+    n_points
+        Output times.
+    width
+        Numbers stored per time (states + 1).
+    hint
+        What to change.
+
+    Raises
+    ------
+    ParameterError
+    """
+    check_values(float(n_points) * width, f"the output grid has {float(n_points):.3g} points x {width} values", hint)
+
+
+def check_matrix(rows: float, cols: float, what: str, hint: str) -> None:
+    """Refuse a dense ``rows`` x ``cols`` matrix above :data:`MAX_MATRIX_VALUES` entries.
+
+    Parameters
+    ----------
+    rows, cols
+        Its shape.
+    what
+        What the matrix is (``"the multiple-shooting Jacobian"``).
+    hint
+        What to change.
+
+    Raises
+    ------
+    ParameterError
+    """
+    n = float(rows) * float(cols)
+    check_values(n, f"{what} would have {float(rows):.6g} x {float(cols):.6g} = {n:.3g} entries", hint,
+                 MAX_MATRIX_VALUES)
+
+
+def check_step_budget(t0: float, t_end: float, max_step: float, max_steps: int, t8: bool = False) -> None:
+    """Refuse, before any work, a horizon that needs more steps of ``max_step`` than the budget.
+
+    Parameters
+    ----------
+    t0, t_end
+        The horizon.
+    max_step
+        The largest internal step (0 or non-finite: unlimited, nothing to check).
+    max_steps
+        The step budget (0: :data:`DEFAULT_MAX_STEPS`).
+    t8
+        ``max_step`` is the default ``T/8`` (said in the message).
+
+    Raises
+    ------
+    ParameterError
+    """
+    budget = max_steps or DEFAULT_MAX_STEPS
+    if max_step and math.isfinite(max_step) and max_step > 0 and (t_end - t0) / max_step > budget:
+        raise ParameterError(
+            f"integrating to t_end = {t_end:g} needs at least {(t_end - t0) / max_step:.3g} steps "
+            f"(largest step {max_step:.3g}{' = T/8' if t8 else ''}), more than "
+            f"max_steps = {budget:d}: raise max_steps (--max-steps) or integrate fewer periods")
