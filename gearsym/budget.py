@@ -27,8 +27,9 @@ from dataclasses import dataclass
 
 from .errors import ParameterError
 
-__all__ = ["DEFAULT_MAX_STEPS", "LIMITS", "Limit", "MAX_MATRIX_VALUES", "MAX_OUTPUT_VALUES", "check_count",
-           "check_counts", "check_matrix", "check_output_grid", "check_step_budget", "check_values"]
+__all__ = ["DEFAULT_MAX_STEPS", "LIMITS", "Limit", "MAX_MATRIX_VALUES", "MAX_OUTPUT_VALUES", "check_amount",
+           "check_branch", "check_count", "check_counts", "check_harmonics", "check_matrix", "check_output_grid",
+           "check_shooting", "check_step_budget", "check_values"]
 
 #: Largest output array (points x values): 2**28 doubles = 2 GiB (plots and outputs copy it again).
 MAX_OUTPUT_VALUES = 2 ** 28
@@ -78,6 +79,9 @@ LIMITS: dict[str, Limit] = {
     "rounds": Limit(0, 100, "timing rounds"),
     "workers": Limit(1, 1024, "worker processes"),
     "max_steps": Limit(1, 2 ** 62, "internal integrator steps"),
+    # amounts (need not be integers)
+    "transient": Limit(0, 1_000_000, "forcing periods integrated before Newton"),
+    "relax_periods": Limit(0, 1_000_000, "forcing periods of relaxation"),
 }
 
 
@@ -111,18 +115,110 @@ def check_count(name: str, value: object, *, rule: str | None = None, low: int |
     except (TypeError, ValueError, OverflowError):
         integral = False
     if not integral:
-        raise ParameterError(f"{name} must be an integer in [{lo}, {limit.high:,}], got {value!r}")
+        raise ParameterError(f"{name} must be an integer in [{lo:,}, {limit.high:,}], got {value!r}")
     v = int(value)  # type: ignore[call-overload]
     if v < lo or v > limit.high:
-        raise ParameterError(f"{name} must be an integer in [{lo}, {limit.high:,}], got {v}"
+        raise ParameterError(f"{name} must be an integer in [{lo:,}, {limit.high:,}], got {v}"
                              + (f" (the limit on {limit.what} keeps memory and work bounded)" if v > limit.high
                                 else ""))
 
 
-def check_counts(**counts: object) -> None:
-    """:func:`check_count` for each keyword (its name is the rule's); ``None`` values pass."""
+def check_counts(rules: dict[str, str] | None = None, /, **counts: object) -> None:
+    """:func:`check_count` for each keyword; ``None`` values pass.
+
+    Parameters
+    ----------
+    rules
+        Keyword -> entry of :data:`LIMITS` where they differ (default: the keyword's own).
+    **counts
+        The counts, by the keyword the user gave them as.
+
+    Raises
+    ------
+    ParameterError
+    """
     for name, value in counts.items():
-        check_count(name, value)
+        check_count(name, value, rule=(rules or {}).get(name))
+
+
+def check_amount(name: str, value: object, *, rule: str | None = None) -> None:
+    """Refuse an amount (a real number, e.g. forcing periods) outside its range (:data:`LIMITS`).
+
+    Parameters
+    ----------
+    name
+        The option or keyword as the user wrote it.
+    value
+        The amount; ``None`` passes (not given).
+    rule
+        The entry of :data:`LIMITS` (default: ``name`` without leading dashes, ``-`` as ``_``).
+
+    Raises
+    ------
+    ParameterError
+        Not a finite number in ``[low, high]``.
+    """
+    if value is None:
+        return
+    limit = LIMITS[rule or name.lstrip("-").replace("-", "_")]
+    try:
+        v = float(value) if not isinstance(value, (bool, str, bytes)) else math.nan  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        v = math.nan
+    if not limit.low <= v <= limit.high:
+        raise ParameterError(f"{name} must be a number in [{limit.low:,}, {limit.high:,}], got {value!r}"
+                             + (f" (the limit on {limit.what} keeps the work bounded)" if v > limit.high else ""))
+
+
+def check_harmonics(name: str, harmonics: object) -> None:
+    """Refuse a number of harmonics, or a set of harmonic numbers, beyond :data:`LIMITS`
+    ``["harmonics"]`` (the time samples of the balance grow with the highest harmonic).
+
+    Parameters
+    ----------
+    name
+        The option or keyword, for messages.
+    harmonics
+        ``None``, a count ``H`` or an iterable of harmonic numbers.
+
+    Raises
+    ------
+    ParameterError
+    """
+    if harmonics is None or isinstance(harmonics, (int, float, str, bytes)) or not hasattr(harmonics, "__iter__"):
+        check_count(name, harmonics, rule="harmonics")
+        return
+    for k in harmonics:  # type: ignore[attr-defined]
+        check_count(f"a harmonic number of {name}", k, rule="harmonics")
+
+
+def check_shooting(segments: int, nx: int) -> None:
+    """The number of shooting segments (:data:`LIMITS`) and the dense multiple-shooting
+    Jacobian, ``(segments * nx)**2`` entries, within :data:`MAX_MATRIX_VALUES`.
+
+    Raises
+    ------
+    ParameterError
+    """
+    check_count("segments", segments)
+    n = float(segments) * nx
+    check_matrix(n, n, f"with {nx} states and {segments} segments, the multiple-shooting Jacobian",
+                 "use fewer segments")
+
+
+def check_branch(max_points: int, nx: int) -> None:
+    """The number of branch points (:data:`LIMITS`) and the memory of a full branch: every point
+    keeps its monodromy (``nx**2`` numbers) and a summary (about 1 kB), within
+    :data:`MAX_OUTPUT_VALUES` numbers.
+
+    Raises
+    ------
+    ParameterError
+    """
+    check_count("max_points", max_points)
+    check_values(float(max_points) * (nx * nx + 128),
+                 f"a branch of up to {int(max_points):,} points, each with its {nx} x {nx} monodromy, would hold "
+                 f"{float(max_points) * (nx * nx + 128):.3g} numbers", "use a smaller max_points")
 
 
 def check_values(n_values: float, what: str, hint: str, limit: int = MAX_OUTPUT_VALUES) -> None:
