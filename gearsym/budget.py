@@ -79,6 +79,8 @@ LIMITS: dict[str, Limit] = {
     "rounds": Limit(0, 100, "timing rounds"),
     "workers": Limit(1, 1024, "worker processes"),
     "max_steps": Limit(1, 2 ** 62, "internal integrator steps"),
+    "max_events": Limit(0, 2 ** 62, "events of one integration"),
+    "storm_events": Limit(0, 2 ** 31 - 1, "events of an event storm"),
     # amounts (need not be integers)
     "transient": Limit(0, 1_000_000, "forcing periods integrated before Newton"),
     "relax_periods": Limit(0, 1_000_000, "forcing periods of relaxation"),

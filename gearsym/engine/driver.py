@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from gearsym.budget import check_matrix
+from gearsym.budget import check_count, check_counts, check_matrix
 from gearsym.engine import interrupt as _interrupt
 from gearsym.engine.errors import EngineABIError, EngineInputError, error_for_status
 from gearsym.engine.sim_args import GsCorrectArgs, GsIsolation, GsMultipliers, GsShootArgs, GsSimArgs
@@ -369,7 +369,11 @@ class Engine:
         EngineError
             A subclass per failure (:class:`~gearsym.engine.errors.TooMuchWorkError`,
             :class:`~gearsym.engine.errors.NonFiniteError`, ...), with the
-            driver's message.
+            driver's message; :class:`~gearsym.engine.errors.EngineInputError` for
+            sizes that do not fit SUNDIALS' 32-bit index or the matrix budget
+            (:func:`check_solver_size`).
+        ParameterError
+            ``max_steps``, ``max_events`` or ``storm_events`` beyond :data:`gearsym.budget.LIMITS`.
         KeyboardInterrupt
             On Ctrl-C (SIGINT) during the integration, within a few thousand
             right-hand side evaluations (calls from the main thread; see
@@ -377,6 +381,9 @@ class Engine:
         """
         if method not in METHODS:
             raise EngineInputError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
+        # (the C fields are long / int: a larger value would be truncated silently by ctypes)
+        check_count("max_steps", max_steps, low=0)
+        check_counts(max_events=max_events, storm_events=storm_events)
         if nonlinear not in NONLINEAR:
             raise EngineInputError(f"unknown nonlinear solver {nonlinear!r}; use one of {sorted(NONLINEAR)}")
         if linear_solver not in LINEAR_SOLVERS:
