@@ -23,13 +23,14 @@ imports nothing heavy (``gearsym --version`` stays light).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from .errors import ParameterError
 
 __all__ = ["DEFAULT_MAX_STEPS", "LIMITS", "Limit", "MAX_MATRIX_VALUES", "MAX_OUTPUT_VALUES", "check_amount",
-           "check_branch", "check_count", "check_counts", "check_harmonics", "check_matrix", "check_output_grid",
-           "check_shooting", "check_step_budget", "check_values"]
+           "check_branch", "check_count", "check_counts", "check_harmonics", "check_matrix", "check_orbit_options",
+           "check_output_grid", "check_shooting", "check_step_budget", "check_values"]
 
 #: Largest output array (points x values): 2**28 doubles = 2 GiB (plots and outputs copy it again).
 MAX_OUTPUT_VALUES = 2 ** 28
@@ -192,6 +193,28 @@ def check_harmonics(name: str, harmonics: object) -> None:
         return
     for k in harmonics:  # type: ignore[attr-defined]
         check_count(f"a harmonic number of {name}", k, rule="harmonics")
+
+
+def check_orbit_options(options: Mapping[str, object] | None) -> None:
+    """The counts among the keyword options of a periodic-orbit solver (shooting or harmonic
+    balance), for a caller that passes them on to many solves (a map): refused once, up front.
+
+    Parameters
+    ----------
+    options
+        Keyword options (``segments``, ``max_iter``, ``harmonics``, ``max_harmonics``,
+        ``samples``, ``max_samples``, ``transient``, ``relax_periods``; others are not looked at).
+
+    Raises
+    ------
+    ParameterError
+    """
+    opts = dict(options or {})
+    check_harmonics("harmonics", opts.get("harmonics"))
+    check_counts({"samples": "aft_samples", "max_samples": "aft_samples"},
+                 **{k: opts[k] for k in ("segments", "max_iter", "max_harmonics", "samples", "max_samples") if k in opts})
+    for k in ("transient", "relax_periods"):
+        check_amount(k, opts.get(k))
 
 
 def check_shooting(segments: int, nx: int) -> None:

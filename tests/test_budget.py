@@ -127,6 +127,11 @@ def test_map_axes_and_workers():
     scene = gearsym.load_scene(KS_SCENE)  # refused before it is compiled
     with pytest.raises(ParameterError, match=r"^x N must be an integer in \[1, 1,000,000\], got 10{12}"):
         stability_map(scene, ("Omega", 0.5, 1.0, 10 ** 12), ("zeta", 0.02, 0.05, 1))
+    # options passed to every point's solver: refused once, before the scene is compiled (the old
+    # code failed every point with the same message and returned a map of failed points)
+    with pytest.raises(ParameterError, match=r"^segments must be an integer in \[1, 10,000\], got 1000000"):
+        stability_map(scene, ("Omega", 0.5, 1.0, 2), ("zeta", 0.02, 0.05, 1), method="shooting",
+                      orbit_options={"segments": 10 ** 6})
     # (the unknown quantity: the old code refused it before it started 10**6 processes)
     with pytest.raises(ParameterError, match=r"^workers must be an integer in \[1, 1,024\], got 1000000"):
         stability_map(scene, ("Omega", 0.5, 1.0, 2), ("zeta", 0.02, 0.05, 2), "bogus", workers=10 ** 6)

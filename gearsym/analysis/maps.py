@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..budget import LIMITS, check_count, check_counts
+from ..budget import LIMITS, check_count, check_counts, check_orbit_options
 from ..errors import GearsymError, ParameterError
 from .periodic import ORBIT_METHODS
 
@@ -260,6 +260,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     from ..facade import Scene
 
     check_counts(workers=workers, rows_per_task=rows_per_task)  # bounded work (gearsym.budget)
+    check_orbit_options(orbit_options)  # once here, not as a failure at every point
     if quantity not in QUANTITIES:
         raise ParameterError(f"quantity must be one of {', '.join(QUANTITIES)}, got '{quantity}'")
     if method not in MAP_METHODS:
