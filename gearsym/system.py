@@ -12,6 +12,8 @@ from typing import Any
 import numpy as np
 
 from .bound_functions import evaluate as evaluate_bound
+from .budget import DEFAULT_MAX_STEPS, MAX_OUTPUT_VALUES, check_output_grid  # noqa: F401 (the constants: re-exported)
+from .budget import check_step_budget as _check_step_budget
 from .codegen.artifact import GeneratedModel
 from .engine.driver import Engine, load_engine
 from .errors import GearsymError, ParameterError
@@ -22,11 +24,7 @@ from .spec.units import ParameterUnits
 
 _METHODS = ("bdf", "adams", "ida")
 
-#: Largest output grid :meth:`System.simulate` accepts, in stored numbers (points x (states + 1)):
-#: 2**28 doubles = 2 GiB for the trajectory alone (plots and outputs copy it again).
-MAX_OUTPUT_VALUES = 2 ** 28
-#: The engine's internal step budget when none is given (``max_steps=0``).
-DEFAULT_MAX_STEPS = 10_000_000
+# the largest output grid (points x (states + 1)) and the step budget: gearsym.budget
 
 
 class System(Evaluations, SensitivityMethods):
@@ -466,13 +464,8 @@ class System(Evaluations, SensitivityMethods):
                 else:
                     n_out = 1001
             n_points = max(int(n_out), 2)
-        n_values = float(n_points) * (self.generated.nx + 1)
-        if n_values > MAX_OUTPUT_VALUES:
-            raise ParameterError(
-                f"the output grid has {float(n_points):.3g} points x {self.generated.nx + 1} values "
-                f"({n_values * 8 / 2**30:.3g} GiB); the limit is {MAX_OUTPUT_VALUES:.3g} values "
-                f"({MAX_OUTPUT_VALUES * 8 / 2**30:g} GiB): use fewer periods, a smaller points_per_period "
-                f"or n_out / t_out")
+        check_output_grid(n_points, self.generated.nx + 1,
+                          "use fewer periods, a smaller points_per_period or n_out / t_out")
         if grid is None:
             grid = np.linspace(t0, t_end, n_points)
             grid[-1] = t_end
@@ -582,6 +575,7 @@ class System(Evaluations, SensitivityMethods):
         if max_step is None:
             T = self.engine.period(pv)
             max_step = T / 8 if math.isfinite(T) and T > 0 else 0.0
+        check_output_grid(n_samples, self.generated.nx, "use fewer n_samples")
         grid = np.linspace(t0, t1, max(int(n_samples), 2))
         grid[-1] = t1
         max_steps = max_steps or int(self.defaults.get("max_steps", 0))
@@ -658,12 +652,3 @@ class System(Evaluations, SensitivityMethods):
         return periodic_orbit(self, period=period, periods=periods, x0=x0, method=method, params=params,
                               **options)
 
-
-def _check_step_budget(t0: float, t_end: float, max_step: float, max_steps: int, t8: bool) -> None:
-    """Refuse, before any work, a horizon that needs more steps of ``max_step`` than the budget."""
-    budget = max_steps or DEFAULT_MAX_STEPS
-    if max_step and math.isfinite(max_step) and max_step > 0 and (t_end - t0) / max_step > budget:
-        raise ParameterError(
-            f"integrating to t_end = {t_end:g} needs at least {(t_end - t0) / max_step:.3g} steps "
-            f"(largest step {max_step:.3g}{' = T/8' if t8 else ''}), more than "
-            f"max_steps = {budget:d}: raise max_steps (--max-steps) or integrate fewer periods")

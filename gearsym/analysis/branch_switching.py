@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..budget import check_counts
 from ..errors import ConvergenceError, GearsymError, ParameterError
 from .arclength import period_defect, run
 from .branch import Bifurcation, Branch
@@ -50,6 +51,7 @@ def switch_period_doubling(branch: Branch, bifurcation: Bifurcation | int | None
     Branch
         With ``periods`` twice the parent's; appended to ``branch.children``.
     """
+    check_counts(**{k: v for k, v in options.items() if k in ("max_points", "max_newton", "n_dense", "stall_points")})
     if bifurcation is None:
         pds = branch.of_type("period_doubling")
         if not pds:

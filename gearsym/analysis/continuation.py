@@ -67,6 +67,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..budget import check_branch, check_harmonics, check_shooting
 from ..errors import GearsymError, ParameterError
 from .arclength import formatter, run
 from .branch import Branch
@@ -230,6 +231,9 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     rtol, atol, max_newton, detect, locate, state = o.rtol, o.atol, o.max_newton, o.detect, o.locate, o.state
     n_dense, switch, progress, transient, state_weight = o.n_dense, o.switch, o.progress, o.transient, o.state_weight
     stall_points, stall_tol, display = o.stall_points, o.stall_tol, o.display
+    check_branch(max_points, system.generated.nx)  # bounded memory and work (gearsym.budget)
+    check_shooting(segments, system.generated.nx)
+    check_harmonics("harmonics", harmonics)
     if param not in system.params:
         raise ParameterError(f"'{param}' is not a run-time parameter of this system (have: "
                              f"{', '.join(system.params) or 'none'})")

@@ -48,6 +48,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..budget import MAX_MATRIX_VALUES, check_amount, check_counts, check_harmonics
 from ..errors import ParameterError
 from .orbit import PeriodicOrbit
 
@@ -56,8 +57,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["HarmonicBalance", "harmonic_balance"]
 
-#: Largest harmonic-balance Jacobian (entries): 2**28 doubles = 2 GiB.
-MAX_JACOBIAN_VALUES = 2 ** 28
+#: Largest harmonic-balance Jacobian (entries): the matrix budget of :mod:`gearsym.budget`.
+MAX_JACOBIAN_VALUES = MAX_MATRIX_VALUES
 
 
 class HarmonicBalance:
@@ -509,6 +510,10 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
     """
     from .hbm_driver import run
 
+    check_harmonics("harmonics", harmonics)  # bounded work (gearsym.budget), before any allocation
+    check_counts({"samples": "aft_samples", "max_samples": "aft_samples"}, max_harmonics=max_harmonics,
+                 samples=samples, max_samples=max_samples, max_iter=max_iter)
+    check_amount("transient", transient)
     return run(HarmonicBalance, system, period, periods, x0, params, harmonics=harmonics,
                max_harmonics=max_harmonics, harmonics_tol=harmonics_tol, samples=samples, t0=t0, tol=tol,
                max_iter=max_iter, guess=guess, monodromy=monodromy, rtol=rtol, atol=atol,

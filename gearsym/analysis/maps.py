@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..budget import LIMITS, check_count, check_counts, check_orbit_options
 from ..errors import GearsymError, ParameterError
 from .periodic import ORBIT_METHODS
 
@@ -64,7 +65,7 @@ QUANTITIES: dict[str, str] = {
 }
 
 #: Largest map (grid points): every point keeps its orbit summary, about 1 kB.
-MAX_POINTS = 1_000_000
+MAX_POINTS = LIMITS["map_points"].high
 
 #: Smallest relative error assigned to an exact (matrix-exponential) monodromy in the stability
 #: rule; the estimate is :meth:`~gearsym.analysis.floquet.PiecewiseLTV.rounding_error`.
@@ -203,6 +204,7 @@ def _axis(spec: Sequence[Any], what: str) -> tuple[str, np.ndarray]:
     if len(spec) != 4:
         raise ParameterError(f"{what} must be (NAME, LO, HI, N), got {spec!r}")
     name, lo, hi, n = spec
+    check_count(f"{what} N", n, rule="map_axis")  # before np.linspace allocates
     n = int(n)
     lo, hi = float(lo), float(hi)
     if n < 1 or not (math.isfinite(lo) and math.isfinite(hi)):
@@ -257,6 +259,8 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
 
     from ..facade import Scene
 
+    check_counts(workers=workers, rows_per_task=rows_per_task)  # bounded work (gearsym.budget)
+    check_orbit_options(orbit_options)  # once here, not as a failure at every point
     if quantity not in QUANTITIES:
         raise ParameterError(f"quantity must be one of {', '.join(QUANTITIES)}, got '{quantity}'")
     if method not in MAP_METHODS:

@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import scipy.linalg as sla
 
+from ..budget import check_count
 from ..errors import ConvergenceError, ParameterError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -200,6 +201,7 @@ class ModalAnalysis:
 # ------------------------------------------------------------------------ evaluation
 def _sample_times(system: System, params: Mapping[str, float] | None, samples: int, t0: float
                   ) -> tuple[np.ndarray, float | None]:
+    check_count("samples", samples)  # before the samples are allocated (gearsym.budget)
     T = system.period(params)
     if not T:
         return np.array([t0]), None
@@ -431,6 +433,7 @@ def modal_analysis(system: System, params: Mapping[str, float] | None = None, *,
     ConvergenceError
         No static equilibrium.
     """
+    check_count("samples", samples)
     if samples < 1 or not (0 < cluster_tol < 1):
         raise ParameterError("need samples >= 1 and 0 < cluster_tol < 1")
     q, eq_info = static_equilibrium(system, params, x0=x0, samples=samples, t0=t0)

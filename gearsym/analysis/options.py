@@ -15,6 +15,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from ..budget import check_amount, check_counts
 from ..errors import ParameterError
 
 __all__ = ["ContinuationOptions", "ShootingOptions", "resolve_options"]
@@ -62,6 +63,11 @@ class ShootingOptions:
     method: str | None = None
     relax_periods: float = 200
     trivial: np.ndarray | None = None
+
+    def __post_init__(self) -> None:  # bounded work (gearsym.budget), also for keyword overrides
+        check_counts(segments=self.segments, max_iter=self.max_iter)
+        check_amount("transient", self.transient)
+        check_amount("relax_periods", self.relax_periods)
 
 
 @dataclass(frozen=True)
@@ -128,6 +134,11 @@ class ContinuationOptions:
     stall_points: int = 50
     stall_tol: float = 1e-5
     display: tuple[float, str] | None = None
+
+    def __post_init__(self) -> None:  # bounded work (gearsym.budget), also for keyword overrides
+        check_counts(max_points=self.max_points, max_newton=self.max_newton, n_dense=self.n_dense,
+                     switch=self.switch, stall_points=self.stall_points)
+        check_amount("transient", self.transient)
 
 
 T = TypeVar("T", ShootingOptions, ContinuationOptions)

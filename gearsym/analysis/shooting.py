@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..budget import check_shooting
 from ..engine.driver import METHODS
 from ..engine.shoot import MAX_STATES, shoot_in_c
 from ..errors import ConvergenceError, GearsymError, ParameterError
@@ -191,6 +192,7 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     if segments < 1:
         raise ParameterError(f"segments must be >= 1, got {segments}")
     nx = system.generated.nx
+    check_shooting(segments, nx)  # the (segments nx)^2 Jacobian within the budget (gearsym.budget)
 
     # ---------------------------------------------------------------- initial guess
     guess = system.x0 if x0 is None else np.asarray(x0, float)

@@ -6,8 +6,8 @@ the value) before the scene is loaded or compiled.  The limits keep a typo from
 turning into a late ``MemoryError`` or an hour of computing:
 
 * tolerances in ``(0, 1)`` (``--rtol`` at least 1e-15, what double precision delivers);
-* counts within :data:`LIMITS` (e.g. at most 1,000,000 points in a map: each point
-  keeps its orbit summary, about 1 kB);
+* counts within :data:`gearsym.budget.LIMITS`, the rules the library applies too (e.g. at
+  most 1,000,000 points in a map: each point keeps its orbit summary, about 1 kB);
 * ``--out`` a folder that exists and is writable, or can be created (checked
   without leaving anything behind).
 
@@ -23,6 +23,7 @@ import argparse
 import math
 import re
 
+from ..budget import LIMITS, check_count
 from ..errors import ParameterError
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
@@ -33,18 +34,7 @@ __all__ = ["LIMITS", "UsageError", "GearsymArgumentParser", "check_bench", "chec
            "check_orbit", "check_simulate", "emit", "float_list", "load", "parse_effects", "parse_set", "scene_args",
            "state_list", "unit_suffix"]
 
-#: Upper limits of counts on the command line.
-LIMITS: dict[str, int] = {
-    "segments": 10_000,
-    "harmonics": 4096,
-    "max_points": 1_000_000,
-    "switch": 8,
-    "map_points": 1_000_000,
-    "points_per_period": 100_000,
-    "rounds": 100,
-    "workers": 1024,
-    "max_steps": 2 ** 62,
-}
+# the limits of counts (LIMITS, check_count): gearsym.budget, shared with the library
 
 
 class UsageError(ParameterError):
@@ -88,12 +78,7 @@ def _nonnegative(flag: str, v: float | None) -> None:
 
 
 def _count(flag: str, v: int | None, lo: int, key: str | None = None) -> None:
-    if v is None:
-        return
-    hi = LIMITS.get(key or flag.lstrip("-").replace("-", "_"))
-    if v < lo or (hi is not None and v > hi):
-        raise ParameterError(f"{flag} must be an integer in [{lo}, {hi if hi is not None else 'inf'}], got {v}"
-                             + (" (the limit keeps memory and work bounded)" if hi is not None and v > hi else ""))
+    check_count(flag, v, rule=key, low=lo)
 
 
 def float_list(text: str, flag: str) -> list[float]:
@@ -192,9 +177,9 @@ def check_map(args: argparse.Namespace) -> tuple[tuple[str, float, float, int], 
     --out.  Returns the parsed axes."""
     xa, ya = axis(args.x, "--x"), axis(args.y, "--y")
     n = xa[3] * ya[3]
-    if n > LIMITS["map_points"]:
+    if n > LIMITS["map_points"].high:
         raise ParameterError(f"--x/--y: a map of {xa[3]} x {ya[3]} = {n:.3g} points is above the limit of "
-                             f"{LIMITS['map_points']:,} points (about 1 kB of memory each); use coarser "
+                             f"{LIMITS['map_points'].high:,} points (about 1 kB of memory each); use coarser "
                              f"axes or several maps")
     _positive("--periods", args.periods, "periods")
     _count("--harmonics", args.harmonics, 0)

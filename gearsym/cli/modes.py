@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..errors import ParameterError
+from ..budget import check_count
 from .checks import emit, load
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
@@ -19,8 +19,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
     from ..analysis.modes import modal_analysis
     from ..analysis.planetary import classify_planetary
 
-    if args.samples < 1:
-        raise ParameterError(f"--samples must be >= 1, got {args.samples}")
+    check_count("--samples", args.samples)  # before any work (memory and time grow with it)
     scene = load(args)
     res = classify_planetary(modal_analysis(scene.compile(), samples=args.samples))
     if args.json:

@@ -17,15 +17,20 @@ from typing import Any
 
 import numpy as np
 
+from gearsym.budget import check_count, check_counts, check_matrix
 from gearsym.engine import interrupt as _interrupt
 from gearsym.engine.errors import EngineABIError, EngineInputError, error_for_status
-from gearsym.engine.sim_args import GsCorrectArgs, GsShootArgs, GsSimArgs
+from gearsym.engine.sim_args import GsCorrectArgs, GsIsolation, GsMultipliers, GsShootArgs, GsSimArgs
+from gearsym.errors import ParameterError
 
 __all__ = ["EVAL_FUNCTIONS", "Engine", "GsSimArgs", "LINEAR_SOLVERS", "METHODS", "NONLINEAR", "RunResult",
-           "load_engine"]
+           "c_layout", "check_mirrors", "check_solver_size", "load_engine", "mirror_layout"]
 
 #: Status of a run stopped by SIGINT (gs_driver.h).
 GS_ERR_INTERRUPTED = -8
+#: Largest ``sunindextype`` of the SUNDIALS libraries the driver links (32-bit; checked at load
+#: by ``gs_check_abi``): the most components of a solver vector and entries of a dense matrix.
+INDEX_MAX = 2 ** 31 - 1
 
 #: Integration methods: name -> GS_METHOD_* code.
 METHODS: dict[str, int] = {"bdf": 0, "adams": 1, "ida": 2}
@@ -364,7 +369,11 @@ class Engine:
         EngineError
             A subclass per failure (:class:`~gearsym.engine.errors.TooMuchWorkError`,
             :class:`~gearsym.engine.errors.NonFiniteError`, ...), with the
-            driver's message.
+            driver's message; :class:`~gearsym.engine.errors.EngineInputError` for
+            sizes that do not fit SUNDIALS' 32-bit index or the matrix budget
+            (:func:`check_solver_size`).
+        ParameterError
+            ``max_steps``, ``max_events`` or ``storm_events`` beyond :data:`gearsym.budget.LIMITS`.
         KeyboardInterrupt
             On Ctrl-C (SIGINT) during the integration, within a few thousand
             right-hand side evaluations (calls from the main thread; see
@@ -372,6 +381,9 @@ class Engine:
         """
         if method not in METHODS:
             raise EngineInputError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
+        # (the C fields are long / int: a larger value would be truncated silently by ctypes)
+        check_count("max_steps", max_steps, low=0)
+        check_counts(max_events=max_events, storm_events=storm_events)
         if nonlinear not in NONLINEAR:
             raise EngineInputError(f"unknown nonlinear solver {nonlinear!r}; use one of {sorted(NONLINEAR)}")
         if linear_solver not in LINEAR_SOLVERS:
@@ -463,7 +475,10 @@ class Engine:
     ) -> tuple[GsSimArgs, dict[str, Any]]:
         """The argument struct of one run and the numpy buffers it points at."""
         nx, nsw = self.nx, self.nsw
+        check_solver_size(nx, nx - self.nalg, mono, sens[1] if sens is not None else 0, nonlin, linsol)
         n_out = int(tout.shape[0])
+        if n_out > INDEX_MAX:  # (the C field is an int)
+            raise EngineInputError(f"{n_out:,} output times: the driver takes at most {INDEX_MAX:,}")
         # the driver writes every entry before it returns success (and a failure raises)
         buf: dict[str, Any] = {
             "x0": x0, "p": p, "tout": tout, "sig": sig, "av": av,
@@ -561,6 +576,57 @@ class Engine:
         )
 
 
+def check_solver_size(nx: int, nd: int, monodromy: bool, n_sens: int = 0, nonlinear: int = 0,
+                      linear_solver: int = 0) -> None:
+    """Refuse, before the driver allocates anything, a run whose solver sizes do not fit
+    SUNDIALS' 32-bit index or the memory budget of a dense matrix.
+
+    The solver state has ``nA = nx * (1 + nvc)`` components, ``nvc = nd * monodromy + n_sens``
+    variational columns; Newton's matrix is ``nA x nA`` (dense) or ``nA x nx``
+    (block-diagonal, the default with variational columns), none for the fixed-point
+    iteration.  The driver checks the index limit again (``solver_sizes`` in gs_driver.c).
+
+    Parameters
+    ----------
+    nx, nd
+        States and differential states of the model.
+    monodromy
+        The variational equations of the state are integrated.
+    n_sens
+        Parameter sensitivity directions.
+    nonlinear, linear_solver
+        The solver codes (:data:`NONLINEAR`, :data:`LINEAR_SOLVERS`).
+
+    Raises
+    ------
+    EngineInputError
+        (A :class:`~gearsym.errors.ParameterError`.)  Naming the number of states and what to
+        change.
+    """
+    nvc = (nd if monodromy else 0) + max(int(n_sens), 0)
+    nA = nx * (1 + nvc)
+    what = (f"{nx} states with {nvc} variational columns ({nd if monodromy else 0} of the monodromy, "
+            f"{max(int(n_sens), 0)} sensitivity directions)")
+    if nA > INDEX_MAX:
+        raise EngineInputError(f"{what}: the solver state of nx*(1 + nvc) = {nA:,} components is above the "
+                               f"{INDEX_MAX:,} that SUNDIALS' 32-bit index holds: drop the monodromy or integrate "
+                               "fewer sensitivity directions at once")
+    if nonlinear == NONLINEAR["fixedpoint"]:
+        return
+    dense = nvc == 0 or linear_solver == LINEAR_SOLVERS["dense"]
+    cols = nA if dense else nx
+    change = ("use the block-diagonal linear solver (linear_solver='blockdiag', the default 'auto' with the "
+              "monodromy)" if dense and nvc else "use the fixed-point iteration (nonlinear='fixedpoint')")
+    if nA * cols > INDEX_MAX:
+        raise EngineInputError(f"{what}: Newton's {'dense' if dense else 'block-diagonal'} matrix of {nA:,} x "
+                               f"{cols:,} = {nA * cols:.3g} entries is above the {INDEX_MAX:,} that SUNDIALS' 32-bit "
+                               f"index addresses: {change}")
+    try:
+        check_matrix(nA, cols, f"{what}: Newton's {'dense' if dense else 'block-diagonal'} matrix", change)
+    except ParameterError as exc:
+        raise EngineInputError(str(exc)) from None
+
+
 def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
                 build_key: str | None = None) -> Engine:
     """Load a model + driver shared object and check it and the SUNDIALS runtime.
@@ -590,8 +656,9 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
     ------
     EngineABIError
         If the object is missing, does not match ``sha256`` or ``build_key``,
-        cannot be loaded, its ``gs_sim_args`` layout differs from the ctypes
-        mirror, or the SUNDIALS runtime is not version >= 7 with 32-bit indices.
+        cannot be loaded, the layout of an argument struct (``gs_sim_args``, ...) differs
+        from its ctypes mirror in size or in any field's offset, size or kind, or the
+        SUNDIALS runtime is not version >= 7 with 32-bit indices.
     """
     from gearsym.engine.build import file_sha256, preload_sundials
 
@@ -664,7 +731,113 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
                 f"{path}: sizeof({struct}) is {size_c} in C but {C.sizeof(mirror)} in the ctypes "
                 "mirror (gearsym/engine/sim_args.py out of sync with gs_driver.h)"
             )
+    check_mirrors(c_layout(lib, path), path)
     buf = C.create_string_buffer(256)
     if lib.gs_check_abi(buf, 256) != 0:
         raise EngineABIError(f"{path}: SUNDIALS runtime check failed: {buf.value.decode(errors='replace')}")
     return Engine(lib, path, buf.value.decode())
+
+
+#: A field of a C struct: (name, offset, size, kind), kind as ``gs_abi_field`` gives it
+#: ('d' double, 'i' int, 'l' long, 'p' pointer, 'a' char array, 's' struct).
+Field = tuple[str, int, int, str]
+
+
+def c_layout(lib: C.CDLL, path: Path | str = "") -> dict[str, list[Field]]:
+    """The driver's argument structs, field by field, from its ``gs_abi_field`` table.
+
+    Parameters
+    ----------
+    lib
+        The loaded model + driver shared object.
+    path
+        Its path, for messages.
+
+    Returns
+    -------
+    dict
+        Struct name (``"gs_sim_args"``, ...) -> its fields in declaration order.
+
+    Raises
+    ------
+    EngineABIError
+        The object does not export ``gs_abi_field`` (built by an older gearsym).
+    """
+    if not hasattr(lib, "gs_abi_field"):
+        raise EngineABIError(f"{path} does not export gs_abi_field (built by an older gearsym); rebuild it "
+                             "(gearsym compile --force)")
+    fn = lib.gs_abi_field
+    fn.restype = C.c_int
+    fn.argtypes = [C.c_int, C.POINTER(C.c_char_p), C.POINTER(C.c_char_p), C.POINTER(C.c_long),
+                   C.POINTER(C.c_long), C.POINTER(C.c_int)]
+    out: dict[str, list[Field]] = {}
+    struct, name, off, size, kind = C.c_char_p(), C.c_char_p(), C.c_long(), C.c_long(), C.c_int()
+    i = 0
+    while fn(i, C.byref(struct), C.byref(name), C.byref(off), C.byref(size), C.byref(kind)) == 0:
+        out.setdefault((struct.value or b"").decode(), []).append(
+            ((name.value or b"").decode(), int(off.value), int(size.value), chr(kind.value)))
+        i += 1
+    return out
+
+
+def _kind(ctype: Any) -> str:
+    """The ``gs_abi_field`` kind of a ctypes field type."""
+    if isinstance(ctype, type) and issubclass(ctype, C.Structure):
+        return "s"
+    if isinstance(ctype, type) and issubclass(ctype, C.Array):
+        return "a"
+    return {C.c_double: "d", C.c_int: "i", C.c_long: "l", C.c_void_p: "p"}.get(ctype, "?")
+
+
+def mirror_layout(mirror: type[C.Structure]) -> list[Field]:
+    """The fields of a ctypes mirror as :func:`c_layout` gives those of its C struct."""
+    return [(f[0], getattr(mirror, f[0]).offset, getattr(mirror, f[0]).size, _kind(f[1]))
+            for f in mirror._fields_]
+
+
+def _mirrors() -> dict[str, type[C.Structure]]:
+    """C struct name -> its ctypes mirror (read from this module when called, so that a test
+    may replace a mirror)."""
+    return {"gs_sim_args": GsSimArgs, "gs_shoot_args": GsShootArgs, "gs_correct_args": GsCorrectArgs,
+            "gs_multipliers": GsMultipliers, "gs_isolation": GsIsolation}
+
+
+def check_mirrors(layout: dict[str, list[Field]], path: Path | str = "",
+                  mirrors: dict[str, type[C.Structure]] | None = None) -> None:
+    """Compare every ctypes mirror with its C struct field by field: the same fields, each at
+    the same offset with the same size and kind.
+
+    Parameters
+    ----------
+    layout
+        The C side, :func:`c_layout`.
+    path
+        The shared object, for messages.
+    mirrors
+        C struct name -> ctypes mirror (default: those of :mod:`gearsym.engine.sim_args`).
+
+    Raises
+    ------
+    EngineABIError
+        Naming the struct and the first field that differs.
+    """
+    kinds = {"d": "double", "i": "int", "l": "long", "p": "pointer", "a": "char array", "s": "struct", "?": "other"}
+    where = f"{path}: " if path else ""
+    hint = " (gearsym/engine/sim_args.py out of sync with gs_driver.h)"
+    for struct, mirror in (mirrors or _mirrors()).items():
+        c_fields = layout.get(struct)
+        if not c_fields:
+            raise EngineABIError(f"{where}the driver's layout table has no struct {struct}{hint}")
+        py = {f[0]: f for f in mirror_layout(mirror)}
+        for name, off, size, kind in c_fields:
+            if name not in py:
+                raise EngineABIError(f"{where}{struct}.{name} (offset {off}) has no field in the ctypes mirror "
+                                     f"{mirror.__name__}{hint}")
+            _, m_off, m_size, m_kind = py.pop(name)
+            if (off, size, kind) != (m_off, m_size, m_kind):
+                raise EngineABIError(
+                    f"{where}{struct}.{name} is at offset {off} ({size} bytes, {kinds[kind]}) in C but at offset "
+                    f"{m_off} ({m_size} bytes, {kinds[m_kind]}) in the ctypes mirror {mirror.__name__}{hint}")
+        if py:
+            raise EngineABIError(f"{where}the ctypes mirror {mirror.__name__} has field(s) {', '.join(py)} that "
+                                 f"{struct} lacks{hint}")

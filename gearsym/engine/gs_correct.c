@@ -113,9 +113,9 @@ static int correct_samples(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c,
   for (k = 0; k < np; ++k) p[k] = c->p0[k] + (lam - c->lam0) * c->D[k];
   in[0] = np ? p : ws->U.dummy;
   if (gs_call(&ws->U, &ws->U.period, in, 1, &T) || !isfinite(T) || T <= 0.0) return 0;
-  ev = (double*)malloc(sizeof(double) * (size_t)(2 * n_keep + 1));
-  evi = (int*)malloc(sizeof(int) * (size_t)(2 * n_keep + 1));
-  xf = (double*)malloc(sizeof(double) * (size_t)(nx + nsw + 1));
+  ev = (double*)malloc(sizeof(double) * (2 * (size_t)n_keep + 1));
+  evi = (int*)malloc(sizeof(int) * (2 * (size_t)n_keep + 1));
+  xf = (double*)malloc(sizeof(double) * ((size_t)nx + (size_t)nsw + 1));
   if (!ev || !evi || !xf) goto done;
   memcpy(&saved, a, sizeof(saved));
   if (n_keep) {

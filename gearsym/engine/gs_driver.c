@@ -65,6 +65,43 @@ int gs_simulate(gs_sim_args* a) {
   return rc;
 }
 
+/* The solver's sizes for the call `a`: nvc = nd*want_monodromy + n_sens variational columns,
+ * nA = nx (1 + nvc) solver components, and the system matrix of Newton's linear solver (nA x nA
+ * dense, nA x nx block-diagonal, none for the fixed-point iteration).  Each must fit SUNDIALS'
+ * 32-bit index, a dense matrix's M*N entries included: a size that does not is refused here,
+ * before anything is allocated (SUNDIALS would compute a wrapped size, allocate too little and
+ * the Jacobian would be written past it).  Returns 0, or GS_ERR_INPUT with the message in a. */
+static int solver_sizes(const gs_ud* ud, gs_sim_args* a, int* nvc_out, int* nA_out) {
+  long long ns = a->n_sens > 0 ? a->n_sens : 0, mono = a->want_monodromy ? ud->nd : 0;
+  long long nvc = mono + ns, nA = 0, cols, nmat, t;
+  int blockdiag;
+  if (gs_mul_le(ud->nx, 1 + nvc, GS_INDEX_MAX, &nA))
+    return set_err(a, GS_ERR_INPUT,
+                   "the solver state would have nx*(1 + nvc) = %d*(1 + %lld) components (nx = %d states; nvc = %lld "
+                   "variational columns: %lld of the monodromy, %lld sensitivity directions), above the %lld that "
+                   "SUNDIALS' 32-bit index holds: a model this size needs fewer variational columns (no monodromy, "
+                   "fewer sensitivity directions)",
+                   ud->nx, nvc, ud->nx, nvc, mono, ns, GS_INDEX_MAX);
+  if (gs_mul_le(ns, ud->np, INT32_MAX, &t)) /* the entries of sens_dir */
+    return set_err(a, GS_ERR_INPUT, "n_sens = %lld sensitivity directions of np = %d parameters: more than %d entries",
+                   ns, ud->np, INT32_MAX);
+  if (a->nonlinear != GS_NONLIN_FIXEDPOINT) {
+    blockdiag = nvc > 0 && a->linear_solver != GS_LINSOL_DENSE;
+    cols = blockdiag ? ud->nx : nA;
+    if (gs_mul_le(nA, cols, GS_INDEX_MAX, &nmat))
+      return set_err(a, GS_ERR_INPUT,
+                     "Newton's %s system matrix would have %lld x %lld = %.4g entries (nx = %d states, %lld "
+                     "variational columns), above the %lld that SUNDIALS' 32-bit index addresses: %s",
+                     blockdiag ? "block-diagonal" : "dense", nA, cols, (double)nA * (double)cols, ud->nx, nvc,
+                     GS_INDEX_MAX,
+                     blockdiag ? "use the fixed-point iteration (nonlinear 'fixedpoint') or fewer variational columns"
+                               : "use the block-diagonal linear solver (linear_solver 'blockdiag' or 'auto')");
+  }
+  *nvc_out = (int)nvc;
+  *nA_out = (int)nA;
+  return 0;
+}
+
 int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
   gs_ud* ud;
   gs_solver* S;
@@ -74,7 +111,7 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
   int* sched_off;
   double* sched_s;
   int nsched_total;
-  int nx, np, nsw, nsched, nA, i, j, k, rc, flag = 0, is_break = 0, io = 0;
+  int nx, np, nsw, nsched, nA = 0, nvc = 0, i, j, k, rc, flag = 0, is_break = 0, io = 0;
   int pending_reinit = 0, need_ic = 0, stop_set = 0, first_solve = 1, reuse, io_here = 0;
   double t, tb, tiny, *yv = NULL, *ypv = NULL;
   long max_steps;
@@ -142,6 +179,7 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
     return set_err(a, GS_ERR_INPUT, "IDA has no fixed-point nonlinear solver");
   if (a->max_events_out < 0) return set_err(a, GS_ERR_INPUT, "max_events_out < 0");
   if (a->n_sens < 0) return set_err(a, GS_ERR_INPUT, "n_sens = %d < 0", a->n_sens);
+  if ((rc = solver_sizes(ud, a, &nvc, &nA)) != 0) return rc; /* before any size-dependent read or allocation */
   if (a->n_sens > 0) {
     if (a->method == GS_METHOD_IDA || ud->implicit)
       return set_err(a, GS_ERR_INPUT, "parameter sensitivities need an explicit model and CVODE (method 'bdf' or "
@@ -158,8 +196,7 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
                                       "gs_schedp): it was built by an older gearsym; rebuild it");
   }
   if (a->atol_vec) {
-    int nAv = nx * (1 + (a->want_monodromy ? ud->nd : 0) + (a->n_sens > 0 ? a->n_sens : 0));
-    for (i = 0; i < nAv; ++i)
+    for (i = 0; i < nA; ++i)
       if (!(a->atol_vec[i] > 0.0) || !isfinite(a->atol_vec[i]))
         return set_err(a, GS_ERR_INPUT, "atol_vec[%d] = %g: absolute tolerances must be finite and > 0", i,
                        a->atol_vec[i]);
@@ -175,9 +212,8 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
   ud->use_ida = (a->method == GS_METHOD_IDA);
   ud->ns = a->n_sens > 0 ? a->n_sens : 0;
   ud->sdir = a->sens_dir;
-  ud->nvc = ud->mono * ud->nd + ud->ns; /* nd = nx without algebraic variables */
-  ud->nA = nx * (1 + ud->nvc);
-  nA = ud->nA;
+  ud->nvc = nvc; /* mono * nd + ns (nd = nx without algebraic variables): solver_sizes */
+  ud->nA = nA;   /* nx * (1 + nvc) */
   ud->p = a->p;
   ud->intr_fd = (a->check_interrupt && a->interrupt_fd >= 0) ? a->interrupt_fd : -1;
   ud->interrupted = 0; /* per call (the workspace outlives an interrupted run) */

@@ -156,6 +156,14 @@ int gs_sizeof_args(void);
 int gs_sizeof_shoot_args(void);   /* sizeof(gs_shoot_args): the ctypes mirror's check */
 int gs_sizeof_correct_args(void); /* sizeof(gs_correct_args) */
 
+/* The layout of the argument structs (gs_sim_args, gs_multipliers, gs_isolation,
+ * gs_shoot_args, gs_correct_args), one field per index i = 0, 1, ...: the struct's and
+ * the field's names, offsetof, sizeof and kind ('d' double, 'i' int, 'l' long, 'p'
+ * pointer, 'a' char array, 's' struct), so that the Python side verifies its ctypes
+ * mirrors field by field (two swapped fields of one size keep the struct's size).
+ * Returns 0, or -1 past the last field. */
+int gs_abi_field(int i, const char** type, const char** field, long* offset, long* size, int* kind);
+
 /* ---- Newton's method for a periodic orbit, in C (see gs_shoot_ws in gs_driver.c) ---- */
 #define GS_SHOOT_CONVERGED        0
 #define GS_SHOOT_GAVE_UP_DECREASE 1  /* a full step did not decrease the residual (damping) */

@@ -210,8 +210,8 @@ int switch_surface(gs_ud* ud, gs_evlog* L, double t, double* yv, int j, int side
  * xdot guess for implicit models. */
 int resolve_zero_surfaces(gs_ud* ud, gs_evlog* L, double t, double* yv, const double* xd_guess,
                                  int silent) {
-  int iter, j, k, nsw = ud->nsw, nx = ud->nx;
-  int max_iter = nsw * (L->storm_events + 2) + 2;
+  int j, k, nsw = ud->nsw, nx = ud->nx;
+  long long iter, max_iter = (long long)nsw * ((long long)L->storm_events + 2) + 2; /* (storm_events: the caller's) */
   if (nsw == 0) return 0;
   for (iter = 0; iter < max_iter; ++iter) {
     int fired = 0;

@@ -18,6 +18,7 @@
 #include <math.h>
 #include <signal.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -211,6 +212,26 @@ struct gs_workspace {
   N_Vector atol;            /* absolute tolerances of the current call (atol_vec) */
   double* sched_sp;         /* [nsched_total*np] d s / d p (gs_schedp)           */
 };
+
+/* --------------------------------------------------------------------------
+ * Sizes.  SUNDIALS indexes vectors and dense matrices with sunindextype, a 32-bit
+ * integer in the libraries the driver links (gs_check_abi verifies it at load): a
+ * vector of N components and a dense M x N matrix (M*N entries, computed by SUNDIALS
+ * in sunindextype) must stay at or below GS_INDEX_MAX, or the product wraps and the
+ * matrix is allocated too small.  Every size the driver derives from the model and the
+ * arguments is computed in 64 bits with gs_mul_le and checked before it allocates.
+ * -------------------------------------------------------------------------- */
+#define GS_INDEX_MAX 2147483647LL /* INT32_MAX: the largest sunindextype */
+
+/* *out = a * b when a, b >= 0 and a * b <= limit (limit >= 0): returns 0.  Otherwise
+ * returns -1 and leaves *out unchanged (the product is never formed when it would
+ * exceed the limit, so it cannot overflow). */
+static inline int gs_mul_le(long long a, long long b, long long limit, long long* out) {
+  if (a < 0 || b < 0 || limit < 0) return -1;
+  if (a != 0 && b > limit / a) return -1;
+  *out = a * b;
+  return 0;
+}
 
 /* Largest model the C Newton iterations take (gs_shoot.c, gs_correct.c). */
 #define GS_SHOOT_MAXN 256

@@ -5,11 +5,95 @@
 #include "gs_internal.h"
 
 /* --------------------------------------------------------------------------
- * gs_simulate
+ * The argument structs' layout (the ctypes mirrors' check)
  * -------------------------------------------------------------------------- */
 int gs_sizeof_args(void) { return (int)sizeof(gs_sim_args); }
 int gs_sizeof_shoot_args(void) { return (int)sizeof(gs_shoot_args); }
 int gs_sizeof_correct_args(void) { return (int)sizeof(gs_correct_args); }
+
+/* The layout of every argument struct, field by field, for the ctypes mirrors'
+ * load-time check (gearsym/engine/sim_args.py): a mirror with two fields swapped has
+ * the right size but not the right offsets.  kind: 'd' double, 'i' int, 'l' long,
+ * 'p' pointer, 'a' char array, 's' struct. */
+#define GS_ABI_KIND(X) \
+  _Generic((X), double: 'd', int: 'i', long: 'l', char*: 'a', gs_multipliers: 's', gs_isolation: 's', default: 'p')
+#define GS_ABI_FIELD(T, F) \
+  {#T, #F, (long)offsetof(T, F), (long)sizeof(((T*)0)->F), GS_ABI_KIND(((T*)0)->F)}
+typedef struct {
+  const char* type;
+  const char* field;
+  long offset, size;
+  int kind;
+} gs_abi_entry;
+static const gs_abi_entry gs_abi_table[] = {
+    /* gs_sim_args */
+    GS_ABI_FIELD(gs_sim_args, method), GS_ABI_FIELD(gs_sim_args, rtol), GS_ABI_FIELD(gs_sim_args, atol),
+    GS_ABI_FIELD(gs_sim_args, t0), GS_ABI_FIELD(gs_sim_args, t_end), GS_ABI_FIELD(gs_sim_args, x0),
+    GS_ABI_FIELD(gs_sim_args, p), GS_ABI_FIELD(gs_sim_args, sigma0), GS_ABI_FIELD(gs_sim_args, n_out),
+    GS_ABI_FIELD(gs_sim_args, t_out), GS_ABI_FIELD(gs_sim_args, max_steps), GS_ABI_FIELD(gs_sim_args, max_events),
+    GS_ABI_FIELD(gs_sim_args, storm_events), GS_ABI_FIELD(gs_sim_args, storm_window),
+    GS_ABI_FIELD(gs_sim_args, max_step), GS_ABI_FIELD(gs_sim_args, init_step),
+    GS_ABI_FIELD(gs_sim_args, want_monodromy), GS_ABI_FIELD(gs_sim_args, max_events_out),
+    GS_ABI_FIELD(gs_sim_args, check_interrupt), GS_ABI_FIELD(gs_sim_args, interrupt_fd),
+    GS_ABI_FIELD(gs_sim_args, nonlinear), GS_ABI_FIELD(gs_sim_args, linear_solver),
+    GS_ABI_FIELD(gs_sim_args, atol_vec), GS_ABI_FIELD(gs_sim_args, y_out), GS_ABI_FIELD(gs_sim_args, x_final),
+    GS_ABI_FIELD(gs_sim_args, sigma_final), GS_ABI_FIELD(gs_sim_args, monodromy), GS_ABI_FIELD(gs_sim_args, ev_t),
+    GS_ABI_FIELD(gs_sim_args, ev_surface), GS_ABI_FIELD(gs_sim_args, ev_dir), GS_ABI_FIELD(gs_sim_args, ev_speed),
+    GS_ABI_FIELD(gs_sim_args, n_events), GS_ABI_FIELD(gs_sim_args, t_reached), GS_ABI_FIELD(gs_sim_args, n_steps),
+    GS_ABI_FIELD(gs_sim_args, n_rhs), GS_ABI_FIELD(gs_sim_args, n_jac), GS_ABI_FIELD(gs_sim_args, n_root_evals),
+    GS_ABI_FIELD(gs_sim_args, n_breaks), GS_ABI_FIELD(gs_sim_args, n_reinit), GS_ABI_FIELD(gs_sim_args, status),
+    GS_ABI_FIELD(gs_sim_args, errmsg), GS_ABI_FIELD(gs_sim_args, n_sens), GS_ABI_FIELD(gs_sim_args, sens_dir),
+    GS_ABI_FIELD(gs_sim_args, sens_dt0), GS_ABI_FIELD(gs_sim_args, sens_dt1), GS_ABI_FIELD(gs_sim_args, sens_final),
+    GS_ABI_FIELD(gs_sim_args, sens_out),
+    /* gs_multipliers */
+    GS_ABI_FIELD(gs_multipliers, lapack_dgebal), GS_ABI_FIELD(gs_multipliers, lapack_dgesdd),
+    GS_ABI_FIELD(gs_multipliers, lapack_dgeev), GS_ABI_FIELD(gs_multipliers, rtol),
+    GS_ABI_FIELD(gs_multipliers, mu_re), GS_ABI_FIELD(gs_multipliers, mu_im), GS_ABI_FIELD(gs_multipliers, mu_tol),
+    GS_ABI_FIELD(gs_multipliers, delta), GS_ABI_FIELD(gs_multipliers, ok),
+    /* gs_isolation */
+    GS_ABI_FIELD(gs_isolation, direction), GS_ABI_FIELD(gs_isolation, sigma), GS_ABI_FIELD(gs_isolation, norm),
+    GS_ABI_FIELD(gs_isolation, ok),
+    /* gs_shoot_args */
+    GS_ABI_FIELD(gs_shoot_args, tol), GS_ABI_FIELD(gs_shoot_args, scale_floor),
+    GS_ABI_FIELD(gs_shoot_args, pivot_tol), GS_ABI_FIELD(gs_shoot_args, max_iter), GS_ABI_FIELD(gs_shoot_args, x),
+    GS_ABI_FIELD(gs_shoot_args, scale), GS_ABI_FIELD(gs_shoot_args, hist_abs), GS_ABI_FIELD(gs_shoot_args, hist_rel),
+    GS_ABI_FIELD(gs_shoot_args, n_hist), GS_ABI_FIELD(gs_shoot_args, iterations), GS_ABI_FIELD(gs_shoot_args, note),
+    GS_ABI_FIELD(gs_shoot_args, outcome), GS_ABI_FIELD(gs_shoot_args, mult), GS_ABI_FIELD(gs_shoot_args, iso),
+    GS_ABI_FIELD(gs_shoot_args, g0_out), GS_ABI_FIELD(gs_shoot_args, g0_ok),
+    /* gs_correct_args */
+    GS_ABI_FIELD(gs_correct_args, nx), GS_ABI_FIELD(gs_correct_args, z), GS_ABI_FIELD(gs_correct_args, row),
+    GS_ABI_FIELD(gs_correct_args, target), GS_ABI_FIELD(gs_correct_args, S), GS_ABI_FIELD(gs_correct_args, Rs),
+    GS_ABI_FIELD(gs_correct_args, tol), GS_ABI_FIELD(gs_correct_args, max_iter),
+    GS_ABI_FIELD(gs_correct_args, min_damping), GS_ABI_FIELD(gs_correct_args, periods),
+    GS_ABI_FIELD(gs_correct_args, lam0), GS_ABI_FIELD(gs_correct_args, p0), GS_ABI_FIELD(gs_correct_args, D),
+    GS_ABI_FIELD(gs_correct_args, atol), GS_ABI_FIELD(gs_correct_args, dP), GS_ABI_FIELD(gs_correct_args, R_out),
+    GS_ABI_FIELD(gs_correct_args, M_out), GS_ABI_FIELD(gs_correct_args, Flam_out),
+    GS_ABI_FIELD(gs_correct_args, residual), GS_ABI_FIELD(gs_correct_args, iterations),
+    GS_ABI_FIELD(gs_correct_args, n_runs), GS_ABI_FIELD(gs_correct_args, outcome),
+    GS_ABI_FIELD(gs_correct_args, n_samples), GS_ABI_FIELD(gs_correct_args, t_samples),
+    GS_ABI_FIELD(gs_correct_args, Y_samples), GS_ABI_FIELD(gs_correct_args, G_samples),
+    GS_ABI_FIELD(gs_correct_args, H_samples), GS_ABI_FIELD(gs_correct_args, samples_ok),
+    GS_ABI_FIELD(gs_correct_args, col_stats), GS_ABI_FIELD(gs_correct_args, col_args),
+    GS_ABI_FIELD(gs_correct_args, stats_ok), GS_ABI_FIELD(gs_correct_args, t_ref),
+    GS_ABI_FIELD(gs_correct_args, tangent_out), GS_ABI_FIELD(gs_correct_args, tangent_ok),
+    GS_ABI_FIELD(gs_correct_args, period_out), GS_ABI_FIELD(gs_correct_args, mult),
+    GS_ABI_FIELD(gs_correct_args, n_anchor), GS_ABI_FIELD(gs_correct_args, anchor),
+    GS_ABI_FIELD(gs_correct_args, lapack_dgelsd),
+};
+#undef GS_ABI_FIELD
+#undef GS_ABI_KIND
+
+int gs_abi_field(int i, const char** type, const char** field, long* offset, long* size, int* kind) {
+  const gs_abi_entry* e;
+  if (i < 0 || (size_t)i >= sizeof(gs_abi_table) / sizeof(gs_abi_table[0])) return -1;
+  e = &gs_abi_table[i];
+  if (type) *type = e->type;
+  if (field) *field = e->field;
+  if (offset) *offset = e->offset;
+  if (size) *size = e->size;
+  if (kind) *kind = e->kind;
+  return 0;
+}
 
 /* Layout check of the linear-solver operations table (used by the
  * block-diagonal solver): every slot gets a probe that records its own number
@@ -216,7 +300,7 @@ int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
   nsw = info[3];
   nsched = info[4];
   ud->implicit = info[5];
-  if (nx <= 0 || np < 0 || nsw < 0 || nsched < 0 || nm != nsw + 2 * nsched || rc < 6 + nsched)
+  if (nx <= 0 || np < 0 || nsw < 0 || nsched < 0 || nsched > rc - 6 || (long long)nm != (long long)nsw + 2LL * nsched)
     return set_err(a, GS_ERR_INPUT, "inconsistent model info: nx=%d np=%d nm=%d nsw=%d nsched=%d", nx, np, nm, nsw,
                    nsched);
   ud->nx = nx;
@@ -231,6 +315,17 @@ int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
   ud->nd = nx - ud->nalg;
   ud->nsw = nsw;
   ud->nsched = nsched;
+  {
+    /* the driver forms nx*nx (Jacobians), nsw*nx and nx*np in int: each must fit (nx*nx also
+     * in SUNDIALS' 32-bit index: the state's dense Newton matrix) */
+    long long t;
+    if (gs_mul_le(nx, nx, GS_INDEX_MAX, &t) || gs_mul_le(nsw, nx, INT32_MAX, &t) || gs_mul_le(nx, np, INT32_MAX, &t))
+      return set_err(a, GS_ERR_INPUT,
+                     "the model is too large for the driver: nx = %d states, np = %d parameters, nsw = %d "
+                     "switching functions; nx*nx, nsw*nx and nx*np must each be at most %lld (SUNDIALS' "
+                     "32-bit index)",
+                     nx, np, nsw, GS_INDEX_MAX);
+  }
 
   /* ---- model functions ---- */
   GS_FN_SETUP(ud->rhs, gs_rhs);
@@ -254,12 +349,16 @@ int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
     int s6[6] = {1, nx, nx, np, nm, 1};
     int s3[3] = {1, nx, np};
     int s1[1] = {np};
-    int nbsum = 0;
+    long long nbsum = 0, t;
     for (k = 0; k < nsched; ++k) {
       if (info[6 + k] < 1) return set_err(a, GS_ERR_INPUT, "schedule %d has %d breaks (need >= 1)", k, info[6 + k]);
-      nbsum += 1 + info[6 + k];
+      nbsum += 1 + (long long)info[6 + k];
+      if (nbsum > INT32_MAX) return set_err(a, GS_ERR_INPUT, "the schedules have more than %d breaks", INT32_MAX);
     }
-    ws->nsched_total = nbsum;
+    if (gs_mul_le(nbsum, np, INT32_MAX, &t))
+      return set_err(a, GS_ERR_INPUT, "the schedule table (%lld entries) times np = %d parameters is above %d",
+                     nbsum, np, INT32_MAX);
+    ws->nsched_total = (int)nbsum;
     cmsg[0] = '\0';
 #define GS_CHECK(FN, NAME, SIZES, NIN, NR, NC)                                                                  \
   if (gs_fn_check(&ud->FN, NAME##_work, NAME##_n_in, NAME##_n_out, NAME##_sparsity_in, NAME##_sparsity_out, \

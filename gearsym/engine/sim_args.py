@@ -1,7 +1,10 @@
-"""ctypes mirror of the driver's ``struct gs_sim_args`` (gs_driver.h); keep in sync.
+"""ctypes mirrors of the driver's argument structs (``gs_sim_args``, ... in gs_driver.h);
+keep in sync.
 
-The driver checks the size at load time (``gs_sizeof_args``), so a mismatch is an error
-at load, never memory corruption.
+Every mirror is checked when a model is loaded (:func:`gearsym.engine.driver.load_engine`):
+its size against ``gs_sizeof_*`` and every field's offset, size and kind against the
+driver's ``gs_abi_field`` table, so a mismatch (a field missing, two fields swapped) is an
+error naming the field at load, never memory corruption.
 """
 
 from __future__ import annotations

@@ -126,3 +126,62 @@ def test_driver_helpers_are_not_exported(backlash_engine):
     for name in hidden:
         assert f" {name}(" in internal, name  # still a shared helper
         assert not hasattr(lib, name), name
+
+
+def _swapped(mirror: type, a: str, b: str) -> type:
+    """``mirror`` with fields ``a`` and ``b`` (one size) exchanged: the same total size."""
+    import ctypes
+
+    fields = list(mirror._fields_)
+    names = [f[0] for f in fields]
+    i, j = names.index(a), names.index(b)
+    fields[i], fields[j] = fields[j], fields[i]
+    out = type(mirror.__name__, (ctypes.Structure,), {"_fields_": fields})
+    assert ctypes.sizeof(out) == ctypes.sizeof(mirror)
+    return out
+
+
+@pytest.mark.parametrize("mirror, struct, a, b", [
+    ("GsSimArgs", "gs_sim_args", "rtol", "atol"),
+    ("GsSimArgs", "gs_sim_args", "x_final", "monodromy"),
+    ("GsSimArgs", "gs_sim_args", "n_out", "storm_events"),
+    ("GsShootArgs", "gs_shoot_args", "hist_abs", "hist_rel"),
+    ("GsCorrectArgs", "gs_correct_args", "n_runs", "outcome"),
+    ("GsMultipliers", "gs_multipliers", "mu_re", "mu_im"),
+    ("GsIsolation", "gs_isolation", "sigma", "norm"),
+])
+def test_mirror_with_two_swapped_fields_is_refused_at_load(backlash_engine, monkeypatch, mirror, struct, a, b):
+    """Issue 24 item 13b: the ctypes mirrors were checked by total size only, so two swapped
+    fields of one size passed (and the driver read rtol as atol).  Now every field's offset is
+    compared with the driver's own table (gs_abi_field), and the message names the field."""
+    import gearsym.engine.driver as drv
+
+    drv.load_engine(backlash_engine.path)  # the real mirrors load
+    monkeypatch.setattr(drv, mirror, _swapped(getattr(drv, mirror), a, b))
+    with pytest.raises(EngineABIError, match=rf"{struct}\.{a} is at offset \d+ \(\d+ bytes, \w+\) in C but at "
+                                             rf"offset \d+ .* in the ctypes mirror {mirror} "):
+        drv.load_engine(backlash_engine.path)
+
+
+def test_mirror_with_a_field_of_another_kind_is_refused_at_load(backlash_engine, monkeypatch):
+    """A double declared as a pointer (same offset, same size) is refused too."""
+    import ctypes
+
+    import gearsym.engine.driver as drv
+
+    fields = [(n, ctypes.c_void_p if n == "atol" else t) for n, t in GsSimArgs._fields_]
+    monkeypatch.setattr(drv, "GsSimArgs", type("GsSimArgs", (ctypes.Structure,), {"_fields_": fields}))
+    with pytest.raises(EngineABIError, match=r"gs_sim_args\.atol is at offset 16 \(8 bytes, double\) in C but at "
+                                             r"offset 16 \(8 bytes, pointer\)"):
+        drv.load_engine(backlash_engine.path)
+
+
+def test_the_layout_table_covers_every_field_of_the_mirrors(backlash_engine):
+    from gearsym.engine.driver import c_layout, mirror_layout
+    from gearsym.engine.sim_args import GsCorrectArgs, GsIsolation, GsMultipliers, GsShootArgs
+
+    layout = c_layout(backlash_engine._lib)
+    for struct, mirror in (("gs_sim_args", GsSimArgs), ("gs_shoot_args", GsShootArgs),
+                           ("gs_correct_args", GsCorrectArgs), ("gs_multipliers", GsMultipliers),
+                           ("gs_isolation", GsIsolation)):
+        assert layout[struct] == mirror_layout(mirror)
