@@ -155,3 +155,27 @@ def test_sigterm_handler_only_inside_the_cli_and_restored():
             assert signal_mask() == GS_INTR_SIGINT
     finally:
         signal.signal(signal.SIGTERM, mine)
+
+
+def test_an_interrupted_child_is_asked_to_stop_and_cleans_up(tmp_path):
+    """Issue 25 item 10: a compiler interrupted by Ctrl-C / SIGTERM gets SIGTERM (and removes its
+    temporary files: gcc's ``cc*.s``) before it would be killed; ``subprocess.run`` kills at once."""
+    from gearsym.signals import run_child
+
+    scratch, ready = tmp_path / "scratch.s", tmp_path / "ready"
+    script = (f'trap \'rm -f "{scratch}"; exit 1\' TERM; touch "{scratch}"; touch "{ready}"; '
+              f'while :; do sleep 0.05; done')
+
+    def interrupt_when_ready():
+        while not ready.exists():
+            time.sleep(0.01)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    th = threading.Thread(target=interrupt_when_ready)
+    th.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            run_child(["sh", "-c", script])
+    finally:
+        th.join()
+    assert ready.exists() and not scratch.exists()

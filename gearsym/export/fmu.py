@@ -17,7 +17,6 @@ import os
 import platform
 import re
 import shutil
-import subprocess
 import tempfile
 import time
 import xml.etree.ElementTree as ET
@@ -28,6 +27,7 @@ import casadi as ca
 
 from ..errors import CompileError
 from ..files import atomic_path
+from ..signals import run_child
 from .c_project import template
 from .model_info import ExportError, ExportModel, Quantity, data_header, guid_of
 from .targets import check_target_file
@@ -236,10 +236,10 @@ def _compile(src: Path, out: Path, sources: list[str], cc: str | None = None) ->
     cc = cc or os.environ.get("CC") or "gcc"
     if shutil.which(cc) is None:
         raise CompileError(f"C compiler '{cc}' not found; the FMU binary is built at export (install gcc)")
-    cmd = [cc, "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-DCASADI_SYMBOL_EXPORT=", "-Wl,-Bsymbolic",
-           f"-I{src}", *[str(src / s) for s in sources], "-o", str(out), "-lm"]
+    cmd = [cc, "-O2", "-pipe", "-fPIC", "-shared", "-fvisibility=hidden", "-DCASADI_SYMBOL_EXPORT=",
+           "-Wl,-Bsymbolic", f"-I{src}", *[str(src / s) for s in sources], "-o", str(out), "-lm"]
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    proc = run_child(cmd)  # stopped gently on Ctrl-C / SIGTERM: the compiler removes its temporary files
     if proc.returncode != 0:
         raise CompileError(f"building the FMU binary failed (exit {proc.returncode}):\n{' '.join(cmd)}\n"
                            f"{proc.stderr.strip()}")
