@@ -155,6 +155,12 @@ def raise_on(bad: int, task: int) -> int:
     return 2 * task
 
 
+def raise_unpicklable(bad: int, task: int) -> int:
+    exc = ValueError(f"task {task} failed with an unpicklable detail")
+    exc.detail = lambda: None  # an exception that cannot travel back as it is
+    raise exc
+
+
 class Unloadable:
     """A shared object whose unpickling fails in the worker (as a build missing from its cache)."""
 
@@ -202,6 +208,13 @@ def test_an_exception_in_a_task_is_raised_in_the_parent_and_stops_the_workers():
         run_tasks(raise_on, 2, list(range(6)), workers=2)
     assert any("in a worker process" in n for n in getattr(info.value, "__notes__", []))
     assert not [q for q in _workers_of(os.getpid()) if "spawn_main" in _cmdline(q)]
+
+
+def test_an_unpicklable_exception_is_raised_as_its_text():
+    from gearsym.analysis.workers import run_tasks
+
+    with pytest.raises(RuntimeError, match="ValueError: task 0 failed with an unpicklable detail"):
+        run_tasks(raise_unpicklable, 0, [0, 1], workers=2)
 
 
 def test_a_worker_that_cannot_load_the_shared_object_raises_its_error():

@@ -160,8 +160,17 @@ class _Worker:
             self.conn.send(None)
 
 
-def _death(proc: Any) -> str:
+def _reap(proc: Any) -> None:
+    """Wait for a process whose sentinel is ready (the kernel closes its files a moment before
+    it can be waited for); kill it if it lingers."""
     proc.join(GRACE)
+    if proc.exitcode is None:
+        with contextlib.suppress(OSError):
+            proc.kill()
+        proc.join()
+
+
+def _death(proc: Any) -> str:
     code = proc.exitcode
     if code is not None and code < 0:
         try:
@@ -246,10 +255,13 @@ class _Run:
             except (EOFError, OSError):
                 break
         self.workers.remove(w)
+        _reap(w.proc)
         if not w.ready:
             code = w.proc.exitcode
             w.conn.close()
-            raise WorkerStartError(f"a worker process died while loading the system (exit code {code})")
+            raise WorkerStartError(f"a worker process ended (exit code {code}) before it could take tasks; its "
+                                   f"error output, if any, is above (a script that runs maps in parallel needs "
+                                   f"an 'if __name__ == \"__main__\":' guard)")
         if w.task is not None:
             self.results[w.task] = TaskFailure(w.task, _death(w.proc), w.proc.exitcode)
         w.conn.close()
