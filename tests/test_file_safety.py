@@ -53,7 +53,7 @@ def test_helpers_give_the_mode_of_a_new_file(tmp_path, umask):
 
 
 def test_cli_outputs_honour_the_umask(tmp_path):
-    """Every file of ``simulate``, ``orbit`` and ``map`` with ``--out`` (npz, json, nc, png)."""
+    """Every file of ``simulate``, ``orbit``, ``map`` and ``continue`` with ``--out`` (npz, json, nc, png)."""
     out = tmp_path / "out"
     umask = 0o027
     old = os.umask(umask)
@@ -62,11 +62,13 @@ def test_cli_outputs_honour_the_umask(tmp_path):
         assert main(["orbit", str(MEISSNER), "--out", str(out / "orbit")]) == 0
         assert main(["map", str(MEISSNER), "--x", "T", "1", "9", "5", "--y", "a", "0.1", "0.5", "3", "--out",
                      str(out / "map")]) == 0
+        assert main(["continue", str(MEISSNER), "--param", "T", "--from", "2", "--to", "2.3", "--no-progress",
+                     "--out", str(out / "branch")]) == 0
     finally:
         os.umask(old)
     modes = _modes(out)
     names = {Path(n).suffix for n in modes}
-    assert {".npz", ".json", ".nc", ".png"} <= names, modes
+    assert {".npz", ".json", ".nc", ".png"} <= names and "branch.json" in modes, modes
     assert modes == {n: 0o666 & ~umask for n in modes}
 
 
