@@ -87,7 +87,7 @@ def built():
     gearsym.load_scene(MEISSNER).compile()
 
 
-def _start_map(tmp_path: Path) -> subprocess.Popen:
+def _start_map(tmp_path: Path, new_session: bool = False) -> subprocess.Popen:
     # about 90,000 shooting points: minutes of work, far more than the test waits
     cmd = [sys.executable, "-c",
            "import signal, sys\n"
@@ -98,12 +98,14 @@ def _start_map(tmp_path: Path) -> subprocess.Popen:
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     # stdout/stderr to files: a surviving worker would hold a pipe open and hang the reader
     return subprocess.Popen(cmd, stdout=open(tmp_path / "out.txt", "w"), stderr=open(tmp_path / "err.txt", "w"),
-                            env=env)
+                            env=env, start_new_session=new_session)
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL, signal.SIGINT], ids=["TERM", "KILL", "INT"])
-def test_signal_to_the_map_parent_leaves_no_worker_alive(tmp_path, built, sig):
-    p = _start_map(tmp_path)
+@pytest.mark.parametrize("sig, group", [(signal.SIGTERM, False), (signal.SIGKILL, False), (signal.SIGINT, False),
+                                        (signal.SIGINT, True)], ids=["TERM", "KILL", "INT", "INT_group"])
+def test_signal_to_the_map_parent_leaves_no_worker_alive(tmp_path, built, sig, group):
+    """``group``: Ctrl-C in a terminal, SIGINT to the whole process group (workers included)."""
+    p = _start_map(tmp_path, new_session=group)
     try:
         deadline = time.monotonic() + 120
         while len(_workers_of(p.pid)) < 3 and p.poll() is None and time.monotonic() < deadline:
@@ -113,7 +115,10 @@ def test_signal_to_the_map_parent_leaves_no_worker_alive(tmp_path, built, sig):
         procs = _descendants(p.pid)
         assert len([q for q in procs if "spawn_main" in _cmdline(q) or "forkserver" in _cmdline(q)]) >= 2
         t0 = time.monotonic()
-        p.send_signal(sig)
+        if group:
+            os.killpg(p.pid, sig)
+        else:
+            p.send_signal(sig)
         try:
             code = p.wait(timeout=30)
         except subprocess.TimeoutExpired:
