@@ -140,6 +140,7 @@ def test_signal_to_the_map_parent_leaves_no_worker_alive(tmp_path, built, sig, g
     expected = {signal.SIGTERM: 143, signal.SIGINT: 130, signal.SIGKILL: -9}[sig]
     assert code == expected, (tmp_path / "err.txt").read_text()[-2000:]
     if sig != signal.SIGKILL:
+        assert exit_s < 5.0  # the target: under 3 s (measured about 1 s; before: 8-13 s, or never)
         err = (tmp_path / "err.txt").read_text()
         assert err.strip().splitlines()[-1] == ("gearsym: terminated" if sig == signal.SIGTERM
                                                 else "gearsym: interrupted")
