@@ -5,7 +5,12 @@ Every file gearsym writes (``trajectory.npz``, ``outputs.npz``, the PNG figures,
 :func:`atomic_path`: the content is written to a temporary name in the target's
 folder and renamed onto the target only when it is complete (``os.replace`` is
 atomic within a file system).  A Ctrl-C, a full disk or any error while writing
-leaves the previous file (or none) and no partial file behind.
+leaves the previous file (or none) and no partial file behind.  The new file gets
+the permissions a plain ``open(target, "w")`` would give a new file (``0o666`` less the
+umask, ``0o644`` with the usual umask ``022``; ``0o777`` less the umask for executables),
+not the ``0o600`` of a private temporary file: collaborators reading a shared folder see
+what the umask lets them see.  :func:`write_files` writes several files the same way and
+renames them only when all are complete.
 
 :func:`to_json` is the JSON encoder of every ``--json`` output and JSON file:
 numpy arrays and scalars become lists and numbers, complex numbers ``[re, im]``,
@@ -14,19 +19,22 @@ and non-finite floats (NaN, +-Infinity, which are not JSON) become ``null``.
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
+import secrets
+import stat
 import tempfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["atomic_path", "check_out_dir", "jsonable", "save_figure", "save_npz", "to_json", "write_json",
-           "write_text"]
+__all__ = ["atomic_path", "check_out_dir", "jsonable", "save_figure", "save_npz", "to_json", "write_files",
+           "write_json", "write_text"]
 
 
 def check_out_dir(path: str | Path, flag: str = "--out") -> Path:
@@ -68,14 +76,45 @@ def _can_write_in(folder: Path) -> bool:
     return True
 
 
+def _new_temp(target: Path, executable: bool) -> tuple[Path, int]:
+    """Create a new, empty, hidden file beside ``target``; return it and the mode it must end with.
+
+    The file is created with ``O_CREAT | O_EXCL`` and mode ``0o666`` (``0o777`` for an
+    executable), so the kernel applies the umask (and a default ACL) exactly as for any new
+    file; that mode is read back and restored after the content is written, since some
+    writers (netCDF libraries) delete and recreate the file.  ``O_NOFOLLOW``: a planted
+    symlink of the same (random) name is never followed.
+    """
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_NOFOLLOW", 0)
+    for _ in range(100):
+        tmp = target.parent / f".{target.name}.{secrets.token_hex(6)}.tmp{target.suffix}"
+        try:
+            fd = os.open(tmp, flags, 0o777 if executable else 0o666)
+        except FileExistsError:
+            continue
+        try:
+            mode = stat.S_IMODE(os.fstat(fd).st_mode)
+        finally:
+            os.close(fd)
+        return tmp, mode
+    raise FileExistsError(errno.EEXIST, f"no free temporary name beside '{target}'")
+
+
+def _finish(tmp: Path, mode: int) -> None:
+    """Give the written temporary file its final mode (see :func:`_new_temp`)."""
+    if stat.S_IMODE(os.stat(tmp).st_mode) != mode:
+        os.chmod(tmp, mode)
+
+
 @contextmanager
-def atomic_path(target: str | Path) -> Iterator[Path]:
+def atomic_path(target: str | Path, *, executable: bool = False) -> Iterator[Path]:
     """A temporary path next to ``target`` that becomes ``target`` when the block succeeds.
 
     The temporary file has the target's suffix (writers such as matplotlib and
     numpy choose the format from it) and a hidden, unique name in the same
-    folder.  On success it is renamed onto ``target`` (atomically); on any
-    exception, ``KeyboardInterrupt`` included, it is removed and the exception
+    folder.  On success it is renamed onto ``target`` (atomically), with the
+    permissions of a new file (``0o666`` less the umask; see the module docstring);
+    on any exception, ``KeyboardInterrupt`` included, it is removed and the exception
     propagates, so ``target`` is either the old file (or absent) or the new,
     complete one.
 
@@ -83,6 +122,8 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
     ----------
     target
         The file to write.
+    executable
+        Give the file the execute permissions the umask allows (``0o777`` less the umask).
 
     Yields
     ------
@@ -90,16 +131,59 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
         Where to write the content.
     """
     target = Path(target)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".tmp{target.suffix}",
-                                    dir=target.parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
+    tmp, mode = _new_temp(target, executable)
     try:
         yield tmp
+        _finish(tmp, mode)
         os.replace(tmp, target)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def write_files(folder: str | Path, files: Mapping[str, str | bytes], executable: Iterable[str] = ()) -> list[Path]:
+    """Write several files into ``folder``, each renamed onto its name only when all are written.
+
+    Every file is first written completely to a temporary file beside its target; if any
+    write fails (a full disk, an interrupt) every temporary file is removed and no target is
+    touched.  Only then are the temporary files renamed onto their targets (renames need no
+    space).
+
+    Parameters
+    ----------
+    folder
+        An existing folder.
+    files
+        File name (no folder part) -> text (UTF-8) or bytes.
+    executable
+        Names of the files to make executable (as far as the umask allows).
+
+    Returns
+    -------
+    list of Path
+        The written files, in the order of ``files``.
+    """
+    folder = Path(folder)
+    execs = set(executable)
+    done: list[tuple[Path, Path]] = []
+    try:
+        for name, content in files.items():
+            target = folder / name
+            if target.parent != folder:
+                raise ValueError(f"'{name}' is not a plain file name")
+            tmp, mode = _new_temp(target, name in execs)
+            done.append((tmp, target))
+            data = content.encode("utf-8") if isinstance(content, str) else bytes(content)
+            with open(tmp, "wb") as fh:
+                fh.write(data)
+            _finish(tmp, mode)
+        for tmp, target in done:
+            os.replace(tmp, target)
+    except BaseException:
+        for tmp, _ in done:
+            tmp.unlink(missing_ok=True)
+        raise
+    return [t for _, t in done]
 
 
 def jsonable(obj: Any) -> Any:

@@ -125,6 +125,8 @@ def branch_mesh_figure(branch, out: Path, si: float, xlabel: str, title: str) ->
     fig = axes[0].figure
     axes[0].set_title(title)
     fig.tight_layout()
-    fig.savefig(out / "meshes.png", dpi=110)
+    from .files import save_figure
+
+    save_figure(fig, out / "meshes.png", dpi=110)
     plt.close(fig)
     return [out / "meshes.png"]

@@ -244,6 +244,6 @@ def plot_mesh_deflections(t: np.ndarray, deflections: dict[str, np.ndarray], out
     fig.suptitle(f"{title} mesh deflections (dynamic transmission errors)".strip(), fontsize=10)
     fig.tight_layout()
     path = out / "mesh_deflections.png"
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path

@@ -111,3 +111,71 @@ def test_threads_run_without_interrupt_polling(long_scene):
     th.start()
     th.join()
     assert res[0].tolist() == ref.tolist()
+
+
+def test_sigterm_stops_a_long_integration_and_the_cli_exits_143(long_scene):
+    """Issue 25 item 5: SIGTERM is handled like Ctrl-C (before: the default action killed the
+    process, -15, with no clean-up; a map's workers then stayed behind)."""
+    scene, gen = long_scene
+    env = dict(os.environ, GEARSYM_GENERATED=str(gen), OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    p = subprocess.Popen([sys.executable, "-c", CHILD, str(scene)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, env=env)
+    try:
+        assert p.stdout.readline().strip() == "start", p.stderr.read()
+        time.sleep(1.0)  # well inside the C integration
+        t0 = time.perf_counter()
+        p.send_signal(signal.SIGTERM)
+        out, err = p.communicate(timeout=600)
+        latency = time.perf_counter() - t0
+    finally:
+        if p.poll() is None:
+            p.kill()
+    print(f"\nSIGTERM -> process exit: {latency:.3f} s")
+    assert p.returncode == 143, (p.returncode, err[-2000:])
+    assert err.strip().splitlines()[-1] == "gearsym: terminated" and "Traceback" not in err
+    assert latency < 5.0  # the driver stops on SIGTERM too (not only when the minute-long call returns)
+
+
+def test_sigterm_handler_only_inside_the_cli_and_restored():
+    from gearsym.cli import main
+    from gearsym.engine.interrupt import GS_INTR_SIGINT, GS_INTR_SIGTERM, signal_mask
+    from gearsym.signals import sigterm_interrupts
+
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    assert signal_mask() == GS_INTR_SIGINT  # a library user's SIGTERM is not turned into an interrupt
+    with sigterm_interrupts():
+        assert signal_mask() == GS_INTR_SIGINT | GS_INTR_SIGTERM
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    assert main(["models"]) == 0
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    # somebody else's handler is left alone
+    mine = signal.signal(signal.SIGTERM, lambda *a: None)
+    try:
+        with sigterm_interrupts():
+            assert signal_mask() == GS_INTR_SIGINT
+    finally:
+        signal.signal(signal.SIGTERM, mine)
+
+
+def test_an_interrupted_child_is_asked_to_stop_and_cleans_up(tmp_path):
+    """Issue 25 item 10: a compiler interrupted by Ctrl-C / SIGTERM gets SIGTERM (and removes its
+    temporary files: gcc's ``cc*.s``) before it would be killed; ``subprocess.run`` kills at once."""
+    from gearsym.signals import run_child
+
+    scratch, ready = tmp_path / "scratch.s", tmp_path / "ready"
+    script = (f'trap \'rm -f "{scratch}"; exit 1\' TERM; touch "{scratch}"; touch "{ready}"; '
+              f'while :; do sleep 0.05; done')
+
+    def interrupt_when_ready():
+        while not ready.exists():
+            time.sleep(0.01)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    th = threading.Thread(target=interrupt_when_ready)
+    th.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            run_child(["sh", "-c", script])
+    finally:
+        th.join()
+    assert ready.exists() and not scratch.exists()

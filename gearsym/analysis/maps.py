@@ -20,12 +20,15 @@ Per grid point the method is
 
 The grid is cut into rows (tasks, each a sweep in ``x`` that starts every Newton
 solve from the previous point's orbit) and run on all local cores by default
-(a process pool) or on a Dask cluster when a scheduler address (or a
-``distributed.Client``) is passed: both go through the same
-``concurrent.futures.Executor.map`` call with the same task function, and the
-workers get the compiled system itself (a :class:`~gearsym.system.System` pickles: it
-reloads its build from the build cache by key, never recompiles; the build must be in
-that cache on the worker's machine).
+(worker processes that die with their parent, :mod:`gearsym.analysis.workers`) or on a
+Dask cluster when a scheduler address (or a ``distributed.Client``) is passed: both run
+the same task function, and the workers get the compiled system itself (a
+:class:`~gearsym.system.System` pickles: it reloads its build from the build cache by key,
+never recompiles; the build must be in that cache on the worker's machine).  A local
+worker that crashes (a segmentation fault in compiled code) fails the points of its task,
+with the signal as their error; the other tasks go on.  Scripts that build maps in parallel
+need an ``if __name__ == "__main__"`` guard, as with any ``multiprocessing`` code (workers
+start a fresh interpreter).
 
 Grid values, ``params`` and the coordinates of the result are in the model's declared
 units (as ``--set``; :class:`~gearsym.spec.units.ParameterUnits`), with the SI values as
@@ -39,7 +42,6 @@ import math
 import os
 import time
 from collections.abc import Mapping, Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -150,53 +152,25 @@ def _run_chunk(system: System, task: Mapping[str, Any]) -> list[dict[str, Any]]:
     return res
 
 
-def _apply_chunk(args: tuple[System, Mapping[str, Any]]) -> list[dict[str, Any]]:
-    return _run_chunk(*args)
-
-
-class _SerialExecutor(Executor):
-    """In-process executor (one worker, or tiny grids)."""
-
-    def map(self, fn, *iterables, timeout=None, chunksize=1):  # noqa: D102
-        return [fn(*a) for a in zip(*iterables, strict=True)]
+def _failed_chunk(task: Mapping[str, Any], message: str) -> list[dict[str, Any]]:
+    """The points of a task whose worker process died (a crash in compiled code): failed,
+    with the reason as their error."""
+    return [{"max_multiplier": math.nan, "peak_to_peak": math.nan, "rattle_state": -1, "stability": "unknown",
+             "converged": False, "iterations": 0, "method": task["method"], "x0": None, "error": message}
+            for _ in task["points"]]
 
 
 def _run_tasks(system: System, tasks: list[dict[str, Any]], dask: Any,
                n_workers: int) -> tuple[list[dict[str, Any]], str]:
-    """Run the row tasks through one ``Executor.map`` (serial, process pool or Dask)."""
-    own = None
-    if dask is not None:
-        from distributed import Client
+    """Run the row tasks serially, on local worker processes or on Dask
+    (:func:`gearsym.analysis.workers.run_tasks`); the points of a task whose worker died fail."""
+    from .workers import TaskFailure, run_tasks
 
-        client = dask if isinstance(dask, Client) else Client(dask)
-        if not isinstance(dask, Client):
-            own = client
-        executor: Executor = client.get_executor()
-        runner = "dask"
-    elif n_workers <= 1 or len(tasks) <= 1:
-        executor = _SerialExecutor()
-        runner = "serial"
-    else:
-        import multiprocessing as mp
-
-        # forkserver, not fork: forking a parent that runs threads (a Dask client, BLAS,
-        # tqdm's monitor, user threads) can deadlock the children.  The workers load the
-        # compiled model themselves when they unpickle the system (ctypes handles are not
-        # inherited state); scripts that build maps in parallel need an ``if __name__ == "__main__"``
-        # guard, as with any multiprocessing code.
-        methods = mp.get_all_start_methods()
-        ctx = mp.get_context("forkserver" if "forkserver" in methods else "spawn")
-        executor = ProcessPoolExecutor(max_workers=min(n_workers, len(tasks)), mp_context=ctx)
-        own = executor
-        runner = f"processes({min(n_workers, len(tasks))})"
-    try:
-        chunks = list(executor.map(_apply_chunk, [(system, t) for t in tasks]))
-    finally:
-        if isinstance(own, ProcessPoolExecutor):
-            own.shutdown()
-        elif own is not None:  # our own Client: close it (Client.shutdown would stop the cluster)
-            own.close()
-    return [r for c in chunks for r in c], runner
+    chunks, runner = run_tasks(_run_chunk, system, tasks, workers=n_workers, dask=dask)
+    flat: list[dict[str, Any]] = []
+    for task, chunk in zip(tasks, chunks, strict=True):
+        flat += _failed_chunk(task, chunk.message) if isinstance(chunk, TaskFailure) else chunk
+    return flat, runner
 
 
 # ----------------------------------------------------------------- the map

@@ -3,7 +3,8 @@
 Exit codes: 0 success, 2 bad input (message on stderr, no traceback), 1 internal
 or numerical failure, or a command that did not do what was asked (an orbit that
 does not converge, a continuation that stops before the end of its range, a map
-whose every point failed).  ``--json`` prints one JSON object on stdout (strict
+whose every point failed), 130 on Ctrl-C and 143 on SIGTERM (both stop worker
+processes and remove temporary files before the exit).  ``--json`` prints one JSON object on stdout (strict
 JSON: non-finite numbers are ``null``).  Every numeric option is checked before any
 work (:mod:`gearsym.cli.checks`); every output file is written atomically
 (:mod:`gearsym.files`).
@@ -40,15 +41,18 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         from ..extras import require_for_command
+        from ..signals import sigterm_interrupts
 
         require_for_command(args)  # a missing optional dependency: exit 2, naming the extra
-        return int(args.func(args) or 0)
+        with sigterm_interrupts():  # SIGTERM cleans up like Ctrl-C (workers, temporary files)
+            return int(args.func(args) or 0)
     except GearsymError as exc:
         print(f"gearsym: error: {exc}", file=sys.stderr)
         return exc.exit_code
-    except KeyboardInterrupt:
-        print("gearsym: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # Ctrl-C (130), or SIGTERM (Terminated: 143)
+        signum = int(getattr(exc, "signum", 2))
+        print("gearsym: " + ("terminated" if signum != 2 else "interrupted"), file=sys.stderr)
+        return 128 + signum
     except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`): no traceback, no message
         import os
 

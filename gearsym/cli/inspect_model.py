@@ -108,14 +108,18 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
 
 def _model_scene(path: Path, model_spec, args):
-    """A scene with the model's defaults, for ``inspect MODEL``."""
+    """A scene with the model's defaults, for ``inspect MODEL``.
+
+    The scene file lives in a temporary folder only while the scene is read (the scene keeps
+    its parsed content, not the file): the folder is removed before this returns.
+    """
+    import json
     import tempfile
 
     from ..facade import Scene
 
-    tmp = Path(tempfile.mkdtemp(prefix="gearsym-")) / f"{model_spec.name}.toml"
-    import json
-
-    tmp.write_text(f'[scene]\nname = "{model_spec.name}"\nmodel = {json.dumps(str(path.resolve()))}\n')
-    return Scene(tmp, parse_effects(args.effect, args.no_effect) or None, parse_set(args.set),
-                 model_spec=model_spec)
+    with tempfile.TemporaryDirectory(prefix="gearsym-") as tmp_dir:
+        tmp = Path(tmp_dir) / f"{model_spec.name}.toml"
+        tmp.write_text(f'[scene]\nname = "{model_spec.name}"\nmodel = {json.dumps(str(path.resolve()))}\n')
+        return Scene(tmp, parse_effects(args.effect, args.no_effect) or None, parse_set(args.set),
+                     model_spec=model_spec)

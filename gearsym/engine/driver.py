@@ -377,7 +377,8 @@ class Engine:
         KeyboardInterrupt
             On Ctrl-C (SIGINT) during the integration, within a few thousand
             right-hand side evaluations (calls from the main thread; see
-            :mod:`gearsym.engine.interrupt`).
+            :mod:`gearsym.engine.interrupt`); likewise :class:`~gearsym.engine.interrupt.Terminated`
+            on SIGTERM inside :func:`~gearsym.engine.interrupt.sigterm_interrupts`.
         """
         if method not in METHODS:
             raise EngineInputError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
@@ -525,7 +526,7 @@ class Engine:
     def _call(self, fn: Any, a: GsSimArgs, *extra: Any) -> None:
         """Call a driver entry point on this thread's workspace with Ctrl-C armed; raise on failure."""
         a.interrupt_fd, previous = _interrupt.arm()
-        a.check_interrupt = 1 if a.interrupt_fd >= 0 else 0
+        a.check_interrupt = _interrupt.signal_mask() if a.interrupt_fd >= 0 else 0
         try:
             status = fn(self._ws(), C.byref(a), *extra)
         finally:

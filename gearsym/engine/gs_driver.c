@@ -43,7 +43,9 @@
  * Interrupts: with args->check_interrupt, the right-hand side / residual callback
  * reads the non-blocking pipe args->interrupt_fd every GS_POLL_EVERY evaluations
  * (one read(2) that returns EAGAIN: ~0.5 us per GS_POLL_EVERY evaluations) and,
- * when it holds a SIGINT byte (Python's signal wakeup fd), fails the evaluation so
+ * when it holds a SIGINT byte (or a SIGTERM byte, when args->check_interrupt has
+ * GS_INTR_SIGTERM: gearsym's CLI handles SIGTERM like Ctrl-C) (Python's signal
+ * wakeup fd), fails the evaluation so
  * that the solver returns at once; gs_simulate then reports GS_ERR_INTERRUPTED.
  * Bytes already in the pipe when gs_simulate starts are stale (signals of earlier
  * calls, handled by Python since) and are discarded.
@@ -216,6 +218,7 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
   ud->nA = nA;   /* nx * (1 + nvc) */
   ud->p = a->p;
   ud->intr_fd = (a->check_interrupt && a->interrupt_fd >= 0) ? a->interrupt_fd : -1;
+  ud->intr_mask = a->check_interrupt;
   ud->interrupted = 0; /* per call (the workspace outlives an interrupted run) */
   ud->intr_count = 0;
   if (ud->intr_fd >= 0) { /* discard bytes left from signals of earlier calls */

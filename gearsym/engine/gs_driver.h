@@ -23,7 +23,11 @@
 #define GS_ERR_ABI          (-5)   /* SUNDIALS version / index size mismatch     */
 #define GS_ERR_INPUT        (-6)   /* bad arguments (sizes, t_end <= t0, ...)    */
 #define GS_ERR_MAX_EVENTS   (-7)   /* more events than max_events                */
-#define GS_ERR_INTERRUPTED  (-8)   /* SIGINT seen on interrupt_fd (Ctrl-C)       */
+#define GS_ERR_INTERRUPTED  (-8)   /* SIGINT (or SIGTERM) seen on interrupt_fd   */
+
+/* check_interrupt bits: the signals that stop a run (GS_ERR_INTERRUPTED) */
+#define GS_INTR_SIGINT  1
+#define GS_INTR_SIGTERM 2
 
 #define GS_METHOD_BDF   0          /* CVODE, BDF, Newton with dense analytic Jacobian */
 #define GS_METHOD_ADAMS 1          /* CVODE, Adams-Moulton, Newton, dense Jacobian    */
@@ -61,10 +65,11 @@ typedef struct gs_sim_args {
   int     want_monodromy;  /* 1: integrate variational eqs (CVODE; IDA: F_y S + F_y' S' = 0, */
                            /* one block per differential state)                      */
   int     max_events_out;  /* capacity of the ev_* arrays                           */
-  int     check_interrupt; /* 1: every GS_POLL_EVERY right-hand side evaluations,   */
-  int     interrupt_fd;    /* read the non-blocking pipe interrupt_fd (Python's     */
-                           /* signal wakeup fd: one byte per signal number) and     */
-                           /* stop with GS_ERR_INTERRUPTED if it holds SIGINT       */
+  int     check_interrupt; /* GS_INTR_* bits (0: off): every GS_POLL_EVERY right-hand */
+  int     interrupt_fd;    /* side evaluations, read the non-blocking pipe          */
+                           /* interrupt_fd (Python's signal wakeup fd: one byte per */
+                           /* signal number) and stop with GS_ERR_INTERRUPTED if it */
+                           /* holds SIGINT (bit 1) or SIGTERM (bit 2)               */
   int     nonlinear;       /* GS_NONLIN_*: CVODE's nonlinear solver (0 = auto)      */
   int     linear_solver;   /* GS_LINSOL_*: Newton's linear solver (0 = auto)        */
   const double* atol_vec;  /* NULL: the scalar atol for every component; else one   */

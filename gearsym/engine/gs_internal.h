@@ -144,6 +144,7 @@ typedef struct {
 
   /* interrupt polling (see the top of gs_driver.c) */
   int intr_fd;      /* -1: off */
+  int intr_mask;    /* GS_INTR_SIGINT | GS_INTR_SIGTERM: the signals that stop the run */
   int intr_count;
   int interrupted;
 
@@ -241,9 +242,9 @@ static inline int gs_mul_le(long long a, long long b, long long limit, long long
  * -------------------------------------------------------------------------- */
 #define GS_POLL_EVERY 1024
 
-/* 1 if a SIGINT byte arrived on the interrupt pipe (checked every GS_POLL_EVERY
- * calls; other signal numbers are consumed and ignored: their Python handlers run
- * when the call returns). */
+/* 1 if a byte of a stopping signal (SIGINT; SIGTERM too when ud->intr_mask says so)
+ * arrived on the interrupt pipe (checked every GS_POLL_EVERY calls; other signal
+ * numbers are consumed and ignored: their Python handlers run when the call returns). */
 static inline int poll_interrupt(gs_ud* ud) {
   unsigned char buf[64];
   ssize_t n, i;
@@ -255,7 +256,9 @@ static inline int poll_interrupt(gs_ud* ud) {
     n = read(ud->intr_fd, buf, sizeof(buf));
     if (n > 0) {
       for (i = 0; i < n; ++i)
-        if (buf[i] == (unsigned char)SIGINT) ud->interrupted = 1;
+        if ((buf[i] == (unsigned char)SIGINT && (ud->intr_mask & GS_INTR_SIGINT)) ||
+            (buf[i] == (unsigned char)SIGTERM && (ud->intr_mask & GS_INTR_SIGTERM)))
+          ud->interrupted = 1;
       continue;
     }
     if (n < 0 && errno == EINTR) continue;

@@ -12,6 +12,11 @@ restores the previous wakeup fd.
 Calls from other threads run without interrupt polling (only the main thread may
 set the wakeup fd, and it is the one that receives the ``KeyboardInterrupt``); a
 wakeup fd that somebody else installed (asyncio) is left alone.
+
+SIGTERM: inside :func:`gearsym.signals.sigterm_interrupts` (the CLI runs every command in
+it) a SIGTERM raises :class:`~gearsym.signals.Terminated` (a ``KeyboardInterrupt``) in the
+main thread, and the driver stops on it as on SIGINT (:func:`signal_mask`), so that a
+terminated command cleans up as an interrupted one does.
 """
 
 from __future__ import annotations
@@ -20,7 +25,9 @@ import os
 import signal
 import threading
 
-__all__ = ["ENABLED", "arm", "disarm"]
+from ..signals import sigterm_raises
+
+__all__ = ["ENABLED", "arm", "disarm", "signal_mask"]
 
 #: Poll for Ctrl-C during driver calls (benchmarks/interrupt_overhead.py turns it off to
 #: measure what it costs).
@@ -28,6 +35,17 @@ ENABLED = True
 
 _pipe: tuple[int, int] | None = None  # (read end, write end)
 _MAIN_THREAD = threading.main_thread().ident
+
+#: ``check_interrupt`` bits of the driver (gs_driver.h): the signals that stop a run
+GS_INTR_SIGINT = 1
+GS_INTR_SIGTERM = 2
+
+
+def signal_mask() -> int:
+    """The driver's ``check_interrupt`` bits now: SIGINT always, SIGTERM inside
+    :func:`gearsym.signals.sigterm_interrupts` (while its handler raises
+    :class:`~gearsym.signals.Terminated`)."""
+    return GS_INTR_SIGINT | (GS_INTR_SIGTERM if sigterm_raises() else 0)
 
 
 def _reset_after_fork() -> None:  # a forked child makes its own pipe

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from ..engine.build import ENGINE_DIR, find_sundials_libs
 from ..engine.errors import SundialsNotFoundError
+from ..files import write_files
 from .model_info import ExportError, ExportModel, data_header
 from .targets import check_target_dir
 
@@ -53,6 +54,10 @@ def write_c_project(em: ExportModel, directory: str | Path, force: bool = False)
     force
         Write into an existing non-empty folder (files of the same name are replaced).
 
+    Every file is written to a temporary file beside its target first and the files are
+    renamed onto their names only when all are complete: a failure (a full disk) leaves the
+    folder's files as they were.
+
     Returns
     -------
     dict
@@ -79,9 +84,12 @@ def write_c_project(em: ExportModel, directory: str | Path, force: bool = False)
         }
         for name in driver_files():
             files[name] = (ENGINE_DIR / name).read_text()
-        for name, text in files.items():
-            (d / name).write_text(text, encoding="utf-8")
-        (d / "find_sundials.sh").chmod(0o755)
+        clash = [n for n in files if n.lower() == em.program.lower()]
+        if clash:  # program_name() avoids it; a guard against a new file of the project
+            raise ExportError(f"--c: the program '{em.program}' would be built over the project's '{clash[0]}'")
+        # every file complete beside its target before any is renamed: a full disk or an
+        # interrupt leaves the folder as it was (gearsym.files.write_files)
+        write_files(d, files, executable=["find_sundials.sh"])
     except OSError as exc:
         raise ExportError(f"--c: cannot write into '{d}': {exc.strerror or exc}") from None
     return {"directory": str(d), "files": sorted(files), "program": em.program,
@@ -184,7 +192,8 @@ The program checks the version and the index size again when it starts.
 ./{em.program} --list                                # parameters, states, options, defaults
 ```
 
-Every setting is `NAME=VALUE` on the command line or in a `--file` (later settings win), with
+Every setting is `NAME=VALUE` on the command line or in a `--file` (a regular text file of at most
+1 MiB, lines of any length; later settings win), with
 NAME a parameter (**SI units**), a state (its initial value, SI units) or an option:
 `periods` (default {dflt['periods']:g}), `t_end`, `t0` (0), `n_out` (default
 `round(periods * points_per_period) + 1`), `points_per_period` ({dflt['points_per_period']}),

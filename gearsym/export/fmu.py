@@ -15,8 +15,8 @@ from __future__ import annotations
 import datetime
 import os
 import platform
+import re
 import shutil
-import subprocess
 import tempfile
 import time
 import xml.etree.ElementTree as ET
@@ -26,6 +26,8 @@ from pathlib import Path
 import casadi as ca
 
 from ..errors import CompileError
+from ..files import atomic_path
+from ..signals import run_child
 from .c_project import template
 from .model_info import ExportError, ExportModel, Quantity, data_header, guid_of
 from .targets import check_target_file
@@ -78,8 +80,47 @@ def _real(sv: ET.Element, **attrs: str) -> None:
     ET.SubElement(sv, "Real", {k: v for k, v in attrs.items() if v != ""})
 
 
+#: Characters XML 1.0 cannot carry, even escaped (its ``Char`` production): C0 controls other
+#: than tab, newline and carriage return, surrogates, U+FFFE and U+FFFF.
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def _xml_texts(em: ExportModel) -> list[tuple[str, str]]:
+    """(field, text) of every free text of the model that reaches ``modelDescription.xml``."""
+    texts = [(f"the description of scene '{em.scene}' (or of its model '{em.model}')", em.description)]
+    for kind, items in (("state", em.states), ("parameter", em.params + em.extras), ("output", em.outputs)):
+        for q in items:
+            texts.append((f"the meaning of {kind} '{q.name}' (model '{em.model}')", q.description))
+            texts.append((f"the note of {kind} '{q.name}'", q.locked))
+    texts += [(f"the meaning of switching surface '{n}' (model '{em.model}')", m) for n, m in em.surfaces]
+    return texts
+
+
+def check_xml_text(em: ExportModel) -> None:
+    """Refuse free text that XML 1.0 cannot carry (control characters), naming the field.
+
+    Raises
+    ------
+    ExportError
+        A description or meaning holds such a character (exit code 2).
+    """
+    for field, text in _xml_texts(em):
+        bad = _NOT_XML.search(text or "")
+        if bad:
+            raise ExportError(f"cannot export the FMU: {field} contains the control character "
+                              f"U+{ord(bad.group()):04X} (character {bad.start() + 1}), which XML 1.0 "
+                              f"(modelDescription.xml) cannot carry; remove it from the model or scene file")
+
+
 def model_description(em: ExportModel, guid: str, outx: bool) -> str:
-    """The ``modelDescription.xml`` of the FMU (FMI 2.0, Model Exchange)."""
+    """The ``modelDescription.xml`` of the FMU (FMI 2.0, Model Exchange).
+
+    Raises
+    ------
+    ExportError
+        A description or meaning holds a character XML 1.0 cannot carry (:func:`check_xml_text`).
+    """
+    check_xml_text(em)
     nx = em.nx
     stop = (float(em.defaults["periods"]) * em.period) if em.period else float(em.defaults["t_end"])
     root = ET.Element("fmiModelDescription", {
@@ -165,7 +206,12 @@ def model_description(em: ExportModel, guid: str, outx: bool) -> str:
     for i in sorted(index[n] for n in initial):
         ET.SubElement(iu, "Unknown", index=str(i))
     ET.indent(root, space="  ")
-    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    text = '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    try:
+        ET.fromstring(text.encode("utf-8"))  # well-formed, whatever the texts held
+    except ET.ParseError as exc:  # pragma: no cover - check_xml_text refuses what could cause it
+        raise ExportError(f"cannot export the FMU: modelDescription.xml would not be well-formed ({exc})") from None
+    return text
 
 
 def _period_unit(em: ExportModel) -> Quantity:
@@ -190,10 +236,10 @@ def _compile(src: Path, out: Path, sources: list[str], cc: str | None = None) ->
     cc = cc or os.environ.get("CC") or "gcc"
     if shutil.which(cc) is None:
         raise CompileError(f"C compiler '{cc}' not found; the FMU binary is built at export (install gcc)")
-    cmd = [cc, "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-DCASADI_SYMBOL_EXPORT=", "-Wl,-Bsymbolic",
-           f"-I{src}", *[str(src / s) for s in sources], "-o", str(out), "-lm"]
+    cmd = [cc, "-O2", "-pipe", "-fPIC", "-shared", "-fvisibility=hidden", "-DCASADI_SYMBOL_EXPORT=",
+           "-Wl,-Bsymbolic", f"-I{src}", *[str(src / s) for s in sources], "-o", str(out), "-lm"]
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    proc = run_child(cmd)  # stopped gently on Ctrl-C / SIGTERM: the compiler removes its temporary files
     if proc.returncode != 0:
         raise CompileError(f"building the FMU binary failed (exit {proc.returncode}):\n{' '.join(cmd)}\n"
                            f"{proc.stderr.strip()}")
@@ -261,13 +307,13 @@ def write_fmu(em: ExportModel, path: str | Path, force: bool = False) -> dict:
         doc = root / "documentation"
         doc.mkdir()
         (doc / "index.html").write_text(_doc_html(em), encoding="utf-8")
-        tmp_fmu = root / "out.fmu"
-        with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED) as zf:
-            for f in sorted(p for p in root.rglob("*") if p.is_file() and p != tmp_fmu):
-                zf.write(f, f.relative_to(root).as_posix())
         try:
             target.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(tmp_fmu, target)
+            # the archive is written beside the target and renamed onto it when complete: a
+            # full disk or an interrupt leaves an existing FMU untouched (gearsym.files)
+            with atomic_path(target) as tmp_fmu, zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED) as zf:
+                for f in sorted(p for p in root.rglob("*") if p.is_file()):
+                    zf.write(f, f.relative_to(root).as_posix())
         except OSError as exc:
             raise ExportError(f"--fmu: cannot write '{target}': {exc.strerror or exc}") from None
     return {"fmu": str(target), "guid": guid, "model_identifier": em.program, "fmi_version": "2.0",

@@ -20,7 +20,8 @@ from pathlib import Path
 from ..errors import GearsymError
 from ..spec.units import UnitSyntaxError, parse_unit
 
-__all__ = ["OPTION_NAMES", "ExportError", "ExportModel", "Quantity", "collect", "c_string", "data_header"]
+__all__ = ["OPTION_NAMES", "RESERVED_PROGRAM_NAMES", "ExportError", "ExportModel", "Quantity", "c_string",
+           "collect", "data_header", "program_name"]
 
 #: Names main.c reads as options; a parameter or state may not be called so.
 OPTION_NAMES = ("periods", "t_end", "t0", "n_out", "points_per_period", "rtol", "atol", "method", "max_step",
@@ -165,6 +166,21 @@ def _c_name(text: str) -> str:
     return name if name and not name[0].isdigit() else f"p_{name}"
 
 
+#: Names the exported program may not have: the files ``make`` reads as a makefile and the
+#: Makefile's own targets (a program named ``Makefile`` would be built over the Makefile).
+#: Compared case-insensitively (case-insensitive file systems).  The C project's other files
+#: all have a suffix, which a program name (a C identifier) never has.
+RESERVED_PROGRAM_NAMES = ("makefile", "gnumakefile", "all", "check", "clean")
+
+
+def program_name(scene_name: str) -> str:
+    """The exported program's name: the scene name as a C identifier, with ``_model`` appended
+    when it would collide with a file or target of the exported project
+    (:data:`RESERVED_PROGRAM_NAMES`)."""
+    name = _c_name(scene_name)
+    return f"{name}_model" if name.lower() in RESERVED_PROGRAM_NAMES else name
+
+
 def collect(scene, generated_dir: str | Path | None = None) -> ExportModel:
     """Compile a scene (cached) and gather what the exported model needs.
 
@@ -256,7 +272,7 @@ def collect(scene, generated_dir: str | Path | None = None) -> ExportModel:
     }
     em = ExportModel(
         scene=scene.name, model=ms.name, description=scene.spec.description or ms.description or scene.name,
-        program=_c_name(scene.name), generated_dir=Path(gen.directory), states=states, params=params,
+        program=program_name(scene.name), generated_dir=Path(gen.directory), states=states, params=params,
         extras=extras, outputs=outputs, surfaces=[(s["name"], s.get("meaning", "")) for s in gen.surfaces],
         schedule_breaks=[int(s["n_breaks"]) for s in gen.schedules], period=period, implicit=gen.implicit,
         defaults=defaults, effects={k: v for k, v in scene.resolved.effects.items() if v is not False},

@@ -10,10 +10,10 @@
  *
  * NAME is a parameter (SI units), a state (its initial value, SI units) or an option
  * (periods, t_end, t0, n_out, points_per_period, rtol, atol, method, max_step,
- * max_steps).  --file reads NAME=VALUE lines ('#' starts a comment); later settings
- * win.  The trajectory goes to stdout (or --out FILE) as CSV with the header
- * t,<states>,<outputs>; the events to --events FILE (default with --out FILE:
- * FILE with ".csv" replaced by "_events.csv").
+ * max_steps).  --file reads NAME=VALUE lines ('#' starts a comment; a regular text file
+ * of at most 1 MiB, lines of any length); later settings win.  The trajectory goes to
+ * stdout (or --out FILE) as CSV with the header t,<states>,<outputs>; the events to
+ * --events FILE (default with --out FILE: FILE with ".csv" replaced by "_events.csv").
  *
  * Exit codes: 0 success, 2 bad arguments, 1 integration or SUNDIALS failure.
  */
@@ -22,11 +22,14 @@
 #define _POSIX_C_SOURCE 200809L /* clock_gettime */
 #endif
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "gs_driver.h"
 #include "gs_model.h"
@@ -51,7 +54,7 @@ static void usage(FILE* fp) {
           "  NAME=VALUE   a parameter (SI units), an initial state (SI units) or an option:\n"
           "               periods, t_end, t0, n_out, points_per_period, rtol, atol,\n"
           "               method (adams|bdf|ida), max_step, max_steps\n"
-          "  --file FILE  NAME=VALUE lines ('#' starts a comment)\n"
+          "  --file FILE  NAME=VALUE lines ('#' starts a comment; a text file of at most 1 MiB)\n"
           "  --out FILE   CSV trajectory (default: stdout); header t,<states>,<outputs>\n"
           "  --events FILE  CSV events t,surface,direction,speed (default with --out X.csv: X_events.csv)\n"
           "  --list       parameters, states, outputs and options with their defaults\n",
@@ -164,28 +167,85 @@ static int apply(gsx_opts* o, const char* item, const char* where) {
   return 0;
 }
 
+/* Largest --file accepted: a settings file is a few kB; anything bigger is not one. */
+#define GSX_MAX_FILE (1L << 20)
+
+/* Read all of the regular file `path` (at most GSX_MAX_FILE bytes) into a NUL-terminated
+ * buffer (*out, *len; free it).  Refuses, with a message and 2, what is not a settings file:
+ * a file that cannot be opened, not a regular file (a device such as /dev/zero, a FIFO, a
+ * folder: opened non-blocking, so a FIFO does not block), bigger than GSX_MAX_FILE. */
+static int slurp(const char* path, char** out, size_t* len) {
+  struct stat st;
+  char* buf;
+  size_t n = 0;
+  ssize_t r;
+  int fd = open(path, O_RDONLY | O_NONBLOCK);
+  *out = NULL;
+  if (fd < 0) return bad("cannot read %s: %s", path, strerror(errno));
+  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    close(fd);
+    return bad("--file %s: not a regular file%s", path, "");
+  }
+  if (st.st_size > GSX_MAX_FILE) {
+    close(fd);
+    return bad("--file %s: larger than 1 MiB%s (not a settings file)", path, "");
+  }
+  buf = (char*)malloc(GSX_MAX_FILE + 2);
+  if (!buf) {
+    close(fd);
+    return bad("--file %s: out of memory%s", path, "");
+  }
+  for (;;) { /* read to the end (the file may have grown since fstat): at most GSX_MAX_FILE + 1 */
+    r = read(fd, buf + n, GSX_MAX_FILE + 1 - n);
+    if (r < 0 && errno == EINTR) continue;
+    if (r < 0) {
+      free(buf);
+      close(fd);
+      return bad("cannot read %s: %s", path, strerror(errno));
+    }
+    if (r == 0 || (n += (size_t)r) > GSX_MAX_FILE) break;
+  }
+  close(fd);
+  if (n > GSX_MAX_FILE) {
+    free(buf);
+    return bad("--file %s: larger than 1 MiB%s (not a settings file)", path, "");
+  }
+  buf[n] = '\0';
+  *out = buf;
+  *len = n;
+  return 0;
+}
+
+/* NAME=VALUE lines of any length ('#' starts a comment, CR LF accepted); a NUL byte (a
+ * binary file) is refused with the number of its line. */
 static int read_file(gsx_opts* o, const char* path) {
-  char line[4096], where[600];
-  int lineno = 0, rc;
-  FILE* fp = fopen(path, "r");
-  if (!fp) return bad("cannot read %s: %s", path, strerror(errno));
-  while (fgets(line, sizeof(line), fp)) {
-    char *s = line, *e;
+  char where[600], num[32];
+  char *buf, *line, *next, *s, *e;
+  size_t len;
+  int lineno = 0, rc = 0;
+  if ((rc = slurp(path, &buf, &len)) != 0) return rc;
+  for (line = buf; rc == 0 && line < buf + len; line = next) {
+    char* nl = (char*)memchr(line, '\n', (size_t)(buf + len - line));
+    char* end = nl ? nl : buf + len;
     ++lineno;
-    if (strchr(line, '#')) *strchr(line, '#') = '\0';
+    next = nl ? nl + 1 : buf + len;
+    if (memchr(line, '\0', (size_t)(end - line))) {
+      snprintf(num, sizeof(num), "%d", lineno);
+      rc = bad("--file %s: a NUL byte on line %s (not a text file)", path, num);
+      break;
+    }
+    *end = '\0';
+    if ((e = strchr(line, '#')) != NULL) *e = '\0';
+    s = line;
     e = s + strlen(s);
-    while (e > s && (e[-1] == '\n' || e[-1] == '\r' || e[-1] == ' ' || e[-1] == '\t')) *--e = '\0';
+    while (e > s && (e[-1] == '\r' || e[-1] == ' ' || e[-1] == '\t')) *--e = '\0';
     while (*s == ' ' || *s == '\t') ++s;
     if (!*s) continue;
     snprintf(where, sizeof(where), " (%s, line %d)", path, lineno);
     rc = apply(o, s, where);
-    if (rc) {
-      fclose(fp);
-      return rc;
-    }
   }
-  fclose(fp);
-  return 0;
+  free(buf);
+  return rc;
 }
 
 static void list(void) {
