@@ -87,6 +87,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -174,6 +175,26 @@ class ToothCompliance:
         return self.bending + self.shear + self.axial + self.fillet
 
 
+@lru_cache(maxsize=8)
+def gauss_legendre(nodes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes and weights on [-1, 1] (cached: numpy computes them by an eigenproblem).
+
+    Parameters
+    ----------
+    nodes
+        Number of nodes.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        Nodes and weights (read-only).
+    """
+    s, w = np.polynomial.legendre.leggauss(nodes)
+    s.setflags(write=False)
+    w.setflags(write=False)
+    return s, w
+
+
 def _involute_integrals(t: ToothGeometry, u_c: np.ndarray, b: float, nodes: int) -> tuple[np.ndarray, ...]:
     """Bending, shear and axial compliances of the involute part, from ``u0`` to each ``u_c``."""
     r_b, beta = t.r_b, t.beta_b
@@ -183,7 +204,7 @@ def _involute_integrals(t: ToothGeometry, u_c: np.ndarray, b: float, nodes: int)
     tau_c = u_c - beta
     x_c = r_b * (np.cos(tau_c) + u_c * np.sin(tau_c))
     h_c = r_b * (u_c * np.cos(tau_c) - np.sin(tau_c))
-    s, w = np.polynomial.legendre.leggauss(nodes)
+    s, w = gauss_legendre(nodes)
     half = (u_c - u0)[:, None] / 2
     u = u0 + half * (s[None, :] + 1)  # (points, nodes)
     tau = u - beta
@@ -244,7 +265,7 @@ def tooth_compliances(tooth: ToothGeometry, roll: np.ndarray, face_width: float,
     face_width
         Face width :math:`b` (m).
     nodes
-        Gauss-Legendre nodes of the involute integrals.
+        Gauss-Legendre nodes of the check; the result takes twice as many.
 
     Returns
     -------
@@ -254,8 +275,8 @@ def tooth_compliances(tooth: ToothGeometry, roll: np.ndarray, face_width: float,
     Raises
     ------
     GearsymError
-        The quadrature disagrees with the one of twice the nodes by more than 1e-11
-        (relative): an integrand that is not smooth, which a valid geometry never gives.
+        The two quadratures disagree by more than 1e-11 (relative): an integrand that is
+        not smooth, which a valid geometry never gives.
     """
     u_c = np.atleast_1d(np.asarray(roll, dtype=float)) / tooth.r_b
     coarse = _involute_integrals(tooth, u_c, face_width, nodes)
