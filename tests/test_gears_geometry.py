@@ -149,3 +149,36 @@ def test_the_package_is_base_layer_numpy_only():
         bad = [m for m in mods if m.split(".")[0] in ("sympy", "casadi") or m.lstrip(".").split(".")[0]
                in ("spec", "symbolic", "codegen", "engine", "system", "analysis", "facade", "cli")]
         assert bad == [], (f.name, bad)
+
+
+@pytest.mark.parametrize("name", [n for n in __import__("gearsym.gears", fromlist=["__all__"]).__all__])
+def test_public_names_have_complete_docstrings(name):
+    """numpydoc's validator on gearsym.gears.__all__, as tests/test_docstrings.py does for gearsym.__all__."""
+    import inspect
+
+    from numpydoc.docscrape import NumpyDocString
+    from numpydoc.validate import validate
+
+    import gearsym.gears as gears
+
+    obj = getattr(gears, name)
+    if not callable(obj):
+        return  # a table of coefficients: documented by its #: comment
+    assert inspect.getdoc(obj), name
+    checks = {"GL08", "PR01", "PR02", "RT01"}
+    if inspect.isclass(obj):
+        doc = NumpyDocString(inspect.getdoc(obj))
+        documented = {n.strip() for p in doc["Parameters"] + doc["Attributes"] for n in p.name.split(",")}
+        missing = [p for p in inspect.signature(obj).parameters if p not in documented]
+        assert missing == [], (name, missing)
+        for attr, value in vars(obj).items():
+            if attr.startswith("_"):
+                continue
+            if isinstance(value, property):
+                assert (value.__doc__ or "").strip(), f"{name}.{attr}"
+            elif inspect.isfunction(value):
+                errs = [e for e in validate(f"{obj.__module__}.{obj.__qualname__}.{attr}")["errors"] if e[0] in checks]
+                assert errs == [], (name, attr, errs)
+    else:
+        errs = [e for e in validate(f"{obj.__module__}.{obj.__qualname__}")["errors"] if e[0] in checks]
+        assert errs == [], (name, errs)
