@@ -61,6 +61,13 @@ def test_contact_ratio_and_working_pressure_angle_are_the_closed_forms(z1, z2, x
     assert g.path_length == pytest.approx(eps * math.pi * 3e-3 * math.cos(math.radians(alpha)), rel=1e-12)
 
 
+def test_numpy_integers_are_tooth_numbers():
+    import numpy as np
+
+    g = pair_geometry(GearPair(module=3e-3, face_width=0.02, pinion=Gear(np.int64(50)), wheel=Gear(np.int32(50))))
+    assert g.contact_ratio == pair_geometry(pair(50, 50)).contact_ratio and type(g.pinion.teeth) is int
+
+
 def test_the_undercut_limit_is_the_classical_one():
     # x_min = hf - rho (1 - sin a) - z sin^2 a / 2 for the rack 1 / 1.25 / 0.38
     al = math.radians(20)

@@ -208,3 +208,19 @@ def test_yu_pair_potential_energy_mean_beside_iso():
     assert res.iso.mesh_stiffness == pytest.approx(4.4019e8, rel=1e-4)
     assert res.mean / res.iso.mesh_stiffness == pytest.approx(0.9973, abs=1e-4)
     assert (res.minimum, res.maximum) == pytest.approx((2.7702e8, 4.9993e8), rel=1e-4)
+
+
+def test_high_contact_ratio_has_three_pair_zones():
+    """A contact ratio above 2 (long addenda, 15 deg): three pairs on [0, eps - 2], two after; the mesh
+    stiffness is the sum of the pairs at s = phase + j (pair_stiffness, checked against mpmath above)."""
+    p = GearPair(module=2e-3, pressure_angle_deg=15, face_width=0.02,
+                 pinion=Gear(60, addendum=1.3, dedendum=1.55, root_fillet=0.3),
+                 wheel=Gear(80, addendum=1.3, dedendum=1.55, root_fillet=0.3))
+    res = mesh_stiffness(p, samples=16)
+    eps = res.contact_ratio
+    assert 2 < eps < 3
+    assert [n for _, _, n in res.zones] == [3, 2] and res.jumps == pytest.approx((0.0, eps - 2))
+    for i, ph in enumerate(res.phase):
+        pos = [ph + j for j in range(3) if ph + j <= eps]
+        assert res.pairs_in_contact[i] == len(pos)
+        assert res.stiffness[i] == pytest.approx(pair_stiffness(res.geometry, np.array(pos)).stiffness.sum(), rel=1e-14)

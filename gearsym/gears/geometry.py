@@ -49,6 +49,7 @@ rack: :math:`h_a^* = 1`, :math:`h_f^* = 1.25`, :math:`\\rho_f^* = 0.38` for prof
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 from ..errors import ParameterError
@@ -285,7 +286,7 @@ def _finite(name: str, v: object, low: float | None = None, high: float | None =
 
 def _check_gear(g: Gear, i: int, alpha: float) -> None:
     label = "pinion" if i == 1 else "wheel"
-    if isinstance(g.teeth, bool) or not isinstance(g.teeth, int) or not 5 <= g.teeth <= 100_000:
+    if isinstance(g.teeth, bool) or not isinstance(g.teeth, numbers.Integral) or not 5 <= g.teeth <= 100_000:
         raise ParameterError(f"z{i} ({label} teeth) must be an integer in [5, 100000], got {g.teeth!r}")
     _finite(f"x{i} ({label} profile shift)", g.profile_shift, -5.0, 5.0)
     _finite(f"ha{i} ({label} addendum coefficient)", g.addendum, 0.0, 5.0)
@@ -324,7 +325,7 @@ def _check_pair(pair: GearPair) -> float:
 # ------------------------------------------------------------------ one gear
 def _tooth(g: Gear, i: int, m: float, alpha: float) -> ToothGeometry:
     label = "pinion" if i == 1 else "wheel"
-    z, x = g.teeth, float(g.profile_shift)
+    z, x = int(g.teeth), float(g.profile_shift)
     r = m * z / 2
     r_b = r * math.cos(alpha)
     r_a = r + (g.addendum + x) * m
@@ -360,7 +361,7 @@ def _tooth(g: Gear, i: int, m: float, alpha: float) -> ToothGeometry:
 # ------------------------------------------------------------------ the pair
 def _working(pair: GearPair, alpha: float) -> tuple[float, float, float, float]:
     """``(a, a_w_tight, a_w, alpha_w)``."""
-    z1, z2 = pair.pinion.teeth, pair.wheel.teeth
+    z1, z2 = int(pair.pinion.teeth), int(pair.wheel.teeth)
     a = pair.module * (z1 + z2) / 2
     target = involute(alpha) + 2 * math.tan(alpha) * (pair.pinion.profile_shift + pair.wheel.profile_shift) / (z1 + z2)
     if target <= 0:

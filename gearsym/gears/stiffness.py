@@ -172,6 +172,11 @@ class MeshStiffness:
                 f"range=[{self.minimum:.4g}, {self.maximum:.4g}] N/m, iso_c_gamma={self.iso.mesh_stiffness:.4g} N/m, "
                 f"samples={self.phase.size})")
 
+    @property
+    def jumps(self) -> tuple[float, ...]:
+        """Phases in [0, 1) where a pair enters or leaves and the stiffness jumps (0 and the zone ends)."""
+        return tuple(a for a, _, _ in self.zones)
+
     def at(self, phase: np.ndarray | float) -> np.ndarray:
         """The mesh stiffness at any phases (wrapped into [0, 1)), evaluated, not interpolated.
 
