@@ -13,6 +13,7 @@ from .maps import cmd_map
 from .modes import cmd_modes
 from .orbits import cmd_continue, cmd_orbit
 from .simulate import cmd_compile, cmd_export, cmd_simulate
+from .stiffness import add_stiffness_parser
 
 __all__ = ["build_parser"]
 
@@ -140,6 +141,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="folder for map.nc and map.png")
     p.set_defaults(func=cmd_map)
 
+    add_stiffness_parser(sub)
     add_cache_parser(sub)
     add_catalog_parsers(sub)
     return parser
