@@ -6,7 +6,9 @@ Shared by the model and scene parsers.  Every problem is a
 
 from __future__ import annotations
 
+import difflib
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -143,10 +145,23 @@ def as_table(ctx: Ctx, where: str, value: Any) -> dict[str, Any]:
     return value
 
 
+def did_you_mean(word: str, candidates: Iterable[str]) -> str:
+    """``"; did you mean 'x'?"`` for the candidate closest to ``word`` (:mod:`difflib`), else ``""``."""
+    close = difflib.get_close_matches(str(word), sorted(set(candidates)), n=1, cutoff=0.6)
+    return f"; did you mean '{close[0]}'?" if close else ""
+
+
+def unknown_key(key: str, allowed: Iterable[str], what: str = "field") -> str:
+    """The message for a key a table does not have: the closest allowed key, then all of them."""
+    allowed = sorted(set(allowed))
+    return f"unknown {what} '{key}'{did_you_mean(key, allowed)} (allowed: {', '.join(allowed) or 'none'})"
+
+
 def only_keys(ctx: Ctx, where: str, table: dict[str, Any], allowed: set[str]) -> None:
+    """Reject a key of ``table`` that is not in ``allowed`` (naming the field and the closest key)."""
     for k in table:
         if k not in allowed:
-            raise ctx.error(f"{where}.{k}", f"unknown field '{k}' (allowed: {', '.join(sorted(allowed))})")
+            raise ctx.error(f"{where}.{k}" if where else k, unknown_key(k, allowed))
 
 
 def string(ctx: Ctx, table: dict[str, Any], where: str, required: bool = False) -> str | None:

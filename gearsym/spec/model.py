@@ -43,6 +43,7 @@ from .fields import (
     Ctx,
     Term,
     as_table,
+    did_you_mean,
     expr_str,
     number,
     only_keys,
@@ -51,6 +52,7 @@ from .fields import (
     string_list,
     table,
     unit_of,
+    unknown_key,
 )
 from .files import read_toml
 from .initial import read_initial
@@ -223,6 +225,7 @@ class ModelSpec:
 
 _TOP = {"model", "coordinates", "parameters", "derived", "effects", "schedules", "elements",
         "equations", "reduction", "forcing", "initial", "dimensionless", "outputs", "algebraic", "constraints"}
+_MODEL_KEYS = {"name", "description", "reference", "time_unit", "form", "notes"}
 _ELEMENT_FIELDS = {
     "inertia": ({"value"}, set()),
     "spring": ({"deflection", "stiffness"}, set()),
@@ -264,8 +267,9 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     ctx = Ctx(path)
     for key in data:
         if key not in _TOP:
-            raise ctx.error(key, f"unknown section '{key}' (known: {', '.join(sorted(_TOP))})")
+            raise ctx.error(key, unknown_key(key, _TOP, "section"))
     meta = table(ctx, data, "model", required=True)
+    only_keys(ctx, "model", meta, _MODEL_KEYS)
     name = string(ctx, meta, "model.name", required=True)
     problem = check_label(name, "model name")
     if problem:
@@ -392,7 +396,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         el = as_table(ctx, where, el)
         etype = string(ctx, el, f"{where}.type", required=True)
         if etype not in _ELEMENT_FIELDS:
-            raise ctx.error(f"{where}.type", f"unknown element type '{etype}' "
+            raise ctx.error(f"{where}.type", f"unknown element type '{etype}'{did_you_mean(etype, _ELEMENT_FIELDS)} "
                                              f"(known: {', '.join(_ELEMENT_FIELDS)})")
         required, optional = _ELEMENT_FIELDS[etype]
         schema = ELEMENT_SCHEMAS.get(etype)
@@ -409,7 +413,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         if etype in ("inertia", "force"):
             coord = string(ctx, el, f"{where}.coordinate", required=True)
             if coord not in coordinates:
-                raise ctx.error(f"{where}.coordinate", f"unknown coordinate '{coord}'")
+                raise ctx.error(f"{where}.coordinate", f"unknown coordinate '{coord}'{did_you_mean(coord, coordinates)}")
         drive = string(ctx, el, f"{where}.drive_side") or "positive"
         if drive not in ("positive", "negative"):
             raise ctx.error(f"{where}.drive_side", "must be 'positive' or 'negative'")
@@ -424,7 +428,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     for qname, eq in table(ctx, data, "equations").items():
         where = f"equations.{qname}"
         if qname not in coordinates:
-            raise ctx.error(where, f"unknown coordinate '{qname}'")
+            raise ctx.error(where, f"unknown coordinate '{qname}'{did_you_mean(qname, coordinates)}")
         eq = as_table(ctx, where, eq)
         only_keys(ctx, where, eq, {"mass", "force"})
         equations[qname] = Equation(
@@ -511,7 +515,8 @@ def _coordinate_fields(ctx: Ctx, where: str, el: dict[str, Any], schema, coordin
             raise ctx.error(fw, f"wrong type: expected {what}")
         for i, n in enumerate(names):
             if n not in coordinates:
-                raise ctx.error(fw if count == 1 else f"{fw}[{i}]", f"unknown coordinate '{n}'")
+                raise ctx.error(fw if count == 1 else f"{fw}[{i}]",
+                                f"unknown coordinate '{n}'{did_you_mean(n, coordinates)}")
         out[key] = tuple(names)
     return out
 

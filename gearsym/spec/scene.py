@@ -36,15 +36,16 @@ from typing import Any
 
 from ..errors import ParameterError, SpecError
 from . import expressions as ex
+from .fields import did_you_mean, unknown_key
 from .files import read_toml
 from .initial import evaluate_initial, read_initial
 from .model import ModelSpec, Term, load_model
 from .names import check_label, sanitize_label
+from .settings import SETTINGS, read_settings
 from .units import ParameterUnits
 
-_SIM_KEYS = {"periods": (int, float), "t_end": (int, float), "rtol": (float, int), "atol": (float, int),
-             "points_per_period": (int,), "method": (str,), "transient_periods": (int, float),
-             "max_steps": (int,), "dimensionless": (bool,)}
+#: The sections of a scene file: ``[figures]`` is free (kept for scripts, never read by gearsym).
+_SECTIONS = ("scene", "effects", "parameters", "initial", *SETTINGS, "figures")
 
 
 @dataclass(frozen=True)
@@ -165,17 +166,15 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
     if "model" in data and "scene" not in data:
         raise err(None, "this is a model file; give a scene (or use `gearsym inspect` on the model)")
 
-    allowed = {"scene", "effects", "parameters", "initial", "simulate", "orbit", "map", "continue",
-               "figures"}
     for k in data:
-        if k not in allowed:
-            raise err(k, f"unknown section '{k}' (known: {', '.join(sorted(allowed))})")
+        if k not in _SECTIONS:
+            raise err(k, unknown_key(k, _SECTIONS, "section"))
     sc = data.get("scene")
     if not isinstance(sc, dict):
         raise err("scene", "missing section [scene]")
     for k in sc:
         if k not in ("name", "model", "description"):
-            raise err(f"scene.{k}", f"unknown field '{k}' (allowed: description, model, name)")
+            raise err(f"scene.{k}", unknown_key(k, ("name", "model", "description")))
     model_rel = sc.get("model")
     if not isinstance(model_rel, str):
         raise err("scene.model", "missing or not a string: the path of the model file")
@@ -210,16 +209,13 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
             raise err(f"parameters.{k}", f"non-finite value {v}")
         params[k] = float(v)
     initial, static = read_initial(data.get("initial", {}), err)
-    sim = data.get("simulate", {})
-    for k, v in sim.items():
-        if k not in _SIM_KEYS:
-            raise err(f"simulate.{k}", f"unknown field '{k}' (allowed: {', '.join(sorted(_SIM_KEYS))})")
-        if (isinstance(v, bool) and bool not in _SIM_KEYS[k]) or not isinstance(v, _SIM_KEYS[k]):
-            raise err(f"simulate.{k}", f"wrong type {type(v).__name__}")
-    for k in ("rtol", "atol", "periods", "t_end"):
-        if k in sim and not (math.isfinite(sim[k]) and sim[k] > 0):
-            raise err(f"simulate.{k}", f"must be positive, got {sim[k]}")
-    extra = {k: data[k] for k in ("orbit", "map", "continue", "figures") if k in data}
+    settings = {k: read_settings(k, data.get(k, {}), err) for k in SETTINGS}
+    sim = settings.pop("simulate")
+    if "figures" in data and not isinstance(data["figures"], dict):
+        raise err("figures", "wrong type: expected a table")
+    extra = {k: v for k, v in settings.items() if k in data}
+    if "figures" in data:
+        extra["figures"] = data["figures"]
     return SceneSpec(where_file, name, description, str(model_path), dict(effects), params, initial,
                      dict(sim), extra, static)
 
@@ -258,7 +254,8 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
     def apply(src: Mapping[str, bool | str], origin: str, file: str | None) -> None:
         for name, v in src.items():
             if name not in model.effects:
-                raise SpecError(f"effect '{name}' is not in model '{model.name}' (effects: "
+                raise SpecError(f"effect '{name}' is not in model '{model.name}'"
+                                f"{did_you_mean(name, model.effects)} (effects: "
                                 f"{', '.join(model.effects) or 'none'})", file=file,
                                 field=f"effects.{name}" if file else None)
             eff = model.effects[name]
@@ -335,7 +332,8 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
         for name, v in source.items():
             fld = f"parameters.{name}" if file else None
             if name not in model.parameters:
-                msg = f"unknown parameter '{name}' (model '{model.name}' has: {', '.join(model.parameters)})"
+                msg = (f"unknown parameter '{name}'{did_you_mean(name, model.parameters)} (model '{model.name}' "
+                       f"has: {', '.join(model.parameters)})")
                 if file:
                     raise SpecError(msg, file=file, field=fld)
                 raise ParameterError(msg)
@@ -357,7 +355,8 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
     for src, file in ((model.initial, model.path), (scene.initial, scene.path)):
         for k, v in src.items():
             if k not in initial:
-                raise SpecError(f"'{k}' is not a state (states: {', '.join(initial)})", file=file,
+                raise SpecError(f"'{k}' is not a state{did_you_mean(k, initial)} (states: {', '.join(initial)})",
+                                file=file,
                                 field=f"initial.{k}")
             initial[k] = evaluate_initial(k, v, params, model.units, model.units.get(k),
                                           lambda fld, msg, f=file: SpecError(msg, file=f, field=fld))
