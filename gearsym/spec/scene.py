@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import ParameterError, SpecError
+from ..errors import OverrideError, SpecError
 from . import expressions as ex
 from .fields import did_you_mean, unknown_key
 from .files import read_toml
@@ -234,7 +234,9 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
     effects
         Effect choices that replace the scene's (``True``/``False``/variant name).
     overrides
-        Parameter values (in the model's declared units) that replace the scene's.
+        Parameter values that replace the scene's: numbers in the model's declared units, or
+        strings that are a number with a unit (``"50um"``, ``"2e13 N/m"``), converted to the
+        declared unit after a check of the dimension.
 
     Raises
     ------
@@ -327,28 +329,7 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
     active_params = tuple(p for p in model.parameters if p in used_active)
 
     units = ParameterUnits.of_model(model)
-    values = units.to_si({p.name: p.value for p in model.parameters.values()})
-    for source, file in ((scene.parameters, scene.path), (overrides or {}, None)):
-        for name, v in source.items():
-            fld = f"parameters.{name}" if file else None
-            if name not in model.parameters:
-                msg = (f"unknown parameter '{name}'{did_you_mean(name, model.parameters)} (model '{model.name}' "
-                       f"has: {', '.join(model.parameters)})")
-                if file:
-                    raise SpecError(msg, file=file, field=fld)
-                raise ParameterError(msg)
-            try:
-                v = float(v)
-            except (TypeError, ValueError):
-                raise ParameterError(f"parameter '{name}': not a number: {v!r}") from None
-            if not math.isfinite(v):
-                raise ParameterError(f"parameter '{name}': non-finite value {v}")
-            if name not in used_active and name in used_inactive and file is None:
-                offs = ", ".join(sorted(e for e in used_inactive[name] if state.get(e) is False))
-                raise ParameterError(f"parameter '{name}' is used only by switched-off effect(s) "
-                                     f"{offs or ', '.join(sorted(used_inactive[name]))}; switch the "
-                                     f"effect on to set it")
-            values.update(units.to_si({name: v}))  # the one conversion: declared -> SI
+    values = _parameter_values(model, scene, overrides, units, used_active, used_inactive, state)
 
     initial = {s: 0.0 for s in model.state_names()}
     params = {p: values[p] for p in model.parameters}
@@ -371,6 +352,37 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
     rs = ResolvedScene(model, scene, state, values, active_params, initial, static)
     _check_inertias(rs)
     return rs
+
+
+def _parameter_values(model: ModelSpec, scene: SceneSpec, overrides: Mapping[str, object] | None,
+                      units: ParameterUnits, used_active: set[str], used_inactive: dict[str, set[str]],
+                      state: Mapping[str, bool | str]) -> dict[str, float]:
+    """SI value of every model parameter: the model's, then the scene's, then the overrides
+    (numbers in the declared unit, or strings with a unit: :meth:`ParameterUnits.declared_value`)."""
+    values = units.to_si({p.name: p.value for p in model.parameters.values()})
+    for name, v in scene.parameters.items():
+        if name not in model.parameters:
+            raise SpecError(f"unknown parameter '{name}'{did_you_mean(name, model.parameters)} (model "
+                            f"'{model.name}' has: {', '.join(model.parameters)})", file=scene.path,
+                            field=f"parameters.{name}")
+        values.update(units.to_si({name: float(v)}))  # the one conversion: declared -> SI
+    for name, v in (overrides or {}).items():
+        if name not in model.parameters:
+            raise OverrideError(name, f"unknown parameter '{name}'{did_you_mean(name, model.parameters)} (model "
+                                      f"'{model.name}' has: {', '.join(model.parameters)})", named=True)
+        try:
+            v = units.declared_value(name, v)
+        except ValueError as exc:
+            raise OverrideError(name, str(exc)) from None
+        if not math.isfinite(v):
+            raise OverrideError(name, f"non-finite value {v}")
+        if name not in used_active and name in used_inactive:
+            offs = ", ".join(sorted(e for e in used_inactive[name] if state.get(e) is False))
+            raise OverrideError(name, f"parameter '{name}' is used only by switched-off effect(s) "
+                                      f"{offs or ', '.join(sorted(used_inactive[name]))}; switch the effect "
+                                      f"on to set it", named=True)
+        values.update(units.to_si({name: v}))
+    return values
 
 
 def _check_inertias(rs: ResolvedScene) -> None:
