@@ -129,7 +129,7 @@ class Scene:
         gen = self.generate(generated_dir, force, dimensionless, derivatives=derivatives)
         values = {k: self.resolved.values[k] for k in gen.input_names}
         system = System(gen, values, self.initial_state(), self.spec.simulate, self.name,
-                        ParameterUnits.of_model(self.model_spec))
+                        ParameterUnits.of_model(self.model_spec), self.resolved.rules)
         system.derivative_build = _DerivativeBuild(self, generated_dir, gen.dimensionless)
         if self.resolved.static:  # [initial] static = true: start from the static equilibrium
             from .static import static_state

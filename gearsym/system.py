@@ -18,6 +18,7 @@ from .errors import GearsymError, ParameterError
 from .evaluation import Evaluations
 from .results import Event, Flow, Trajectory
 from .sensitivity import SensitivityMethods
+from .spec.rules import ParameterRules
 from .spec.units import ParameterUnits
 
 _METHODS = ("bdf", "adams", "ida")
@@ -59,6 +60,9 @@ class System(Evaluations, SensitivityMethods):
         The scene's name (default: the build's).
     units
         The declared units of the parameters (default: every parameter SI).
+    rules
+        The physical ranges of the parameter values (:mod:`gearsym.spec.rules`), checked
+        for every override in :meth:`param_vector` (default: none).
 
     Attributes
     ----------
@@ -72,11 +76,12 @@ class System(Evaluations, SensitivityMethods):
 
     def __init__(self, generated: GeneratedModel, params: Mapping[str, float], x0: Sequence[float],
                  defaults: Mapping[str, object] | None = None, scene_name: str = "",
-                 units: ParameterUnits | None = None):
+                 units: ParameterUnits | None = None, rules: ParameterRules | None = None):
         self.generated = generated
         self.engine: Engine = load_engine(generated.so_path, sha256=generated.so_sha256 or None,
                                           build_key=generated.build_key or None)
         self.units = units if units is not None else ParameterUnits()
+        self.rules = rules if rules is not None else ParameterRules()
         # run-time inputs: the generated parameters, except the bound ones (numeric
         # functions of other parameters), which param_vector() evaluates from theirs
         self._si = {name: float(params[name]) for name in generated.input_names}
@@ -99,7 +104,7 @@ class System(Evaluations, SensitivityMethods):
             raise GearsymError(f"system '{self.name}' has no build key: it cannot be reloaded from a build cache")
         return {"cache": str(Path(gen.directory).parent), "scene": gen.scene, "build_key": gen.build_key,
                 "params": dict(self._si), "x0": self.x0.tolist(), "defaults": dict(self.defaults),
-                "name": self.name, "units": self.units}
+                "name": self.name, "units": self.units, "rules": self.rules}
 
     def __setstate__(self, state: dict[str, object]) -> None:
         from .codegen.cache import BuildCache
@@ -111,7 +116,7 @@ class System(Evaluations, SensitivityMethods):
             raise GearsymError(f"the build {key[:16]} of scene '{state['scene']}' is not in the build cache "
                                f"{cache.root} on this machine (compile the scene here first)")
         self.__init__(gen, state["params"], state["x0"], state["defaults"], str(state["name"]),  # type: ignore[misc]
-                      state["units"])
+                      state["units"], state.get("rules"))
 
     # ------------------------------------------------------------------ info
 
@@ -218,7 +223,10 @@ class System(Evaluations, SensitivityMethods):
         Raises
         ------
         ParameterError
-            An unknown or non-finite override.
+            An unknown or non-finite override, or one outside the physical range of the field
+            that uses it (a negative backlash, a non-positive inertia, a schedule break outside
+            (0, 1), a declared ``min`` / ``max``: :mod:`gearsym.spec.rules`), naming the
+            parameter and its unit.
         """
         if not params:
             return self._at_own_values("param_vector", self._param_vector).copy()
@@ -243,6 +251,9 @@ class System(Evaluations, SensitivityMethods):
             if not math.isfinite(float(v)):
                 raise ParameterError(f"parameter '{k}': non-finite value {v}")
         values.update(self.units.to_si(params))
+        broken = self.rules.violation(values, changed=params.keys()) if self.rules.rules else None
+        if broken is not None:  # the values every analysis runs on: maps, continuation, params=
+            raise ParameterError(self.rules.message(*broken, values, self.units))
         for name, (fn, args) in self.generated.bound.items():
             values[name] = evaluate_bound(fn, [values[a] for a in args])
         return np.array([values[k] for k in self.generated.param_names], dtype=float)

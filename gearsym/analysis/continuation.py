@@ -265,6 +265,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     p_start = dict(base)
     p_start[param] = start
     system.require_period(p_start, "continuation of periodic orbits")
+    system.param_vector({**base, param: stop})  # the physical range (gearsym.spec.rules) at the other end too
     fmt = formatter(display or (1.0, system.units.unit(param)))  # values in the declared unit
 
     # ------------------------------------------------------------- first orbit

@@ -283,6 +283,9 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     base = dict(system.params)
     base.update({k: float(v) for k, v in (params or {}).items()})
     system.param_vector(base)  # validates
+    for xv in (xs[0], xs[-1]):  # the physical ranges of the values (gearsym.spec.rules) at the corners: exit 2
+        for yv in (ys[0], ys[-1]):
+            system.param_vector({**base, xname: float(xv), yname: float(yv)})
     want_ptp = quantity == "peak_to_peak"
     ny, nx = len(ys), len(xs)
     n_workers = int(workers or os.cpu_count() or 1)

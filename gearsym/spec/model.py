@@ -70,7 +70,8 @@ __all__ = ["Coordinate", "Derived", "Dimensionless", "Effect", "Element", "Equat
 @dataclass(frozen=True)
 class Parameter:
     """A run-time parameter: ``value`` in ``unit``, ``si_scale`` the SI value of one ``unit``
-    (:class:`~gearsym.spec.units.ParameterUnits` converts)."""
+    (:class:`~gearsym.spec.units.ParameterUnits` converts).  ``minimum``, ``maximum`` (declared
+    unit) and ``positive`` are the range its entry declares (:mod:`gearsym.spec.rules`)."""
 
     name: str
     value: float
@@ -78,6 +79,9 @@ class Parameter:
     meaning: str
     si_scale: float
     dims: Unit
+    minimum: float | None = None
+    maximum: float | None = None
+    positive: bool = False
 
 
 @dataclass(frozen=True)
@@ -319,15 +323,9 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         if isinstance(p, (int, float)) and not isinstance(p, bool):
             p = {"value": p}
         p = as_table(ctx, where, p)
-        only_keys(ctx, where, p, {"value", "unit", "meaning"})
+        only_keys(ctx, where, p, {"value", "unit", "meaning", "min", "max", "positive"})
         declare(pname, where)
-        if "value" not in p:
-            raise ctx.error(f"{where}.value", f"missing value for parameter '{pname}'")
-        value = number(ctx, f"{where}.value", p["value"])
-        unit = string(ctx, p, f"{where}.unit") or "1"
-        dims = unit_of(ctx, f"{where}.unit", unit)
-        parameters[pname] = Parameter(pname, value, unit, string(ctx, p, f"{where}.meaning") or "",
-                                      dims.scale, dims)
+        parameters[pname] = _parameter(ctx, where, pname, p)
 
     # effects
     effects: dict[str, Effect] = {}
@@ -496,6 +494,28 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     )
     validate_model(ctx, spec)
     return spec
+
+
+def _parameter(ctx: Ctx, where: str, name: str, p: dict[str, Any]) -> Parameter:
+    """One ``[parameters]`` entry: value, unit, meaning and its declared range (checked on its value)."""
+    if "value" not in p:
+        raise ctx.error(f"{where}.value", f"missing value for parameter '{name}'")
+    value = number(ctx, f"{where}.value", p["value"])
+    unit = string(ctx, p, f"{where}.unit") or "1"
+    dims = unit_of(ctx, f"{where}.unit", unit)
+    lo = number(ctx, f"{where}.min", p["min"]) if "min" in p else None
+    hi = number(ctx, f"{where}.max", p["max"]) if "max" in p else None
+    positive = p.get("positive", False)
+    if not isinstance(positive, bool):
+        raise ctx.error(f"{where}.positive", f"must be true or false, got {positive!r}")
+    if lo is not None and hi is not None and lo > hi:
+        raise ctx.error(f"{where}.max", f"max ({hi:g}) is below min ({lo:g})")
+    problem = (f">= {lo:g} (its min)" if lo is not None and value < lo else
+               f"<= {hi:g} (its max)" if hi is not None and value > hi else
+               "positive" if positive and not value > 0 else None)
+    if problem:
+        raise ctx.error(f"{where}.value", f"the value {value:g} of '{name}' must be {problem}")
+    return Parameter(name, value, unit, string(ctx, p, f"{where}.meaning") or "", dims.scale, dims, lo, hi, positive)
 
 
 def _coordinate_fields(ctx: Ctx, where: str, el: dict[str, Any], schema, coordinates: dict[str, Coordinate]

@@ -41,6 +41,7 @@ from .files import read_toml
 from .initial import evaluate_initial, read_initial
 from .model import ModelSpec, Term, load_model
 from .names import check_label, sanitize_label
+from .rules import ParameterRules, parameter_rules
 from .settings import SETTINGS, read_settings
 from .units import ParameterUnits
 
@@ -88,6 +89,10 @@ class ResolvedScene:
         the coordinates' values are the starting guess of the static solve.
     static
         Whether the scene starts from the static equilibrium (``[initial] static``).
+    rules
+        The physical ranges of the parameter values (backlash >= 0, inertia > 0, schedule
+        breaks in (0, 1), declared ``min``/``max``), checked here for the scene's values and by
+        the compiled system for every other value (:mod:`gearsym.spec.rules`).
     """
 
     model: ModelSpec
@@ -97,6 +102,8 @@ class ResolvedScene:
     active_parameters: tuple[str, ...]
     initial: dict[str, float]
     static: bool = False
+    #: the physical ranges of the parameter values (:mod:`gearsym.spec.rules`)
+    rules: ParameterRules = field(default_factory=ParameterRules, compare=False)
 
     def effect_active(self, effect: str | None, variant: str | None = None) -> bool:
         """Whether an effect (and variant, if given) is on; ``None`` means always on."""
@@ -330,6 +337,8 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
 
     units = ParameterUnits.of_model(model)
     values = _parameter_values(model, scene, overrides, units, used_active, used_inactive, state)
+    rules = parameter_rules(probe)  # the physical ranges, checked before any value is used
+    _check_rules(rules, values, model, scene, units, overrides)
 
     initial = {s: 0.0 for s in model.state_names()}
     params = {p: values[p] for p in model.parameters}
@@ -349,9 +358,7 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
             if initial.get(k, 0.0) != 0.0:
                 raise SpecError(f"static = true starts at rest: the velocity '{k}' must be 0 (or left out)",
                                 file=scene.path if k in scene.initial else model.path, field=f"initial.{k}")
-    rs = ResolvedScene(model, scene, state, values, active_params, initial, static)
-    _check_inertias(rs)
-    return rs
+    return ResolvedScene(model, scene, state, values, active_params, initial, static, rules)
 
 
 def _parameter_values(model: ModelSpec, scene: SceneSpec, overrides: Mapping[str, object] | None,
@@ -385,70 +392,39 @@ def _parameter_values(model: ModelSpec, scene: SceneSpec, overrides: Mapping[str
     return values
 
 
-def _check_inertias(rs: ResolvedScene) -> None:
-    """Every active inertia element whose value is a constant must be positive."""
-    model = rs.model
-    cache: dict[str, float | None] = {}
+class _OverrideRangeError(SpecError, OverrideError):
+    """An override outside the physical range of the field that uses it: a :class:`SpecError`
+    naming the model's field, and an :class:`OverrideError` naming the parameter (``--set NAME:``)."""
 
-    def derived_value(name: str, depth: int = 0) -> float | None:
-        if name not in cache:
-            cache[name] = None
-            if depth < 50:
-                total = 0.0
-                for t in model.derived[name].terms:
-                    if not rs.is_active(t):
-                        continue
-                    v = value_of(t.expr, depth + 1)
-                    if v is None:
-                        return None
-                    total += v
-                cache[name] = total
-        return cache[name]
+    def __init__(self, parameter: str, reason: str, message: str, file: str, field: str):
+        spec = SpecError(message, file=file, field=field)  # its text and attributes, without the MRO's __init__ chain
+        Exception.__init__(self, str(spec))
+        self.message, self.file, self.field = spec.message, spec.file, spec.field
+        named = OverrideError(parameter, reason)
+        self.parameter, self.reason = named.parameter, named.reason
 
-    def value_of(text: str, depth: int = 0) -> float | None:
-        try:
-            names = ex.names_in(text)
-        except ex.ExpressionError:
-            return None
-        env: dict[str, float] = {}
-        for n in names:
-            if n in rs.values:
-                env[n] = rs.values[n]
-            elif n in model.derived:
-                v = derived_value(n, depth)
-                if v is None:
-                    return None
-                env[n] = v
-            else:
-                return None
-        return ex.constant_value(text, env)
 
-    for el in model.elements.values():
-        if el.type != "inertia" or not rs.effect_active(el.effect, el.variant):
-            continue
-        if el.coordinate is not None and not rs.coordinate_active(el.coordinate):
-            continue
-        terms = [t for t in el.fields.get("value", ()) if rs.is_active(t, el.effect, el.variant)]
-        vals = [value_of(t.expr) for t in terms]
-        if not terms or any(v is None for v in vals):
-            continue
-        total = sum(v for v in vals if v is not None)
-        if total <= 0:
-            exprs = " + ".join(t.expr for t in terms)
-            seen: dict[str, float] = {}
-            todo = [n for t in terms for n in ex.names_in(t.expr)]
-            while todo:  # the parameters and derived quantities the value comes from
-                n = todo.pop()
-                if n in seen:
-                    continue
-                if n in model.derived:
-                    seen[n] = cache.get(n) or 0.0
-                    todo += [m for t in model.derived[n].terms if rs.is_active(t) for m in ex.names_in(t.expr)]
-                elif n in rs.values:
-                    seen[n] = rs.values[n]
-            with_ = f" with {', '.join(f'{n} = {v:g}' for n, v in seen.items())} (SI)" if seen else ""
-            raise SpecError(f"inertia must be positive, got {total:g} from '{exprs}'{with_}",
-                            file=model.path, field=f"elements.{el.name}.value")
+def _check_rules(rules: ParameterRules, values: Mapping[str, float], model: ModelSpec, scene: SceneSpec,
+                 units: ParameterUnits, overrides: Mapping[str, object] | None) -> None:
+    """The scene's parameter values against the physical ranges of the model (:mod:`gearsym.spec.rules`).
+
+    A value set by an override is an :class:`OverrideError` naming it (``--set NAME: ...``);
+    otherwise the model file and the field of the rule are named, and the scene file if a
+    value comes from it.
+    """
+    broken = rules.violation(values)
+    if broken is None:
+        return
+    rule, value = broken
+    set_here = sorted(rule.names & set(overrides or {}))
+    if set_here:
+        raise _OverrideRangeError(set_here[0], rules.message(rule, value, values, units, file=model.path),
+                                  rules.message(rule, value, values, units, with_field=False), model.path,
+                                  rule.field)
+    from_scene = sorted(rule.names & set(scene.parameters))
+    note = f" (set in the scene {scene.path}: {', '.join(from_scene)})" if from_scene else ""
+    raise SpecError(rules.message(rule, value, values, units, with_field=False) + note,
+                    file=model.path, field=rule.field)
 
 
 def _terms_with_owner(model: ModelSpec):
