@@ -58,6 +58,10 @@ class Trajectory:
         Parameter name -> ``d y / d p`` at the output times, shape (n_out, n_states)
         (``simulate(..., sensitivities=[...])``; exact, including the shift of the
         contact events with the parameter; ``x0`` held fixed).
+    settings : dict
+        The settings the run used, resolved from the call and the scene's ``[simulate]``
+        (``t0``, ``t_end``, ``rtol``, ``atol``, ``method``, ``n_out``, ``max_step``,
+        ``max_steps``, ``transient_periods``).
     """
 
     t: np.ndarray
@@ -71,6 +75,7 @@ class Trajectory:
     monodromy: np.ndarray | None = None
     event_speed: np.ndarray = field(default_factory=lambda: np.zeros(0))
     sensitivities: dict[str, np.ndarray] | None = None
+    settings: dict = field(default_factory=dict)
 
     @property
     def final_state(self) -> np.ndarray:

@@ -15,8 +15,8 @@ table           settings
 =============== ================================================================================
 ``[simulate]``  ``periods``, ``t_end``, ``rtol``, ``atol``, ``points_per_period``, ``method``,
                 ``transient_periods``, ``max_steps``, ``dimensionless``
-``[orbit]``     ``periods``, ``method``, ``segments``, ``transient`` (shooting), ``harmonics``
-                (hbm), ``tol``, ``rtol``, ``atol``
+``[orbit]``     ``periods``, ``method``, ``segments`` (shooting), ``harmonics`` (hbm),
+                ``transient``, ``tol``, ``rtol``, ``atol``
 ``[continue]``  ``periods``, ``method``, ``segments``, ``harmonics``, ``switch``, ``ds_max``,
                 ``max_points``, ``rtol``, ``atol``, ``tol``
 ``[map]``       ``periods``, ``method``, ``quantity``, ``harmonics``, ``rtol``
@@ -115,7 +115,7 @@ SETTINGS: dict[str, dict[str, Setting]] = {
 }
 
 #: Settings that belong to one orbit method only (dropped for the other).
-METHOD_ONLY: dict[str, str] = {"segments": "shooting", "transient": "shooting", "harmonics": "hbm"}
+METHOD_ONLY: dict[str, str] = {"segments": "shooting", "harmonics": "hbm"}
 
 
 def _problem(s: Setting, v: Any) -> str | None:
@@ -175,6 +175,8 @@ def read_settings(section: str, table: Any, error: Callable[[str, str], SpecErro
         problem = _problem(schema[k], v)
         if problem:
             raise error(f"{section}.{k}", problem)
+    if section == "simulate" and "periods" in table and "t_end" in table:
+        raise error("simulate.t_end", "give one of periods and t_end (the horizon in forcing periods, or a time)")
     return dict(table)
 
 
@@ -196,26 +198,31 @@ def resolve_settings(section: str, scene: Mapping[str, Any] | None, **given: Any
     -------
     dict
         Every setting of ``section`` -> its value (``None``: not set anywhere, the solver's
-        default applies).  For ``orbit``, ``continue`` and ``map`` the settings of the other
-        orbit method are dropped (``segments`` and ``transient`` with ``method = "hbm"``,
-        ``harmonics`` with ``"shooting"``).
+        default applies).  For ``orbit``, ``continue`` and ``map`` the scene's settings of the
+        other orbit method are dropped (``segments`` with ``method = "hbm"``, ``harmonics``
+        with ``"shooting"``).
 
     Raises
     ------
     ParameterError
-        A given key that is not a setting of ``section``.
+        A given key that is not a setting of ``section``, or a given setting of the other
+        orbit method (``segments`` with ``method = "hbm"``).
     """
     schema = SETTINGS[section]
     out: dict[str, Any] = {k: s.default for k, s in schema.items()}
     out.update({k: v for k, v in (scene or {}).items() if k in schema})
+    mine: set[str] = set()
     for k, v in given.items():
         if k not in schema:
             raise ParameterError(f"'{k}' is not a setting of [{section}] (settings: {', '.join(schema)})")
         if v is not None:
             out[k] = v
-    if section != "simulate":
-        method = out.get("method")
-        for k, only in METHOD_ONLY.items():
-            if k in out and method in ("shooting", "hbm") and method != only:
-                out[k] = None
+            mine.add(k)
+    method = out.get("method")
+    for k, only in METHOD_ONLY.items():  # the scene's settings of the other method do not apply
+        if section == "simulate" or k not in out or method not in ("shooting", "hbm") or method == only:
+            continue
+        if k in mine:
+            raise ParameterError(f"{k} applies to method '{only}', not '{method}'")
+        out[k] = None
     return out
