@@ -47,7 +47,8 @@ class Trajectory:
     period : float or None
         The forcing period of the scene at these parameters.
     params : dict
-        Parameter values used (SI units).
+        Parameter values used, in the model's declared units (bound parameters: SI), as
+        :attr:`gearsym.system.System.params`.
     x_final : ndarray
         State at ``t_end``.
     monodromy : ndarray or None
@@ -122,7 +123,8 @@ class Trajectory:
         path
             The file (``.npz``).  It holds ``t``, ``y``, ``state_names``, the events
             (``event_t``, ``event_direction``, ``event_surface``), ``period`` (NaN without
-            one) and the parameters (``param_names``, ``param_values``, SI units).
+            one) and the parameters (``param_names``, ``param_values``: :attr:`params`, in the
+            declared units).
         """
         from .files import save_npz
 

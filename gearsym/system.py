@@ -179,7 +179,7 @@ class System(Evaluations, SensitivityMethods):
         Parameters
         ----------
         params
-            Parameter overrides (SI units).
+            Parameter overrides (declared units, as every ``params=``).
 
         Returns
         -------
@@ -198,7 +198,7 @@ class System(Evaluations, SensitivityMethods):
         Parameters
         ----------
         params
-            Parameter overrides (SI units).
+            Parameter overrides (declared units, as every ``params=``).
 
         Returns
         -------
