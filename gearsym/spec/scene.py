@@ -288,8 +288,39 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
                 raise SpecError(f"effect '{name}' requires effect '{req}', which is off",
                                 file=scene.path, field=f"effects.{name}")
 
-    # which names do the active terms use (transitively through derived quantities)?
     probe = ResolvedScene(model, scene, state, {}, (), {})
+    used_active, used_inactive = _used_names(model, probe)
+    active_params = tuple(p for p in model.parameters if p in used_active)
+
+    units = ParameterUnits.of_model(model)
+    values = _parameter_values(model, scene, overrides, units, used_active, used_inactive, state)
+    rules = parameter_rules(probe)  # the physical ranges, checked before any value is used
+    _check_rules(rules, values, model, scene, units, overrides)
+
+    initial = {s: 0.0 for s in model.state_names()}
+    params = {p: values[p] for p in model.parameters}
+    for src, file in ((model.initial, model.path), (scene.initial, scene.path)):
+        for k, v in src.items():
+            if k not in initial:
+                raise SpecError(f"'{k}' is not a state{did_you_mean(k, initial)} (states: {', '.join(initial)})",
+                                file=file,
+                                field=f"initial.{k}")
+            initial[k] = evaluate_initial(k, v, params, model.units, model.units.get(k),
+                                          lambda fld, msg, f=file: SpecError(msg, file=f, field=fld))
+    static = bool(scene.static if scene.static is not None else model.static)
+    if static:  # the static equilibrium is at rest
+        velocities = ([model.reduction.velocity] if model.reduction is not None
+                      else [c.velocity for c in model.coordinates.values()])
+        for k in velocities:
+            if initial.get(k, 0.0) != 0.0:
+                raise SpecError(f"static = true starts at rest: the velocity '{k}' must be 0 (or left out)",
+                                file=scene.path if k in scene.initial else model.path, field=f"initial.{k}")
+    return ResolvedScene(model, scene, state, values, active_params, initial, static, rules)
+
+
+def _used_names(model: ModelSpec, probe: ResolvedScene) -> tuple[set[str], dict[str, set[str]]]:
+    """The names the active terms use (transitively through derived quantities and schedules), and
+    for the others the effects whose switched-off terms use them."""
     used_active: set[str] = set()
     used_inactive: dict[str, set[str]] = {}
     for term, el_eff, el_var in _terms_with_owner(model):
@@ -333,32 +364,7 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
                     if not effs <= cur:
                         cur |= effs
                         changed = True
-    active_params = tuple(p for p in model.parameters if p in used_active)
-
-    units = ParameterUnits.of_model(model)
-    values = _parameter_values(model, scene, overrides, units, used_active, used_inactive, state)
-    rules = parameter_rules(probe)  # the physical ranges, checked before any value is used
-    _check_rules(rules, values, model, scene, units, overrides)
-
-    initial = {s: 0.0 for s in model.state_names()}
-    params = {p: values[p] for p in model.parameters}
-    for src, file in ((model.initial, model.path), (scene.initial, scene.path)):
-        for k, v in src.items():
-            if k not in initial:
-                raise SpecError(f"'{k}' is not a state{did_you_mean(k, initial)} (states: {', '.join(initial)})",
-                                file=file,
-                                field=f"initial.{k}")
-            initial[k] = evaluate_initial(k, v, params, model.units, model.units.get(k),
-                                          lambda fld, msg, f=file: SpecError(msg, file=f, field=fld))
-    static = bool(scene.static if scene.static is not None else model.static)
-    if static:  # the static equilibrium is at rest
-        velocities = ([model.reduction.velocity] if model.reduction is not None
-                      else [c.velocity for c in model.coordinates.values()])
-        for k in velocities:
-            if initial.get(k, 0.0) != 0.0:
-                raise SpecError(f"static = true starts at rest: the velocity '{k}' must be 0 (or left out)",
-                                file=scene.path if k in scene.initial else model.path, field=f"initial.{k}")
-    return ResolvedScene(model, scene, state, values, active_params, initial, static, rules)
+    return used_active, used_inactive
 
 
 def _parameter_values(model: ModelSpec, scene: SceneSpec, overrides: Mapping[str, object] | None,
