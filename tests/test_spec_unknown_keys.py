@@ -41,6 +41,13 @@ MODEL_CASES = [
     (_sub(KS, "[effects.backlash]\n", "[effects.backlash]\ndefualt = true\n"), "effects.backlash.defualt", "default"),
     (_sub(KS, "[forcing]", "[forcin]\n[forcing]"), "forcin", "forcing"),
     (_sub(SPUR, "[reduction]\n", "[reduction]\ndefinitoin = \"x\"\n"), "reduction.definitoin", "definition"),
+    # a typed excitation takes only its own keys (a sinusoid has no 'cos'; 'phse' is not 'phase')
+    (_sub(KS, '{ expr = "Fa*Omega**2*cos(Omega*t)", effect', '{ type = "sinusoid", amplitude = "Fa*Omega**2", '
+          'frequency = "Omega", phse = "0", effect'), "elements.load.value[1].phse", "phase"),
+    (_sub(KS, '{ expr = "Fa*Omega**2*cos(Omega*t)", effect', '{ type = "sinusiod", amplitude = "Fa", effect'),
+     "elements.load.value[1].type", "sinusoid"),
+    (_sub(KS, '{ expr = "eps*cos(Omega*t)", effect', '{ expr = "eps*cos(Omega*t)", amplitude = "1", effect'),
+     "elements.mesh.stiffness[1].amplitude", None),
 ]
 
 
@@ -50,7 +57,10 @@ def test_model_tables_reject_unknown_keys(tmp_path, text, field, suggestion):
         _load(tmp_path, text)
     err = info.value
     assert err.file == str(tmp_path / "m.toml") and err.field == field, str(err)
-    assert f"did you mean '{suggestion}'?" in str(err), str(err)
+    if suggestion is not None:
+        assert f"did you mean '{suggestion}'?" in str(err), str(err)
+    else:
+        assert "unknown field 'amplitude'" in str(err), str(err)
 
 
 SCENE_CASES = [

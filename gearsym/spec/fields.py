@@ -52,21 +52,32 @@ def read_terms(ctx: Ctx, where: str, value: Any, schedules: dict[str, Schedule],
             out.extend(read_terms(ctx, f"{where}[{i}]", v, schedules, effect, variant))
         return tuple(out)
     if isinstance(value, dict):
-        allowed = {"expr", "effect", "variant", "type", "amplitude", "frequency", "phase", "mean",
-                   "cos", "sin", "schedule", "values"}
-        only_keys(ctx, where, value, allowed)
+        kind = value.get("type")
+        if kind is not None and kind not in _TERM_KEYS:
+            raise ctx.error(f"{where}.type", f"unknown excitation type '{kind}'{did_you_mean(str(kind), _TYPES)} "
+                                             f"(known: {', '.join(_TYPES)})")
+        only_keys(ctx, where, value, {"effect", "variant", "type", *_TERM_KEYS[kind]})
         eff = value.get("effect", effect)
         var = value.get("variant", variant)
         for k, v in (("effect", eff), ("variant", var)):
             if v is not None and not isinstance(v, str):
                 raise ctx.error(f"{where}.{k}", "must be a string")
-        kind = value.get("type")
         if kind is None:
             if "expr" not in value:
                 raise ctx.error(where, "a term table needs 'expr' or 'type'")
             return (Term(expr_str(ctx, f"{where}.expr", value["expr"]), where, eff, var),)
         return (Term(_typed(ctx, where, kind, value, schedules), where, eff, var),)
     return (Term(expr_str(ctx, where, value), where, effect, variant),)
+
+
+#: The keys of a term table besides ``effect``, ``variant`` and ``type``, by its ``type``.
+_TERM_KEYS: dict[str | None, tuple[str, ...]] = {
+    None: ("expr",),
+    "sinusoid": ("amplitude", "frequency", "phase", "mean"),
+    "fourier": ("frequency", "mean", "cos", "sin"),
+    "piecewise_cycle": ("schedule", "values"),
+}
+_TYPES = tuple(k for k in _TERM_KEYS if k is not None)
 
 
 def _typed(ctx: Ctx, where: str, kind: str, v: dict[str, Any], schedules: dict[str, Schedule]) -> str:
