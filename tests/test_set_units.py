@@ -24,7 +24,7 @@ def _si(**overrides) -> dict[str, float]:
 
 
 @pytest.mark.parametrize("given,declared", [("50um", 50.0), ("50 um", 50.0), ("0.04mm", 40.0), ("4e-5 m", 40.0),
-                                            ("-2.5e+1um", -25.0), ("7", 7.0)])
+                                            ("+2.5e+1um", 25.0), ("7", 7.0)])
 def test_unit_suffix_is_converted_to_the_declared_unit(given, declared):
     # the SI value equals the one of the same length typed in the declared unit, exactly
     # (no 40.00000000000001 um from 0.04 * 1e-3 / 1e-6)
