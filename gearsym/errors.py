@@ -59,6 +59,26 @@ class ParameterError(GearsymError):
     exit_code = 2
 
 
+class OverrideError(ParameterError):
+    """A parameter override (``load_scene(**overrides)``, ``--set``) is invalid.
+
+    Parameters
+    ----------
+    parameter
+        The parameter's name.
+    reason
+        What is wrong (the command line reports it as ``--set NAME: reason``).
+    named
+        Whether ``reason`` names the parameter itself (the message is then ``reason``, else
+        ``parameter 'NAME': reason``).
+    """
+
+    def __init__(self, parameter: str, reason: str, named: bool = False):
+        self.parameter = one_line(str(parameter))
+        self.reason = one_line(reason)
+        super().__init__(self.reason if named else f"parameter '{self.parameter}': {self.reason}")
+
+
 class CompileError(GearsymError):
     """Code generation or the C compiler failed."""
 

@@ -56,7 +56,8 @@ class Scene:
         Effect choices overriding the scene's: ``{"backlash": False}``,
         ``{"sliding_friction": "B"}``.
     overrides
-        Parameter values overriding the scene's, in the model's declared units.
+        Parameter values overriding the scene's: numbers in the model's declared units, or
+        strings with a unit (``"50um"``), see :func:`load_scene`.
     model_spec
         The model, when the caller has already loaded it (default: read the scene's
         ``model`` file).
@@ -137,7 +138,8 @@ class Scene:
         gen = self.generate(generated_dir, force, dimensionless, derivatives=derivatives)
         values = {k: self.resolved.values[k] for k in gen.input_names}
         system = System(gen, values, self.initial_state(), self.spec.simulate, self.name,
-                        ParameterUnits.of_model(self.model_spec))
+                        ParameterUnits.of_model(self.model_spec), self.resolved.rules,
+                        {k: v for k, v in self.spec.extra.items() if k in ("orbit", "continue", "map")})
         system.derivative_build = _DerivativeBuild(self, generated_dir, gen.dimensionless)
         if self.resolved.static:  # [initial] static = true: start from the static equilibrium
             from .static import static_state
@@ -247,7 +249,7 @@ class _DerivativeBuild:
 
 
 def load_scene(path: str | Path, effects: Mapping[str, bool | str] | None = None,
-               **overrides: float) -> Scene:
+               **overrides: float | str) -> Scene:
     """Load a scene file.
 
     Parameters
@@ -258,7 +260,10 @@ def load_scene(path: str | Path, effects: Mapping[str, bool | str] | None = None
         Maps effect names to ``True`` / ``False`` / a variant name, exactly as the
         CLI's ``--effect NAME[=VARIANT]`` / ``--no-effect NAME``.
     **overrides
-        Parameter values replacing the scene's, exactly as ``--set NAME=VALUE``.
+        Parameter values replacing the scene's, exactly as ``--set NAME=VALUE``: a number in
+        the model's declared unit (``b_m=50`` is 50 um if the model declares ``unit = "um"``),
+        or a string with a unit (``b_m="50um"``, ``k_m="2e13 N/m"``), converted to the declared
+        unit after a check of its dimension.
 
     Returns
     -------
@@ -267,6 +272,7 @@ def load_scene(path: str | Path, effects: Mapping[str, bool | str] | None = None
     Examples
     --------
     >>> scene = load_scene("scenes/kahraman_singh.toml", Omega=0.8)   # doctest: +SKIP
+    >>> scene = load_scene("scenes/spur_pair_torsional.toml", b_m="0.05mm")  # 50 um  # doctest: +SKIP
     >>> traj = scene.compile().simulate(periods=200)                    # doctest: +SKIP
     """
     return Scene(path, effects, overrides)

@@ -47,7 +47,8 @@ class Trajectory:
     period : float or None
         The forcing period of the scene at these parameters.
     params : dict
-        Parameter values used (SI units).
+        Parameter values used, in the model's declared units (bound parameters: SI), as
+        :attr:`gearsym.system.System.params`.
     x_final : ndarray
         State at ``t_end``.
     monodromy : ndarray or None
@@ -58,6 +59,10 @@ class Trajectory:
         Parameter name -> ``d y / d p`` at the output times, shape (n_out, n_states)
         (``simulate(..., sensitivities=[...])``; exact, including the shift of the
         contact events with the parameter; ``x0`` held fixed).
+    settings : dict
+        The settings the run used, resolved from the call and the scene's ``[simulate]``
+        (``t0``, ``t_end``, ``rtol``, ``atol``, ``method``, ``n_out``, ``max_step``,
+        ``max_steps``, ``transient_periods``).
     """
 
     t: np.ndarray
@@ -71,6 +76,7 @@ class Trajectory:
     monodromy: np.ndarray | None = None
     event_speed: np.ndarray = field(default_factory=lambda: np.zeros(0))
     sensitivities: dict[str, np.ndarray] | None = None
+    settings: dict = field(default_factory=dict)
 
     @property
     def final_state(self) -> np.ndarray:
@@ -117,7 +123,8 @@ class Trajectory:
         path
             The file (``.npz``).  It holds ``t``, ``y``, ``state_names``, the events
             (``event_t``, ``event_direction``, ``event_surface``), ``period`` (NaN without
-            one) and the parameters (``param_names``, ``param_values``, SI units).
+            one) and the parameters (``param_names``, ``param_values``: :attr:`params`, in the
+            declared units).
         """
         from .files import save_npz
 

@@ -98,7 +98,7 @@ def static_state(system: System, coordinates: Sequence[str], velocities: Sequenc
     guess
         Full state whose coordinates start the solve (default: the system's ``x0``).
     params
-        Parameter overrides (SI units).
+        Parameter overrides (declared units, as every ``params=``).
     where
         ``(file, field)`` named by the errors.
 

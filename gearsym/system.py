@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -20,6 +21,8 @@ from .errors import GearsymError, ParameterError
 from .evaluation import Evaluations
 from .results import Event, Flow, Trajectory
 from .sensitivity import SensitivityMethods
+from .spec.rules import ParameterRules
+from .spec.settings import resolve_settings
 from .spec.units import ParameterUnits
 
 _METHODS = ("bdf", "adams", "ida")
@@ -57,6 +60,13 @@ class System(Evaluations, SensitivityMethods):
         The scene's name (default: the build's).
     units
         The declared units of the parameters (default: every parameter SI).
+    rules
+        The physical ranges of the parameter values (:mod:`gearsym.spec.rules`), checked
+        for every override in :meth:`param_vector` (default: none).
+    settings
+        The scene's other settings tables: ``{"orbit": {...}, "continue": {...}, "map": {...}}``
+        (:mod:`gearsym.spec.settings`), the defaults of :meth:`periodic_orbit`,
+        :func:`gearsym.continuation` and :func:`gearsym.analysis.maps.stability_map`.
 
     Attributes
     ----------
@@ -70,11 +80,13 @@ class System(Evaluations, SensitivityMethods):
 
     def __init__(self, generated: GeneratedModel, params: Mapping[str, float], x0: Sequence[float],
                  defaults: Mapping[str, object] | None = None, scene_name: str = "",
-                 units: ParameterUnits | None = None):
+                 units: ParameterUnits | None = None, rules: ParameterRules | None = None,
+                 settings: Mapping[str, Mapping[str, Any]] | None = None):
         self.generated = generated
         self.engine: Engine = load_engine(generated.so_path, sha256=generated.so_sha256 or None,
                                           build_key=generated.build_key or None)
         self.units = units if units is not None else ParameterUnits()
+        self.rules = rules if rules is not None else ParameterRules()
         # run-time inputs: the generated parameters, except the bound ones (numeric
         # functions of other parameters), which param_vector() evaluates from theirs
         self._si = {name: float(params[name]) for name in generated.input_names}
@@ -83,6 +95,7 @@ class System(Evaluations, SensitivityMethods):
         if generated.dimensionless:  # the scene's initial state is dimensional: scale it
             self.x0 = self.x0 / self.state_scales()
         self.defaults = dict(defaults or {})
+        self.settings = {k: dict(v) for k, v in (settings or {}).items()}
         self.name = scene_name or generated.scene
         #: makes the build with the parameter derivatives of the sensitivities on the first
         #: sensitivity request (set by :meth:`gearsym.Scene.compile`; None: not available)
@@ -97,7 +110,7 @@ class System(Evaluations, SensitivityMethods):
             raise GearsymError(f"system '{self.name}' has no build key: it cannot be reloaded from a build cache")
         return {"cache": str(Path(gen.directory).parent), "scene": gen.scene, "build_key": gen.build_key,
                 "params": dict(self._si), "x0": self.x0.tolist(), "defaults": dict(self.defaults),
-                "name": self.name, "units": self.units}
+                "name": self.name, "units": self.units, "rules": self.rules, "settings": self.settings}
 
     def __setstate__(self, state: dict[str, object]) -> None:
         from .codegen.cache import BuildCache
@@ -109,7 +122,7 @@ class System(Evaluations, SensitivityMethods):
             raise GearsymError(f"the build {key[:16]} of scene '{state['scene']}' is not in the build cache "
                                f"{cache.root} on this machine (compile the scene here first)")
         self.__init__(gen, state["params"], state["x0"], state["defaults"], str(state["name"]),  # type: ignore[misc]
-                      state["units"])
+                      state["units"], state.get("rules"), state.get("settings"))
 
     # ------------------------------------------------------------------ info
 
@@ -164,7 +177,7 @@ class System(Evaluations, SensitivityMethods):
         Parameters
         ----------
         params
-            Parameter overrides (SI units).
+            Parameter overrides (declared units, as every ``params=``).
 
         Returns
         -------
@@ -183,7 +196,7 @@ class System(Evaluations, SensitivityMethods):
         Parameters
         ----------
         params
-            Parameter overrides (SI units).
+            Parameter overrides (declared units, as every ``params=``).
 
         Returns
         -------
@@ -216,7 +229,10 @@ class System(Evaluations, SensitivityMethods):
         Raises
         ------
         ParameterError
-            An unknown or non-finite override.
+            An unknown or non-finite override, or one outside the physical range of the field
+            that uses it (a negative backlash, a non-positive inertia, a schedule break outside
+            (0, 1), a declared ``min`` / ``max``: :mod:`gearsym.spec.rules`), naming the
+            parameter and its unit.
         """
         if not params:
             return self._at_own_values("param_vector", self._param_vector).copy()
@@ -241,6 +257,9 @@ class System(Evaluations, SensitivityMethods):
             if not math.isfinite(float(v)):
                 raise ParameterError(f"parameter '{k}': non-finite value {v}")
         values.update(self.units.to_si(params))
+        broken = self.rules.violation(values, changed=params.keys()) if self.rules.rules else None
+        if broken is not None:  # the values every analysis runs on: maps, continuation, params=
+            raise ParameterError(self.rules.message(*broken, values, self.units))
         for name, (fn, args) in self.generated.bound.items():
             values[name] = evaluate_bound(fn, [values[a] for a in args])
         return np.array([values[k] for k in self.generated.param_names], dtype=float)
@@ -345,7 +364,7 @@ class System(Evaluations, SensitivityMethods):
                              f"forcing period")
 
     def simulate(self, t_end: float | None = None, periods: float | None = None,
-                 x0: Sequence[float] | None = None, rtol: float = 1e-8, atol: float = 1e-10,
+                 x0: Sequence[float] | None = None, rtol: float | None = None, atol: float | None = None,
                  n_out: int | None = None, params: Mapping[str, float] | None = None, *,
                  t0: float = 0.0, method: str | None = None, max_step: float | None = None,
                  monodromy: bool = False, sigma0: Sequence[float] | None = None,
@@ -358,22 +377,26 @@ class System(Evaluations, SensitivityMethods):
         t_end
             Final time. Give this or ``periods``.
         periods
-            Number of forcing periods (``t_end = t0 + periods * T``).
+            Number of forcing periods (``t_end = t0 + periods * T``).  Without ``t_end``,
+            ``periods`` and ``t_out``: the scene's ``[simulate]`` ``periods`` or ``t_end``,
+            else 100 forcing periods (a time of 100 without a forcing period).
         x0
             Initial state; the scene's when ``None``.
         rtol, atol
-            Integrator tolerances.
+            Integrator tolerances (default: the scene's ``[simulate]`` ``rtol`` / ``atol``,
+            else 1e-8 / 1e-10).
         n_out
             Number of evenly spaced output points from ``t0`` to ``t_end`` (both
-            included); by default 64 per forcing period (or 1001).
+            included); by default the scene's ``points_per_period`` (else 64) per forcing
+            period (or 1001).
         params
             Parameter overrides for this call only (declared units).
         t0
             Start time.
         method
-            ``"adams"`` (default for explicit models: non-stiff gear models take
-            fewer, more accurate steps with it), ``"bdf"`` (stiff models) or ``"ida"``
-            (implicit models).
+            ``"adams"`` (default for explicit models unless the scene's ``[simulate]`` says
+            otherwise: non-stiff gear models take fewer, more accurate steps with it),
+            ``"bdf"`` (stiff models) or ``"ida"`` (implicit models).
         max_step
             Largest internal step; default an eighth of the forcing period, so that
             no pair of surface crossings hides inside one step.
@@ -408,6 +431,13 @@ class System(Evaluations, SensitivityMethods):
         Returns
         -------
         Trajectory
+            With :attr:`Trajectory.settings`, the settings the run used.
+
+        Notes
+        -----
+        The scene's settings are resolved in one place for the command line and this method
+        (:func:`gearsym.spec.settings.resolve_settings`): ``gearsym simulate`` passes only the
+        options the user typed, so one scene gives one answer both ways.
 
         Raises
         ------
@@ -419,38 +449,68 @@ class System(Evaluations, SensitivityMethods):
         """
         wall = time.perf_counter()
         p = self.param_vector(params)
-        T = self.period(params)
-        grid = None
-        if t_out is not None:
-            grid = np.asarray(t_out, dtype=float).reshape(-1)
-            if grid.size == 0 or not np.all(np.isfinite(grid)) or np.any(np.diff(grid) < 0):
-                raise ParameterError("t_out must be a non-empty ascending sequence of finite times")
-            if t_end is None and periods is None:
-                t_end = float(grid[-1])  # integrate to the last output time, not the scene's horizon
-        if t_end is None:
-            if periods is None:
-                if T:
-                    periods = float(self.defaults.get("periods", 100))
-                elif "t_end" in self.defaults or not self.has_forcing_period:
-                    t_end = float(self.defaults.get("t_end", 100.0))
-            if t_end is None:
-                if not T:
-                    T = self.require_period(params, "periods=")  # says why there is none
-                if not (math.isfinite(float(periods)) and float(periods) > 0):
-                    raise ParameterError(f"periods must be positive and finite, got {periods}")
-                t_end = t0 + float(periods) * T
-        if not (math.isfinite(t_end) and t_end > t0):
-            raise ParameterError(f"t_end must be finite and greater than t0={t0}, got {t_end}")
-        if not (rtol > 0 and atol > 0 and math.isfinite(rtol) and math.isfinite(atol)):
-            raise ParameterError(f"tolerances must be positive and finite (rtol={rtol}, atol={atol})")
-        if rtol < 1e-15:
-            raise ParameterError(f"rtol={rtol} is below what double precision can deliver (1e-15)")
-        if rtol >= 1:
-            raise ParameterError(f"rtol={rtol} asks for no accuracy at all (need rtol < 1)")
+        plan = self._plan(p, params, t0, t_end, periods, rtol, atol, n_out, method, max_step, max_steps, t_out)
         x0v = self.x0 if x0 is None else np.asarray(x0, dtype=float)
         if x0v.shape != (self.generated.nx,):
             raise ParameterError(f"x0 must have {self.generated.nx} entries "
                                  f"({', '.join(self.state_names)}), got shape {x0v.shape}")
+        sens_kw: dict = {}
+        if sensitivities is not None:
+            sens_kw = self._sensitivity_args(list(sensitivities), p, np.full(self.generated.nx, plan.atol),
+                                             monodromy, plan.atol, inputs=params)
+        engine = self.engine if sensitivities is None else self.derivative_engine()
+        res = engine.run(x0v, p, t0, plan.t_end, plan.grid, method=plan.method, rtol=plan.rtol, atol=plan.atol,
+                         sigma0=sigma0, want_monodromy=monodromy, max_steps=plan.max_steps, max_step=plan.max_step,
+                         nonlinear=nonlinear, linear_solver=linear_solver, sens_out=sensitivities is not None,
+                         **sens_kw)
+        return self._trajectory(res, plan, p, sensitivities, wall)
+
+    def _plan(self, p: np.ndarray, params: Mapping[str, float] | None, t0: float, t_end: float | None,
+              periods: float | None, rtol: float | None, atol: float | None, n_out: int | None,
+              method: str | None, max_step: float | None, max_steps: int, t_out: Sequence[float] | None
+              ) -> _Plan:
+        """The settings of one :meth:`simulate` run: the caller's, else the scene's, else the defaults
+        (:func:`~gearsym.spec.settings.resolve_settings`), checked before any work."""
+        T = self.period(params)
+        grid = _explicit_grid(t_out)
+        given_horizon = t_end is not None or periods is not None
+        s = resolve_settings("simulate", self.defaults, rtol=rtol, atol=atol, method=method,
+                             max_steps=max_steps or None,
+                             **({"t_end": t_end, "periods": periods} if given_horizon else {}))
+        if not given_horizon and grid is not None:
+            t_end = float(grid[-1])  # integrate to the last output time, not the scene's horizon
+        elif given_horizon:
+            t_end = None if t_end is None else float(t_end)
+        elif s["periods"] is None and s["t_end"] is not None:
+            t_end = float(s["t_end"])
+        elif s["periods"] is None and not T and not self.has_forcing_period:
+            t_end = 100.0
+        if t_end is None:
+            periods = s["periods"] if s["periods"] is not None else 100
+            if not T:
+                T = self.require_period(params, "periods=")  # says why there is none
+            if not (math.isfinite(float(periods)) and float(periods) > 0):
+                raise ParameterError(f"periods must be positive and finite, got {periods}")
+            t_end = t0 + float(periods) * T
+        _check_tolerances(t0, t_end, s["rtol"], s["atol"])
+        grid = self._output_grid(grid, t0, t_end, T, n_out, int(s["points_per_period"]))
+        method = "ida" if self.generated.implicit and method is None else str(s["method"] or "adams")
+        self._check_method(method)
+        if max_step is None:
+            max_step = T / 8 if T else 0.0
+        steps = int(s["max_steps"] or 0)
+        if steps < 0:
+            raise ParameterError(f"max_steps must be positive (0: the default), got {steps}")
+        _check_step_budget(t0, t_end, max_step, steps, bool(T and max_step == T / 8))
+        settings = {"t0": t0, "t_end": t_end, "rtol": float(s["rtol"]), "atol": float(s["atol"]), "method": method,
+                    "n_out": int(grid.size), "max_step": max_step, "max_steps": steps,
+                    "transient_periods": s["transient_periods"]}
+        return _Plan(T, t_end, grid, float(s["rtol"]), float(s["atol"]), method, max_step, steps, settings)
+
+    def _output_grid(self, grid: np.ndarray | None, t0: float, t_end: float, T: float | None, n_out: int | None,
+                     points_per_period: int) -> np.ndarray:
+        """The output times: ``t_out``, else ``n_out`` (or ``points_per_period`` per forcing period) evenly
+        spaced from ``t0`` to ``t_end``; refused above :data:`MAX_OUTPUT_VALUES` numbers."""
         if grid is not None:
             if grid[0] < t0 or grid[-1] > t_end:
                 raise ParameterError(f"t_out must lie in [t0, t_end] = [{t0:g}, {t_end:g}], got "
@@ -458,41 +518,26 @@ class System(Evaluations, SensitivityMethods):
             n_points = grid.size
         else:
             if n_out is None:
-                if T:
-                    ppp = int(self.defaults.get("points_per_period", 64))
-                    n_out = int(round((t_end - t0) / T * ppp)) + 1
-                else:
-                    n_out = 1001
+                n_out = int(round((t_end - t0) / T * points_per_period)) + 1 if T else 1001
             n_points = max(int(n_out), 2)
         check_output_grid(n_points, self.generated.nx + 1,
                           "use fewer periods, a smaller points_per_period or n_out / t_out")
         if grid is None:
             grid = np.linspace(t0, t_end, n_points)
             grid[-1] = t_end
-        if method is None:
-            method = "ida" if self.generated.implicit else str(self.defaults.get("method", "adams"))
+        return grid
+
+    def _check_method(self, method: str) -> None:
         if method not in _METHODS:
             raise ParameterError(f"method must be one of {_METHODS}, got '{method}'")
         if self.generated.implicit and method != "ida":
             raise ParameterError("this model is in implicit (mass-matrix) form: use method='ida'")
         if not self.generated.implicit and method == "ida":
             raise ParameterError("method='ida' needs a model in implicit form (model.form = 'implicit')")
-        if max_step is None:
-            max_step = T / 8 if T else 0.0
-        if not max_steps:
-            max_steps = int(self.defaults.get("max_steps", 0))
-        if max_steps < 0:
-            raise ParameterError(f"max_steps must be positive (0: the default), got {max_steps}")
-        _check_step_budget(t0, t_end, max_step, max_steps, bool(T and max_step == T / 8))
-        sens_kw: dict = {}
-        if sensitivities is not None:
-            sens_kw = self._sensitivity_args(list(sensitivities), p, np.full(self.generated.nx, atol),
-                                             monodromy, atol, inputs=params)
-        engine = self.engine if sensitivities is None else self.derivative_engine()
-        res = engine.run(x0v, p, t0, t_end, grid, method=method, rtol=rtol, atol=atol,
-                              sigma0=sigma0, want_monodromy=monodromy, max_steps=max_steps,
-                              max_step=max_step, nonlinear=nonlinear, linear_solver=linear_solver,
-                              sens_out=sensitivities is not None, **sens_kw)
+
+    def _trajectory(self, res: Any, plan: _Plan, p: np.ndarray, sensitivities: Sequence[str] | None,
+                    wall: float) -> Trajectory:
+        """The :class:`Trajectory` of an engine run."""
         sens = None
         if sensitivities is not None:
             sens = {name: res.sensitivity_out[:, :, s].copy() for s, name in enumerate(sensitivities)}
@@ -502,10 +547,10 @@ class System(Evaluations, SensitivityMethods):
         stats = dict(res.stats)
         stats["n_events"] = int(stats.get("n_events", len(events)))
         stats["wall_s"] = time.perf_counter() - wall
-        return Trajectory(t=grid, y=res.y, state_names=self.state_names, events=events, stats=stats,
-                          period=T, params=self.param_dict(p),
+        return Trajectory(t=plan.grid, y=res.y, state_names=self.state_names, events=events, stats=stats,
+                          period=plan.period, params=self.param_dict(p),
                           x_final=res.x_final, monodromy=res.monodromy,
-                          event_speed=np.asarray(res.events.speed), sensitivities=sens)
+                          event_speed=np.asarray(res.events.speed), sensitivities=sens, settings=plan.settings)
 
     def flow(self, x0: Sequence[float], t0: float, t1: float, p: np.ndarray | None = None, *,
              rtol: float = 1e-10, atol: float | np.ndarray = 1e-12, monodromy: bool = True,
@@ -610,8 +655,8 @@ class System(Evaluations, SensitivityMethods):
                     amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats, sensitivity=res.sensitivity,
                     samples=res.y)
 
-    def periodic_orbit(self, period: float | None = None, periods: float = 1,
-                       x0: Sequence[float] | None = None, method: str = "shooting",
+    def periodic_orbit(self, period: float | None = None, periods: float | None = None,
+                       x0: Sequence[float] | None = None, method: str | None = None,
                        params: Mapping[str, float] | None = None, **options):
         """Find a periodic orbit and its Floquet multipliers.
 
@@ -625,16 +670,19 @@ class System(Evaluations, SensitivityMethods):
         period
             Orbit period (default ``periods`` forcing periods).
         periods
-            Number of forcing periods of the orbit.
+            Number of forcing periods of the orbit (default: the scene's ``[orbit]`` ``periods``,
+            else 1).
         x0
             Initial guess of the state at ``t = 0``.
         method
-            ``"shooting"`` or ``"hbm"``.
+            ``"shooting"`` or ``"hbm"`` (default: the scene's ``[orbit]`` ``method``, else
+            shooting).
         params
             Parameter overrides (declared units).
         **options
             Solver options (``tol``, ``rtol``, ``atol``, ``segments``, ``transient``,
-            ``harmonics``, ...).
+            ``harmonics``, ...); those the scene's ``[orbit]`` table sets default to its values
+            (one resolution with ``gearsym orbit``: :func:`gearsym.spec.settings.resolve_settings`).
 
         Returns
         -------
@@ -649,6 +697,45 @@ class System(Evaluations, SensitivityMethods):
         """
         from .analysis.periodic import periodic_orbit
 
-        return periodic_orbit(self, period=period, periods=periods, x0=x0, method=method, params=params,
+        keys = ("segments", "transient", "harmonics", "tol", "rtol", "atol")
+        s = resolve_settings("orbit", self.settings.get("orbit"), periods=periods, method=method,
+                             **{k: options.pop(k) for k in keys if k in options})
+        options.update({k: s[k] for k in keys if s[k] is not None})
+        return periodic_orbit(self, period=period, periods=s["periods"], x0=x0, method=s["method"], params=params,
                               **options)
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """The resolved settings of one :meth:`System.simulate` run."""
+
+    period: float | None
+    t_end: float
+    grid: np.ndarray
+    rtol: float
+    atol: float
+    method: str
+    max_step: float
+    max_steps: int
+    settings: dict[str, Any]
+
+
+def _explicit_grid(t_out: Sequence[float] | None) -> np.ndarray | None:
+    if t_out is None:
+        return None
+    grid = np.asarray(t_out, dtype=float).reshape(-1)
+    if grid.size == 0 or not np.all(np.isfinite(grid)) or np.any(np.diff(grid) < 0):
+        raise ParameterError("t_out must be a non-empty ascending sequence of finite times")
+    return grid
+
+
+def _check_tolerances(t0: float, t_end: float, rtol: float, atol: float) -> None:
+    if not (math.isfinite(t_end) and t_end > t0):
+        raise ParameterError(f"t_end must be finite and greater than t0={t0}, got {t_end}")
+    if not (rtol > 0 and atol > 0 and math.isfinite(rtol) and math.isfinite(atol)):
+        raise ParameterError(f"tolerances must be positive and finite (rtol={rtol}, atol={atol})")
+    if rtol < 1e-15:
+        raise ParameterError(f"rtol={rtol} is below what double precision can deliver (1e-15)")
+    if rtol >= 1:
+        raise ParameterError(f"rtol={rtol} asks for no accuracy at all (need rtol < 1)")
 

@@ -28,7 +28,7 @@ __all__ = ["Progress", "formatter", "period_defect", "run"]
 
 
 def formatter(display: tuple[float, str] | None) -> Callable[[float], str]:
-    """Format a parameter value (SI) for messages: in the display unit, unit ``1`` omitted."""
+    """Format a parameter value (declared unit) for messages: in the display unit, unit ``1`` omitted."""
     if display is None:
         return lambda v: f"{v:.10g}"
     scale, unit = float(display[0]), str(display[1] or "")

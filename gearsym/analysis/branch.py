@@ -56,7 +56,7 @@ class Branch:
         below ``ds_min``, ``max_points`` was reached, or the branch stopped advancing
         (the parameter stalled while the orbit grew, e.g. an undamped resonance).
     stop_value : float or None
-        Parameter value (SI) of the last point.
+        Parameter value of the last point (declared unit).
     state_names : list of str
         The system's state names.
     children : list of Branch
@@ -206,7 +206,7 @@ class Branch:
         Parameters
         ----------
         value
-            The continuation parameter's value (SI).
+            The continuation parameter's value (declared unit).
 
         Returns
         -------

@@ -69,6 +69,7 @@ import numpy as np
 
 from ..budget import check_branch, check_harmonics, check_shooting
 from ..errors import GearsymError, ParameterError
+from ..spec.settings import resolve_settings
 from .arclength import formatter, run
 from .branch import Branch
 from .branch_switching import switch_all, switch_period_doubling
@@ -98,13 +99,14 @@ def _as_system(target: System | Scene) -> System:
 
 
 def continuation(system: System | Scene, param: str, start: float, stop: float, *,
-                 x0: Sequence[float] | None = None, orbit: PeriodicOrbit | None = None, periods: float = 1,
-                 method: str = "shooting", params: Mapping[str, float] | None = None, segments: int = 1,
+                 x0: Sequence[float] | None = None, orbit: PeriodicOrbit | None = None,
+                 periods: float | None = None, method: str | None = None,
+                 params: Mapping[str, float] | None = None, segments: int | None = None,
                  harmonics: int | None = None, t0: float = 0.0, ds: float = 0.005, ds_min: float = 1e-7,
-                 ds_max: float = 0.02, max_angle: float = 0.3, max_points: int = 5000, tol: float = 1e-9,
-                 rtol: float = 1e-10, atol: float | None = None, max_newton: int = 7,
+                 ds_max: float | None = None, max_angle: float = 0.3, max_points: int | None = None,
+                 tol: float | None = None, rtol: float | None = None, atol: float | None = None, max_newton: int = 7,
                  detect: Sequence[str] | bool = True, locate: bool = True, state: int | str = 0,
-                 n_dense: int | None = None, switch: int = 0, progress: bool | None = None,
+                 n_dense: int | None = None, switch: int | None = None, progress: bool | None = None,
                  transient: float | None = None, state_weight: float = 1.0, stall_points: int = 50,
                  stall_tol: float = 1e-5, display: tuple[float, str] | None = None,
                  options: ContinuationOptions | None = None, defect_tol: float = 1e-5) -> Branch:
@@ -115,12 +117,13 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     system
         Compiled system (or a scene, compiled here).
     param
-        Name of the run-time parameter to vary (SI units).  When the forcing
-        period depends on it, the orbit period follows it.
+        Name of the run-time parameter to vary.  When the forcing period depends on it,
+        the orbit period follows it.
     start, stop
-        Parameter range: the branch starts at ``start`` and ends when it leaves
-        the range (through ``stop``, after any number of turning points, or back
-        through ``start``).
+        Parameter range, in the parameter's declared unit (``b_m`` from 40 to 60 means
+        um if the model declares ``unit = "um"``; the branch values are in it too): the
+        branch starts at ``start`` and ends when it leaves the range (through ``stop``,
+        after any number of turning points, or back through ``start``).
     x0
         Initial guess of the orbit's state at ``t0`` for ``param = start``
         (default: the scene's initial state after a transient).
@@ -131,8 +134,14 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     method
         ``"shooting"`` (single / multiple shooting, ``segments``) or ``"hbm"``
         (harmonic balance with ``harmonics`` harmonics).
+
+        ``periods``, ``method``, ``segments``, ``harmonics``, ``switch``, ``ds_max``,
+        ``max_points``, ``tol``, ``rtol`` and ``atol`` not given take the values of the
+        scene's ``[continue]`` table, else the defaults below (one resolution with
+        ``gearsym continue``: :func:`gearsym.spec.settings.resolve_settings`); ``periods``
+        1, ``method`` ``"shooting"``, ``segments`` 1.
     params
-        Other parameter overrides (SI).
+        Other parameter overrides, in their declared units (as ``--set``).
     segments
         Shooting segments.
     harmonics
@@ -222,6 +231,18 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     """
     system = _as_system(system)
     wall = time.perf_counter()
+    # the scene's [continue] table under the caller's keywords: one resolution with `gearsym continue`
+    st = resolve_settings("continue", getattr(system, "settings", {}).get("continue"), periods=periods,
+                          method=method, segments=segments, harmonics=harmonics, switch=switch, ds_max=ds_max,
+                          max_points=max_points, rtol=rtol, atol=atol, tol=tol)
+    d = ContinuationOptions()
+    periods, method, segments, harmonics = st["periods"], st["method"], st["segments"] or 1, st["harmonics"]
+    ds_max, max_points, tol, rtol, switch = (getattr(d, k) if st[k] is None else st[k]
+                                             for k in ("ds_max", "max_points", "tol", "rtol", "switch"))
+    atol = st["atol"]
+    if ds == d.ds and ds > ds_max:  # a first step at its default follows a smaller ds_max
+        ds = ds_max
+        ds_min = min(ds_min, ds)
     o = resolve_options(options, ContinuationOptions, ds=ds, ds_min=ds_min, ds_max=ds_max, max_angle=max_angle,
                         max_points=max_points, tol=tol, rtol=rtol, atol=atol, max_newton=max_newton, detect=detect,
                         locate=locate, state=state, n_dense=n_dense, switch=switch, progress=progress,
@@ -269,6 +290,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     p_start = dict(base)
     p_start[param] = start
     system.require_period(p_start, "continuation of periodic orbits")
+    system.param_vector({**base, param: stop})  # the physical range (gearsym.spec.rules) at the other end too
     fmt = formatter(display or (1.0, system.units.unit(param)))  # values in the declared unit
 
     # ------------------------------------------------------------- first orbit

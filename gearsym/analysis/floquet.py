@@ -352,7 +352,7 @@ class PiecewiseLTV:
         system
             An explicit compiled system without state-dependent switching.
         params
-            Parameter overrides (SI).
+            Parameter overrides (declared units, as ``--set``).
         period, periods
             The period (default ``periods`` forcing periods).
         t0
@@ -448,7 +448,7 @@ def exact_multipliers(system: System, params_list: Sequence[Mapping[str, float]]
     system
         Explicit compiled system without switching surfaces.
     params_list
-        Parameter overrides (SI) of each point.
+        Parameter overrides (declared units) of each point.
     periods
         Period in forcing periods.
     check

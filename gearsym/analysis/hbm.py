@@ -73,7 +73,7 @@ class HarmonicBalance:
     harmonics
         Number of harmonics ``H``.
     params
-        Parameter overrides (SI).
+        Parameter overrides (declared units, as ``--set``).
     t0
         Time origin of the series.
     samples
@@ -427,7 +427,7 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
         A state used as the constant term of the first guess (default: the
         scene's initial state).
     params
-        Parameter overrides (SI).
+        Parameter overrides (declared units, as ``--set``).
     harmonics
         Fixed harmonics: a number ``H`` (``1..H``) or the harmonic numbers to keep (a
         set, e.g. bands around the mesh harmonic); ``None``: grow through the sets of

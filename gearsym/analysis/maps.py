@@ -49,6 +49,7 @@ import numpy as np
 
 from ..budget import LIMITS, check_count, check_counts, check_orbit_options
 from ..errors import GearsymError, ParameterError
+from ..spec.settings import resolve_settings
 from .periodic import ORBIT_METHODS
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -187,7 +188,7 @@ def _axis(spec: Sequence[Any], what: str) -> tuple[str, np.ndarray]:
 
 
 def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
-                  quantity: str = "max_multiplier", *, method: str = "auto", periods: float = 1,
+                  quantity: str | None = None, *, method: str | None = None, periods: float | None = None,
                   params: Mapping[str, float] | None = None, dask: Any = None, workers: int | None = None,
                   rows_per_task: int | None = None, orbit_options: Mapping[str, Any] | None = None
                   ) -> xr.Dataset:
@@ -206,6 +207,11 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         ``"auto"``, ``"exact"``, ``"shooting"`` or ``"hbm"`` (see module docstring).
     periods
         Orbit period in forcing periods.
+
+        ``quantity``, ``method``, ``periods`` and the ``harmonics`` and ``rtol`` of
+        ``orbit_options`` not given take the values of the scene's ``[map]`` table, else
+        ``"max_multiplier"``, ``"auto"``, 1 (one resolution with ``gearsym map``:
+        :func:`gearsym.spec.settings.resolve_settings`).
     params
         Further parameter overrides (declared units) for every point.
     dask
@@ -234,11 +240,6 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     from ..facade import Scene
 
     check_counts(workers=workers, rows_per_task=rows_per_task)  # bounded work (gearsym.budget)
-    check_orbit_options(orbit_options)  # once here, not as a failure at every point
-    if quantity not in QUANTITIES:
-        raise ParameterError(f"quantity must be one of {', '.join(QUANTITIES)}, got '{quantity}'")
-    if method not in MAP_METHODS:
-        raise ParameterError(f"method must be {', '.join(MAP_METHODS)}, got '{method}'")
     wall = time.perf_counter()
     xname, xs = _axis(x, "x")
     yname, ys = _axis(y, "y")
@@ -249,6 +250,18 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     if xname == yname:
         raise ParameterError("the two axes must be different parameters")
     scene = target if isinstance(target, Scene) else None
+    # the scene's [map] table under the caller's values: one resolution with `gearsym map`
+    table = (scene.spec.extra if scene is not None else getattr(target, "settings", {})).get("map")
+    given = dict(orbit_options or {})
+    st = resolve_settings("map", table, quantity=quantity, method=method, periods=periods,
+                          harmonics=given.pop("harmonics", None), rtol=given.pop("rtol", None))
+    quantity, method, periods = st["quantity"], st["method"], st["periods"]
+    orbit_options = {**given, **{k: st[k] for k in ("harmonics", "rtol") if st[k] is not None}}
+    check_orbit_options(orbit_options)  # once here, not as a failure at every point
+    if quantity not in QUANTITIES:
+        raise ParameterError(f"quantity must be one of {', '.join(QUANTITIES)}, got '{quantity}'")
+    if method not in MAP_METHODS:
+        raise ParameterError(f"method must be {', '.join(MAP_METHODS)}, got '{method}'")
     system = scene.compile() if scene is not None else target
     for nm in (xname, yname):
         if scene is not None and nm not in scene.model_spec.parameters:
@@ -261,6 +274,9 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     base = dict(system.params)
     base.update({k: float(v) for k, v in (params or {}).items()})
     system.param_vector(base)  # validates
+    for xv in (xs[0], xs[-1]):  # the physical ranges of the values (gearsym.spec.rules) at the corners: exit 2
+        for yv in (ys[0], ys[-1]):
+            system.param_vector({**base, xname: float(xv), yname: float(yv)})
     want_ptp = quantity == "peak_to_peak"
     ny, nx = len(ys), len(xs)
     n_workers = int(workers or os.cpu_count() or 1)

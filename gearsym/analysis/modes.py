@@ -86,7 +86,7 @@ class ModalAnalysis:
         Contact state of every backlash mesh at the equilibrium: ``"drive"``,
         ``"back"`` or ``"separated"``.
     params : dict
-        Parameter values (SI) of the analysis.
+        Parameter values of the analysis (declared units).
     info : dict
         ``samples``, ``period``, Newton ``iterations`` and ``residual`` of the equilibrium,
         ``symmetry_error``, ``cluster_tol``.
@@ -243,7 +243,7 @@ def static_equilibrium(system: System, params: Mapping[str, float] | None = None
     system
         A compiled explicit system.
     params
-        Parameter overrides (SI).
+        Parameter overrides (declared units, as ``--set``).
     x0
         Starting state (default: the scene's initial state); only its coordinates are used.
     samples
@@ -412,7 +412,7 @@ def modal_analysis(system: System, params: Mapping[str, float] | None = None, *,
     system
         A compiled explicit system.
     params
-        Parameter overrides (SI).
+        Parameter overrides (declared units, as ``--set``).
     samples
         Samples per forcing period for the averages (mean stiffness, mean loads).
     t0

@@ -111,7 +111,7 @@ class ContinuationOptions:
     stall_tol : float
         Relative spread of the parameter below which it counts as stalled.
     display : tuple or None
-        ``(SI value of one display unit, unit name)`` for messages.
+        ``(value of one display unit in the parameter's declared unit, unit name)`` for messages.
     """
 
     ds: float = 0.005

@@ -69,7 +69,7 @@ class PeriodicOrbit:
         ``"shooting"`` or ``"hbm"``.
     state_names : list of str
     params : dict
-        Parameter values (SI) of the solve.
+        Parameter values of the solve (declared units, as :attr:`System.params`).
     rattle_state : int or None
         For backlash models: 0 no contact loss, 1 contact loss only, 2 back-side
         contact (see :data:`RATTLE_STATES`); ``None`` without contact surfaces.

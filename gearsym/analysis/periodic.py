@@ -51,7 +51,8 @@ def periodic_orbit(system: System, period: float | None = None, periods: float =
         ``"shooting"`` (single or multiple shooting, ``segments=N``) or ``"hbm"``
         (harmonic balance, ``harmonics=H`` or grown until converged).
     params
-        Parameter overrides (SI).
+        Parameter overrides (declared units, as ``--set``; ``b_m=50`` is 50 um if the model
+        declares ``unit = "um"``).
     **options
         Passed on to :func:`gearsym.analysis.shooting.shoot` or
         :func:`gearsym.analysis.hbm.harmonic_balance`.

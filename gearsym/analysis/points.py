@@ -28,7 +28,7 @@ class BranchPoint:
     Attributes
     ----------
     value : float
-        The continuation parameter (SI).
+        The continuation parameter's value (declared unit, as ``start`` / ``stop``).
     x0 : ndarray
         State at ``t0`` (the start of the forcing period).
     period : float
@@ -209,7 +209,7 @@ class ContinuationSetup:
     periods : float
         Forcing periods per orbit.
     params : dict
-        The other parameter overrides (SI).
+        The other parameter overrides (declared units).
     segments : int
         Shooting segments (``None`` for harmonic balance).
     harmonics : int or None

@@ -185,7 +185,7 @@ class ShootingResidual(PeriodicOrbitProblem):
     periods
         Forcing periods per orbit.
     params
-        Other parameter overrides (SI).
+        Other parameter overrides (declared units, as ``--set``).
     segments
         Shooting segments (1: single shooting); the unknowns are the states at
         the segment starts.

@@ -114,7 +114,7 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
         Initial guess of the state at ``t0``.  Default: the scene's initial state
         after ``transient`` periods.
     params
-        Parameter overrides (SI).
+        Parameter overrides (declared units, as ``--set``).
     segments
         Number of shooting segments (1: single shooting).
     t0

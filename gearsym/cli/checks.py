@@ -22,16 +22,18 @@ from __future__ import annotations
 import argparse
 import math
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 from ..budget import LIMITS, check_count
-from ..errors import ParameterError
+from ..errors import OverrideError, ParameterError
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
 if TYPE_CHECKING:  # pragma: no cover
     from typing import Any
 
 __all__ = ["LIMITS", "UsageError", "GearsymArgumentParser", "check_bench", "check_continue", "check_map",
-           "check_orbit", "check_simulate", "emit", "float_list", "load", "parse_effects", "parse_set", "scene_args",
+           "check_orbit", "check_simulate", "emit", "float_list", "load", "parse_effects", "parse_set", "scene_args", "set_errors",
            "state_list", "unit_suffix"]
 
 # the limits of counts (LIMITS, check_count): gearsym.budget, shared with the library
@@ -223,21 +225,37 @@ def state_list(text: str | None, names: list[str], flag: str) -> list[str] | Non
 
 
 # --------------------------------------------------- arguments every scene command shares
-def parse_set(items: list[str] | None) -> dict[str, float]:
-    """``--set NAME=VALUE`` items -> ``{name: value}`` (values in the declared units, checked finite)."""
-    out: dict[str, float] = {}
+def parse_set(items: list[str] | None) -> dict[str, float | str]:
+    """``--set NAME=VALUE`` items -> ``{name: value}``.
+
+    A number is in the parameter's declared unit (checked finite here); any other value is
+    kept as text for :func:`gearsym.load_scene`, which converts a number with a unit
+    (``50um``, ``2e13 N/m``) to the declared unit or says why it cannot (:func:`set_errors`
+    reports that as ``--set NAME: ...``).
+    """
+    out: dict[str, float | str] = {}
     for item in items or []:
         if "=" not in item:
             raise ParameterError(f"--set expects NAME=VALUE, got '{item}'")
         name, value = item.split("=", 1)
         try:
-            v = float(value)
+            v: float | str = float(value)
         except ValueError:
-            raise ParameterError(f"--set {name}: '{value}' is not a number") from None
-        if not math.isfinite(v):
+            v = value.strip()
+        if isinstance(v, float) and not math.isfinite(v):
             raise ParameterError(f"--set {name}: non-finite value {value}")
         out[name.strip()] = v
     return out
+
+
+@contextmanager
+def set_errors() -> Iterator[None]:
+    """Report a bad ``--set`` value (an :class:`~gearsym.errors.OverrideError` of the scene) as
+    ``--set NAME: what is wrong``."""
+    try:
+        yield
+    except OverrideError as exc:
+        raise ParameterError(f"--set {exc.parameter}: {exc.reason}") from None
 
 
 def parse_effects(on: list[str] | None, off: list[str] | None) -> dict[str, bool | str]:
@@ -258,7 +276,8 @@ def scene_args(p: argparse.ArgumentParser) -> None:
     """The arguments of every command that takes a scene."""
     p.add_argument("scene", help="scene file, or the name of a shipped scene (gearsym models lists them)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
-                   help="override a parameter (in the model's declared unit); repeatable")
+                   help="override a parameter: a number in the model's declared unit, or a number with a "
+                        "unit (50um, '2e13 N/m'); repeatable")
     p.add_argument("--effect", action="append", metavar="NAME[=VARIANT]",
                    help="switch an effect on (optionally choosing a variant); repeatable")
     p.add_argument("--no-effect", action="append", metavar="NAME", help="switch an effect off; repeatable")
@@ -269,8 +288,9 @@ def load(args: argparse.Namespace):
     """The scene of a parsed command line (``scene``, ``--set``, ``--effect``, ``--no-effect``)."""
     from ..facade import load_scene
 
-    return load_scene(args.scene, effects=parse_effects(args.effect, args.no_effect) or None,
-                      **parse_set(args.set))
+    with set_errors():
+        return load_scene(args.scene, effects=parse_effects(args.effect, args.no_effect) or None,
+                          **parse_set(args.set))
 
 
 def emit(obj: dict[str, Any]) -> None:

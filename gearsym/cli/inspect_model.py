@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ..errors import SpecError
 from ..inspection import inspect_structure, print_structure
-from .checks import emit, parse_effects, parse_set
+from .checks import emit, parse_effects, parse_set, set_errors
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
 if TYPE_CHECKING:  # pragma: no cover
@@ -24,26 +24,31 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     from ..facade import Scene
     from ..spec.files import read_toml
     from ..spec.model import load_model
+    from ..spec.units import ParameterUnits
     from .details import inspect_details, print_details
 
     path = find_spec_file(args.path)
     head = read_toml(path, "file")  # regular file, size limit, before reading
     if "scene" in head:
-        scene = Scene(path, parse_effects(args.effect, args.no_effect) or None, parse_set(args.set))
+        with set_errors():
+            scene = Scene(path, parse_effects(args.effect, args.no_effect) or None, parse_set(args.set))
     elif "model" in head:
         model_spec = load_model(path)
-        scene = _model_scene(path, model_spec, args)
+        with set_errors():
+            scene = _model_scene(path, model_spec, args)
     else:
         raise SpecError("neither a scene ([scene]) nor a model ([model]) file", file=str(path))
     m = scene.model
     ms = scene.model_spec
+    # the values in effect (model, scene, --set), in the declared units
+    values = ParameterUnits.of_model(ms).to_declared(scene.resolved.values)
     info: dict[str, Any] = {
         "model": ms.name,
         "scene": scene.name if "scene" in head else None,
         "description": ms.description,
         "states": m.state_names,
         "parameters": {
-            name: {"value": p.value, "unit": p.unit, "meaning": p.meaning,
+            name: {"value": values[name], "unit": p.unit, "meaning": p.meaning,
                    "active": name in m.parameter_names
                    or any(name in args for _, args in m.bound_parameters.values())}
             for name, p in ms.parameters.items()

@@ -28,21 +28,23 @@ def cmd_map(args: argparse.Namespace) -> int:
         opts["harmonics"] = args.harmonics
     if args.rtol is not None:
         opts["rtol"] = args.rtol
+    # only the options the user typed: stability_map resolves the rest from the scene's [map]
     ds = stability_map(scene, xa, ya, quantity=args.quantity, method=args.method, periods=args.periods,
                        dask=args.dask, workers=args.workers, orbit_options=opts)
+    quantity = str(ds.attrs["quantity"])
     if int(ds.attrs["n_failed"]) >= int(ds.attrs["n_points"]):
         # nothing computed: no all-NaN map files, exit 1 with the first errors
         first = str(ds.attrs.get("errors", "")).splitlines()[:1]
         raise ConvergenceError(f"every one of the {int(ds.attrs['n_points'])} points of the map failed"
                                + (f"; first error at {first[0]}" if first else ""))
     files = save_map(ds, args.out)
-    q = ds[args.quantity].values
+    q = ds[quantity].values
     mm = ds["max_multiplier"].values
     info = {
         "scene": scene.name,
         "x": {"name": xa[0], "lo": xa[1], "hi": xa[2], "n": xa[3]},
         "y": {"name": ya[0], "lo": ya[1], "hi": ya[2], "n": ya[3]},
-        "quantity": args.quantity,
+        "quantity": quantity,
         "min": float(np.nanmin(q)) if np.isfinite(q).any() else None,
         "max": float(np.nanmax(q)) if np.isfinite(q).any() else None,
         "fraction_unstable": float(np.mean(ds["stable"].values[np.isfinite(mm)] == 0))
@@ -57,7 +59,7 @@ def cmd_map(args: argparse.Namespace) -> int:
     if args.json:
         emit(info)
     else:
-        print(f"{scene.name}: {args.quantity} on {xa[3]} x {ya[3]} points ({info['methods_used']}, "
+        print(f"{scene.name}: {quantity} on {xa[3]} x {ya[3]} points ({info['methods_used']}, "
               f"{info['runner']}) in {info['wall_s']:.2f} s; range [{info['min']}, {info['max']}], "
               f"unstable fraction {info['fraction_unstable']}, failed {info['n_failed']}")
         for f in info["files"]:

@@ -25,17 +25,10 @@ def cmd_orbit(args: argparse.Namespace) -> int:
     checks.check_orbit(args)
     scene = load(args)
     system = scene.compile()
-    opts: dict[str, Any] = {}
     x0 = checks.float_list(args.x0, "--x0") if args.x0 else None
-    if args.method == "shooting":
-        opts["segments"] = args.segments
-        if args.transient is not None:
-            opts["transient"] = args.transient
-    elif args.harmonics is not None:
-        opts["harmonics"] = args.harmonics
-    for key in ("tol", "rtol", "atol"):
-        if getattr(args, key) is not None:
-            opts[key] = getattr(args, key)
+    # only the options the user typed: System.periodic_orbit resolves the rest from the scene's [orbit]
+    opts = {k: getattr(args, k) for k in ("segments", "transient", "harmonics", "tol", "rtol", "atol")
+            if getattr(args, k) is not None}
     orbit = system.periodic_orbit(periods=args.periods, x0=x0, method=args.method, **opts)
     info: dict[str, Any] = {"scene": scene.name, **orbit.to_dict()}
     info.setdefault("isolation", orbit.info.get("isolation"))  # smallest singular value of M - I, threshold
@@ -83,19 +76,13 @@ def cmd_continue(args: argparse.Namespace) -> int:
                              f"{', '.join(scene.model_spec.parameters)})")
     unit = unit_suffix(spec_p.unit)  # --from, --to and every value of the branch: in the declared unit
     system = scene.compile()
-    kw: dict[str, Any] = {}
+    # only the options the user typed: continuation() resolves the rest from the scene's [continue]
+    kw: dict[str, Any] = {k: getattr(args, k) for k in ("periods", "method", "segments", "harmonics", "switch",
+                                                         "ds_max", "max_points", "rtol", "atol")
+                          if getattr(args, k) is not None}
     if args.x0:
         kw["x0"] = checks.float_list(args.x0, "--x0")
-    for key in ("rtol", "atol", "harmonics"):
-        if getattr(args, key) is not None:
-            kw[key] = getattr(args, key)
-    if args.ds_max is not None:
-        kw["ds_max"] = args.ds_max
-        kw["ds"] = min(0.005, args.ds_max)
-        kw["ds_min"] = min(1e-7, kw["ds"])
-    branch = continuation(system, name, args.start, args.stop, periods=args.periods,
-                          method=args.method, segments=args.segments, max_points=args.max_points,
-                          switch=args.switch, progress=False if args.no_progress else None, **kw)
+    branch = continuation(system, name, args.start, args.stop, progress=False if args.no_progress else None, **kw)
     data = branch.to_dict()
 
     def with_unit(d: dict[str, Any]) -> None:

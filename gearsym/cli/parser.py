@@ -46,11 +46,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("simulate", help="simulate a scene with the C engine")
     scene_args(p)
-    p.add_argument("--periods", type=float, help="number of forcing periods")
+    p.add_argument("--periods", type=float, help="number of forcing periods (default: the scene's [simulate] "
+                   "periods or t_end, else 100)")
     p.add_argument("--t-end", type=float, help="final time (instead of --periods)")
-    p.add_argument("--rtol", type=float, help="relative tolerance (default: scene, else 1e-8)")
-    p.add_argument("--atol", type=float, help="absolute tolerance (default: scene, else 1e-10)")
-    p.add_argument("--method", choices=["bdf", "adams", "ida"], help="integrator")
+    p.add_argument("--rtol", type=float, help="relative tolerance (default: the scene's [simulate], else 1e-8)")
+    p.add_argument("--atol", type=float, help="absolute tolerance (default: the scene's [simulate], else 1e-10)")
+    p.add_argument("--method", choices=["bdf", "adams", "ida"], help="integrator (default: the scene's "
+                   "[simulate], else adams; ida for implicit models)")
     p.add_argument("--x0", help="initial state, comma-separated")
     p.add_argument("--max-steps", type=int, help="limit on internal integrator steps (default: the scene's, "
                    "else 10,000,000)")
@@ -79,15 +81,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--from", dest="start", type=float, required=True,
                    help="start value (in the model's declared unit)")
     p.add_argument("--to", dest="stop", type=float, required=True, help="end value")
-    p.add_argument("--periods", type=float, default=1, help="forcing periods per orbit (default 1)")
-    p.add_argument("--method", choices=["shooting", "hbm"], default="shooting", help="periodic-orbit residual")
-    p.add_argument("--segments", type=int, default=1, help="shooting segments (default 1)")
+    p.add_argument("--periods", type=float, help="forcing periods per orbit (default: the scene's [continue], "
+                   "else 1)")
+    p.add_argument("--method", choices=["shooting", "hbm"], help="periodic-orbit residual (default: the scene's "
+                   "[continue], else shooting)")
+    p.add_argument("--segments", type=int, help="shooting segments (default: the scene's [continue], else 1)")
     p.add_argument("--harmonics", type=int, help="harmonics (hbm)")
-    p.add_argument("--switch", type=int, default=0,
-                   help="branch switching depth at period doublings (default 0: none)")
-    p.add_argument("--ds-max", type=float, help="largest step in scaled arclength (default 0.02)")
-    p.add_argument("--max-points", type=int, default=5000, help="limit on branch points (default 5000)")
-    p.add_argument("--rtol", type=float, help="integrator relative tolerance (default 1e-10)")
+    p.add_argument("--switch", type=int, help="branch switching depth at period doublings (default: the scene's "
+                   "[continue], else 0: none)")
+    p.add_argument("--ds-max", type=float, help="largest step in scaled arclength (default: the scene's "
+                   "[continue], else 0.02)")
+    p.add_argument("--max-points", type=int, help="limit on branch points (default: the scene's [continue], "
+                   "else 5000)")
+    p.add_argument("--rtol", type=float, help="integrator relative tolerance (default: the scene's [continue], "
+                   "else 1e-10)")
     p.add_argument("--atol", type=float, help="integrator absolute tolerance (default: rtol * 1e-2 * the smallest "
                    "state magnitude on the first orbit; for the orbit x = 0 the scene's scale)")
     p.add_argument("--x0", help="initial guess of the orbit's state at t = 0, comma-separated")
@@ -97,15 +104,21 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("orbit", help="periodic orbit by shooting or harmonic balance, Floquet multipliers")
     scene_args(p)
-    p.add_argument("--periods", type=float, default=1, help="forcing periods per orbit (default 1)")
-    p.add_argument("--method", choices=["shooting", "hbm"], default="shooting", help="periodic solver")
-    p.add_argument("--segments", type=int, default=1, help="shooting segments (default 1: single shooting)")
-    p.add_argument("--harmonics", type=int, help="harmonics (hbm; default: grown until converged)")
+    p.add_argument("--periods", type=float, help="forcing periods per orbit (default: the scene's [orbit], else 1)")
+    p.add_argument("--method", choices=["shooting", "hbm"], help="periodic solver (default: the scene's [orbit], "
+                   "else shooting)")
+    p.add_argument("--segments", type=int, help="shooting segments (default: the scene's [orbit], else 1: single "
+                   "shooting)")
+    p.add_argument("--harmonics", type=int, help="harmonics (hbm; default: the scene's [orbit], else grown until "
+                   "converged)")
     p.add_argument("--x0", help="initial guess of the state at t = 0, comma-separated")
-    p.add_argument("--transient", type=float, help="forcing periods integrated before Newton (shooting)")
-    p.add_argument("--tol", type=float, help="residual tolerance (default 1e-10)")
-    p.add_argument("--rtol", type=float, help="integrator relative tolerance (default 1e-11)")
-    p.add_argument("--atol", type=float, help="integrator absolute tolerance (default 1e-13)")
+    p.add_argument("--transient", type=float, help="forcing periods integrated before the solve (default: the "
+                   "scene's [orbit], else the solver's)")
+    p.add_argument("--tol", type=float, help="residual tolerance (default: the scene's [orbit], else 1e-10)")
+    p.add_argument("--rtol", type=float, help="integrator relative tolerance (default: the scene's [orbit], "
+                   "else 1e-11)")
+    p.add_argument("--atol", type=float, help="integrator absolute tolerance (default: the scene's [orbit], "
+                   "else 1e-13)")
     p.add_argument("--out", help="folder for orbit.json, orbit_phase.png, orbit_multipliers.png")
     p.set_defaults(func=cmd_orbit)
 
@@ -130,10 +143,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="horizontal axis: parameter (declared unit), range and number of points")
     p.add_argument("--y", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"), help="vertical axis")
     p.add_argument("--quantity", choices=["max_multiplier", "peak_to_peak", "rattle_state"],
-                   default="max_multiplier", help="what the heat map shows (default max_multiplier)")
-    p.add_argument("--method", choices=["auto", "exact", "shooting", "hbm"], default="auto",
-                   help="auto: exact matrix exponentials for piecewise-constant LTV models, else shooting")
-    p.add_argument("--periods", type=float, default=1, help="forcing periods per orbit (default 1)")
+                   help="what the heat map shows (default: the scene's [map], else max_multiplier)")
+    p.add_argument("--method", choices=["auto", "exact", "shooting", "hbm"],
+                   help="auto: exact matrix exponentials for piecewise-constant LTV models, else shooting "
+                        "(default: the scene's [map], else auto)")
+    p.add_argument("--periods", type=float, help="forcing periods per orbit (default: the scene's [map], else 1)")
     p.add_argument("--harmonics", type=int, help="harmonics (hbm)")
     p.add_argument("--rtol", type=float, help="integrator relative tolerance")
     p.add_argument("--dask", metavar="ADDRESS", help="run on this Dask scheduler (default: local processes)")

@@ -53,20 +53,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     scene = load(args)
     plot_states = checks.state_list(args.plot_states, scene.resolved.state_names(), "--plot-states")
     system = scene.compile()
-    kw: dict[str, Any] = {}
-    rtol = args.rtol if args.rtol is not None else float(scene.spec.simulate.get("rtol", 1e-8))
-    atol = args.atol if args.atol is not None else float(scene.spec.simulate.get("atol", 1e-10))
-    if args.x0:
-        kw["x0"] = checks.float_list(args.x0, "--x0")
-    if args.max_steps is not None:
-        kw["max_steps"] = args.max_steps
+    x0 = checks.float_list(args.x0, "--x0") if args.x0 else None
     from ..engine.errors import TooMuchWorkError
 
-    try:
-        traj = system.simulate(t_end=args.t_end, periods=args.periods, rtol=rtol, atol=atol,
-                               method=args.method, **kw)
+    try:  # only the options the user typed: System.simulate resolves the rest from the scene, as from Python
+        traj = system.simulate(t_end=args.t_end, periods=args.periods, x0=x0, rtol=args.rtol, atol=args.atol,
+                               method=args.method, max_steps=args.max_steps or 0)
     except TooMuchWorkError as exc:
         raise TooMuchWorkError(f"{exc}; raise the limit with --max-steps N") from None
+    steady = _steady_start(traj)
     info = {
         "scene": scene.name,
         "state_names": traj.state_names,
@@ -78,11 +73,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         "n_events": traj.stats["n_events"],
         "n_breaks": traj.stats.get("n_breaks", 0),
         "wall_s": traj.stats["wall_s"],
-        "max": traj.y[len(traj.t) // 2:, 0].max().item(),
-        "min": traj.y[len(traj.t) // 2:, 0].min().item(),
+        "max": traj.y[steady:, 0].max().item(),
+        "min": traj.y[steady:, 0].min().item(),
+        "steady_from": float(traj.t[steady]),
         "params": traj.params,
-        "rtol": rtol,
-        "atol": atol,
+        "rtol": traj.settings["rtol"],
+        "atol": traj.settings["atol"],
+        "method": traj.settings["method"],
     }
     from ..analysis.meshes import trajectory_meshes
 
@@ -119,6 +116,18 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             print(f"wrote {f}")
     return 0
 
+
+def _steady_start(traj: Any) -> int:
+    """First output index of the window ``max`` / ``min`` summarise: after the scene's
+    ``transient_periods`` when the run is longer than that, else the second half of the run."""
+    import numpy as np
+
+    tp = traj.settings.get("transient_periods")
+    if tp and traj.period:
+        start = int(np.searchsorted(traj.t, traj.t[0] + float(tp) * traj.period - 1e-12 * traj.period))
+        if start < len(traj.t) - 1:
+            return start
+    return len(traj.t) // 2
 
 
 def cmd_export(args: argparse.Namespace) -> int:

@@ -35,7 +35,7 @@ if TYPE_CHECKING:
     from .fields import Ctx, Term
     from .model import Element, ModelSpec
 
-__all__ = ["ELEMENT_SCHEMAS", "ElementSchema", "validate_element"]
+__all__ = ["ELEMENT_SCHEMAS", "FIELD_RANGES", "ElementSchema", "validate_element"]
 
 LENGTH = Unit(1.0, (0, 1, 0))
 
@@ -55,6 +55,9 @@ class ElementSchema:
         The coordinate fields that must be given.
     meaning
         One line for error messages and docs.
+    ranges
+        Physical range of fields: field -> (``">0"`` or ``">=0"``, what it is), checked for
+        the parameter values a scene uses (:mod:`gearsym.spec.rules`).
     """
 
     required: frozenset[str]
@@ -62,6 +65,7 @@ class ElementSchema:
     coordinates: dict[str, int] = field(default_factory=dict)
     required_coordinates: frozenset[str] = frozenset()
     meaning: str = ""
+    ranges: dict[str, tuple[str, str]] = field(default_factory=dict)
 
 
 ELEMENT_SCHEMAS: dict[str, ElementSchema] = {
@@ -71,6 +75,8 @@ ELEMENT_SCHEMAS: dict[str, ElementSchema] = {
         coordinates={"x": 1, "y": 1},
         required_coordinates=frozenset({"x"}),
         meaning="radial bearing: springs/dampers on the transverse coordinates x, y of a centre",
+        ranges={"stiffness_x": (">=0", "stiffness"), "stiffness_y": (">=0", "stiffness"),
+                "damping_x": (">=0", "damping"), "damping_y": (">=0", "damping")},
     ),
     "gear_mesh": ElementSchema(
         required=frozenset({"pinion_base_radius", "gear_base_radius", "pressure_angle", "stiffness"}),
@@ -78,7 +84,19 @@ ELEMENT_SCHEMAS: dict[str, ElementSchema] = {
         coordinates={"pinion": 1, "gear": 1, "pinion_centre": 2, "gear_centre": 2},
         required_coordinates=frozenset({"pinion", "gear"}),
         meaning="spur mesh along the line of action, coupling rotations and centre translations",
+        ranges={"backlash": (">=0", "half backlash"), "stiffness": (">=0", "stiffness"),
+                "damping": (">=0", "damping")},
     ),
+}
+
+#: Physical range of the fields of every element type (see :attr:`ElementSchema.ranges`): a
+#: value that is a function of the parameters only is checked against it.  A spring may have a
+#: negative stiffness (a softening support); a contact (mesh) may not.
+FIELD_RANGES: dict[str, dict[str, tuple[str, str]]] = {
+    "inertia": {"value": (">0", "inertia")},
+    "mesh": {"backlash": (">=0", "half backlash"), "stiffness": (">=0", "stiffness"), "damping": (">=0", "damping")},
+    "damper": {"coefficient": (">=0", "damping coefficient")},
+    **{k: v.ranges for k, v in ELEMENT_SCHEMAS.items()},
 }
 
 

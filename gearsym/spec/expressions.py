@@ -9,6 +9,7 @@ mismatches with the field they are in, before anything is handed to sympy.
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 from collections.abc import Mapping
@@ -143,7 +144,8 @@ class _Dim:
             if node.id in CONSTANTS:
                 return ONE
             if node.id not in self.units:
-                raise ExpressionError(f"unknown symbol '{node.id}'")
+                close = difflib.get_close_matches(node.id, sorted(self.units), n=1, cutoff=0.6)
+                raise ExpressionError(f"unknown symbol '{node.id}'" + (f"; did you mean '{close[0]}'?" if close else ""))
             return self.units[node.id]
         if isinstance(node, sx.Unary):
             return self.visit(node.operand)

@@ -6,7 +6,9 @@ Shared by the model and scene parsers.  Every problem is a
 
 from __future__ import annotations
 
+import difflib
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -50,21 +52,32 @@ def read_terms(ctx: Ctx, where: str, value: Any, schedules: dict[str, Schedule],
             out.extend(read_terms(ctx, f"{where}[{i}]", v, schedules, effect, variant))
         return tuple(out)
     if isinstance(value, dict):
-        allowed = {"expr", "effect", "variant", "type", "amplitude", "frequency", "phase", "mean",
-                   "cos", "sin", "schedule", "values"}
-        only_keys(ctx, where, value, allowed)
+        kind = value.get("type")
+        if kind is not None and kind not in _TERM_KEYS:
+            raise ctx.error(f"{where}.type", f"unknown excitation type '{kind}'{did_you_mean(str(kind), _TYPES)} "
+                                             f"(known: {', '.join(_TYPES)})")
+        only_keys(ctx, where, value, {"effect", "variant", "type", *_TERM_KEYS[kind]})
         eff = value.get("effect", effect)
         var = value.get("variant", variant)
         for k, v in (("effect", eff), ("variant", var)):
             if v is not None and not isinstance(v, str):
                 raise ctx.error(f"{where}.{k}", "must be a string")
-        kind = value.get("type")
         if kind is None:
             if "expr" not in value:
                 raise ctx.error(where, "a term table needs 'expr' or 'type'")
             return (Term(expr_str(ctx, f"{where}.expr", value["expr"]), where, eff, var),)
         return (Term(_typed(ctx, where, kind, value, schedules), where, eff, var),)
     return (Term(expr_str(ctx, where, value), where, effect, variant),)
+
+
+#: The keys of a term table besides ``effect``, ``variant`` and ``type``, by its ``type``.
+_TERM_KEYS: dict[str | None, tuple[str, ...]] = {
+    None: ("expr",),
+    "sinusoid": ("amplitude", "frequency", "phase", "mean"),
+    "fourier": ("frequency", "mean", "cos", "sin"),
+    "piecewise_cycle": ("schedule", "values"),
+}
+_TYPES = tuple(k for k in _TERM_KEYS if k is not None)
 
 
 def _typed(ctx: Ctx, where: str, kind: str, v: dict[str, Any], schedules: dict[str, Schedule]) -> str:
@@ -143,10 +156,23 @@ def as_table(ctx: Ctx, where: str, value: Any) -> dict[str, Any]:
     return value
 
 
+def did_you_mean(word: str, candidates: Iterable[str]) -> str:
+    """``"; did you mean 'x'?"`` for the candidate closest to ``word`` (:mod:`difflib`), else ``""``."""
+    close = difflib.get_close_matches(str(word), sorted(set(candidates)), n=1, cutoff=0.6)
+    return f"; did you mean '{close[0]}'?" if close else ""
+
+
+def unknown_key(key: str, allowed: Iterable[str], what: str = "field") -> str:
+    """The message for a key a table does not have: the closest allowed key, then all of them."""
+    allowed = sorted(set(allowed))
+    return f"unknown {what} '{key}'{did_you_mean(key, allowed)} (allowed: {', '.join(allowed) or 'none'})"
+
+
 def only_keys(ctx: Ctx, where: str, table: dict[str, Any], allowed: set[str]) -> None:
+    """Reject a key of ``table`` that is not in ``allowed`` (naming the field and the closest key)."""
     for k in table:
         if k not in allowed:
-            raise ctx.error(f"{where}.{k}", f"unknown field '{k}' (allowed: {', '.join(sorted(allowed))})")
+            raise ctx.error(f"{where}.{k}" if where else k, unknown_key(k, allowed))
 
 
 def string(ctx: Ctx, table: dict[str, Any], where: str, required: bool = False) -> str | None:

@@ -43,6 +43,7 @@ from .fields import (
     Ctx,
     Term,
     as_table,
+    did_you_mean,
     expr_str,
     number,
     only_keys,
@@ -51,6 +52,7 @@ from .fields import (
     string_list,
     table,
     unit_of,
+    unknown_key,
 )
 from .files import read_toml
 from .initial import read_initial
@@ -68,7 +70,8 @@ __all__ = ["Coordinate", "Derived", "Dimensionless", "Effect", "Element", "Equat
 @dataclass(frozen=True)
 class Parameter:
     """A run-time parameter: ``value`` in ``unit``, ``si_scale`` the SI value of one ``unit``
-    (:class:`~gearsym.spec.units.ParameterUnits` converts)."""
+    (:class:`~gearsym.spec.units.ParameterUnits` converts).  ``minimum``, ``maximum`` (declared
+    unit) and ``positive`` are the range its entry declares (:mod:`gearsym.spec.rules`)."""
 
     name: str
     value: float
@@ -76,6 +79,9 @@ class Parameter:
     meaning: str
     si_scale: float
     dims: Unit
+    minimum: float | None = None
+    maximum: float | None = None
+    positive: bool = False
 
 
 @dataclass(frozen=True)
@@ -223,6 +229,7 @@ class ModelSpec:
 
 _TOP = {"model", "coordinates", "parameters", "derived", "effects", "schedules", "elements",
         "equations", "reduction", "forcing", "initial", "dimensionless", "outputs", "algebraic", "constraints"}
+_MODEL_KEYS = {"name", "description", "reference", "time_unit", "form", "notes"}
 _ELEMENT_FIELDS = {
     "inertia": ({"value"}, set()),
     "spring": ({"deflection", "stiffness"}, set()),
@@ -264,8 +271,9 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     ctx = Ctx(path)
     for key in data:
         if key not in _TOP:
-            raise ctx.error(key, f"unknown section '{key}' (known: {', '.join(sorted(_TOP))})")
+            raise ctx.error(key, unknown_key(key, _TOP, "section"))
     meta = table(ctx, data, "model", required=True)
+    only_keys(ctx, "model", meta, _MODEL_KEYS)
     name = string(ctx, meta, "model.name", required=True)
     problem = check_label(name, "model name")
     if problem:
@@ -315,15 +323,9 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         if isinstance(p, (int, float)) and not isinstance(p, bool):
             p = {"value": p}
         p = as_table(ctx, where, p)
-        only_keys(ctx, where, p, {"value", "unit", "meaning"})
+        only_keys(ctx, where, p, {"value", "unit", "meaning", "min", "max", "positive"})
         declare(pname, where)
-        if "value" not in p:
-            raise ctx.error(f"{where}.value", f"missing value for parameter '{pname}'")
-        value = number(ctx, f"{where}.value", p["value"])
-        unit = string(ctx, p, f"{where}.unit") or "1"
-        dims = unit_of(ctx, f"{where}.unit", unit)
-        parameters[pname] = Parameter(pname, value, unit, string(ctx, p, f"{where}.meaning") or "",
-                                      dims.scale, dims)
+        parameters[pname] = _parameter(ctx, where, pname, p)
 
     # effects
     effects: dict[str, Effect] = {}
@@ -392,7 +394,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         el = as_table(ctx, where, el)
         etype = string(ctx, el, f"{where}.type", required=True)
         if etype not in _ELEMENT_FIELDS:
-            raise ctx.error(f"{where}.type", f"unknown element type '{etype}' "
+            raise ctx.error(f"{where}.type", f"unknown element type '{etype}'{did_you_mean(etype, _ELEMENT_FIELDS)} "
                                              f"(known: {', '.join(_ELEMENT_FIELDS)})")
         required, optional = _ELEMENT_FIELDS[etype]
         schema = ELEMENT_SCHEMAS.get(etype)
@@ -409,7 +411,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         if etype in ("inertia", "force"):
             coord = string(ctx, el, f"{where}.coordinate", required=True)
             if coord not in coordinates:
-                raise ctx.error(f"{where}.coordinate", f"unknown coordinate '{coord}'")
+                raise ctx.error(f"{where}.coordinate", f"unknown coordinate '{coord}'{did_you_mean(coord, coordinates)}")
         drive = string(ctx, el, f"{where}.drive_side") or "positive"
         if drive not in ("positive", "negative"):
             raise ctx.error(f"{where}.drive_side", "must be 'positive' or 'negative'")
@@ -424,7 +426,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     for qname, eq in table(ctx, data, "equations").items():
         where = f"equations.{qname}"
         if qname not in coordinates:
-            raise ctx.error(where, f"unknown coordinate '{qname}'")
+            raise ctx.error(where, f"unknown coordinate '{qname}'{did_you_mean(qname, coordinates)}")
         eq = as_table(ctx, where, eq)
         only_keys(ctx, where, eq, {"mass", "force"})
         equations[qname] = Equation(
@@ -494,6 +496,28 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
     return spec
 
 
+def _parameter(ctx: Ctx, where: str, name: str, p: dict[str, Any]) -> Parameter:
+    """One ``[parameters]`` entry: value, unit, meaning and its declared range (checked on its value)."""
+    if "value" not in p:
+        raise ctx.error(f"{where}.value", f"missing value for parameter '{name}'")
+    value = number(ctx, f"{where}.value", p["value"])
+    unit = string(ctx, p, f"{where}.unit") or "1"
+    dims = unit_of(ctx, f"{where}.unit", unit)
+    lo = number(ctx, f"{where}.min", p["min"]) if "min" in p else None
+    hi = number(ctx, f"{where}.max", p["max"]) if "max" in p else None
+    positive = p.get("positive", False)
+    if not isinstance(positive, bool):
+        raise ctx.error(f"{where}.positive", f"must be true or false, got {positive!r}")
+    if lo is not None and hi is not None and lo > hi:
+        raise ctx.error(f"{where}.max", f"max ({hi:g}) is below min ({lo:g})")
+    problem = (f">= {lo:g} (its min)" if lo is not None and value < lo else
+               f"<= {hi:g} (its max)" if hi is not None and value > hi else
+               "positive" if positive and not value > 0 else None)
+    if problem:
+        raise ctx.error(f"{where}.value", f"the value {value:g} of '{name}' must be {problem}")
+    return Parameter(name, value, unit, string(ctx, p, f"{where}.meaning") or "", dims.scale, dims, lo, hi, positive)
+
+
 def _coordinate_fields(ctx: Ctx, where: str, el: dict[str, Any], schema, coordinates: dict[str, Coordinate]
                        ) -> dict[str, tuple[str, ...]]:
     """The coordinate fields of a schema element (names checked against the coordinates)."""
@@ -511,7 +535,8 @@ def _coordinate_fields(ctx: Ctx, where: str, el: dict[str, Any], schema, coordin
             raise ctx.error(fw, f"wrong type: expected {what}")
         for i, n in enumerate(names):
             if n not in coordinates:
-                raise ctx.error(fw if count == 1 else f"{fw}[{i}]", f"unknown coordinate '{n}'")
+                raise ctx.error(fw if count == 1 else f"{fw}[{i}]",
+                                f"unknown coordinate '{n}'{did_you_mean(n, coordinates)}")
         out[key] = tuple(names)
     return out
 

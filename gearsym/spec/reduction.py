@@ -51,6 +51,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from .fields import only_keys
+
 if TYPE_CHECKING:  # pragma: no cover
     from .model import Element, Term
     from .units import Unit
@@ -301,6 +303,4 @@ def reduction_units(ctx: Any, reduction: Reduction, elements: dict[str, Element]
 
 
 def _only(ctx: Any, where: str, table: dict[str, Any], allowed: set[str]) -> None:
-    for k in table:
-        if k not in allowed:
-            raise ctx.error(f"{where}.{k}", f"unknown field '{k}' (allowed: {', '.join(sorted(allowed))})")
+    only_keys(ctx, where, table, allowed)

@@ -34,17 +34,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import ParameterError, SpecError
+from ..errors import OverrideError, SpecError
 from . import expressions as ex
+from .fields import did_you_mean, unknown_key
 from .files import read_toml
 from .initial import evaluate_initial, read_initial
 from .model import ModelSpec, Term, load_model
 from .names import check_label, sanitize_label
+from .rules import ParameterRules, parameter_rules
+from .settings import SETTINGS, read_settings
 from .units import ParameterUnits
 
-_SIM_KEYS = {"periods": (int, float), "t_end": (int, float), "rtol": (float, int), "atol": (float, int),
-             "points_per_period": (int,), "method": (str,), "transient_periods": (int, float),
-             "max_steps": (int,), "dimensionless": (bool,)}
+#: The sections of a scene file: ``[figures]`` is free (kept for scripts, never read by gearsym).
+_SECTIONS = ("scene", "effects", "parameters", "initial", *SETTINGS, "figures")
 
 
 @dataclass(frozen=True)
@@ -87,6 +89,10 @@ class ResolvedScene:
         the coordinates' values are the starting guess of the static solve.
     static
         Whether the scene starts from the static equilibrium (``[initial] static``).
+    rules
+        The physical ranges of the parameter values (backlash >= 0, inertia > 0, schedule
+        breaks in (0, 1), declared ``min``/``max``), checked here for the scene's values and by
+        the compiled system for every other value (:mod:`gearsym.spec.rules`).
     """
 
     model: ModelSpec
@@ -96,6 +102,8 @@ class ResolvedScene:
     active_parameters: tuple[str, ...]
     initial: dict[str, float]
     static: bool = False
+    #: the physical ranges of the parameter values (:mod:`gearsym.spec.rules`)
+    rules: ParameterRules = field(default_factory=ParameterRules, compare=False)
 
     def effect_active(self, effect: str | None, variant: str | None = None) -> bool:
         """Whether an effect (and variant, if given) is on; ``None`` means always on."""
@@ -165,17 +173,15 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
     if "model" in data and "scene" not in data:
         raise err(None, "this is a model file; give a scene (or use `gearsym inspect` on the model)")
 
-    allowed = {"scene", "effects", "parameters", "initial", "simulate", "orbit", "map", "continue",
-               "figures"}
     for k in data:
-        if k not in allowed:
-            raise err(k, f"unknown section '{k}' (known: {', '.join(sorted(allowed))})")
+        if k not in _SECTIONS:
+            raise err(k, unknown_key(k, _SECTIONS, "section"))
     sc = data.get("scene")
     if not isinstance(sc, dict):
         raise err("scene", "missing section [scene]")
     for k in sc:
         if k not in ("name", "model", "description"):
-            raise err(f"scene.{k}", f"unknown field '{k}' (allowed: description, model, name)")
+            raise err(f"scene.{k}", unknown_key(k, ("name", "model", "description")))
     model_rel = sc.get("model")
     if not isinstance(model_rel, str):
         raise err("scene.model", "missing or not a string: the path of the model file")
@@ -210,16 +216,13 @@ def load_scene_spec(path: str | Path) -> SceneSpec:
             raise err(f"parameters.{k}", f"non-finite value {v}")
         params[k] = float(v)
     initial, static = read_initial(data.get("initial", {}), err)
-    sim = data.get("simulate", {})
-    for k, v in sim.items():
-        if k not in _SIM_KEYS:
-            raise err(f"simulate.{k}", f"unknown field '{k}' (allowed: {', '.join(sorted(_SIM_KEYS))})")
-        if (isinstance(v, bool) and bool not in _SIM_KEYS[k]) or not isinstance(v, _SIM_KEYS[k]):
-            raise err(f"simulate.{k}", f"wrong type {type(v).__name__}")
-    for k in ("rtol", "atol", "periods", "t_end"):
-        if k in sim and not (math.isfinite(sim[k]) and sim[k] > 0):
-            raise err(f"simulate.{k}", f"must be positive, got {sim[k]}")
-    extra = {k: data[k] for k in ("orbit", "map", "continue", "figures") if k in data}
+    settings = {k: read_settings(k, data.get(k, {}), err) for k in SETTINGS}
+    sim = settings.pop("simulate")
+    if "figures" in data and not isinstance(data["figures"], dict):
+        raise err("figures", "wrong type: expected a table")
+    extra = {k: v for k, v in settings.items() if k in data}
+    if "figures" in data:
+        extra["figures"] = data["figures"]
     return SceneSpec(where_file, name, description, str(model_path), dict(effects), params, initial,
                      dict(sim), extra, static)
 
@@ -238,7 +241,9 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
     effects
         Effect choices that replace the scene's (``True``/``False``/variant name).
     overrides
-        Parameter values (in the model's declared units) that replace the scene's.
+        Parameter values that replace the scene's: numbers in the model's declared units, or
+        strings that are a number with a unit (``"50um"``, ``"2e13 N/m"``), converted to the
+        declared unit after a check of the dimension.
 
     Raises
     ------
@@ -258,7 +263,8 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
     def apply(src: Mapping[str, bool | str], origin: str, file: str | None) -> None:
         for name, v in src.items():
             if name not in model.effects:
-                raise SpecError(f"effect '{name}' is not in model '{model.name}' (effects: "
+                raise SpecError(f"effect '{name}' is not in model '{model.name}'"
+                                f"{did_you_mean(name, model.effects)} (effects: "
                                 f"{', '.join(model.effects) or 'none'})", file=file,
                                 field=f"effects.{name}" if file else None)
             eff = model.effects[name]
@@ -282,8 +288,39 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
                 raise SpecError(f"effect '{name}' requires effect '{req}', which is off",
                                 file=scene.path, field=f"effects.{name}")
 
-    # which names do the active terms use (transitively through derived quantities)?
     probe = ResolvedScene(model, scene, state, {}, (), {})
+    used_active, used_inactive = _used_names(model, probe)
+    active_params = tuple(p for p in model.parameters if p in used_active)
+
+    units = ParameterUnits.of_model(model)
+    values = _parameter_values(model, scene, overrides, units, used_active, used_inactive, state)
+    rules = parameter_rules(probe)  # the physical ranges, checked before any value is used
+    _check_rules(rules, values, model, scene, units, overrides)
+
+    initial = {s: 0.0 for s in model.state_names()}
+    params = {p: values[p] for p in model.parameters}
+    for src, file in ((model.initial, model.path), (scene.initial, scene.path)):
+        for k, v in src.items():
+            if k not in initial:
+                raise SpecError(f"'{k}' is not a state{did_you_mean(k, initial)} (states: {', '.join(initial)})",
+                                file=file,
+                                field=f"initial.{k}")
+            initial[k] = evaluate_initial(k, v, params, model.units, model.units.get(k),
+                                          lambda fld, msg, f=file: SpecError(msg, file=f, field=fld))
+    static = bool(scene.static if scene.static is not None else model.static)
+    if static:  # the static equilibrium is at rest
+        velocities = ([model.reduction.velocity] if model.reduction is not None
+                      else [c.velocity for c in model.coordinates.values()])
+        for k in velocities:
+            if initial.get(k, 0.0) != 0.0:
+                raise SpecError(f"static = true starts at rest: the velocity '{k}' must be 0 (or left out)",
+                                file=scene.path if k in scene.initial else model.path, field=f"initial.{k}")
+    return ResolvedScene(model, scene, state, values, active_params, initial, static, rules)
+
+
+def _used_names(model: ModelSpec, probe: ResolvedScene) -> tuple[set[str], dict[str, set[str]]]:
+    """The names the active terms use (transitively through derived quantities and schedules), and
+    for the others the effects whose switched-off terms use them."""
     used_active: set[str] = set()
     used_inactive: dict[str, set[str]] = {}
     for term, el_eff, el_var in _terms_with_owner(model):
@@ -327,117 +364,73 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
                     if not effs <= cur:
                         cur |= effs
                         changed = True
-    active_params = tuple(p for p in model.parameters if p in used_active)
+    return used_active, used_inactive
 
-    units = ParameterUnits.of_model(model)
+
+def _parameter_values(model: ModelSpec, scene: SceneSpec, overrides: Mapping[str, object] | None,
+                      units: ParameterUnits, used_active: set[str], used_inactive: dict[str, set[str]],
+                      state: Mapping[str, bool | str]) -> dict[str, float]:
+    """SI value of every model parameter: the model's, then the scene's, then the overrides
+    (numbers in the declared unit, or strings with a unit: :meth:`ParameterUnits.declared_value`)."""
     values = units.to_si({p.name: p.value for p in model.parameters.values()})
-    for source, file in ((scene.parameters, scene.path), (overrides or {}, None)):
-        for name, v in source.items():
-            fld = f"parameters.{name}" if file else None
-            if name not in model.parameters:
-                msg = f"unknown parameter '{name}' (model '{model.name}' has: {', '.join(model.parameters)})"
-                if file:
-                    raise SpecError(msg, file=file, field=fld)
-                raise ParameterError(msg)
-            try:
-                v = float(v)
-            except (TypeError, ValueError):
-                raise ParameterError(f"parameter '{name}': not a number: {v!r}") from None
-            if not math.isfinite(v):
-                raise ParameterError(f"parameter '{name}': non-finite value {v}")
-            if name not in used_active and name in used_inactive and file is None:
-                offs = ", ".join(sorted(e for e in used_inactive[name] if state.get(e) is False))
-                raise ParameterError(f"parameter '{name}' is used only by switched-off effect(s) "
-                                     f"{offs or ', '.join(sorted(used_inactive[name]))}; switch the "
-                                     f"effect on to set it")
-            values.update(units.to_si({name: v}))  # the one conversion: declared -> SI
-
-    initial = {s: 0.0 for s in model.state_names()}
-    params = {p: values[p] for p in model.parameters}
-    for src, file in ((model.initial, model.path), (scene.initial, scene.path)):
-        for k, v in src.items():
-            if k not in initial:
-                raise SpecError(f"'{k}' is not a state (states: {', '.join(initial)})", file=file,
-                                field=f"initial.{k}")
-            initial[k] = evaluate_initial(k, v, params, model.units, model.units.get(k),
-                                          lambda fld, msg, f=file: SpecError(msg, file=f, field=fld))
-    static = bool(scene.static if scene.static is not None else model.static)
-    if static:  # the static equilibrium is at rest
-        velocities = ([model.reduction.velocity] if model.reduction is not None
-                      else [c.velocity for c in model.coordinates.values()])
-        for k in velocities:
-            if initial.get(k, 0.0) != 0.0:
-                raise SpecError(f"static = true starts at rest: the velocity '{k}' must be 0 (or left out)",
-                                file=scene.path if k in scene.initial else model.path, field=f"initial.{k}")
-    rs = ResolvedScene(model, scene, state, values, active_params, initial, static)
-    _check_inertias(rs)
-    return rs
-
-
-def _check_inertias(rs: ResolvedScene) -> None:
-    """Every active inertia element whose value is a constant must be positive."""
-    model = rs.model
-    cache: dict[str, float | None] = {}
-
-    def derived_value(name: str, depth: int = 0) -> float | None:
-        if name not in cache:
-            cache[name] = None
-            if depth < 50:
-                total = 0.0
-                for t in model.derived[name].terms:
-                    if not rs.is_active(t):
-                        continue
-                    v = value_of(t.expr, depth + 1)
-                    if v is None:
-                        return None
-                    total += v
-                cache[name] = total
-        return cache[name]
-
-    def value_of(text: str, depth: int = 0) -> float | None:
+    for name, v in scene.parameters.items():
+        if name not in model.parameters:
+            raise SpecError(f"unknown parameter '{name}'{did_you_mean(name, model.parameters)} (model "
+                            f"'{model.name}' has: {', '.join(model.parameters)})", file=scene.path,
+                            field=f"parameters.{name}")
+        values.update(units.to_si({name: float(v)}))  # the one conversion: declared -> SI
+    for name, v in (overrides or {}).items():
+        if name not in model.parameters:
+            raise OverrideError(name, f"unknown parameter '{name}'{did_you_mean(name, model.parameters)} (model "
+                                      f"'{model.name}' has: {', '.join(model.parameters)})", named=True)
         try:
-            names = ex.names_in(text)
-        except ex.ExpressionError:
-            return None
-        env: dict[str, float] = {}
-        for n in names:
-            if n in rs.values:
-                env[n] = rs.values[n]
-            elif n in model.derived:
-                v = derived_value(n, depth)
-                if v is None:
-                    return None
-                env[n] = v
-            else:
-                return None
-        return ex.constant_value(text, env)
+            v = units.declared_value(name, v)
+        except ValueError as exc:
+            raise OverrideError(name, str(exc)) from None
+        if not math.isfinite(v):
+            raise OverrideError(name, f"non-finite value {v}")
+        if name not in used_active and name in used_inactive:
+            offs = ", ".join(sorted(e for e in used_inactive[name] if state.get(e) is False))
+            raise OverrideError(name, f"parameter '{name}' is used only by switched-off effect(s) "
+                                      f"{offs or ', '.join(sorted(used_inactive[name]))}; switch the effect "
+                                      f"on to set it", named=True)
+        values.update(units.to_si({name: v}))
+    return values
 
-    for el in model.elements.values():
-        if el.type != "inertia" or not rs.effect_active(el.effect, el.variant):
-            continue
-        if el.coordinate is not None and not rs.coordinate_active(el.coordinate):
-            continue
-        terms = [t for t in el.fields.get("value", ()) if rs.is_active(t, el.effect, el.variant)]
-        vals = [value_of(t.expr) for t in terms]
-        if not terms or any(v is None for v in vals):
-            continue
-        total = sum(v for v in vals if v is not None)
-        if total <= 0:
-            exprs = " + ".join(t.expr for t in terms)
-            seen: dict[str, float] = {}
-            todo = [n for t in terms for n in ex.names_in(t.expr)]
-            while todo:  # the parameters and derived quantities the value comes from
-                n = todo.pop()
-                if n in seen:
-                    continue
-                if n in model.derived:
-                    seen[n] = cache.get(n) or 0.0
-                    todo += [m for t in model.derived[n].terms if rs.is_active(t) for m in ex.names_in(t.expr)]
-                elif n in rs.values:
-                    seen[n] = rs.values[n]
-            with_ = f" with {', '.join(f'{n} = {v:g}' for n, v in seen.items())} (SI)" if seen else ""
-            raise SpecError(f"inertia must be positive, got {total:g} from '{exprs}'{with_}",
-                            file=model.path, field=f"elements.{el.name}.value")
+
+class _OverrideRangeError(SpecError, OverrideError):
+    """An override outside the physical range of the field that uses it: a :class:`SpecError`
+    naming the model's field, and an :class:`OverrideError` naming the parameter (``--set NAME:``)."""
+
+    def __init__(self, parameter: str, reason: str, message: str, file: str, field: str):
+        spec = SpecError(message, file=file, field=field)  # its text and attributes, without the MRO's __init__ chain
+        Exception.__init__(self, str(spec))
+        self.message, self.file, self.field = spec.message, spec.file, spec.field
+        named = OverrideError(parameter, reason)
+        self.parameter, self.reason = named.parameter, named.reason
+
+
+def _check_rules(rules: ParameterRules, values: Mapping[str, float], model: ModelSpec, scene: SceneSpec,
+                 units: ParameterUnits, overrides: Mapping[str, object] | None) -> None:
+    """The scene's parameter values against the physical ranges of the model (:mod:`gearsym.spec.rules`).
+
+    A value set by an override is an :class:`OverrideError` naming it (``--set NAME: ...``);
+    otherwise the model file and the field of the rule are named, and the scene file if a
+    value comes from it.
+    """
+    broken = rules.violation(values)
+    if broken is None:
+        return
+    rule, value = broken
+    set_here = sorted(rule.names & set(overrides or {}))
+    if set_here:
+        raise _OverrideRangeError(set_here[0], rules.message(rule, value, values, units, file=model.path),
+                                  rules.message(rule, value, values, units, with_field=False), model.path,
+                                  rule.field)
+    from_scene = sorted(rule.names & set(scene.parameters))
+    note = f" (set in the scene {scene.path}: {', '.join(from_scene)})" if from_scene else ""
+    raise SpecError(rules.message(rule, value, values, units, with_field=False) + note,
+                    file=model.path, field=rule.field)
 
 
 def _terms_with_owner(model: ModelSpec):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from fractions import Fraction
@@ -222,6 +223,72 @@ class ParameterUnits:
         """The declared unit of ``name`` (``""`` if none is declared)."""
         return self.units.get(name, "")
 
+    def declared_value(self, name: str, value: object) -> float:
+        """A parameter value given by a user, in the declared unit of ``name``.
+
+        A number (or a string that is one) is already in the declared unit.  A string
+        that is a number followed by a unit this module knows (``"50um"``, ``"2e13 N/m"``,
+        ``"3000 rpm"``) is converted to the declared unit, after checking that the two
+        units measure the same quantity.
+
+        Parameters
+        ----------
+        name
+            The parameter.
+        value
+            A number, or a string: a number, optionally followed by a unit.
+
+        Returns
+        -------
+        float
+            The value in the declared unit of ``name`` (not checked for finiteness).
+
+        Raises
+        ------
+        ValueError
+            A string that is not a number (with a known unit), or a unit of another
+            dimension; the message says that values are in the declared unit and names it.
+        """
+        if isinstance(value, bool):
+            raise ValueError(f"expected a number, got {value!r} ({self._declared_hint(name)})")
+        if isinstance(value, (int, float)) or hasattr(value, "__float__") and not isinstance(value, str):
+            return float(value)  # type: ignore[arg-type]
+        if not isinstance(value, str):
+            raise ValueError(f"expected a number, got {type(value).__name__} ({self._declared_hint(name)})")
+        text = value.strip()
+        try:
+            return float(text)
+        except ValueError:
+            pass
+        m = _QUANTITY.fullmatch(text)
+        shown = text if len(text) <= 60 else text[:57] + "..."
+        if m is None or not m.group(2):
+            raise ValueError(f"'{shown}' is not a number ({self._declared_hint(name)}; a number with a unit "
+                             f"such as 50um or '2e13 N/m' is converted to it)")
+        unit_text = m.group(2)
+        try:
+            given = parse_unit(unit_text)
+        except UnitSyntaxError as exc:
+            raise ValueError(f"'{shown}': {exc} ({self._declared_hint(name)})") from None
+        declared_text = self.units.get(name) or "1"
+        declared = parse_unit(declared_text)
+        if not given.same_dimension(declared):
+            raise ValueError(f"'{shown}' is [{given.si_string()}] but '{name}' is declared in "
+                             f"{declared_text} [{declared.si_string()}]: give a value in {declared_text} "
+                             f"or in a unit of the same dimension")
+        if _mentions_hz(unit_text) != _mentions_hz(declared_text):  # 1 Hz = 2*pi rad/s, not 1 rad/s
+            raise ValueError(f"'{shown}': Hz (cycles per second) and angular frequencies (rad/s, rpm) are "
+                             f"not converted into each other: give the value in {declared_text}")
+        # exact decimal arithmetic on the written number and the unit scales: 0.05mm is 50 um, not
+        # 50.00000000000001 um
+        return float(Fraction(m.group(1)) * Fraction(repr(given.scale)) / Fraction(repr(declared.scale)))
+
+    def _declared_hint(self, name: str) -> str:
+        unit = self.units.get(name) or "1"
+        if unit in ("", "1"):
+            return f"'{name}' is dimensionless: values are plain numbers"
+        return f"values are in the declared unit of '{name}', {unit}: {name}=50 means 50 {unit}"
+
     def to_si(self, values: Mapping[str, float] | None) -> dict[str, float]:
         """Declared values -> SI values (names without a declared unit unchanged; numbers or arrays)."""
         return {k: _scaled(v, self.scales.get(k, 1.0)) for k, v in (values or {}).items()}
@@ -231,6 +298,14 @@ class ParameterUnits:
         the SI values back exactly, and a value set as ``50`` um reads back as ``50.0``, not
         ``49.99999999999999``)."""
         return {k: _declared(v, self.scales.get(k, 1.0)) for k, v in (values or {}).items()}
+
+
+#: a number followed by a unit: ``50um``, ``2e13 N/m``, ``-3.5e-6 m``
+_QUANTITY = re.compile(r"([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(\S.*)?")
+
+
+def _mentions_hz(unit_text: str) -> bool:
+    return re.search(r"(?<![A-Za-z])Hz(?![A-Za-z])", unit_text) is not None
 
 
 def _declared(v, scale: float):

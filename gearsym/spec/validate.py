@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 from . import expressions as ex
 from .constraints import validate_constraints
 from .elements import ELEMENT_SCHEMAS, validate_element
-from .fields import Ctx, Term, unit_of
+from .fields import Ctx, Term, did_you_mean, unit_of
 from .reduction import reduction_units
 from .units import ONE, Unit
 
@@ -160,7 +160,7 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
         for q in spec.dimensionless.coordinates:
             if q not in spec.state_names()[: (len(spec.state_names()) - len(spec.algebraic)) // 2]:
                 raise ctx.error(f"dimensionless.coordinates.{q}", f"'{q}' is not a coordinate of the "
-                                                                  f"(reduced) model")
+                                                                  f"(reduced) model{did_you_mean(q, spec.state_names())}")
         for g in spec.dimensionless.groups:
             gw = f"dimensionless.groups.{g.name}"
             if g.eliminates not in spec.parameters:
@@ -179,7 +179,8 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
             _expect(ctx, f"dimensionless.coordinates.{q}", text, units, units[q], "the coordinate's unit")
     for k in spec.initial:
         if k not in spec.state_names():
-            raise ctx.error(f"initial.{k}", f"'{k}' is not a state (states: {', '.join(spec.state_names())})")
+            raise ctx.error(f"initial.{k}", f"'{k}' is not a state{did_you_mean(k, spec.state_names())} "
+                                            f"(states: {', '.join(spec.state_names())})")
     for o in spec.outputs.values():
         u = _terms_unit(ctx, o.terms, units)
         if o.unit is not None and u is not None:
