@@ -449,7 +449,9 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
     defect_tol
         One period integrated from the balanced ``x(t0)`` must close to ``defect_tol`` of
         every state's peak-to-peak (``info["defect_relative"]``; a state that vanishes on the
-        orbit, below 1e-9 of the largest, counts as 1e-9 of the largest): the automatic growth
+        orbit, below 1e-9 of the largest, counts as 1e-9 of the largest, and every state as at
+        least ``atol / defect_tol``, so a defect below ``atol`` always passes, as in shooting):
+        the automatic growth
         stops there, and a balance grown automatically that does not reach it has not
         converged.  With fixed ``harmonics`` the defect is reported, not enforced.
     floor_rel

@@ -77,17 +77,24 @@ def series_from_samples(y: np.ndarray, H: int) -> np.ndarray:
     return Cg
 
 
-def state_sizes(Y: np.ndarray) -> np.ndarray:
+def state_sizes(Y: np.ndarray, floor: float = 0.0) -> np.ndarray:
     """Size of every state on an orbit: its peak-to-peak, at least 1e-6 of its magnitude
     (a state that does not move is measured against its value), at least
     :data:`~gearsym.analysis.orbit.VANISHING` of the largest state's size (a state that
     vanishes on the orbit is round-off: its defect relative to its own size was ~1, and
-    harmonic balance of the 4-planet set failed at 64 harmonics), never zero."""
+    harmonic balance of the 4-planet set failed at 64 harmonics), at least ``floor``, never
+    zero.
+
+    ``floor``: the absolute floor, ``atol / defect_tol`` in the driver (as shooting's state
+    scales, at least ``atol / tol``): a defect below the integrator's ``atol`` always passes.
+    Without it the trivial orbit ``x = 0`` was measured against its own round-off (noise
+    divided by noise: the damped Meissner equation grew to 512 harmonics and failed).
+    """
     ptp = np.ptp(Y, axis=0)
     mag = np.max(np.abs(Y), axis=0)
     size = np.maximum(ptp, 1e-6 * mag)
     top = float(np.max(size)) if size.size else 0.0
-    return np.maximum(size, max(VANISHING * top, 1e-300))
+    return np.maximum(size, max(VANISHING * top, float(floor), 1e-300))
 
 
 def time_defect(system: System, x_start: np.ndarray, t0: float, period: float, params: Mapping[str, float] | None,
@@ -111,6 +118,7 @@ def run(hb_cls, system: System, period: float | None, periods: float, x0: Sequen
     from .shooting import _check_tolerances
 
     _check_tolerances(tol=tol, rtol=rtol, atol=atol, defect_tol=defect_tol, aft_tol=aft_tol)
+    floor = atol / defect_tol  # the absolute floor of every state's size (see state_sizes)
     if system.generated.implicit:
         raise ParameterError("harmonic balance needs an explicit model (x' = f(t, x)); this one is in implicit "
                              "(residual) form, a DAE: use shooting (method='shooting')")
@@ -203,7 +211,7 @@ def run(hb_cls, system: System, period: float | None, periods: float, x0: Sequen
                 dz = np.linalg.solve(hb.jacobian(C), -Rf)
             except np.linalg.LinAlgError:
                 return hb, C_full, (it, r, conv, hist, failure), checks
-            sizes = state_sizes(dense_series(C_full, max(1024, 4 * hb.H)))
+            sizes = state_sizes(dense_series(C_full, max(1024, 4 * hb.H)), floor)
             move = float(np.max(np.sum(np.abs(hb._unflat(dz)), axis=0) / sizes))
             checks.append({"samples": hb.M, "correction": move})
             if move <= aft_tol:
@@ -241,7 +249,7 @@ def run(hb_cls, system: System, period: float | None, periods: float, x0: Sequen
                 prev_dense = None
                 continue
             dense = dense_series(C, max(4096, 8 * hb.H))
-            sizes = state_sizes(dense)
+            sizes = state_sizes(dense, floor)
             x_start = hb.x_at_t0(hb.restrict(C))
             try:
                 d_rel, d_abs, _ = time_defect(system, x_start, t0, period, params, sizes, rtol, atol)
@@ -313,7 +321,7 @@ def run(hb_cls, system: System, period: float | None, periods: float, x0: Sequen
     d_rel, d_abs = (verified[0], verified[1]) if verified is not None else (math.nan, math.nan)
     if monodromy and conv:
         try:
-            sizes = verified[2] if verified is not None else state_sizes(dense_series(C))
+            sizes = verified[2] if verified is not None else state_sizes(dense_series(C), floor)
             d_rel, d_abs, tr = time_defect(system, x_start, t0, period, params, sizes, rtol, atol, monodromy=True)
             mono = tr.monodromy
             events = list(tr.events)
