@@ -631,7 +631,7 @@ class System(Evaluations, SensitivityMethods):
         period
             Orbit period (default ``periods`` forcing periods).
         periods
-            Number of forcing periods of the orbit.
+            Number of forcing periods of the orbit: a positive whole number.
         x0
             Initial guess of the state at ``t = 0``.
         method

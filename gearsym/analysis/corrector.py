@@ -342,10 +342,15 @@ class Continuer:
         params = res.params(lam)
         if smp is not None:  # from the corrector's C call: the period's samples, end excluded
             t_dense, Y, G, H = smp.t[:-1], smp.y[:-1], smp.g[:-1].T, smp.mesh[:-1]
+            ends = np.asarray(smp.y[-1:], float)  # one run without the variational equations
             if Y[0].tolist() == np.asarray(x0, float).tolist():
                 g0 = smp.g[0]
         else:
-            t_dense, Y = res.dense(u, lam, self.n_dense)
+            t_dense, Y, ends = res.dense_ends(u, lam, self.n_dense)
+        verified = res.closure(u, lam, ev, ends, Y, self.tol, fq.max_multiplier)
+        if verified is not None and not verified.ok:
+            # the corrector's point is no orbit: reject it like a failed correction
+            raise ConvergenceError(f"corrector: {verified.message(res.system.state_names)}")
         st = smp.stats if smp is not None else None  # the reductions below, made in the same C call
         y = Y[:, self.state]
         if st is not None:
@@ -387,7 +392,7 @@ class Continuer:
             surface_extrema=ext, tangent=t, residual=max(map(abs, self.scaled_residual(ev).tolist())),
             iterations=iterations, u=np.asarray(u, float).copy(), monodromy=ev.monodromy,
             stability=fq.stability, trivial_multipliers=fq.trivial, multiplier_tolerances=fq.tolerances,
-            meshes=meshes)
+            meshes=meshes, closure=math.nan if verified is None else verified.relative)
         tau: dict[str, float] = {"fold": float(t[-1]), **tau_mu}
         for name, (gmin, gmax) in ext.items():
             tau[f"grazing|{name}|min"] = gmin

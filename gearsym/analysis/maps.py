@@ -47,6 +47,7 @@ import numpy as np
 
 from ..errors import GearsymError, ParameterError
 from .periodic import ORBIT_METHODS
+from .verification import whole_periods
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray as xr
@@ -229,7 +230,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     method
         ``"auto"``, ``"exact"``, ``"shooting"`` or ``"hbm"`` (see module docstring).
     periods
-        Orbit period in forcing periods.
+        Orbit period in forcing periods (a positive whole number).
     params
         Further parameter overrides (declared units) for every point.
     dask
@@ -261,6 +262,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         raise ParameterError(f"quantity must be one of {', '.join(QUANTITIES)}, got '{quantity}'")
     if method not in MAP_METHODS:
         raise ParameterError(f"method must be {', '.join(MAP_METHODS)}, got '{method}'")
+    periods = whole_periods(periods)  # an orbit of a forced system: a whole number of forcing periods
     wall = time.perf_counter()
     xname, xs = _axis(x, "x")
     yname, ys = _axis(y, "y")
