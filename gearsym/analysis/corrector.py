@@ -366,10 +366,7 @@ class Continuer:
                 jmin, jmax = (st.g_argmin[j], st.g_argmax[j]) if st is not None else \
                     (int(np.argmin(g)), int(np.argmax(g)))
                 ext[name] = (_periodic_extremum(g, jmin, +1.0), _periodic_extremum(g, jmax, -1.0))
-        try:
-            rss = mesh_rattle_states(res.system, x0, res.t0, ev.events, params, g0=g0)
-        except Exception:  # noqa: BLE001 - the classification is informative only
-            rss = {}
+        rss = mesh_rattle_states(res.system, x0, res.t0, ev.events, params, g0=g0)  # (a failure rejects the point)
         meshes = mesh_point(res.system, t_dense, Y, params, rss, deflections=H,
                             extrema_at=None if st is None else (st.mesh_argmin, st.mesh_argmax))
         t = self.tangent(ev, t_ref, lam)

@@ -327,6 +327,7 @@ def run(hb_cls, system: System, period: float | None, periods: float, x0: Sequen
     events: list = []
     iso = None
     rss_integration = None
+    mono_failure = None
     d_rel, d_abs = (verified[0], verified[1]) if verified is not None else (math.nan, math.nan)
     if monodromy and conv:
         try:
@@ -337,8 +338,9 @@ def run(hb_cls, system: System, period: float | None, periods: float, x0: Sequen
             amp = np.max(np.abs(tr.y), axis=0)
             iso = isolation(mono, np.maximum(amp, max(1e-9 * float(np.max(amp)), atol / tol)), rtol, trivial)
             rss_integration = rattle_states(system, x_start, t0, events, params)
-        except GearsymError:
-            mono = None
+        except GearsymError as exc:
+            mono = None  # no multipliers ("unknown" stability), and why
+            mono_failure = f"the variational integration from the balanced state failed: {exc}"
         if iso is not None and not iso.isolated and r > max(tol, floor_tol if hb.floor else tol) * guess_scale:
             conv = False
             failure = (f"{iso.reason()}: the balance's residual {r:.3g} is small only relative to coefficients "
@@ -364,7 +366,7 @@ def run(hb_cls, system: System, period: float | None, periods: float, x0: Sequen
               "harmonic_set": [int(k) for k in hb.ks], "n_harmonics": len(hb.ks),
               "excitation_harmonics": sorted(excitation), "carriers": carriers,
               "initial_guess": used, "quadrature": hb.quadrature, "failure": failure or None,
-              "isolation": iso.to_dict() if iso is not None else None,
+              "isolation": iso.to_dict() if iso is not None else None, "monodromy_failure": mono_failure,
               "samples": hb.M, "tol": tol, "rtol": rtol, "atol": atol,
               "relative_residual": hb.rel_residual, "residual_floor": bool(hb.floor),
               "rattle_state_source": "harmonic series", "rattle_states_integration": rss_integration,
