@@ -9,9 +9,10 @@ attractor was a stable orbit without contact loss.  So where the orbit found is 
 1. it is recorded apart (``unstable_max_multiplier``, ``unstable_rattle_state``);
 2. the stable response is searched for: one integration of :data:`SEARCH_PERIODS` forcing
    periods from the solve's start (the previous point's response: the attractor a sweep
-   follows), then from the unstable orbit perturbed along its unstable direction (both ways,
-   the larger component positive first), each followed by the orbit solve from where the
-   integration ended;
+   follows), then from the unstable orbit perturbed along its unstable direction (both ways
+   for a real multiplier above +1, the larger component positive first), each followed by the
+   orbit solve from where the integration ended if the integration settled (its samples once
+   per orbit period approach a fixed point);
 3. if no stable orbit of the map's number of periods is found, the point has **no stable
    periodic response** (``response = 0``): its response quantities (rattle state,
    peak-to-peak) are left empty, the map's figure hatches it.
@@ -39,8 +40,13 @@ __all__ = ["EXACT_RTOL", "RESPONSE", "SEARCH", "SEARCH_PERIODS", "map_point"]
 #: Smallest relative error assigned to an exact (matrix-exponential) monodromy in the stability
 #: rule; the estimate is :meth:`~gearsym.analysis.floquet.PiecewiseLTV.rounding_error`.
 EXACT_RTOL = 1e-14
-#: Forcing periods integrated from each start of the search for a stable response.
-SEARCH_PERIODS = 50
+#: Forcing periods integrated from each start of the search for a stable response (the solve
+#: that follows relaxes further where the samples are still approaching an orbit).
+SEARCH_PERIODS = 20
+#: The search solves for an orbit from where the integration ended only if its samples once per
+#: orbit period changed by at most this fraction of the state's range over the last period (or
+#: were still shrinking): else no orbit of that period attracts from there.
+SETTLED = 1e-2
 #: The ``response`` codes of a map point.
 RESPONSE = {1: "a stable periodic orbit: the response (the values shown are its)",
             0: "no stable periodic response found (an unstable orbit only, in the unstable_* variables)",
@@ -190,15 +196,10 @@ def _stable_response(system: System, params: dict[str, float], method: str, peri
         starts.append((1, np.asarray(guess, float)))
     starts += [(2, k) for k in kicks]
     notes: list[str] = []
-    T = float(unstable.period) / float(unstable.periods)
-    rtol = max(float(unstable.info.get("rtol", 1e-10)), 1e-9)
-    atol = float(unstable.info.get("atol", 1e-12))
     for how, x in starts:
-        try:
-            x_end = system.simulate(t_end=unstable.t0, t0=unstable.t0 - SEARCH_PERIODS * T, x0=x, rtol=rtol,
-                                    atol=atol, n_out=2, params=params).x_final
-        except GearsymError as exc:
-            notes.append(f"{SEARCH[how]}: the integration failed ({exc})")
+        x_end, why = _settled(system, params, unstable, x)
+        if x_end is None:
+            notes.append(f"{SEARCH[how]}: {why}")
             continue
         orbit, err = _solve(system, params, method, periods, x_end, {**options, "transient": 0} if
                             method == "shooting" else options)
@@ -211,9 +212,38 @@ def _stable_response(system: System, params: dict[str, float], method: str, peri
     return None, -1, ["no stable periodic response: " + "; ".join(notes)]
 
 
+def _settled(system: System, params: dict[str, float], unstable: PeriodicOrbit, x: np.ndarray
+             ) -> tuple[np.ndarray | None, str]:
+    """Integrate :data:`SEARCH_PERIODS` forcing periods from ``x`` (sampled once per orbit period):
+    ``(end state, "")`` when the samples settle (they approach a fixed point of the orbit-period
+    map: the last step below :data:`SETTLED` of the orbit's size, or shrinking at least 2x over
+    the last five), else ``(None, why)``: no orbit of this period attracts from there (a cycle
+    of twice the period past a period doubling, a torus, chaos), and no solve is tried."""
+    k = max(1, int(round(unstable.periods)))
+    P = float(unstable.period)
+    n = max(4, SEARCH_PERIODS // k)
+    rtol = max(float(unstable.info.get("rtol", 1e-10)), 1e-9)
+    atol = float(unstable.info.get("atol", 1e-12))
+    try:
+        tr = system.simulate(t_end=unstable.t0, t0=unstable.t0 - n * P, x0=x, rtol=rtol, atol=atol,
+                             t_out=unstable.t0 - n * P + P * np.arange(n + 1), params=params)
+    except GearsymError as exc:
+        return None, f"the integration failed ({exc})"
+    Y = np.asarray(tr.y, float)
+    size = np.maximum(np.ptp(Y, axis=0), np.max(np.abs(Y), axis=0) * 1e-6) + 1e-300
+    step = np.max(np.abs(np.diff(Y, axis=0)) / size, axis=1)
+    if not np.all(np.isfinite(step)):
+        return None, "the integration diverged"
+    if step[-1] <= SETTLED or step[-1] <= 0.5 * step[-6]:
+        return Y[-1], ""
+    return None, (f"the integration did not settle on an orbit of {k} forcing period(s) in {n * k} periods "
+                  f"(last change {step[-1]:.3g} of the state's range)")
+
+
 def _unstable_kicks(orbit: PeriodicOrbit, size: float = 1e-3) -> list[np.ndarray]:
     """The orbit's state moved by ``size`` of each state's magnitude along the eigenvector of its
-    largest multiplier, both ways."""
+    largest multiplier, both ways for a real multiplier above +1 (the two sides of the unstable
+    orbit), one way otherwise."""
     M = orbit.monodromy
     x0 = np.asarray(orbit.x0, float)
     if M is None or not np.all(np.isfinite(M)):
@@ -228,6 +258,11 @@ def _unstable_kicks(orbit: PeriodicOrbit, size: float = 1e-3) -> list[np.ndarray
     if not (math.isfinite(top) and top > 0):
         return []
     d = size * v / top
+    mu = complex(target)
+    if abs(mu.imag) > 1e-9 * abs(mu) or mu.real < 0:
+        # a multiplier below -1 (or a complex pair) turns the perturbation over every period: both
+        # signs lead to the same place, one start is enough
+        return [x0 + d]
     return [x0 + d, x0 - d]
 
 
