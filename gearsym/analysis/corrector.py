@@ -347,11 +347,15 @@ class Continuer:
                 g0 = smp.g[0]
         else:
             t_dense, Y, ends = res.dense_ends(u, lam, self.n_dense)
-        verified = res.closure(u, lam, ev, ends, Y, self.tol, fq.max_multiplier)
+        st = smp.stats if smp is not None else None  # the reductions below, made in the same C call
+        if st is not None:
+            scale = np.maximum(np.maximum(st.max, -st.min), st.max - st.min)
+        else:
+            scale = np.maximum(np.max(np.abs(Y), axis=0), np.ptp(Y, axis=0))
+        verified = res.closure(u, lam, ev, ends, Y, scale, self.tol, fq.max_multiplier)
         if verified is not None and not verified.ok:
             # the corrector's point is no orbit: reject it like a failed correction
             raise ConvergenceError(f"corrector: {verified.message(res.system.state_names)}")
-        st = smp.stats if smp is not None else None  # the reductions below, made in the same C call
         y = Y[:, self.state]
         if st is not None:
             i_max, i_min = st.argmax[self.state], st.argmin[self.state]
@@ -394,10 +398,6 @@ class Continuer:
         for name, (gmin, gmax) in ext.items():
             tau[f"grazing|{name}|min"] = gmin
             tau[f"grazing|{name}|max"] = gmax
-        if st is not None:
-            scale = np.maximum(np.maximum(st.max, -st.min), st.max - st.min)
-        else:
-            scale = np.maximum(np.max(np.abs(Y), axis=0), np.ptp(Y, axis=0))
         return Node(z=np.array(z, float), ev=ev, point=pt, t=t, tau=tau, iterations=iterations, scale=scale,
                     size=float(np.max(scale)))
 

@@ -122,7 +122,7 @@ class HBResidual(_Residual):
         return _Eval(R, J, Flam, monodromy=mono, events=events, x_end=x_end)
 
     def closure(self, u: np.ndarray, lam: float, ev: _Eval, ends: np.ndarray | None, Y: np.ndarray,
-                tol: float, amplification: float) -> Closure | None:
+                scale: np.ndarray, tol: float, amplification: float) -> Closure | None:
         """The time-domain defect of the balance: one period integrated from the series' ``x(t0)``
         (the integration of :meth:`evaluate`, independent of the balance) must close to
         :data:`~gearsym.analysis.hbm_driver.FIXED_HARMONICS_DEFECT` of every state's peak-to-peak

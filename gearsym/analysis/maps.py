@@ -259,21 +259,9 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     flat: list[dict[str, Any]] | None = None
     runner = ""
     if method in ("auto", "exact") and not want_ptp:
-        # the fast path: all points at once (one mapped Jacobian call, batched expm)
-        from .floquet import NotPiecewiseConstantError, exact_multipliers
-
-        pts = [dict(base, **{xname: float(xv), yname: float(yv)}) for yv in ys for xv in xs]
-        try:
-            _, monos, errs = exact_multipliers(system, pts, periods=periods, monodromies=True)
-            from .stability import floquet, rigid_state_basis
-
-            fqs = [floquet(M, max(float(e), EXACT_RTOL), rigid_state_basis(system, pt))
-                   for M, e, pt in zip(monos, errs, pts)]
-            flat = [_exact_record(fq) for fq in fqs]
-            runner = "vectorised (exact)"
-        except NotPiecewiseConstantError:
-            if method == "exact":
-                raise
+        flat = _exact_points(system, [dict(base, **{xname: float(xv), yname: float(yv)}) for yv in ys for xv in xs],
+                             periods, required=method == "exact")
+        runner = "vectorised (exact)"
     if flat is None:
         flat, runner = _run_tasks(system, tasks, dask, n_workers)
     ds = _dataset(system, flat, xname, xs, yname, ys, want_ptp)
@@ -290,6 +278,24 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         "stability_rule": "gearsym.analysis.stability (neutral band from the monodromy error)",
     })
     return ds
+
+
+def _exact_points(system: System, pts: list[dict[str, float]], periods: int,
+                  required: bool) -> list[dict[str, Any]] | None:
+    """The fast path of a linear system with piecewise-constant coefficients: every point at once
+    (one mapped Jacobian call, batched expm); ``None`` where it does not apply (raised when
+    ``required``)."""
+    from .floquet import NotPiecewiseConstantError, exact_multipliers
+    from .stability import floquet, rigid_state_basis
+
+    try:
+        _, monos, errs = exact_multipliers(system, pts, periods=periods, monodromies=True)
+    except NotPiecewiseConstantError:
+        if required:
+            raise
+        return None
+    return [_exact_record(floquet(M, max(float(e), EXACT_RTOL), rigid_state_basis(system, pt)))
+            for M, e, pt in zip(monos, errs, pts, strict=True)]
 
 
 def _exact_record(fq: Any) -> dict[str, Any]:

@@ -148,10 +148,11 @@ class PeriodicOrbitProblem:
         return t, Y, None
 
     def closure(self, u: np.ndarray, lam: float, ev: Evaluation, ends: np.ndarray | None, Y: np.ndarray,
-                tol: float, amplification: float) -> Closure | None:
+                scale: np.ndarray, tol: float, amplification: float) -> Closure | None:
         """The verification of a corrected point (:mod:`gearsym.analysis.verification`) from
         ``ends``, the segment ends of an integration without the variational equations
-        (:meth:`dense_ends`, or the corrector's samples), or ``None`` where the problem has none."""
+        (:meth:`dense_ends`, or the corrector's samples), or ``None`` where the problem has none.
+        ``Y``: the dense orbit; ``scale``: every state's magnitude on it."""
         return None
 
     def rigid_basis(self, lam: float) -> np.ndarray | None:
@@ -325,15 +326,14 @@ class ShootingResidual(PeriodicOrbitProblem):
         return t, Y
 
     def closure(self, u: np.ndarray, lam: float, ev: Evaluation, ends: np.ndarray | None, Y: np.ndarray,
-                tol: float, amplification: float) -> Closure | None:
+                scale: np.ndarray, tol: float, amplification: float) -> Closure | None:
         """The mismatch of the plain integration's segment ends with the next segments' starts,
         against the integration's error (:func:`~gearsym.analysis.verification.closure`)."""
-        X = np.asarray(u, float).reshape(self.segments, self.nx)
         if ends is None:
             return Closure(math.inf, math.inf, False, error="no integration of the orbit without the variational "
                                                            "equations")
-        amp = np.maximum(np.max(np.abs(Y), axis=0), np.max(np.abs(ends), axis=0))
-        return closure(X, ends, amp, rtol=self.rtol, atol=self.atol, tol=tol, amplification=amplification)
+        return closure(np.reshape(u, (self.segments, self.nx)), ends, scale, rtol=self.rtol, atol=self.atol, tol=tol,
+                       amplification=amplification)
 
     def dense_ends(self, u: np.ndarray, lam: float, n_per_period: int
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
