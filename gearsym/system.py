@@ -670,8 +670,8 @@ class System(Evaluations, SensitivityMethods):
         period
             Orbit period (default ``periods`` forcing periods).
         periods
-            Number of forcing periods of the orbit (default: the scene's ``[orbit]`` ``periods``,
-            else 1).
+            Number of forcing periods of the orbit, a positive whole number (default: the scene's
+            ``[orbit]`` ``periods``, else 1).
         x0
             Initial guess of the state at ``t = 0``.
         method

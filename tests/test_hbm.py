@@ -115,6 +115,33 @@ def test_aft_jacobian_matches_finite_differences(ks):
     assert np.linalg.norm(J - Jfd) / np.linalg.norm(J) < 1e-5
 
 
+def test_zero_orbit_converges_with_the_first_harmonic_set():
+    """Issue 24 item 12: without forcing the damped Meissner equation has the orbit x = 0 (its
+    multipliers are checked against the exact monodromy).  The time-domain defect of the
+    balance was measured against the orbit's own size, round-off, with no absolute floor
+    (noise divided by noise): the growth went on to 512 harmonics (117 s) and failed, or passed,
+    with the round-off of the machine.  With the floor ``atol / defect_tol`` (shooting's
+    convention) the first harmonic set converges, and the result is x = 0 exactly as far as
+    the integrator can tell (a defect below atol)."""
+    system = gearsym.load_scene(MEISSNER, zeta=0.05).compile()
+    atol = 1e-13
+    o = harmonic_balance(system, max_harmonics=16, atol=atol)
+    assert o.converged and o.info["harmonics_converged"]
+    assert len(o.info["harmonic_growth"]) == 1
+    assert np.max(np.abs(o.x0)) < 1e-12
+    assert o.info["defect"] <= atol and o.info["defect_relative"] <= o.info["defect_tol"]
+    # the multipliers against the exact monodromy (matrix exponentials, stiffness 1 + a for d T,
+    # then 1 - a): T = 3 is inside the first parametric-resonance tongue, an unstable x = 0
+    z, a, d, T = 0.05, 0.3, 0.5, 3.0
+
+    def A(k):
+        return np.array([[0.0, 1.0], [-k, -2 * z]])
+
+    mu = np.linalg.eigvals(expm(A(1 - a) * (1 - d) * T) @ expm(A(1 + a) * d * T))
+    assert o.max_multiplier == pytest.approx(np.max(np.abs(mu)), rel=1e-6)
+    assert o.stability == ("unstable" if np.max(np.abs(mu)) > 1 else "asymptotically_stable")
+
+
 def test_meissner_forced_hbm_vs_closed_form():
     """Linear forced Meissner: harmonic balance against the exact periodic state
     from matrix exponentials (hand-written here), in a stable region."""

@@ -167,16 +167,17 @@ def run(res: PeriodicOrbitProblem, u0: np.ndarray, start: float, stop: float, *,
                 bound = hi if lamB > hi else lo
                 try:
                     B = boundary_node(C, A, B, bound)
-                except GearsymError:
-                    pass
-                stop_reason = (f"reached {res.param} = {fmt(bound)}" if bound == (hi if stop > start else lo)
-                               else f"left the range at {res.param} = {fmt(bound)}")
-                complete = True
+                    stop_reason = (f"reached {res.param} = {fmt(bound)}" if bound == (hi if stop > start else lo)
+                                   else f"left the range at {res.param} = {fmt(bound)}")
+                    complete = True
+                except GearsymError as exc:
+                    # the branch left the range, but its point at the boundary is not known: the
+                    # last point stays the one outside, and the branch does not claim to reach it
+                    stop_reason = (f"the branch left the range between {res.param} = {fmt(float(A.z[-1]))} and "
+                                   f"{fmt(lamB)}, but its point at {fmt(bound)} could not be corrected "
+                                   f"(the last point is outside the range): {exc}")
             new_specials = detect_between(C, A, B, types, locate, row) if types else []
-            for nd, kind, binfo in new_specials:
-                nodes.append(nd)
-                specials.append((len(nodes) - 1, kind, binfo))
-            nodes.append(B)
+            _append_specials(nodes, specials, new_specials, A, B)
             prog.update(float(B.z[-1]), len(nodes), len(specials))
             if leaving:
                 break
@@ -234,6 +235,24 @@ def run(res: PeriodicOrbitProblem, u0: np.ndarray, start: float, stop: float, *,
                   system=res.system, setup=setup,
                   info={"n_rejected_steps": n_rejected, "n_residual_evaluations": res.n_evals,
                         "n_integrations": res.n_integrations, **extra_info})
+
+
+def _append_specials(nodes: list[Node], specials: list[tuple[int, str, dict[str, Any]]],
+                     found: list[tuple[Node, str, dict[str, Any]]], A: Node, B: Node) -> None:
+    """Append the special points found between A (the last node) and B, then B: a special point
+    that is A or B itself (detected but not located, reported at a branch point) marks that
+    point instead of adding it twice."""
+    at_b = []
+    for nd, kind, binfo in found:
+        if nd is A:
+            specials.append((len(nodes) - 1, kind, binfo))
+        elif nd is B:
+            at_b.append((kind, binfo))
+        else:
+            nodes.append(nd)
+            specials.append((len(nodes) - 1, kind, binfo))
+    nodes.append(B)
+    specials.extend((len(nodes) - 1, kind, binfo) for kind, binfo in at_b)
 
 
 def period_defect(res: PeriodicOrbitProblem, lam: float, x0: np.ndarray) -> float:

@@ -126,6 +126,12 @@ def switch_all(branch: Branch, depth: int, **kw: Any) -> list[dict[str, Any]]:
     """
     failures: list[dict[str, Any]] = []
     for b in list(branch.of_type("period_doubling")):
+        if b.info.get("located") is False:
+            failures.append({"value": b.value, "periods": branch.periods,
+                             "error": f"the period doubling was detected between {branch.param} = "
+                                      f"{b.info['bracket'][0]:.8g} and {b.info['bracket'][1]:.8g} but not located "
+                                      f"({b.info.get('reason', '')}): no branch switching from it"})
+            continue
         try:
             child = switch_period_doubling(branch, b, stop=kw.get("stop"),
                                            **{k: v for k, v in kw.items() if k not in ("stop", "start", "types")},

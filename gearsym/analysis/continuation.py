@@ -82,6 +82,7 @@ from .orbit import VANISHING, PeriodicOrbit
 from .periodic import ORBIT_METHODS
 from .problems import PeriodicOrbitProblem, ShootingResidual
 from .shooting import _check_tolerances, shoot
+from .verification import whole_periods
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..facade import Scene
@@ -130,7 +131,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
     orbit
         A periodic orbit at ``param = start`` to start from (instead of solving).
     periods
-        Forcing periods per orbit (``k`` for period-``k`` orbits).
+        Forcing periods per orbit (``k`` for period-``k`` orbits): a positive whole number.
     method
         ``"shooting"`` (single / multiple shooting, ``segments``) or ``"hbm"``
         (harmonic balance with ``harmonics`` harmonics).
@@ -265,6 +266,7 @@ def continuation(system: System | Scene, param: str, start: float, stop: float, 
         raise ParameterError(f"method must be one of {', '.join(ORBIT_METHODS)}, got '{method}'")
     if system.generated.implicit:
         raise ParameterError("continuation needs an explicit model (variational equations for the monodromy)")
+    periods = whole_periods(periods)  # an orbit of a forced system: a whole number of forcing periods
     types = detect_types(detect)
     if method == "hbm" and detect is True:
         # the multipliers of a harmonic-balance point come from integrating its truncated

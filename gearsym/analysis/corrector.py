@@ -342,11 +342,20 @@ class Continuer:
         params = res.params(lam)
         if smp is not None:  # from the corrector's C call: the period's samples, end excluded
             t_dense, Y, G, H = smp.t[:-1], smp.y[:-1], smp.g[:-1].T, smp.mesh[:-1]
+            ends = np.asarray(smp.y[-1:], float)  # one run without the variational equations
             if Y[0].tolist() == np.asarray(x0, float).tolist():
                 g0 = smp.g[0]
         else:
-            t_dense, Y = res.dense(u, lam, self.n_dense)
+            t_dense, Y, ends = res.dense_ends(u, lam, self.n_dense)
         st = smp.stats if smp is not None else None  # the reductions below, made in the same C call
+        if st is not None:
+            scale = np.maximum(np.maximum(st.max, -st.min), st.max - st.min)
+        else:
+            scale = np.maximum(np.max(np.abs(Y), axis=0), np.ptp(Y, axis=0))
+        verified = res.closure(u, lam, ev, ends, Y, scale, self.tol, fq.max_multiplier)
+        if verified is not None and not verified.ok:
+            # the corrector's point is no orbit: reject it like a failed correction
+            raise ConvergenceError(f"corrector: {verified.message(res.system.state_names)}")
         y = Y[:, self.state]
         if st is not None:
             i_max, i_min = st.argmax[self.state], st.argmin[self.state]
@@ -361,10 +370,7 @@ class Continuer:
                 jmin, jmax = (st.g_argmin[j], st.g_argmax[j]) if st is not None else \
                     (int(np.argmin(g)), int(np.argmax(g)))
                 ext[name] = (_periodic_extremum(g, jmin, +1.0), _periodic_extremum(g, jmax, -1.0))
-        try:
-            rss = mesh_rattle_states(res.system, x0, res.t0, ev.events, params, g0=g0)
-        except Exception:  # noqa: BLE001 - the classification is informative only
-            rss = {}
+        rss = mesh_rattle_states(res.system, x0, res.t0, ev.events, params, g0=g0)  # (a failure rejects the point)
         meshes = mesh_point(res.system, t_dense, Y, params, rss, deflections=H,
                             extrema_at=None if st is None else (st.mesh_argmin, st.mesh_argmax))
         t = self.tangent(ev, t_ref, lam)
@@ -387,15 +393,11 @@ class Continuer:
             surface_extrema=ext, tangent=t, residual=max(map(abs, self.scaled_residual(ev).tolist())),
             iterations=iterations, u=np.asarray(u, float).copy(), monodromy=ev.monodromy,
             stability=fq.stability, trivial_multipliers=fq.trivial, multiplier_tolerances=fq.tolerances,
-            meshes=meshes)
+            meshes=meshes, closure=math.nan if verified is None else verified.relative)
         tau: dict[str, float] = {"fold": float(t[-1]), **tau_mu}
         for name, (gmin, gmax) in ext.items():
             tau[f"grazing|{name}|min"] = gmin
             tau[f"grazing|{name}|max"] = gmax
-        if st is not None:
-            scale = np.maximum(np.maximum(st.max, -st.min), st.max - st.min)
-        else:
-            scale = np.maximum(np.max(np.abs(Y), axis=0), np.ptp(Y, axis=0))
         return Node(z=np.array(z, float), ev=ev, point=pt, t=t, tau=tau, iterations=iterations, scale=scale,
                     size=float(np.max(scale)))
 

@@ -6,6 +6,11 @@ arclength ``sigma`` between them (each evaluation a corrected point on the hyper
 ``row . (w - w_A) = sigma``).  A change of the number of unstable multipliers that no
 test function explains (a multiplier jumping at a non-smooth point) is located by
 bisection and classified by the multiplier that crossed.
+
+Nothing detected is dropped: a special point whose location fails (a correction inside the
+bracket that does not converge) is reported as detected but not located, at the branch point
+after the change, with ``info["located"] = False``, the ``bracket`` of parameter values it lies
+in and the ``reason``.
 """
 
 from __future__ import annotations
@@ -28,15 +33,30 @@ ALL_TYPES = ("fold", "period_doubling", "neimark_sacker", "grazing", "branch_poi
 
 
 def boundary_node(C: Continuer, A: Node, B: Node, bound: float) -> Node:
-    """The point on the branch between A and B where the parameter equals ``bound``."""
+    """The point on the branch between A and B where the parameter equals ``bound``.
+
+    Newton at the fixed parameter ``bound`` from the interpolation between A and B, then
+    from A's and from B's unknowns.
+
+    Raises
+    ------
+    GearsymError
+        None of the three corrections converged (the last one's error).
+    """
     lamA, lamB = float(A.z[-1]), float(B.z[-1])
     f = (bound - lamA) / (lamB - lamA)
-    z_guess = A.z + f * (B.z - A.z)
-    z_guess[-1] = bound
     row = np.zeros(len(A.z))
     row[-1] = 1.0
-    z, ev, it = C.correct(z_guess, row, bound / C.S[-1], t_ref=A.t)
-    return C.make_node(z, ev, A.t, it, ref=A)
+    last: GearsymError | None = None
+    for z_guess in (A.z + f * (B.z - A.z), A.z.copy(), B.z.copy()):
+        z_guess[-1] = bound
+        try:
+            z, ev, it = C.correct(z_guess, row, bound / C.S[-1], t_ref=A.t)
+            return C.make_node(z, ev, A.t, it, ref=A)
+        except GearsymError as exc:
+            last = exc
+    assert last is not None
+    raise last
 
 
 def _node_at(C: Continuer, A: Node, B: Node, sigma: float, sigma_B: float, cache: dict[float, Node],
@@ -91,52 +111,13 @@ def detect_between(C: Continuer, A: Node, B: Node, types: tuple[str, ...], locat
             _, surf, side = key.split("|")
             info = {"surface": surf, "side": side}
         if not locate or sigma_B == 0:
-            found.append((sigma_B, B, kind, dict(info, located=False)))
+            found.append((sigma_B, B, kind, dict(info, located=False, bracket=_bracket(A, B),
+                                                 reason="location not asked for" if not locate else
+                                                 "the two points coincide")))
             continue
-
-        def f(s: float, key: str = key) -> float:
-            try:
-                return _node_at(C, A, B, s, sigma_B, cache, row).tau.get(key, math.nan)
-            except GearsymError:
-                return math.nan
-
-        xtol = max(1e-12, 1e-7 * abs(sigma_B))
-        s_root, a, fa, b, fb = bracket_root(f, 0.0, A.tau[key], sigma_B, B.tau[key], xtol)
-        try:
-            nd = _node_at(C, A, B, s_root, sigma_B, cache, row)
-        except GearsymError:
-            continue
-        scale = max(abs(A.tau[key]), abs(B.tau[key]))
-        nonsmooth = abs(b - a) <= 10 * xtol and min(abs(fa), abs(fb)) > 1e-3 * scale
-        info["test_function"] = float(nd.tau.get(key, math.nan))
-        if nonsmooth:
-            info["nonsmooth"] = True
-        left = cache.get(a if abs(a) < abs(b) else b)
-        right = cache.get(b if abs(a) < abs(b) else a)
-        if left is not None and right is not None:
-            info["n_unstable_before"] = int(left.point.n_unstable)
-            info["n_unstable_after"] = int(right.point.n_unstable)
-            if left.point.n_unstable == right.point.n_unstable and A.point.n_unstable != B.point.n_unstable:
-                # the crossing multiplier is within its tolerance of the circle at the bracket
-                # (as close to the root as that): count on the neighbouring branch points
-                info["n_unstable_before"] = int(A.point.n_unstable)
-                info["n_unstable_after"] = int(B.point.n_unstable)
-        if kind == "neimark_sacker":
-            m = unit_circle_pair(nd.point.multipliers, tol=1e-2 if not nonsmooth else 0.5)
-            if m is None:
-                continue  # a neutral saddle (real pair with product 1): not a bifurcation
-            info["frequency_ratio"] = float(abs(np.angle(m)) / (2 * np.pi))
-        if kind == "period_doubling":
-            mu = nd.point.multipliers
-            info["multiplier"] = complex(mu[np.argmin(np.abs(mu + 1.0))])
-        if kind in ("fold", "branch_point"):
-            mu = nd.point.multipliers
-            if len(mu):
-                m1 = complex(mu[np.argmin(np.abs(mu - 1.0))])
-                if abs(m1 - 1.0) > 0.05 and not nonsmooth and kind == "fold":
-                    continue  # no multiplier at +1: a numerical flip of the tangent, not a fold
-                info["multiplier"] = m1
-        found.append((s_root, nd, kind, info))
+        rec = _locate_root(C, A, B, key, kind, info, sigma_B, cache, row)
+        if rec is not None:
+            found.append(rec)
     # an unexplained change of the number of unstable multipliers (a jump at a non-smooth point)
     if locate and A.point.n_unstable != B.point.n_unstable and not any(
             k in ("fold", "period_doubling", "neimark_sacker", "branch_point", "grazing") for _, _, k, _ in found):
@@ -147,20 +128,98 @@ def detect_between(C: Continuer, A: Node, B: Node, types: tuple[str, ...], locat
     return [(nd, kind, info) for _, nd, kind, info in found]
 
 
+def _bracket(left: Node, right: Node) -> list[float]:
+    """The parameter values of the two branch points a special point lies between."""
+    return [float(left.z[-1]), float(right.z[-1])]
+
+
+def _unlocated(A: Node, B: Node, a: float, b: float, sigma_B: float, cache: dict[float, Node], kind: str,
+               info: dict[str, Any], reason: str) -> tuple[float, Node, str, dict[str, Any]]:
+    """A special point detected between A and B whose location failed: reported at the branch
+    point after the change (the right end of the last bracket) with the bracket and the reason,
+    never dropped."""
+    lo, hi = (a, b) if abs(a) <= abs(b) else (b, a)
+    left, right = cache.get(lo, A), cache.get(hi, B)
+    return (hi if hi in cache else sigma_B, right, kind,
+            dict(info, located=False, bracket=_bracket(left, right), reason=reason))
+
+
+def _locate_root(C: Continuer, A: Node, B: Node, key: str, kind: str, info: dict[str, Any], sigma_B: float,
+                 cache: dict[float, Node], row: np.ndarray) -> tuple[float, Node, str, dict[str, Any]] | None:
+    """Locate the sign change of the test function ``key`` between A and B: ``(sigma, node, kind,
+    info)``; ``None`` only where the classification says it is no bifurcation (a numerical flip of
+    the tangent without a multiplier at +1, a neutral saddle); a location that fails is reported
+    as detected but not located (:func:`_unlocated`)."""
+    failures: list[str] = []
+
+    def f(s: float) -> float:
+        try:
+            return _node_at(C, A, B, s, sigma_B, cache, row).tau.get(key, math.nan)
+        except GearsymError as exc:
+            failures.append(str(exc))
+            return math.nan
+
+    xtol = max(1e-12, 1e-7 * abs(sigma_B))
+    s_root, a, fa, b, fb = bracket_root(f, 0.0, A.tau[key], sigma_B, B.tau[key], xtol)
+    if abs(b - a) > xtol and min(abs(fa), abs(fb)) > 1e-6 * max(abs(A.tau[key]), abs(B.tau[key])):
+        # the root finding stopped before the bracket shrank and without a small value (failed
+        # corrections: bracket_root's NaN exit)
+        return _unlocated(A, B, a, b, sigma_B, cache, kind, info, "the location stopped: " + (
+            failures[-1] if failures else "the test function could not be evaluated inside the bracket"))
+    try:
+        nd = _node_at(C, A, B, s_root, sigma_B, cache, row)
+    except GearsymError as exc:
+        return _unlocated(A, B, a, b, sigma_B, cache, kind, info, f"the point at the root failed: {exc}")
+    scale = max(abs(A.tau[key]), abs(B.tau[key]))
+    nonsmooth = abs(b - a) <= 10 * xtol and min(abs(fa), abs(fb)) > 1e-3 * scale
+    info["located"] = True
+    info["test_function"] = float(nd.tau.get(key, math.nan))
+    if nonsmooth:
+        info["nonsmooth"] = True
+    left = cache.get(a if abs(a) < abs(b) else b)
+    right = cache.get(b if abs(a) < abs(b) else a)
+    if left is not None and right is not None:
+        info["n_unstable_before"] = int(left.point.n_unstable)
+        info["n_unstable_after"] = int(right.point.n_unstable)
+        if left.point.n_unstable == right.point.n_unstable and A.point.n_unstable != B.point.n_unstable:
+            # the crossing multiplier is within its tolerance of the circle at the bracket
+            # (as close to the root as that): count on the neighbouring branch points
+            info["n_unstable_before"] = int(A.point.n_unstable)
+            info["n_unstable_after"] = int(B.point.n_unstable)
+    if kind == "neimark_sacker":
+        m = unit_circle_pair(nd.point.multipliers, tol=1e-2 if not nonsmooth else 0.5)
+        if m is None:
+            return None  # a neutral saddle (real pair with product 1): not a bifurcation
+        info["frequency_ratio"] = float(abs(np.angle(m)) / (2 * np.pi))
+    if kind == "period_doubling":
+        mu = nd.point.multipliers
+        info["multiplier"] = complex(mu[np.argmin(np.abs(mu + 1.0))])
+    if kind in ("fold", "branch_point"):
+        mu = nd.point.multipliers
+        if len(mu):
+            m1 = complex(mu[np.argmin(np.abs(mu - 1.0))])
+            if abs(m1 - 1.0) > 0.05 and not nonsmooth and kind == "fold":
+                return None  # no multiplier at +1: a numerical flip of the tangent, not a fold
+            info["multiplier"] = m1
+    return (s_root, nd, kind, info)
+
+
 def _locate_jump(C: Continuer, A: Node, B: Node, sigma_B: float, cache: dict[float, Node],
                  row: np.ndarray):
     """Bisection on the number of unstable multipliers; classification by the crossing multiplier."""
     a, b = 0.0, sigma_B
     na = A.point.n_unstable
     left, right = A, B
+    failure = ""
     for _ in range(40):
         if abs(b - a) <= max(1e-12, 1e-8 * abs(sigma_B)):
             break
         c = 0.5 * (a + b)
         try:
             nd = _node_at(C, A, B, c, sigma_B, cache, row)
-        except GearsymError:
-            return None
+        except GearsymError as exc:
+            failure = str(exc)  # classified from the bracket reached so far, reported as not located
+            break
         if nd.point.n_unstable == na:
             a, left = c, nd
         else:
@@ -172,7 +231,10 @@ def _locate_jump(C: Continuer, A: Node, B: Node, sigma_B: float, cache: dict[flo
         return None
     info = {"nonsmooth": True, "n_unstable_before": cross["n_unstable_before"],
             "n_unstable_after": cross["n_unstable_after"], "multiplier": cross.get("multiplier")}
-    return (b, right, kind, info)
+    if failure:
+        return (b, right, kind, dict(info, located=False, bracket=_bracket(left, right),
+                                     reason=f"the bisection stopped: {failure}"))
+    return (b, right, kind, dict(info, located=True))
 
 
 def detect_types(detect: Sequence[str] | bool) -> tuple[str, ...]:

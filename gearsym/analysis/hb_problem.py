@@ -7,6 +7,7 @@ and Jacobian at the period of each parameter value) in the
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -16,6 +17,7 @@ from ..errors import GearsymError
 from .orbit import PeriodicOrbit
 from .problems import Evaluation as _Eval
 from .problems import PeriodicOrbitProblem as _Residual
+from .verification import Closure
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
@@ -109,15 +111,32 @@ class HBResidual(_Residual):
         J = hb.jacobian(C)
         Flam = self._fd_lambda(u, lam, R) if dlam else None
         x0 = self.x0_of(u)
-        mono, events = None, []
+        mono, events, x_end = None, [], None
         try:
             tr = self.system.simulate(t_end=self.t0 + hb.P, t0=self.t0, x0=x0, rtol=self.rtol, atol=self.atol,
                                       n_out=2, params=self.params(lam), monodromy=True)
             self.n_integrations += 1
-            mono, events = tr.monodromy, list(tr.events)
+            mono, events, x_end = tr.monodromy, list(tr.events), np.asarray(tr.x_final, float)
         except GearsymError:
             pass
-        return _Eval(R, J, Flam, monodromy=mono, events=events)
+        return _Eval(R, J, Flam, monodromy=mono, events=events, x_end=x_end)
+
+    def closure(self, u: np.ndarray, lam: float, ev: _Eval, ends: np.ndarray | None, Y: np.ndarray,
+                scale: np.ndarray, tol: float, amplification: float) -> Closure | None:
+        """The time-domain defect of the balance: one period integrated from the series' ``x(t0)``
+        (the integration of :meth:`evaluate`, independent of the balance) must close to
+        :data:`~gearsym.analysis.hbm_driver.FIXED_HARMONICS_DEFECT` of every state's peak-to-peak
+        on the series (at least ``atol / FIXED_HARMONICS_DEFECT``), as an orbit of harmonic
+        balance with fixed harmonics must."""
+        from .hbm_driver import FIXED_HARMONICS_DEFECT, state_sizes
+
+        how = "integration over one period from the balance's x(t0) (time-domain defect)"
+        if ev.x_end is None:
+            return Closure(math.inf, math.inf, False, how=how, error="the integration from the balance's x(t0) failed")
+        d = np.abs(ev.x_end - self.x0_of(u))
+        ratio = d / state_sizes(Y, self.atol / FIXED_HARMONICS_DEFECT) / FIXED_HARMONICS_DEFECT
+        k = int(np.argmax(ratio))
+        return Closure(float(np.max(d)), float(ratio[k]), bool(ratio[k] <= 1.0), k, how=how)
 
     def dense(self, u: np.ndarray, lam: float, n_per_period: int) -> tuple[np.ndarray, np.ndarray]:
         P = self.period(lam)

@@ -422,7 +422,8 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
     system
         An explicit compiled system.
     period, periods
-        Orbit period (default ``periods`` forcing periods).
+        Orbit period (default ``periods`` forcing periods; a positive whole number for a forced
+        system, and ``period`` a whole number of forcing periods).
     x0
         A state used as the constant term of the first guess (default: the
         scene's initial state).
@@ -450,9 +451,14 @@ def harmonic_balance(system: System, period: float | None = None, periods: float
     defect_tol
         One period integrated from the balanced ``x(t0)`` must close to ``defect_tol`` of
         every state's peak-to-peak (``info["defect_relative"]``; a state that vanishes on the
-        orbit, below 1e-9 of the largest, counts as 1e-9 of the largest): the automatic growth
+        orbit, below 1e-9 of the largest, counts as 1e-9 of the largest, and every state as at
+        least ``atol / defect_tol``, so a defect below ``atol`` always passes, as in shooting):
+        the automatic growth
         stops there, and a balance grown automatically that does not reach it has not
-        converged.  With fixed ``harmonics`` the defect is reported, not enforced.
+        converged.  With fixed ``harmonics`` the series is an approximation: it converges if
+        the defect is at most ``max(defect_tol, 0.1)``
+        (:data:`~gearsym.analysis.hbm_driver.FIXED_HARMONICS_DEFECT`): one that does not
+        close to a tenth of the orbit's size is not the series of an orbit.
     floor_rel
         Accept a residual floor (see ``floor_tol``) whose residual relative to the
         derivative it balances is below ``floor_rel`` (the kinked residual of a contact).

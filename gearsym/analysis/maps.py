@@ -30,6 +30,11 @@ with the signal as their error; the other tasks go on.  Scripts that build maps 
 need an ``if __name__ == "__main__"`` guard, as with any ``multiprocessing`` code (workers
 start a fresh interpreter).
 
+A map tells the truth at every point: where the orbit found is unstable, the stable response
+is searched for (:mod:`gearsym.analysis.map_points`); a point without one is marked
+(``response = 0``) and hatched in the figure, never shown with the unstable orbit's rattle
+state or amplitude.
+
 Grid values, ``params`` and the coordinates of the result are in the model's declared
 units (as ``--set``; :class:`~gearsym.spec.units.ParameterUnits`), with the SI values as
 ``<name>_si`` coordinates.
@@ -48,9 +53,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..budget import LIMITS, check_count, check_counts, check_orbit_options
-from ..errors import GearsymError, ParameterError
+from ..errors import ParameterError
 from ..spec.settings import resolve_settings
+from .map_points import EXACT_RTOL, RESPONSE, SEARCH, empty_point, map_point
 from .periodic import ORBIT_METHODS
+from .verification import whole_periods
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray as xr
@@ -70,9 +77,6 @@ QUANTITIES: dict[str, str] = {
 #: Largest map (grid points): every point keeps its orbit summary, about 1 kB.
 MAX_POINTS = LIMITS["map_points"].high
 
-#: Smallest relative error assigned to an exact (matrix-exponential) monodromy in the stability
-#: rule; the estimate is :meth:`~gearsym.analysis.floquet.PiecewiseLTV.rounding_error`.
-EXACT_RTOL = 1e-14
 _STABILITY_CODE = {"asymptotically_stable": 0, "neutral": 1, "unstable": 2}
 #: Methods of a map: the exact matrix-exponential path (``auto`` picks it where it applies) and
 #: the periodic-orbit solvers (:data:`gearsym.analysis.periodic.ORBIT_METHODS`).
@@ -80,74 +84,18 @@ MAP_METHODS = ("auto", "exact", *ORBIT_METHODS)
 
 
 # ----------------------------------------------------------------- one point
-def _point(system: System, params: dict[str, float], method: str, periods: float, guess: np.ndarray | None,
-           want_ptp: bool, options: Mapping[str, Any]) -> dict[str, Any]:
-    from .floquet import NotPiecewiseConstantError, PiecewiseLTV
-    from .periodic import periodic_orbit
-    from .stability import floquet, rigid_state_basis
-
-    out: dict[str, Any] = {"max_multiplier": math.nan, "peak_to_peak": math.nan, "rattle_state": -1,
-                           "stability": "unknown", "converged": False, "iterations": 0, "method": method, "x0": None, "error": ""}
-    if method in ("auto", "exact"):
-        try:
-            ltv = PiecewiseLTV.from_system(system, params, periods=periods)
-            fq = floquet(ltv.monodromy(), max(ltv.rounding_error(), EXACT_RTOL), rigid_state_basis(system, params))
-            out.update(max_multiplier=fq.max_multiplier, converged=True, method="exact",
-                       stability=fq.stability)
-            if want_ptp:
-                if ltv.B is None:
-                    out["peak_to_peak"] = 0.0
-                else:
-                    x0 = ltv.periodic_state()
-                    t = np.linspace(ltv.times[0], ltv.times[-1], 257)
-                    _, y = ltv.propagate(x0, t)
-                    out["peak_to_peak"] = float(np.ptp(y[:, 0]))
-            return out
-        except NotPiecewiseConstantError as exc:
-            if method == "exact":
-                out["error"] = str(exc)
-                return out
-        method = "shooting"
-        out["method"] = method
-    opts = dict(options)
-    if method == "shooting":
-        opts.setdefault("transient", 0 if guess is not None else None)
-    orbit = None
-    for attempt in range(2):
-        try:
-            orbit = periodic_orbit(system, periods=periods, x0=guess, method=method, params=params, **opts)
-            break
-        except GearsymError as exc:
-            out["error"] = str(exc)
-            if attempt == 0 and guess is not None:
-                guess = None  # retry from the scene's initial state (with a transient)
-                opts.pop("transient", None)
-                continue
-            return out
-    assert orbit is not None
-    out.update(max_multiplier=orbit.max_multiplier, converged=bool(orbit.converged), stability=orbit.stability,
-               iterations=orbit.iterations, x0=orbit.x0.tolist(), error="",
-               rattle_state=-1 if orbit.rattle_state is None else int(orbit.rattle_state))
-    if want_ptp:
-        try:
-            out["peak_to_peak"] = orbit.peak_to_peak(0) if method == "hbm" else float(
-                np.ptp(orbit.trajectory(n_out=513).y[:, 0]))
-        except GearsymError:
-            pass
-    return out
-
-
 def _run_chunk(system: System, task: Mapping[str, Any]) -> list[dict[str, Any]]:
     """Task function (module level, picklable): one run of grid points in x."""
     base = dict(task["params"])
-    guess = None
+    guess = None if task.get("x0") is None else np.asarray(task["x0"], float)
     res = []
     for (xv, yv) in task["points"]:
         params = dict(base)
         params[task["xname"]] = float(xv)
         params[task["yname"]] = float(yv)
-        r = _point(system, params, task["method"], task["periods"], guess, task["want_ptp"], task["options"])
-        if r["converged"] and r["x0"] is not None and np.all(np.isfinite(r["x0"])):
+        r = map_point(system, params, task["method"], task["periods"], guess, task["want_ptp"], task["options"])
+        if r["response"] == 1 and r["x0"] is not None and np.all(np.isfinite(r["x0"])):
+            # the next point starts from this point's response (never from an unstable orbit)
             guess = np.asarray(r["x0"], float)
         res.append(r)
     return res
@@ -156,9 +104,7 @@ def _run_chunk(system: System, task: Mapping[str, Any]) -> list[dict[str, Any]]:
 def _failed_chunk(task: Mapping[str, Any], message: str) -> list[dict[str, Any]]:
     """The points of a task whose worker process died (a crash in compiled code): failed,
     with the reason as their error."""
-    return [{"max_multiplier": math.nan, "peak_to_peak": math.nan, "rattle_state": -1, "stability": "unknown",
-             "converged": False, "iterations": 0, "method": task["method"], "x0": None, "error": message}
-            for _ in task["points"]]
+    return [{**empty_point(task["method"]), "error": message} for _ in task["points"]]
 
 
 def _run_tasks(system: System, tasks: list[dict[str, Any]], dask: Any,
@@ -190,8 +136,8 @@ def _axis(spec: Sequence[Any], what: str) -> tuple[str, np.ndarray]:
 def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
                   quantity: str | None = None, *, method: str | None = None, periods: float | None = None,
                   params: Mapping[str, float] | None = None, dask: Any = None, workers: int | None = None,
-                  rows_per_task: int | None = None, orbit_options: Mapping[str, Any] | None = None
-                  ) -> xr.Dataset:
+                  rows_per_task: int | None = None, orbit_options: Mapping[str, Any] | None = None,
+                  x0: Sequence[float] | None = None) -> xr.Dataset:
     """Evaluate a stability / response map over two parameters.
 
     Parameters
@@ -206,7 +152,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     method
         ``"auto"``, ``"exact"``, ``"shooting"`` or ``"hbm"`` (see module docstring).
     periods
-        Orbit period in forcing periods.
+        Orbit period in forcing periods (a positive whole number).
 
         ``quantity``, ``method``, ``periods`` and the ``harmonics`` and ``rtol`` of
         ``orbit_options`` not given take the values of the scene's ``[map]`` table, else
@@ -223,6 +169,10 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         Grid rows per task (default: enough tasks for 4 per worker).
     orbit_options
         Passed to the orbit solver (e.g. ``{"rtol": 1e-9}``, ``{"harmonics": 32}``).
+    x0
+        Initial guess of the orbit at the first point of every row (default: the scene's
+        initial state after a transient); every other point starts from the previous
+        point's response.
 
     Returns
     -------
@@ -233,10 +183,15 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         neutral, e.g. undamped systems), ``rattle_state``,
         ``converged``, ``iterations`` (and ``peak_to_peak``) on dims ``(y, x)`` named by
         the parameters, with the grid (declared units) as coordinates and the SI values as
-        ``<name>_si`` coordinates.
+        ``<name>_si`` coordinates.  The response is never an unstable orbit
+        (:mod:`gearsym.analysis.map_points`): ``response`` is 1 where a stable periodic
+        orbit is the response (``rattle_state``, ``peak_to_peak`` are its), 0 where none
+        was found (those are left empty; ``max_multiplier`` and ``stability`` are the
+        unstable orbit's), -1 where the solve failed; ``response_search`` says how the
+        response was found, ``unstable_max_multiplier`` / ``unstable_rattle_state`` record
+        the unstable orbit found at a point.  Attributes ``n_failed``,
+        ``n_no_stable_response``.
     """
-    import xarray as xr
-
     from ..facade import Scene
 
     check_counts(workers=workers, rows_per_task=rows_per_task)  # bounded work (gearsym.budget)
@@ -262,6 +217,7 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         raise ParameterError(f"quantity must be one of {', '.join(QUANTITIES)}, got '{quantity}'")
     if method not in MAP_METHODS:
         raise ParameterError(f"method must be {', '.join(MAP_METHODS)}, got '{method}'")
+    periods = whole_periods(periods)  # an orbit of a forced system: a whole number of forcing periods
     system = scene.compile() if scene is not None else target
     for nm in (xname, yname):
         if scene is not None and nm not in scene.model_spec.parameters:
@@ -277,8 +233,11 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     for xv in (xs[0], xs[-1]):  # the physical ranges of the values (gearsym.spec.rules) at the corners: exit 2
         for yv in (ys[0], ys[-1]):
             system.param_vector({**base, xname: float(xv), yname: float(yv)})
+    if x0 is not None and np.shape(x0) != (system.generated.nx,):
+        raise ParameterError(f"x0 must have {system.generated.nx} entries ({', '.join(system.state_names)}), got "
+                             f"shape {np.shape(x0)}")
     want_ptp = quantity == "peak_to_peak"
-    ny, nx = len(ys), len(xs)
+    ny = len(ys)
     n_workers = int(workers or os.cpu_count() or 1)
     if rows_per_task is None:
         rows_per_task = max(1, int(math.ceil(ny / max(1, 4 * n_workers))))
@@ -286,63 +245,114 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
     for j0 in range(0, ny, rows_per_task):
         pts = [(float(xv), float(ys[j])) for j in range(j0, min(ny, j0 + rows_per_task)) for xv in xs]
         tasks.append({"points": pts, "xname": xname, "yname": yname, "method": method, "periods": periods,
-                      "want_ptp": want_ptp, "options": dict(orbit_options or {}), "params": base})
+                      "want_ptp": want_ptp, "options": dict(orbit_options or {}), "params": base,
+                      "x0": None if x0 is None else [float(v) for v in x0]})
 
     flat: list[dict[str, Any]] | None = None
     runner = ""
     if method in ("auto", "exact") and not want_ptp:
-        # the fast path: all points at once (one mapped Jacobian call, batched expm)
-        from .floquet import NotPiecewiseConstantError, exact_multipliers
-
-        pts = [dict(base, **{xname: float(xv), yname: float(yv)}) for yv in ys for xv in xs]
-        try:
-            _, monos, errs = exact_multipliers(system, pts, periods=periods, monodromies=True)
-            from .stability import floquet, rigid_state_basis
-
-            fqs = [floquet(M, max(float(e), EXACT_RTOL), rigid_state_basis(system, pt))
-                   for M, e, pt in zip(monos, errs, pts)]
-            flat = [{"max_multiplier": fq.max_multiplier, "peak_to_peak": math.nan, "rattle_state": -1,
-                     "stability": fq.stability, "converged": bool(np.isfinite(fq.max_multiplier)),
-                     "iterations": 0, "method": "exact", "error": ""}
-                    for fq in fqs]
-            runner = "vectorised (exact)"
-        except NotPiecewiseConstantError:
-            if method == "exact":
-                raise
+        flat = _exact_points(system, [dict(base, **{xname: float(xv), yname: float(yv)}) for yv in ys for xv in xs],
+                             periods, required=method == "exact")
+        runner = "vectorised (exact)"
     if flat is None:
         flat, runner = _run_tasks(system, tasks, dask, n_workers)
-    arr = {k: np.full((ny, nx), np.nan) for k in ("max_multiplier", "peak_to_peak")}
-    rattle = np.full((ny, nx), -1, dtype=np.int8)
-    stab = np.full((ny, nx), -1, dtype=np.int8)
+    ds = _dataset(system, flat, xname, xs, yname, ys, want_ptp)
+    ds.attrs.update({
+        "title": f"{QUANTITIES[quantity]} over {xname} x {yname}",
+        "quantity": quantity,
+        "scene": system.name,
+        "method": method,
+        "periods": float(periods),
+        "params_json": json.dumps(base, sort_keys=True),
+        "runner": runner,
+        "wall_s": time.perf_counter() - wall,
+        "source": "gearsym.analysis.maps.stability_map",
+        "stability_rule": "gearsym.analysis.stability (neutral band from the monodromy error)",
+    })
+    return ds
+
+
+def _exact_points(system: System, pts: list[dict[str, float]], periods: int,
+                  required: bool) -> list[dict[str, Any]] | None:
+    """The fast path of a linear system with piecewise-constant coefficients: every point at once
+    (one mapped Jacobian call, batched expm); ``None`` where it does not apply (raised when
+    ``required``)."""
+    from .floquet import NotPiecewiseConstantError, exact_multipliers
+    from .stability import floquet, rigid_state_basis
+
+    try:
+        _, monos, errs = exact_multipliers(system, pts, periods=periods, monodromies=True)
+    except NotPiecewiseConstantError:
+        if required:
+            raise
+        return None
+    return [_exact_record(floquet(M, max(float(e), EXACT_RTOL), rigid_state_basis(system, pt)))
+            for M, e, pt in zip(monos, errs, pts, strict=True)]
+
+
+def _exact_record(fq: Any) -> dict[str, Any]:
+    """The record of a point of the vectorised exact path (a linear system: one orbit; unstable,
+    no periodic response)."""
+    out = empty_point("exact")
+    unstable = fq.stability == "unstable"
+    ok = bool(np.isfinite(fq.max_multiplier))
+    out.update(max_multiplier=fq.max_multiplier, stability=fq.stability, converged=ok,
+               response=(0 if unstable else 1) if ok else -1, response_search=0 if ok and not unstable else -1,
+               unstable_max_multiplier=fq.max_multiplier if unstable else math.nan)
+    return out
+
+
+def _dataset(system: System, flat: list[dict[str, Any]], xname: str, xs: np.ndarray, yname: str, ys: np.ndarray,
+             want_ptp: bool) -> xr.Dataset:
+    """The map's variables and coordinates from the point records (row-major in ``y``, ``x``)."""
+    import xarray as xr
+
+    ny, nx = len(ys), len(xs)
+    floats = {k: np.full((ny, nx), np.nan) for k in ("max_multiplier", "peak_to_peak", "unstable_max_multiplier")}
+    ints = {k: np.full((ny, nx), -1, dtype=np.int8) for k in ("rattle_state", "stability", "response",
+                                                             "response_search", "unstable_rattle_state")}
     conv = np.zeros((ny, nx), dtype=np.int8)
     iters = np.zeros((ny, nx), dtype=np.int32)
     methods: set[str] = set()
     errors: list[str] = []
     for idx, r in enumerate(flat):
         j, i = divmod(idx, nx)
-        arr["max_multiplier"][j, i] = r["max_multiplier"]
-        arr["peak_to_peak"][j, i] = r["peak_to_peak"]
-        rattle[j, i] = r["rattle_state"]
-        stab[j, i] = _STABILITY_CODE.get(r.get("stability", "unknown"), -1)
+        for k, a in floats.items():
+            a[j, i] = r[k]
+        for k, a in ints.items():
+            a[j, i] = _STABILITY_CODE.get(r.get("stability", "unknown"), -1) if k == "stability" else r[k]
         conv[j, i] = 1 if r["converged"] else 0
         iters[j, i] = r["iterations"]
         methods.add(r["method"])
         if r["error"] and len(errors) < 5:
             errors.append(f"({xname}={xs[i]:g}, {yname}={ys[j]:g}): {r['error'][:300]}")
+    stab, resp = ints["stability"], ints["response"]
     dims = (yname, xname)
     data = {
-        "max_multiplier": (dims, arr["max_multiplier"], {"long_name": QUANTITIES["max_multiplier"]}),
+        "max_multiplier": (dims, floats["max_multiplier"], {"long_name": QUANTITIES["max_multiplier"] + " of the "
+                           "response; where there is none (response 0), of the unstable orbit found"}),
         "stable": (dims, np.where(stab >= 0, (stab < 2).astype(np.int8), -1).astype(np.int8),
                    {"long_name": "1 stable (no multiplier outside the unit circle beyond its tolerance, "
                                  "gearsym.analysis.stability), 0 unstable, -1 unknown"}),
         "stability": (dims, stab, {"long_name": "0 asymptotically stable, 1 neutral (on the unit circle "
                                                 "within the monodromy's error), 2 unstable, -1 unknown"}),
-        "rattle_state": (dims, rattle, {"long_name": QUANTITIES["rattle_state"] + " (-1: none/unknown)"}),
-        "converged": (dims, conv, {"long_name": "orbit solve converged (1) or not (0)"}),
+        "response": (dims, resp, {"long_name": "; ".join(f"{k} {v}" for k, v in RESPONSE.items())}),
+        "response_search": (dims, ints["response_search"],
+                            {"long_name": "how the response was found: " +
+                                          "; ".join(f"{k} {v}" for k, v in SEARCH.items())}),
+        "rattle_state": (dims, ints["rattle_state"], {"long_name": QUANTITIES["rattle_state"] + " of the response "
+                                                      "(-1: no stable response, none or unknown)"}),
+        "unstable_max_multiplier": (dims, floats["unstable_max_multiplier"],
+                                    {"long_name": "max|mu| of an unstable orbit found at the point (never the "
+                                                  "response; NaN: none found)"}),
+        "unstable_rattle_state": (dims, ints["unstable_rattle_state"],
+                                  {"long_name": "rattle state of that unstable orbit (-1: none)"}),
+        "converged": (dims, conv, {"long_name": "an orbit was found (1) or the solve failed (0)"}),
         "iterations": (dims, iters, {"long_name": "Newton / quasi-Newton iterations"}),
     }
     if want_ptp:
-        data["peak_to_peak"] = (dims, arr["peak_to_peak"], {"long_name": QUANTITIES["peak_to_peak"]})
+        data["peak_to_peak"] = (dims, floats["peak_to_peak"], {"long_name": QUANTITIES["peak_to_peak"] + " (the "
+                                                               "response's; NaN: no stable response)"})
     units = system.units
     si = units.to_si({xname: xs, yname: ys})
     coords = {
@@ -352,26 +362,30 @@ def stability_map(target: Scene | System, x: Sequence[Any], y: Sequence[Any],
         f"{yname}_si": (yname, si[yname]),
     }
     ds = xr.Dataset(data, coords=coords)
-    ds.attrs.update({
-        "title": f"{QUANTITIES[quantity]} over {xname} x {yname}",
-        "quantity": quantity,
-        "scene": system.name,
-        "method": method,
-        "methods_used": ",".join(sorted(methods)),
-        "periods": float(periods),
-        "params_json": json.dumps(base, sort_keys=True),
-        "runner": runner,
-        "wall_s": time.perf_counter() - wall,
-        "n_points": int(nx * ny),
-        "n_failed": int(np.sum(conv == 0)),
-        "errors": "\n".join(errors),
-        "source": "gearsym.analysis.maps.stability_map",
-        "stability_rule": "gearsym.analysis.stability (neutral band from the monodromy error)",
-    })
+    ds.attrs.update({"methods_used": ",".join(sorted(methods)), "n_points": int(nx * ny),
+                     "n_failed": int(np.sum(conv == 0)), "n_no_stable_response": int(np.sum(resp == 0)),
+                     "errors": "\n".join(errors)})
     return ds
 
 
 # ------------------------------------------------------------------- output
+def _hatch(ax: Any, X: np.ndarray, Y: np.ndarray, response: np.ndarray) -> None:
+    """Hatch the cells without a stable periodic response (``//``) and the failed ones (``xx``),
+    with a legend entry for each kind present."""
+    from matplotlib.patches import Patch
+
+    handles = []
+    for code, hatch, label in ((0, "//", "no stable periodic response"), (-1, "xx", "no orbit (failed)")):
+        mask = response == code
+        if not mask.any():
+            continue
+        ax.pcolor(X, Y, np.ma.masked_where(~mask, np.ones(mask.shape)), shading="nearest", hatch=hatch,
+                  facecolor="none" if code == 0 else "0.85", edgecolor="0.25", linewidth=0.0)
+        handles.append(Patch(facecolor="none" if code == 0 else "0.85", edgecolor="0.25", hatch=hatch, label=label))
+    if handles:
+        ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.85)
+
+
 def _netcdf_engine() -> str:
     for eng, mod in (("netcdf4", "netCDF4"), ("h5netcdf", "h5netcdf")):
         try:
@@ -389,6 +403,8 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     The heat map shows ``quantity`` (default: the dataset's) over the two axes;
     for ``max_multiplier`` the colour scale is centred on 1 and the boundary of the
     unstable region (the ``stable`` variable of the stability rule) is drawn as a contour.
+    Points without a stable periodic response (``response`` 0) are hatched ``//`` and have
+    no response colour (rattle state, peak-to-peak); failed points are hatched ``xx``.
     """
     import matplotlib
 
@@ -409,6 +425,9 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     yname, xname = ds[q].dims
     X, Y = ds[xname].values, ds[yname].values
     Z = ds[q].values.astype(float)
+    resp = ds["response"].values if "response" in ds else None
+    if resp is not None and q in ("rattle_state", "peak_to_peak"):
+        Z[resp != 1] = np.nan  # the response's quantity: none where there is no stable response
     fig, ax = plt.subplots(figsize=(7, 5.2))
     if q == "max_multiplier":
         zmin, zmax = np.nanmin(Z), np.nanmax(Z)
@@ -426,6 +445,8 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
         pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="viridis")
     cb = fig.colorbar(pc, ax=ax)
     cb.set_label(q.replace("_", " "))
+    if resp is not None:
+        _hatch(ax, X, Y, resp)
     xu = ds[xname].attrs.get("units", "")
     yu = ds[yname].attrs.get("units", "")
     ax.set_xlabel(f"{xname} [{xu}]" if xu and xu != "1" else xname)

@@ -160,23 +160,23 @@ def mesh_point(system: System, t: np.ndarray, Y: np.ndarray, params: Mapping[str
     """Per mesh: rattle state and extrema of the dynamic deflection over one period sampled at ``t``
     (end excluded; a branch point of :func:`gearsym.continuation`).  ``deflections``: the
     deflections at the samples when already evaluated (shape (len(t), number of meshes));
-    ``extrema_at``: with them, the first argmin and argmax of each column when already known."""
-    try:
-        names = mesh_names(system)
-        if deflections is not None and extrema_at is not None and deflections.shape == (len(t), len(names)) \
-                and len(extrema_at[0]) == len(extrema_at[1]) == len(names):
-            ext = {}
-            for k, name in enumerate(names):
-                d = deflections[:, k]
-                lo, hi = _refined_periodic(d, extrema_at[0][k], -1.0), _refined_periodic(d, extrema_at[1][k], +1.0)
-                ext[name] = {"min": lo, "max": hi, "peak_to_peak": hi - lo}
-            return {name: {"rattle_state": rattle.get(name), **e} for name, e in ext.items()}
-        if deflections is not None and deflections.shape == (len(t), len(names)):
-            defl = {name: deflections[:, i] for i, name in enumerate(names)}
-        else:
-            defl = mesh_deflections(system, t, Y, params)
-        ext = mesh_extrema({k: np.append(d, d[:1]) for k, d in defl.items()})
-    except Exception:  # noqa: BLE001 - informative only
+    ``extrema_at``: with them, the first argmin and argmax of each column when already known.
+
+    A failure (an evaluation of the generated deflections) is raised, not turned into an empty
+    summary: the continuation rejects the point instead of reporting it without its meshes."""
+    names = mesh_names(system)
+    if deflections is not None and extrema_at is not None and deflections.shape == (len(t), len(names)) \
+            and len(extrema_at[0]) == len(extrema_at[1]) == len(names):
         ext = {}
+        for k, name in enumerate(names):
+            d = deflections[:, k]
+            lo, hi = _refined_periodic(d, extrema_at[0][k], -1.0), _refined_periodic(d, extrema_at[1][k], +1.0)
+            ext[name] = {"min": lo, "max": hi, "peak_to_peak": hi - lo}
+        return {name: {"rattle_state": rattle.get(name), **e} for name, e in ext.items()}
+    if deflections is not None and deflections.shape == (len(t), len(names)):
+        defl = {name: deflections[:, i] for i, name in enumerate(names)}
+    else:
+        defl = mesh_deflections(system, t, Y, params)
+    ext = mesh_extrema({k: np.append(d, d[:1]) for k, d in defl.items()})
     return {name: {"rattle_state": rattle.get(name), **{k: float(v) for k, v in e.items()}}
             for name, e in ext.items()}

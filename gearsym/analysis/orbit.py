@@ -46,7 +46,7 @@ class PeriodicOrbit:
     period : float
         Period of the orbit (``periods`` forcing periods).
     periods : float
-        Number of forcing periods the orbit spans (1: period-one orbit).
+        Number of forcing periods the orbit spans, a whole number (1: period-one orbit).
     t0 : float
         Time at which ``x0`` is taken.
     monodromy : ndarray or None
@@ -90,7 +90,9 @@ class PeriodicOrbit:
     history : list of dict
         One entry per iteration: ``residual``, ``step`` (damping factor), ...
     info : dict
-        Method-specific extras (tolerances, harmonic growth history, wall time).
+        Method-specific extras (tolerances, harmonic growth history, wall time) and
+        ``"verification"``: the orbit integrated once more over its period, the check every
+        converged orbit passes before it is reported (:mod:`gearsym.analysis.verification`).
     stability : str
         ``"asymptotically_stable"``, ``"neutral"`` (a multiplier on the unit circle
         within the monodromy's error) or ``"unstable"`` (the rule of
@@ -363,7 +365,8 @@ class PeriodicOrbit:
             lo, hi = self.extrema(0)
             d["min"], d["max"] = lo, hi
             d["meshes"] = self.meshes()
-        for k in ("wall_s", "harmonic_growth", "rtol", "atol", "tol", "defect", "defect_relative", "harmonic_set"):
+        for k in ("wall_s", "harmonic_growth", "rtol", "atol", "tol", "defect", "defect_relative", "harmonic_set",
+                  "verification"):
             if k in self.info:
                 d[k] = self.info[k]
         return d

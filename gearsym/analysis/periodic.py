@@ -41,7 +41,8 @@ def periodic_orbit(system: System, period: float | None = None, periods: float =
     period
         Period of the orbit; default ``periods`` times the forcing period.
     periods
-        Number of forcing periods the orbit spans (``k`` for a period-``k`` orbit).
+        Number of forcing periods the orbit spans (``k`` for a period-``k`` orbit): a positive
+        whole number (:func:`gearsym.analysis.verification.orbit_period`).
     x0
         Initial guess of the state at ``t0`` (shooting) or the starting point of
         the harmonic balance's initial guess; default: the scene's initial state
@@ -60,6 +61,15 @@ def periodic_orbit(system: System, period: float | None = None, periods: float =
     Returns
     -------
     PeriodicOrbit
+        Verified by one more integration over its period before it is returned
+        (``info["verification"]``; :mod:`gearsym.analysis.verification`).
+
+    Raises
+    ------
+    ParameterError
+        ``periods`` not a positive whole number, unknown method, bad options.
+    ConvergenceError
+        No orbit found, or the state found failed its verification.
     """
     if method == "shooting":
         return shoot(system, period=period, periods=periods, x0=x0, params=params, **options)

@@ -73,6 +73,10 @@ class BranchPoint:
         dynamic deflection over the orbit.
     monodromy : ndarray or None
         The monodromy of the orbit (what branch switching takes the critical eigenvector from).
+    closure : float
+        The point's verification: the mismatch after one period integrated once more, relative
+        to what the integration's error allows (:mod:`gearsym.analysis.verification`; a point
+        above 1 is not accepted on a branch).  NaN where not verified.
     """
 
     value: float
@@ -98,6 +102,7 @@ class BranchPoint:
     trivial_multipliers: np.ndarray = field(default_factory=lambda: np.zeros(0, complex), repr=False)
     multiplier_tolerances: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     meshes: dict[str, dict[str, Any]] = field(default_factory=dict)
+    closure: float = math.nan
 
     @property
     def peak_to_peak(self) -> float:
@@ -127,6 +132,7 @@ class BranchPoint:
             "stability": self.stability,
             "trivial_multipliers": [[float(m.real), float(m.imag)] for m in self.trivial_multipliers],
             "meshes": {k: {kk: _jsonable(vv) for kk, vv in v.items()} for k, v in self.meshes.items()},
+            "closure": float(self.closure),
         }
 
 

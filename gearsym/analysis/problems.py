@@ -20,6 +20,7 @@ from ..results import Event, Flow
 from .floquet import monodromy_product
 from .parameter_derivative import exact_f_lambda, sensitivity_setup
 from .stability import rigid_state_basis
+from .verification import Closure, closure
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
@@ -59,6 +60,9 @@ class Evaluation:
         ``(mu, tolerances, delta)`` of the monodromy (as
         :func:`~gearsym.analysis.stability.multiplier_tolerances`) when the corrector in C
         computed them.
+    x_end : ndarray or None
+        The state after one period integrated from the point's ``x(t0)`` when the evaluation
+        made that integration apart from the residual (harmonic balance): its verification.
     """
 
     R: np.ndarray
@@ -70,6 +74,7 @@ class Evaluation:
     tangent: tuple[np.ndarray, np.ndarray] | None = None
     period: float | None = None
     multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
+    x_end: np.ndarray | None = None
 
 
 class PeriodicOrbitProblem:
@@ -134,6 +139,21 @@ class PeriodicOrbitProblem:
     def dense(self, u: np.ndarray, lam: float, n_per_period: int) -> tuple[np.ndarray, np.ndarray]:
         """``(t, Y)``: the orbit on ``n`` evenly spaced times of one period (end excluded)."""
         raise NotImplementedError  # pragma: no cover
+
+    def dense_ends(self, u: np.ndarray, lam: float, n_per_period: int
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """:meth:`dense` and the state at the end of every segment of that integration (shape
+        (segments, nx)), or ``None`` when the dense orbit is no integration."""
+        t, Y = self.dense(u, lam, n_per_period)
+        return t, Y, None
+
+    def closure(self, u: np.ndarray, lam: float, ev: Evaluation, ends: np.ndarray | None, Y: np.ndarray,
+                scale: np.ndarray, tol: float, amplification: float) -> Closure | None:
+        """The verification of a corrected point (:mod:`gearsym.analysis.verification`) from
+        ``ends``, the segment ends of an integration without the variational equations
+        (:meth:`dense_ends`, or the corrector's samples), or ``None`` where the problem has none.
+        ``Y``: the dense orbit; ``scale``: every state's magnitude on it."""
+        return None
 
     def rigid_basis(self, lam: float) -> np.ndarray | None:
         """The rigid-body subspace of the state at ``lambda`` (``None`` without rigid-body modes)."""
@@ -302,6 +322,21 @@ class ShootingResidual(PeriodicOrbitProblem):
         return Evaluation(R, segment_jacobian(Ms), Flam, monodromy=monodromy_product(Ms), events=evs)
 
     def dense(self, u: np.ndarray, lam: float, n_per_period: int) -> tuple[np.ndarray, np.ndarray]:
+        t, Y, _ = self.dense_ends(u, lam, n_per_period)
+        return t, Y
+
+    def closure(self, u: np.ndarray, lam: float, ev: Evaluation, ends: np.ndarray | None, Y: np.ndarray,
+                scale: np.ndarray, tol: float, amplification: float) -> Closure | None:
+        """The mismatch of the plain integration's segment ends with the next segments' starts,
+        against the integration's error (:func:`~gearsym.analysis.verification.closure`)."""
+        if ends is None:
+            return Closure(math.inf, math.inf, False, error="no integration of the orbit without the variational "
+                                                           "equations")
+        return closure(np.reshape(u, (self.segments, self.nx)), ends, scale, rtol=self.rtol, atol=self.atol, tol=tol,
+                       amplification=amplification)
+
+    def dense_ends(self, u: np.ndarray, lam: float, n_per_period: int
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         N, nx = self.segments, self.nx
         X = np.asarray(u, float).reshape(N, nx)
         s = self.times(lam)
@@ -309,6 +344,7 @@ class ShootingResidual(PeriodicOrbitProblem):
         n_seg = max(8, int(math.ceil(n_per_period * self.periods / N)))
         max_step = self.period(lam) / self.periods / 8
         ts, ys = [], []
+        ends = np.empty((N, nx))
         for i in range(N):
             # the flow's samples: the same integration as System.simulate on this grid, without
             # the trajectory object
@@ -318,7 +354,8 @@ class ShootingResidual(PeriodicOrbitProblem):
             grid = np.linspace(s[i], s[i + 1], n_seg + 1)
             ts.append(grid[:-1])
             ys.append(fl.samples[:-1])
-        return np.concatenate(ts), np.vstack(ys)
+            ends[i] = fl.x_final
+        return np.concatenate(ts), np.vstack(ys), ends
 
 
 

@@ -33,6 +33,7 @@ cannot be removed is reported as "no isolated periodic orbit: a Floquet multipli
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import time
@@ -52,6 +53,7 @@ from .options import ShootingOptions, resolve_options
 from .orbit import PeriodicOrbit, finish_orbit
 from .problems import flow_events, log_events, segment_jacobian, segment_times
 from .stability import rigid_state_basis
+from .verification import orbit_period, segment_closure
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
@@ -109,7 +111,9 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     period
         Orbit period; default ``periods`` forcing periods.
     periods
-        Number of forcing periods of the orbit (period-``k`` orbit).
+        Number of forcing periods of the orbit (period-``k`` orbit): a positive whole number
+        (a state that returns after a fraction of a forcing period is no periodic orbit of a
+        forced system; ``period``, when given, must be a whole number of forcing periods).
     x0
         Initial guess of the state at ``t0``.  Default: the scene's initial state
         after ``transient`` periods.
@@ -156,12 +160,18 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     Returns
     -------
     PeriodicOrbit
+        Verified before it is returned: one integration over its period without the
+        variational equations must close (:mod:`gearsym.analysis.verification`;
+        ``info["verification"]``).
 
     Raises
     ------
+    ParameterError
+        ``periods`` not a positive whole number (or ``period`` not a whole number of forcing
+        periods), bad options.
     ConvergenceError
-        Newton did not converge (message: residual history, last iterate, advice), or
-        there is no isolated orbit (a multiplier at +1 to working precision and a
+        Newton did not converge (message: residual history, last iterate, advice), the
+        converged state failed its verification, or there is no isolated orbit (a multiplier at +1 to working precision and a
         residual that no step can remove: e.g. an undamped system forced at resonance).
     SimulationError
         The first integration already fails.
@@ -175,19 +185,8 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
     max_iter, min_step, raise_on_failure, method = o.max_iter, o.min_step, o.raise_on_failure, o.method
     relax_periods, trivial = o.relax_periods, o.trivial
     _check_tolerances(tol=tol, rtol=rtol, atol=atol)
+    period, periods = orbit_period(system, params, period, periods)  # a whole number of forcing periods
     T = system.period(params)
-    if period is None:
-        if not T and system.has_forcing_period:
-            system.require_period(params, "a periodic orbit")  # raises: says why
-        if not T:
-            raise ParameterError("the scene has no forcing period: give period= (autonomous orbits "
-                                 "need a phase condition, not supported by shooting yet)")
-        period = float(periods) * T
-    else:
-        period = float(period)
-        periods = period / T if T else 1.0
-    if not (math.isfinite(period) and period > 0):
-        raise ParameterError(f"orbit period must be finite and > 0, got {period}")
     segments = int(segments)
     if segments < 1:
         raise ParameterError(f"segments must be >= 1, got {segments}")
@@ -419,7 +418,30 @@ def shoot(system: System, period: float | None = None, periods: float = 1,
               "rigid_anchor": anchor is not None,
               "relative_residual": rel_res, "state_scales": scales().tolist(),
               "isolation": iso.to_dict() if iso is not None else None})
-    return orbit
+    return _verified(orbit, s, pvec, method=method, max_step=max_step, raise_on_failure=raise_on_failure)
+
+
+def _verified(orbit: PeriodicOrbit, times: np.ndarray, p: np.ndarray, *, method: str | None, max_step: float,
+              raise_on_failure: bool) -> PeriodicOrbit:
+    """A converged orbit after its verification by one plain integration over its period
+    (:func:`~gearsym.analysis.verification.segment_closure`, recorded in ``info["verification"]``):
+    unchanged when it passes, else not converged (raised with ``raise_on_failure``)."""
+    if not orbit.converged or orbit.system is None:
+        return orbit
+    info = orbit.info
+    c = segment_closure(orbit.system, orbit.segment_states, times, p, rtol=info["rtol"], atol=info["atol"],
+                        tol=info["tol"], amplification=orbit.max_multiplier, method=method,
+                        max_step=max_step or None, amplitude=np.asarray(info["state_scales"]))
+    info["verification"] = c.to_dict()
+    if c.ok:
+        return orbit
+    info["failure"] = failure = c.message(orbit.state_names)
+    if raise_on_failure:
+        raise ConvergenceError(
+            f"shooting converged (residual {orbit.residual:.3g}) on a state that is not a periodic orbit of period "
+            f"{orbit.period:.6g} ({orbit.periods:g} forcing period(s)): {failure}. Tighten rtol (now "
+            f"{info['rtol']:g}) or the Newton tolerance (tol={info['tol']:g}), or use more segments (segments=N).")
+    return dataclasses.replace(orbit, converged=False)
 
 
 #: the notes of the C iteration's convergence (:class:`gearsym.engine.shoot.ShootOutcome` ``note``)

@@ -74,6 +74,13 @@ def _positive(flag: str, v: float | None, name: str | None = None) -> None:
                              f"got {v:g}")
 
 
+def _whole_periods(flag: str, v: float | None) -> None:
+    """Forcing periods of an orbit: a positive whole number (gearsym.analysis.verification)."""
+    if v is not None and not (math.isfinite(v) and v >= 1 and v == math.floor(v)):
+        raise ParameterError(f"{flag} must be a positive whole number of forcing periods (1, 2, 3, ...), got {v:g}: "
+                             f"a periodic orbit of a forced system returns after a whole number of forcing periods")
+
+
 def _nonnegative(flag: str, v: float | None) -> None:
     if v is not None and not (math.isfinite(v) and v >= 0):
         raise ParameterError(f"{flag} must be >= 0 and finite, got {v:g}")
@@ -127,7 +134,7 @@ def check_bench(args: argparse.Namespace) -> None:
 
 def check_orbit(args: argparse.Namespace) -> None:
     """``gearsym orbit``: --periods, --segments, --harmonics, --transient, --tol, --rtol, --atol, --x0, --out."""
-    _positive("--periods", args.periods, "periods")
+    _whole_periods("--periods", args.periods)
     _count("--segments", args.segments, 1)
     _count("--harmonics", args.harmonics, 0)
     _nonnegative("--transient", args.transient)
@@ -147,7 +154,7 @@ def check_continue(args: argparse.Namespace) -> None:
             raise ParameterError(f"{flag}: non-finite value {v}")
     if args.start == args.stop:
         raise ParameterError(f"--from and --to must differ (both {args.start:g})")
-    _positive("--periods", args.periods, "periods")
+    _whole_periods("--periods", args.periods)
     _count("--segments", args.segments, 1)
     _count("--harmonics", args.harmonics, 0)
     _count("--switch", args.switch, 0)
@@ -183,7 +190,7 @@ def check_map(args: argparse.Namespace) -> tuple[tuple[str, float, float, int], 
         raise ParameterError(f"--x/--y: a map of {xa[3]} x {ya[3]} = {n:.3g} points is above the limit of "
                              f"{LIMITS['map_points'].high:,} points (about 1 kB of memory each); use coarser "
                              f"axes or several maps")
-    _positive("--periods", args.periods, "periods")
+    _whole_periods("--periods", args.periods)
     _count("--harmonics", args.harmonics, 0)
     _tol("--rtol", args.rtol, "rtol")
     _count("--workers", args.workers, 1)

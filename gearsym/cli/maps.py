@@ -38,7 +38,9 @@ def cmd_map(args: argparse.Namespace) -> int:
         raise ConvergenceError(f"every one of the {int(ds.attrs['n_points'])} points of the map failed"
                                + (f"; first error at {first[0]}" if first else ""))
     files = save_map(ds, args.out)
-    q = ds[quantity].values
+    q = ds[quantity].values.astype(float)
+    if quantity in ("rattle_state", "peak_to_peak"):
+        q[ds["response"].values != 1] = np.nan  # a response quantity: of stable responses only
     mm = ds["max_multiplier"].values
     info = {
         "scene": scene.name,
@@ -51,6 +53,7 @@ def cmd_map(args: argparse.Namespace) -> int:
         if np.isfinite(mm).any() else None,
         "n_points": int(ds.attrs["n_points"]),
         "n_failed": int(ds.attrs["n_failed"]),
+        "n_no_stable_response": int(ds.attrs["n_no_stable_response"]),
         "methods_used": ds.attrs["methods_used"],
         "runner": ds.attrs["runner"],
         "wall_s": float(ds.attrs["wall_s"]),
@@ -61,7 +64,9 @@ def cmd_map(args: argparse.Namespace) -> int:
     else:
         print(f"{scene.name}: {quantity} on {xa[3]} x {ya[3]} points ({info['methods_used']}, "
               f"{info['runner']}) in {info['wall_s']:.2f} s; range [{info['min']}, {info['max']}], "
-              f"unstable fraction {info['fraction_unstable']}, failed {info['n_failed']}")
+              f"unstable fraction {info['fraction_unstable']}, failed {info['n_failed']}, no stable periodic "
+              f"response at {info['n_no_stable_response']} point(s) (hatched, no {args.quantity} shown there"
+              f"{'' if args.quantity in ('rattle_state', 'peak_to_peak') else ' as a response'})")
         for f in info["files"]:
             print(f"wrote {f}")
     return 0

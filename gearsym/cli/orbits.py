@@ -128,14 +128,26 @@ def cmd_continue(args: argparse.Namespace) -> int:
                 mu = b.point.multipliers
                 big = mu[np.argsort(-np.abs(mu))][:2]
                 extra = f" ({b.info['surface']}, {b.info['side']} g)" if b.type == "grazing" else ""
+                if b.info.get("located") is False:  # detected, its location failed: the bracket
+                    lo_b, hi_b = b.info["bracket"]
+                    print(f"  {b.type:16s} between the branch points at {name} = {lo_b:.8g} and {hi_b:.8g}{unit}"
+                          f"{extra}  detected, NOT located: {b.info.get('reason', '')}")
+                    continue
                 print(f"  {b.type:16s} {name} = {b.value:.8g}{unit}{extra}  multipliers "
                       + ", ".join(f"{m.real:.4f}{m.imag:+.4f}j" for m in big))
             print_branch_meshes(br)
         for f in data.get("files", []):
             print(f"wrote {f}")
-    if not branch.complete:
-        # the command did not cover the range it was asked for: never exit 0
-        print(f"gearsym: error: the continuation stopped before the end of the range: {branch.stop_reason}",
-              file=sys.stderr)
-        return ConvergenceError.exit_code
-    return 0
+    return _continue_exit(branch)
+
+
+def _continue_exit(branch: Any) -> int:
+    """1 (with the reasons on stderr) when a branch stopped before its end or a requested branch
+    switch failed: the command did not do what it was asked; else 0."""
+    problems = [f"the period-{br.periods:g} branch stopped before the end of the range: {br.stop_reason}"
+                for br in branch.all_branches() if not br.complete]
+    problems += [f"branch switching at the period doubling at {f['value']:.8g} failed: {f['error']}"
+                 for f in branch.info.get("switch_failures", [])]
+    for msg in problems:
+        print(f"gearsym: error: {msg}", file=sys.stderr)
+    return ConvergenceError.exit_code if problems else 0
