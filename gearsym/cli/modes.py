@@ -22,7 +22,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
     if args.samples < 1:
         raise ParameterError(f"--samples must be >= 1, got {args.samples}")
     scene = load(args)
-    res = classify_planetary(modal_analysis(scene.compile(), samples=args.samples))
+    res = classify_planetary(modal_analysis(scene.compile(), samples=args.samples, where=(scene.spec.path, None)))
     if args.json:
         emit({"scene": scene.name, **res.to_dict()})
     else:
