@@ -81,6 +81,8 @@ _MAX_NODES = 20_000
 #: the contact states of a backlash mesh
 DRIVE, BACK, SEPARATED = "drive", "back", "separated"
 _STATES = (DRIVE, BACK, SEPARATED)
+#: the mean of the equations has settled when a doubling of the nodes moves it less than this
+_AVERAGE_TOL = 1e-11
 #: singular values below this (relative, equilibrated Jacobian) span a free direction
 _RANK_TOL = 1e-11
 #: Newton: iterations, and the step (relative to the coordinate's scale) that ends it
@@ -95,8 +97,9 @@ _ENUMERATE = 243
 _MAX_STATES = 300
 
 
-def period_nodes(system: System, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Quadrature nodes and weights for the average over one forcing period.
+def period_nodes(system: System, p: np.ndarray, pieces: int = _MIN_PIECES) -> tuple[np.ndarray, np.ndarray]:
+    """Quadrature nodes and weights for the average over one forcing period: Gauss-Legendre
+    on at least ``pieces`` equal sub-intervals, split at every scheduled breakpoint.
 
     Parameters
     ----------
@@ -104,6 +107,9 @@ def period_nodes(system: System, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]
         The compiled system.
     p
         Its parameter vector.
+    pieces
+        Sub-intervals at least (8: trigonometric terms of the forcing frequency are exact;
+        :class:`PeriodAverage` doubles them until the mean of the equations settles).
 
     Returns
     -------
@@ -125,8 +131,7 @@ def period_nodes(system: System, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]
                 if 0 < c < T:
                     cuts.add(c)
     edges = np.array(sorted(cuts))
-    # at least _MIN_PIECES pieces: trigonometric terms of the forcing frequency are then exact
-    fine = np.unique(np.concatenate([edges, np.linspace(0, T, _MIN_PIECES + 1)]))
+    fine = np.unique(np.concatenate([edges, np.linspace(0, T, pieces + 1)]))
     x, wx = np.polynomial.legendre.leggauss(_GL_POINTS)
     a, b = fine[:-1, None], fine[1:, None]
     t = (a + (b - a) * (x + 1) / 2).ravel()
@@ -199,17 +204,13 @@ class PeriodAverage:
     """
 
     def __init__(self, system: System, params: Mapping[str, float] | None = None,
-                 nodes: tuple[np.ndarray, np.ndarray] | None = None):
+                 nodes: tuple[np.ndarray, np.ndarray] | None = None, probe: Sequence[float] | None = None):
         gen = system.generated
+        self.system = system
         self.generated = gen
         self.p = system.param_vector(params)
-        t, w = nodes if nodes is not None else period_nodes(system, self.p)
-        self.t, self.w = np.asarray(t, float), np.asarray(w, float)
-        self.n = n = len(self.t)
         self.nx = gen.nx
         self.nsw = gen.nsw
-        self._tt = self.t.reshape(1, n)
-        self._sched = np.array([system._sched_mode(float(tk), self.p) for tk in self.t]).reshape(n, -1)
         pairs: dict[str, dict[str, tuple[int, float]]] = {}
         for j, _, mesh, kind, sign in gen.contact_surfaces:
             pairs.setdefault(mesh, {})[str(kind)] = (j, float(sign))
@@ -217,6 +218,43 @@ class PeriodAverage:
                        for m, s in pairs.items() if "drive" in s and "back" in s]
         contact = {k for m in self.meshes for k in (m.drive, m.back)}
         self._switch = np.array([j for j in range(self.nsw) if j not in contact], dtype=int)
+        if nodes is not None:
+            self._set_nodes(*nodes)
+        else:
+            self._refine(np.asarray(system.x0 if probe is None else probe, float))
+
+    def _set_nodes(self, t: np.ndarray, w: np.ndarray) -> None:
+        self.t, self.w = np.asarray(t, float), np.asarray(w, float)
+        self.n = n = len(self.t)
+        self._tt = self.t.reshape(1, n)
+        zero = np.zeros((n, self.nx))
+        self._sched = np.asarray(self.system.modes(self.t, zero, self.p))[:, self.nsw:].reshape(n, -1)
+
+    def _refine(self, x: np.ndarray) -> None:
+        """:func:`period_nodes` with the sub-intervals doubled until the mean of the equations
+        and of their Jacobian (every mesh in drive-side contact, at ``x``) settles to round-off:
+        a mesh harmonic many times the forcing frequency is then resolved."""
+        contact = {m.name: DRIVE for m in self.meshes}
+        pieces, last = _MIN_PIECES, None
+        nx = self.nx
+        while True:
+            self._set_nodes(*period_nodes(self.system, self.p, pieces))
+            f, J, size = self.average_with_size(x, self.sides(x, contact), sizes=True)
+            assert J is not None
+            if not (np.all(np.isfinite(f)) and np.all(np.isfinite(J))):
+                return
+            # scales: a Jacobian entry against the largest of its row and column (entries that
+            # are round-off of cancelling terms have no accuracy of their own), a mean against
+            # the terms it balances
+            SJ = size[nx:].reshape(nx, nx)
+            scale_J = np.maximum(SJ.max(axis=1)[:, None], SJ.max(axis=0)[None, :])
+            scale_f = size[:nx] + SJ @ np.abs(x)
+            if last is not None and np.all(np.abs(J - last[1]) <= _AVERAGE_TOL * scale_J) \
+                    and np.all(np.abs(f - last[0]) <= _AVERAGE_TOL * scale_f):
+                return
+            if self.n * 2 > _MAX_NODES:
+                return
+            last, pieces = (f, J), pieces * 2
 
     def _map(self, name: str) -> Any:
         return generated_map(self.generated, name, self.n)
@@ -271,10 +309,11 @@ class PeriodAverage:
         f, J, _ = self.average_with_size(x, sigma, jacobian)
         return f, J
 
-    def average_with_size(self, x: np.ndarray, sigma: np.ndarray, jacobian: bool = True
+    def average_with_size(self, x: np.ndarray, sigma: np.ndarray, jacobian: bool = True, sizes: bool = False
                           ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """:meth:`average`, and the mean of ``|f|`` over the nodes (the size of the terms
-        whose mean is taken: a scale for the round-off of the mean)."""
+        whose mean is taken: a scale for the round-off of the mean); with ``sizes``, the
+        means of ``|f|`` and ``|J|`` (flattened, as ``[f, J.ravel()]``)."""
         n, nx = self.n, self.nx
         xx = np.repeat(np.asarray(x, float)[:, None], n, axis=1)
         m = np.hstack([sigma, self._sched]).T if self._sched.size else sigma.T
@@ -286,8 +325,12 @@ class PeriodAverage:
         else:
             f = np.asarray(self._map("gs_rhs")(self._tt, xx, self.p, m)).reshape(nx, n)
             J = self._map("gs_jac")(self._tt, xx, self.p, m).full() if jacobian else None
-        Jm = np.einsum("ikj,k->ij", J.reshape(nx, n, nx), self.w) if J is not None else None
-        return f @ self.w, Jm, np.abs(f) @ self.w
+        J3 = J.reshape(nx, n, nx) if J is not None else None
+        Jm = np.einsum("ikj,k->ij", J3, self.w) if J3 is not None else None
+        size = np.abs(f) @ self.w
+        if sizes and J3 is not None:
+            size = np.concatenate([size, np.einsum("ikj,k->ij", np.abs(J3), self.w).ravel()])
+        return f @ self.w, Jm, size
 
 
 @dataclass(frozen=True)
@@ -700,7 +743,7 @@ def static_equilibrium(system: System, params: Mapping[str, float] | None = None
     vi = [names.index(v) for v in vels]
     x = np.array(system.x0 if guess is None else guess, dtype=float)
     x[vi] = 0.0
-    avg = PeriodAverage(system, params, nodes)
+    avg = PeriodAverage(system, params, nodes, probe=x)
     prob = _Problem(avg, x, qi, vi)
     search = _Search(prob, x[qi].copy(), rigid, where)
     contact, sol, loads = search.run()

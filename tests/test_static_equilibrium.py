@@ -359,3 +359,23 @@ def test_a_deflection_the_reduction_does_not_describe_names_its_field(model, def
     scene = gearsym.load_scene(write_scene(tmp_path, changed, "probe", "[initial]\nstatic = false\n"))
     with pytest.raises(SpecError, match=r"field 'elements\.probe\.deflection'.*still depends on th2"):
         scene.compile(generated_dir=tmp_path / "builds")
+
+
+def test_modes_average_a_mesh_harmonic_of_a_long_forcing_period():
+    """Liu et al.'s noncircular face gear: the forcing period (the instantaneous-centre cycle)
+    holds Z2 = 64 mesh cycles.  The mean over it of k(t) rb2(t)^2, with k = k0 + kr sin(Z2 w_c t + .)
+    and rb2 = L (1 + beta cos(w_c t)), is k0 L^2 (1 + beta^2/2); of k rb2 it is k0 L.  So in
+    drive-side contact (rb2 q < -b) the mean torque balance k0 (L^2 (1 + beta^2/2) q + L b) = -T2
+    and w^2 = k0 L^2 (1 + beta^2/2) / I2, damping ratio zeta.  (32 equally spaced samples alias
+    the mesh harmonic to k0 + kr; the earlier default took them, and the contact per sample.)"""
+    scene = gearsym.load_scene(REPO / "scenes" / "liu_nfg_140.toml")
+    system = scene.compile()
+    v = scene.resolved.values
+    beta = 2 * v["eps"] / (1 + v["eps"] ** 2)
+    L = v["rb1"] * v["Z2"] / v["Z1"] * (1 + v["eps"] ** 2) / (1 - v["eps"] ** 2)
+    m2 = L ** 2 * (1 + beta ** 2 / 2)
+    res = modal_analysis(system)
+    assert res.equilibrium == pytest.approx([-(v["T2"] / v["k0"] + v["b"] * L) / m2], rel=1e-10)
+    assert res.frequencies_hz == pytest.approx([math.sqrt(v["k0"] * m2 / v["I2"]) / (2 * math.pi)], rel=1e-10)
+    assert res.damping_ratios == pytest.approx([v["zeta"]], rel=1e-10)
+    assert res.contact == {"mesh": "drive"}

@@ -7,8 +7,11 @@ Jacobian; no sympy), for explicit models ``x = [q, v]``, ``v = q'``,
 ``v' = a(t, q, v)``:
 
 1. *Averaging.*  With a forcing period ``T`` the time average of a quantity over one
-   period is the mean of ``samples`` equally spaced values (exact for trigonometric
-   polynomials of degree below ``samples``, e.g. ``k (1 + eps cos(2 pi f t - phi))``).
+   period is by default exact (Gauss-Legendre on sub-intervals split at the schedule
+   breaks, doubled until the mean settles: a mesh harmonic 64 times the forcing
+   frequency is resolved); with ``samples`` it is the mean of that many equally spaced
+   values (exact for trigonometric polynomials of degree below ``samples``, e.g.
+   ``k (1 + eps cos(2 pi f t - phi))``, aliased above).
 2. *Static equilibrium.*  :func:`gearsym.static.static_equilibrium` on the same
    samples: every coordinate, the averaged accelerations at rest ``<a(t, q, 0)> = 0``,
    each backlash mesh in the contact state its mean load implies (drive, back,
@@ -90,8 +93,9 @@ class ModalAnalysis:
     params : dict
         Parameter values (SI) of the analysis.
     info : dict
-        ``samples``, ``period``, Newton ``iterations`` and ``residual`` of the equilibrium,
-        ``symmetry_error``, ``cluster_tol``.
+        ``samples`` (``None``: the exact mean), ``nodes`` (of the average), ``period``,
+        ``equilibrium_iterations`` and ``equilibrium_residual`` (Newton, all contact states
+        tried), ``contact_states_tried``, ``rigid_body``, ``symmetry_error``, ``cluster_tol``.
     classification : list of str or None
         A type per mode where a classifier applies (planetary sets:
         ``"rotational"``, ``"translational"``, ``"planet"``, ``"mixed"``).
@@ -150,8 +154,11 @@ class ModalAnalysis:
         ``frequency_unit``: the label of the frequency column (``"1/time"`` for models in
         dimensionless time, whose ``frequencies_hz`` are cycles per unit time)."""
         names = self.coordinate_names
+        samples = self.info.get("samples")
+        mean = (f"mean stiffness over {samples} samples per forcing period" if samples else
+                f"exact mean stiffness over the forcing period, {self.info.get('nodes')} quadrature nodes")
         lines = [f"{title + ': ' if title else ''}{self.n_modes} modes of the linearisation about the static "
-                 f"equilibrium (mean stiffness over {self.info.get('samples')} samples per forcing period)"]
+                 f"equilibrium ({mean})"]
         if self.contact:
             lost = {k: v for k, v in self.contact.items() if v != "drive"}
             lines.append("  contact at equilibrium: " + ("all meshes in drive-side contact" if not lost else
@@ -201,9 +208,12 @@ class ModalAnalysis:
 
 
 # ------------------------------------------------------------------------ evaluation
-def _nodes(system: System, params: Mapping[str, float] | None, samples: int, t0: float
-           ) -> tuple[np.ndarray, np.ndarray]:
-    """``samples`` equally spaced times of one forcing period and their (equal) weights."""
+def _nodes(system: System, params: Mapping[str, float] | None, samples: int | None, t0: float
+           ) -> tuple[np.ndarray, np.ndarray] | None:
+    """``samples`` equally spaced times of one forcing period and their (equal) weights;
+    ``None`` (the exact mean of :mod:`gearsym.static`) without ``samples``."""
+    if samples is None:
+        return None
     return equal_nodes(system, system.param_vector(params), samples, t0)
 
 
@@ -217,11 +227,10 @@ def _check_explicit(system: System) -> int:
 
 
 def equilibrium(system: System, params: Mapping[str, float] | None = None, *,
-                x0: Sequence[float] | None = None, samples: int = 32, t0: float = 0.0,
+                x0: Sequence[float] | None = None, samples: int | None = None, t0: float = 0.0,
                 where: tuple[str | None, str | None] = (None, None)) -> StaticEquilibrium:
     """The static equilibrium of a modal analysis: :func:`gearsym.static.static_equilibrium`
-    with ``samples`` equally spaced samples per forcing period and rigid-body modes kept
-    at the starting state.
+    with rigid-body modes kept at the starting state.
 
     Parameters
     ----------
@@ -232,9 +241,10 @@ def equilibrium(system: System, params: Mapping[str, float] | None = None, *,
     x0
         Starting state (default: the scene's initial state); only its coordinates are used.
     samples
-        Samples per forcing period for the averages.
+        Equally spaced samples per forcing period for the averages (default: the exact
+        mean, :func:`gearsym.static.period_nodes` refined until it settles).
     t0
-        Start of the averaging period.
+        Start of the averaging period (with ``samples``).
     where
         ``(file, field)`` the errors name.
 
@@ -260,7 +270,7 @@ def equilibrium(system: System, params: Mapping[str, float] | None = None, *,
 
 
 def static_equilibrium(system: System, params: Mapping[str, float] | None = None, *,
-                       x0: Sequence[float] | None = None, samples: int = 32, t0: float = 0.0
+                       x0: Sequence[float] | None = None, samples: int | None = None, t0: float = 0.0
                        ) -> tuple[np.ndarray, dict[str, Any]]:
     """The coordinates at the static equilibrium (:func:`equilibrium`) and
     ``{"iterations", "residual", "singular", "contact"}``."""
@@ -270,18 +280,20 @@ def static_equilibrium(system: System, params: Mapping[str, float] | None = None
 
 
 def averaged_linearization(system: System, q: Sequence[float], params: Mapping[str, float] | None = None,
-                           *, samples: int = 32, t0: float = 0.0, sigma: np.ndarray | None = None
-                           ) -> tuple[np.ndarray, np.ndarray]:
+                           *, samples: int | None = None, t0: float = 0.0, sigma: np.ndarray | None = None,
+                           nodes: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``A = -<da/dq>`` and ``D = -<da/dv>`` at ``(q, v = 0)``, averaged over the forcing period.
 
     For ``M q'' + C q' + K q = F(t)`` these are ``M^-1 K`` and ``M^-1 C`` with the mean
     stiffness and damping in the contact state ``sigma`` (the surface sides at each
-    sample, as :attr:`gearsym.static.StaticEquilibrium.sigma`; default: the sides at
-    ``(t, q)``).
+    node, as :attr:`gearsym.static.StaticEquilibrium.sigma`; default: the sides at
+    ``(t, q)``).  The nodes: ``nodes`` if given, else ``samples`` equally spaced, else the
+    exact mean (:class:`gearsym.static.PeriodAverage`).
     """
     nq = _check_explicit(system)
-    avg = PeriodAverage(system, params, _nodes(system, params, samples, t0))
     x = np.concatenate([np.asarray(q, float), np.zeros(nq)])
+    avg = PeriodAverage(system, params, nodes if nodes is not None else _nodes(system, params, samples, t0),
+                        probe=x)
     if sigma is None:
         sigma = np.where(avg.switching(x) >= 0, 1.0, -1.0)
     _, J = avg.average(x, sigma)
@@ -351,7 +363,7 @@ def _groups(f: np.ndarray, cluster_tol: float) -> list[list[int]]:
     return out
 
 
-def modal_analysis(system: System, params: Mapping[str, float] | None = None, *, samples: int = 32,
+def modal_analysis(system: System, params: Mapping[str, float] | None = None, *, samples: int | None = None,
                    t0: float = 0.0, x0: Sequence[float] | None = None, cluster_tol: float = 1e-6,
                    where: tuple[str | None, str | None] = (None, None)) -> ModalAnalysis:
     """Natural frequencies and mode shapes about the static equilibrium (mean stiffness).
@@ -363,9 +375,11 @@ def modal_analysis(system: System, params: Mapping[str, float] | None = None, *,
     params
         Parameter overrides (SI).
     samples
-        Samples per forcing period for the averages (mean stiffness, mean loads).
+        Equally spaced samples per forcing period for the averages (mean stiffness, mean
+        loads); default: the exact mean (Gauss-Legendre on the forcing period, split at the
+        schedule breaks and refined until it settles, :class:`gearsym.static.PeriodAverage`).
     t0
-        Start of the averaging period.
+        Start of the averaging period (with ``samples``).
     x0
         Starting guess of the equilibrium (default: the scene's initial state).
     cluster_tol
@@ -386,11 +400,11 @@ def modal_analysis(system: System, params: Mapping[str, float] | None = None, *,
     ConvergenceError
         The static equilibrium did not converge.
     """
-    if samples < 1 or not (0 < cluster_tol < 1):
+    if (samples is not None and samples < 1) or not (0 < cluster_tol < 1):
         raise ParameterError("need samples >= 1 and 0 < cluster_tol < 1")
     eq = equilibrium(system, params, x0=x0, samples=samples, t0=t0, where=where)
     q = eq.q
-    A, D = averaged_linearization(system, q, params, samples=samples, t0=t0, sigma=eq.sigma)
+    A, D = averaged_linearization(system, q, params, sigma=eq.sigma, nodes=eq.nodes)
     n = len(q)
     m, sym_err = diagonal_mass(A)
     vectors = None
@@ -427,7 +441,7 @@ def modal_analysis(system: System, params: Mapping[str, float] | None = None, *,
         coordinate_names=names, equilibrium=q, frequencies_hz=f, shapes=shapes, multiplicities=mult,
         groups=groups, damping_ratios=zeta, symmetric=m is not None, mass=m, stiffness=A, damping=D,
         contact=dict(eq.contact), params=p_used,
-        info={"samples": len(eq.nodes[0]), "period": system.period(params),
+        info={"samples": samples, "nodes": len(eq.nodes[0]), "period": system.period(params),
               "equilibrium_iterations": eq.info["iterations"], "equilibrium_residual": eq.info["residual"],
               "contact_states_tried": eq.info["states_tried"],
               "rigid_body": eq.free > 0 or bool(np.any(f == 0.0)),

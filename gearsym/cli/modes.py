@@ -19,7 +19,7 @@ def cmd_modes(args: argparse.Namespace) -> int:
     from ..analysis.modes import modal_analysis
     from ..analysis.planetary import classify_planetary
 
-    if args.samples < 1:
+    if args.samples is not None and args.samples < 1:
         raise ParameterError(f"--samples must be >= 1, got {args.samples}")
     scene = load(args)
     res = classify_planetary(modal_analysis(scene.compile(), samples=args.samples, where=(scene.spec.path, None)))
