@@ -505,7 +505,7 @@ def _newton(prob: _Problem, q0: np.ndarray, contact: Mapping[str, str]) -> _Solv
             return _Solve(q, False, it, pushed=pushed, rigid_unbalanced=rigid, free=free,
                           message="an unbalanced mean load along a free direction")
         qs = np.maximum(qs, np.abs(dq))
-        size = float(np.max(np.abs(dq) / np.where(qs > 0, qs, 1.0), initial=0.0))
+        step = float(np.max(np.abs(dq) / np.where(qs > 0, qs, 1.0), initial=0.0))
         merit = float(np.max(np.abs(R * r), initial=0.0))
         lam = 1.0
         for _ in range(30):
@@ -517,12 +517,12 @@ def _newton(prob: _Problem, q0: np.ndarray, contact: Mapping[str, str]) -> _Solv
             lam /= 2
         q, r, J = qn, rn, Jn
         assert J is not None
-        if size <= _STEP_TOL:
+        if step <= _STEP_TOL:
             break
-        stalled = stalled + 1 if size >= prev / 2 else 0
+        stalled = stalled + 1 if step >= prev / 2 else 0
         if stalled >= 3:
             break
-        prev = size
+        prev = step
     load_scale = max(load_scale, float(np.max(R * (np.abs(J) @ np.abs(q)), initial=0.0)))
     res = float(np.max(np.abs(R * r), initial=0.0)) / load_scale if load_scale > 0 else 0.0
     ok = res <= _RESIDUAL_TOL and bool(np.all(np.isfinite(q)))
