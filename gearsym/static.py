@@ -21,7 +21,9 @@ must be *consistent* with the mean loads it produces, flank by flank:
 * a mesh in contact on a flank carries a positive mean contact force on it;
 * a separated mesh would carry no positive mean force on either flank if it touched;
 * a separated mesh whose position no stiffness fixes (a clearance under no mean load,
-  e.g. an idler or an unloaded spline) sits in the **centre** of its clearance.
+  e.g. an idler or an unloaded spline) sits in the **centre** of its clearance (the mean
+  of ``(g_drive + g_back)/2`` is zero); when no state is consistent in this strict sense
+  (a zero clearance under no mean load) the meshes touch with zero mean force.
 
 The mean contact force of a flank is measured as ``s = F/k``: the mean force over the
 mean contact stiffness, in the unit of the deflection (for a constant stiffness and no
@@ -90,8 +92,9 @@ _MAX_NEWTON = 60
 _STEP_TOL = 1e-13
 #: the residual a solution may keep, relative to the size of the terms that balance
 _RESIDUAL_TOL = 1e-10
-#: a mean contact force below this (relative to the clearance) is no load
-_LOAD_TOL = 1e-9
+#: a mean contact force below this (as a deflection, relative to the clearance, the deflection
+#: and the terms of the equations) is no load
+_LOAD_TOL = 1e-12
 #: contact states tried at most (every state when 3**meshes is at most _ENUMERATE)
 _ENUMERATE = 243
 _MAX_STATES = 300
@@ -541,27 +544,41 @@ def _loads(prob: _Problem, q: np.ndarray, contact: Mapping[str, str]) -> dict[st
     g = prob.avg.switching(xs).T @ prob.avg.w
     G = prob.avg.switching_gradient(xs)[:, prob.qi]
     for m in prob.avg.meshes:
-        a0, J0 = prob.equations(q, {**contact, m.name: SEPARATED})
+        a0, J0, size0 = prob.equations_with_size(q, {**contact, m.name: SEPARATED})
         assert J0 is not None
         s = []
+        # the zero of a load: the clearance, the deflection, and the size of the terms of the
+        # equations as a deflection (their round-off is no load)
+        scale = max(abs(g[m.drive] - g[m.back]) / 2, float(np.abs(G[m.drive]) @ np.abs(q)))
         for flank, j, sign in ((DRIVE, m.drive, m.sign_drive), (BACK, m.back, m.sign_back)):
-            a1, J1 = prob.equations(q, {**contact, m.name: flank})
+            a1, J1, size1 = prob.equations_with_size(q, {**contact, m.name: flank})
             assert J1 is not None
             grad = G[j]
             den = float(grad @ (J1 - J0) @ grad)
             if den < 0:
                 s.append(sign * float(grad @ (a1 - a0)) * float(grad @ grad) / den)
+                scale = max(scale, float(np.abs(grad) @ (size0 + size1)) * float(grad @ grad) / -den)
             else:  # no contact stiffness seen: the mean deflection past the flank
                 s.append(sign * float(g[j]))
-        scale = max(abs(g[m.drive] - g[m.back]) / 2, float(np.abs(G[m.drive]) @ np.abs(q)))
         out[m.name] = (s[0], s[1], scale)
     return out
+
+
+def _zero_load_contacts(contact: Mapping[str, str], loads: Mapping[str, tuple[float, float, float]]) -> bool:
+    """Whether every mesh in contact at least touches (a mean load of zero within round-off
+    counts): the fallback when no state is consistent in the strict sense (e.g. a zero clearance
+    under no mean load)."""
+    for name, (sd, sb, scale) in loads.items():
+        own = sd if contact[name] == DRIVE else sb if contact[name] == BACK else None
+        if own is not None and own < -_LOAD_TOL * scale:
+            return False
+    return True
 
 
 def _violations(contact: Mapping[str, str], loads: Mapping[str, tuple[float, float, float]]
                 ) -> dict[str, tuple[str, str]]:
     """The meshes whose contact state their mean load contradicts: mesh -> (state it asks
-    for, why)."""
+    for, why).  A contact without mean load asks to be separated (and centred)."""
     bad: dict[str, tuple[str, str]] = {}
     for name, (sd, sb, scale) in loads.items():
         tol = _LOAD_TOL * scale
@@ -604,7 +621,10 @@ class _Search:
         self.prob, self.q0, self.rigid, self.where = prob, q0, rigid, where
         self.names = [m.name for m in prob.avg.meshes]
         self.iterations = 0
+        self.solves = 0
         self.tried: list[tuple[dict[str, str], _Solve, dict[str, tuple[str, str]]]] = []
+        #: the first state whose contacts all touch, some without mean load (the fallback)
+        self.touching: tuple[dict[str, str], _Solve, dict[str, tuple[float, float, float]]] | None = None
 
     def error(self, message: str) -> SpecError:
         file, fld = self.where
@@ -631,12 +651,15 @@ class _Search:
             if isinstance(found, tuple):
                 return found
             queue = found + queue
+        if self.touching is not None:
+            return self.touching
         raise self._no_equilibrium()
 
     def _try(self, contact: dict[str, str]
              ) -> tuple[dict[str, str], _Solve, dict[str, tuple[float, float, float]]] | list[dict[str, str]]:
         sol = _newton(self.prob, self.q0, contact)
         self.iterations += sol.iterations
+        self.solves += 1
         if sol.rigid_unbalanced:
             raise self.error("no static equilibrium: the mean loads do not balance along a rigid-body mode "
                              f"({_direction(self.prob, sol.free)}): the system accelerates as a whole "
@@ -657,6 +680,8 @@ class _Search:
         bad = _violations(contact, loads)
         if not bad:
             return contact, sol, loads
+        if self.touching is None and _zero_load_contacts(contact, loads):
+            self.touching = (contact, sol, loads)
         self.tried.append((contact, sol, bad))
         together = {**contact, **{n: w for n, (w, _) in bad.items()}}
         return [together] + ([{**contact, n: w} for n, (w, _) in bad.items()] if len(bad) > 1 else [])
@@ -752,7 +777,7 @@ def static_equilibrium(system: System, params: Mapping[str, float] | None = None
     return StaticEquilibrium(
         state=xs, coordinates=coords, contact=dict(contact), loads=_margins(contact, loads),
         sigma=avg.sides(xs, contact), nodes=(avg.t, avg.w), free=int(free),
-        info={"iterations": search.iterations, "states_tried": len(search.tried) + 1, "residual": sol.residual})
+        info={"iterations": search.iterations, "states_tried": search.solves, "residual": sol.residual})
 
 
 def static_state(system: System, coordinates: Sequence[str] | None = None, velocities: Sequence[str] | None = None,

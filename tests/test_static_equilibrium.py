@@ -329,6 +329,13 @@ def test_stiff_contact_static_state(tmp_path):
         eq = static.static_equilibrium(system, {"k_m": k, "F_m": -v["F_m"]})  # reversed: the back flank
         assert eq.contact == {"mesh": "back"}
         assert eq.q[0] == pytest.approx(-v["b_m"] + (-v["F_m"] + v["k_a"] * v["e_a"] / 2) / k, rel=1e-14)
+    # no mean load: the pair rests in the centre of its backlash (mean deflection x - e = 0); with
+    # no backlash either it touches where the mean force k_m x - k_a e_a/2 vanishes
+    eq = static.static_equilibrium(system, {"F_m": 0.0})
+    assert eq.contact == {"mesh": "separated"} and abs(eq.q[0]) < 1e-15 * v["b_m"]
+    eq = static.static_equilibrium(system, {"F_m": 0.0, "b_m": 0.0})
+    assert eq.contact["mesh"] in ("drive", "back")
+    assert eq.q[0] == pytest.approx(v["k_a"] * v["e_a"] / 2 / v["k_m"], rel=1e-12)
 
 
 def test_stiff_contacts_of_the_rotor(rotor):
