@@ -233,6 +233,18 @@ class PeriodAverage:
         zero = np.zeros((n, self.nx))
         self._sched = np.asarray(self.system.modes(self.t, zero, self.p))[:, self.nsw:].reshape(n, -1)
 
+    def _at_nodes(self, x: np.ndarray) -> np.ndarray:
+        return np.repeat(np.asarray(x, float)[None, :], self.n, axis=0)
+
+    def _casadi(self, name: str, *args: Any) -> np.ndarray:
+        """A generated function mapped over the nodes (CasADi), dense, as numpy; a sparse output
+        is converted from its non-zeros (converting every element was most of the cost)."""
+        out = generated_map(self.generated, name, self.n)(self._tt, *args)
+        rows, cols = out.sparsity().get_triplet()
+        dense = np.zeros(out.shape)
+        dense[rows, cols] = out.nonzeros()
+        return dense
+
     def _refine(self, x: np.ndarray) -> None:
         """:func:`period_nodes` with the sub-intervals doubled until the mean of the equations
         and of their Jacobian (every mesh in drive-side contact, at ``x``) settles to round-off:
@@ -259,22 +271,17 @@ class PeriodAverage:
                 return
             last, pieces = (f, J), pieces * 2
 
-    def _map(self, name: str) -> Any:
-        return generated_map(self.generated, name, self.n)
-
     def switching(self, x: np.ndarray) -> np.ndarray:
         """``g(t_k, x)`` at every node, shape ``(n, nsw)``."""
         if not self.nsw:
             return np.zeros((self.n, 0))
-        xx = np.repeat(np.asarray(x, float)[:, None], self.n, axis=1)
-        return np.asarray(self._map("gs_sw")(self._tt, xx, self.p)).reshape(self.nsw, self.n).T
+        return self.system.engine.evaluate("sw", self.t, self._at_nodes(x), self.p)
 
     def switching_gradient(self, x: np.ndarray) -> np.ndarray:
         """The mean over the nodes of ``dg/dx``, shape ``(nsw, nx)``."""
         if not self.nsw:
             return np.zeros((0, self.nx))
-        xx = np.repeat(np.asarray(x, float)[:, None], self.n, axis=1)
-        G = self._map("gs_swx")(self._tt, xx, self.p).full().reshape(self.nsw, self.n, self.nx)
+        G = self._casadi("gs_swx", self._at_nodes(x).T, self.p).reshape(self.nsw, self.n, self.nx)
         return np.einsum("ikj,k->ij", G, self.w)
 
     def sides(self, x: np.ndarray, contact: Mapping[str, str]) -> np.ndarray:
@@ -318,22 +325,23 @@ class PeriodAverage:
         whose mean is taken: a scale for the round-off of the mean); with ``sizes``, the
         means of ``|f|`` and ``|J|`` (flattened, as ``[f, J.ravel()]``)."""
         n, nx = self.n, self.nx
-        xx = np.repeat(np.asarray(x, float)[:, None], n, axis=1)
-        m = np.hstack([sigma, self._sched]).T if self._sched.size else sigma.T
-        if self.generated.implicit:
+        X = self._at_nodes(x)
+        J3: np.ndarray | None = None
+        if self.generated.implicit:  # nodes along the last axis
+            m = np.hstack([sigma, self._sched]).T if self._sched.size else np.asarray(sigma).T
             zero = np.zeros((nx, n))
-            f = -np.asarray(self._map("gs_res")(self._tt, xx, zero, self.p, m)).reshape(nx, n)
-            J = (-self._map("gs_resjac")(self._tt, xx, zero, self.p, m, 0.0).full()
-                 if jacobian else None)
-        else:
-            f = np.asarray(self._map("gs_rhs")(self._tt, xx, self.p, m)).reshape(nx, n)
-            J = self._map("gs_jac")(self._tt, xx, self.p, m).full() if jacobian else None
-        J3 = J.reshape(nx, n, nx) if J is not None else None
-        Jm = np.einsum("ikj,k->ij", J3, self.w) if J3 is not None else None
-        size = np.abs(f) @ self.w
+            F = -self._casadi("gs_res", X.T, zero, self.p, m).reshape(nx, n).T
+            if jacobian:
+                J3 = -self._casadi("gs_resjac", X.T, zero, self.p, m, 0.0).reshape(nx, n, nx).transpose(1, 0, 2)
+        else:  # the engine's C evaluation (the schedule segments from its own mode logic)
+            F = self.system.engine.evaluate("rhs", self.t, X, self.p, sigma)
+            J3 = self.system.engine.evaluate("jac", self.t, X, self.p, sigma) if jacobian else None
+        w = self.w
+        size = np.abs(F).T @ w
+        Jm = np.einsum("kij,k->ij", J3, w) if J3 is not None else None
         if sizes and J3 is not None:
-            size = np.concatenate([size, np.einsum("ikj,k->ij", np.abs(J3), self.w).ravel()])
-        return f @ self.w, Jm, size
+            size = np.concatenate([size, np.einsum("kij,k->ij", np.abs(J3), w).ravel()])
+        return F.T @ w, Jm, size
 
 
 @dataclass(frozen=True)
