@@ -48,7 +48,11 @@ state).
 
 **Averages.**  A Gauss-Legendre quadrature on the forcing period, split at every
 scheduled breakpoint, so piecewise-constant mesh stiffness is averaged exactly
-(:func:`period_nodes`); ``gearsym modes`` passes its own equally spaced samples.
+(:func:`period_nodes`), with the sub-intervals doubled until the mean of the equations
+settles (a mesh harmonic many times the forcing frequency is resolved:
+:class:`PeriodAverage`); ``gearsym modes --samples N`` passes N equally spaced samples.
+Explicit models are evaluated by the engine's C functions at all nodes at once,
+implicit ones (the mean of ``-r(t, x, 0)``) by the generated CasADi functions.
 
 **Refusals.**  :class:`~gearsym.errors.SpecError` (naming the scene file and
 ``initial.static`` for a static start): a rigid-body mode (a free direction that no
@@ -672,11 +676,11 @@ class _Search:
             raise self.error("no static equilibrium: the mean loads do not balance along a rigid-body mode "
                              f"({_direction(self.prob, sol.free)}): the system accelerates as a whole "
                              f"(balance the mean loads, or reduce the model to relative coordinates with "
-                             f"[reduction])")
+                             f"[reduction]){self._switch_hint()}")
         if sol.free is not None and sol.free.shape[1] and self.rigid == "refuse":
             raise self.error("the static equilibrium is not determined: the mean stiffness matrix is singular "
                              f"along {_direction(self.prob, sol.free)} (a rigid-body mode? reduce the model to "
-                             f"relative coordinates with [reduction])")
+                             f"relative coordinates with [reduction]){self._switch_hint()}")
         if sol.pushed:
             self.tried.append((contact, sol, {n: (DRIVE + "/" + BACK, "separated, an unbalanced mean load drives "
                                                   "it against a flank") for n in sol.pushed}))
@@ -693,6 +697,15 @@ class _Search:
         self.tried.append((contact, sol, bad))
         together = {**contact, **{n: w for n, (w, _) in bad.items()}}
         return [together] + ([{**contact, n: w} for n, (w, _) in bad.items()] if len(bad) > 1 else [])
+
+    def _switch_hint(self) -> str:
+        """For models with switching surfaces other than mesh contacts (a contact law written in
+        [equations]): their side is taken from the state, so a guess outside the contact sees no
+        stiffness."""
+        if not self.prob.avg._switch.size:
+            return ""
+        return ("; or a contact written as a switching condition (not a mesh) that the starting guess does not "
+                "touch: give [initial] values in contact")
 
     def _all_states(self, start: Mapping[str, str], seen: set[tuple[str, ...]]) -> list[dict[str, str]]:
         keys = [k for k in itertools.product(_STATES, repeat=len(self.names)) if k not in seen]
