@@ -108,16 +108,16 @@ def test_implicit_form_gives_the_same_static_state(tmp_path):
     assert system.x0 == pytest.approx([spur_static(), 0.0], rel=1e-12, abs=1e-18)
 
 
-def test_no_drive_side_contact_is_refused(tmp_path):
+def test_reversed_load_rests_on_the_back_flank(tmp_path):
+    """Reversed torques press the back flanks: x_s = -(F/k_m + b_m) (this was refused as "not in
+    drive-side contact" before the static solve took the contact state from the mean load)."""
     path = scene_file(tmp_path, "spur_pair_torsional", "[parameters]\nT1 = -60\nT2 = -75\n[initial]\nstatic = true\n",
                       "spur_pair_torsional")
-    with pytest.raises(SpecError, match=r"initial\.static.*mesh 'mesh' is not in contact"):
-        gearsym.load_scene(path).compile(generated_dir=BUILDS)
+    system = gearsym.load_scene(path).compile(generated_dir=BUILDS)
+    assert system.x0 == pytest.approx([-spur_static(), 0.0], rel=1e-12, abs=1e-18)
 
 
-def test_rigid_body_mode_is_refused(tmp_path):
-    model = tmp_path / "model_free_pair.toml"
-    model.write_text("""
+FREE_PAIR = """
 [model]
 name = "free_pair"
 [coordinates.a]
@@ -148,7 +148,12 @@ value = "T"
 type = "force"
 coordinate = "c"
 value = "-T"
-""")
+"""
+
+
+def test_rigid_body_mode_is_refused(tmp_path):
+    model = tmp_path / "model_free_pair.toml"
+    model.write_text(FREE_PAIR)
     path = scene_file(tmp_path, model, "[initial]\nstatic = true\n", "free_pair")
     with pytest.raises(SpecError, match=r"initial\.static.*singular.*rigid-body"):
         gearsym.load_scene(path).compile(generated_dir=tmp_path / "builds")
@@ -170,11 +175,15 @@ def test_bad_initial_tables_name_the_field(tmp_path, initial, needle):
 
 
 def test_cli_static_failure_is_one_line_exit_2(tmp_path):
-    path = scene_file(tmp_path, "spur_pair_torsional", "[parameters]\nT1 = -60\nT2 = -75\n[initial]\nstatic = true\n",
-                      "spur_pair_torsional")
+    # the free pair of test_rigid_body_mode_is_refused with both torques one way: no equilibrium
+    model = tmp_path / "model_free_pair.toml"
+    model.write_text(FREE_PAIR.replace('value = "-T"', 'value = "T"'))
+    path = scene_file(tmp_path, model, "[initial]\nstatic = true\n", "free_pair")
     res = subprocess.run([sys.executable, "-m", "gearsym.cli", "simulate", str(path), "--periods", "1"],
                          capture_output=True, text=True, cwd=tmp_path,
-                         env={"GEARSYM_GENERATED": str(BUILDS), "PATH": "/usr/bin:/bin"})
-    assert res.returncode == 2
+                         env={"GEARSYM_GENERATED": str(tmp_path / "builds"), "PATH": "/usr/bin:/bin",
+                              "PYTHONPATH": str(REPO)})
+    assert res.returncode == 2, res.stderr
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and "field 'initial.static'" in lines[0] and res.stdout == ""
+    assert "do not balance along a rigid-body mode (the coordinates a, c)" in lines[0]

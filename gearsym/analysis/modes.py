@@ -7,14 +7,17 @@ Jacobian; no sympy), for explicit models ``x = [q, v]``, ``v = q'``,
 ``v' = a(t, q, v)``:
 
 1. *Averaging.*  With a forcing period ``T`` the time average of a quantity over one
-   period is the mean of ``samples`` equally spaced values (exact for trigonometric
-   polynomials of degree below ``samples``, e.g. ``k (1 + eps cos(2 pi f t - phi))``).
-2. *Static equilibrium.*  Newton on the averaged acceleration at rest,
-   ``abar(q) = <a(t, q, 0)> = 0``, with the averaged Jacobian ``<da/dq>``; the contact
-   state of every backlash mesh follows the iterate (a dead zone is piecewise linear,
-   so Newton ends once the contact pattern is right).  A singular stiffness (a
-   rigid-body mode) takes the least-squares step.
-3. *Linearisation.*  ``A = -<da/dq>`` and ``D = -<da/dv>`` at ``(q_eq, 0)``: for
+   period is by default exact (Gauss-Legendre on sub-intervals split at the schedule
+   breaks, doubled until the mean settles: a mesh harmonic 64 times the forcing
+   frequency is resolved); with ``samples`` it is the mean of that many equally spaced
+   values (exact for trigonometric polynomials of degree below ``samples``, e.g.
+   ``k (1 + eps cos(2 pi f t - phi))``, aliased above).
+2. *Static equilibrium.*  :func:`gearsym.static.static_equilibrium` on the same
+   samples: every coordinate, the averaged accelerations at rest ``<a(t, q, 0)> = 0``,
+   each backlash mesh in the contact state its mean load implies (drive, back,
+   separated; an unloaded clearance centred), rigid-body modes kept at the start.
+3. *Linearisation.*  ``A = -<da/dq>`` and ``D = -<da/dv>`` at ``(q_eq, 0)``, in the
+   contact state of the equilibrium: for
    ``M q'' + C q' + K q = F`` these are ``M^-1 K`` and ``M^-1 C``.
 4. *Eigenproblem* ``K phi = w^2 M phi``.  ``M`` is not an output of the generated
    code, but for a lumped model it is diagonal (inertia elements act on single
@@ -44,12 +47,15 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..budget import check_count
-from ..errors import ConvergenceError, ParameterError
+from ..errors import ParameterError
+from ..static import PeriodAverage, StaticEquilibrium, equal_nodes
+from ..static import static_equilibrium as solve_static
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
 
-__all__ = ["ModalAnalysis", "averaged_linearization", "diagonal_mass", "modal_analysis", "static_equilibrium"]
+__all__ = ["ModalAnalysis", "averaged_linearization", "diagonal_mass", "equilibrium", "modal_analysis",
+           "static_equilibrium"]
 
 
 @dataclass(frozen=True)
@@ -88,8 +94,9 @@ class ModalAnalysis:
     params : dict
         Parameter values of the analysis (declared units).
     info : dict
-        ``samples``, ``period``, Newton ``iterations`` and ``residual`` of the equilibrium,
-        ``symmetry_error``, ``cluster_tol``.
+        ``samples`` (``None``: the exact mean), ``nodes`` (of the average), ``period``,
+        ``equilibrium_iterations`` and ``equilibrium_residual`` (Newton, all contact states
+        tried), ``contact_states_tried``, ``rigid_body``, ``symmetry_error``, ``cluster_tol``.
     classification : list of str or None
         A type per mode where a classifier applies (planetary sets:
         ``"rotational"``, ``"translational"``, ``"planet"``, ``"mixed"``).
@@ -148,8 +155,11 @@ class ModalAnalysis:
         ``frequency_unit``: the label of the frequency column (``"1/time"`` for models in
         dimensionless time, whose ``frequencies_hz`` are cycles per unit time)."""
         names = self.coordinate_names
+        samples = self.info.get("samples")
+        mean = (f"mean stiffness over {samples} samples per forcing period" if samples else
+                f"exact mean stiffness over the forcing period, {self.info.get('nodes')} quadrature nodes")
         lines = [f"{title + ': ' if title else ''}{self.n_modes} modes of the linearisation about the static "
-                 f"equilibrium (mean stiffness over {self.info.get('samples')} samples per forcing period)"]
+                 f"equilibrium ({mean})"]
         if self.contact:
             lost = {k: v for k, v in self.contact.items() if v != "drive"}
             lines.append("  contact at equilibrium: " + ("all meshes in drive-side contact" if not lost else
@@ -199,29 +209,14 @@ class ModalAnalysis:
 
 
 # ------------------------------------------------------------------------ evaluation
-def _sample_times(system: System, params: Mapping[str, float] | None, samples: int, t0: float
-                  ) -> tuple[np.ndarray, float | None]:
+def _nodes(system: System, params: Mapping[str, float] | None, samples: int | None, t0: float
+           ) -> tuple[np.ndarray, np.ndarray] | None:
+    """``samples`` equally spaced times of one forcing period and their (equal) weights;
+    ``None`` (the exact mean of :mod:`gearsym.static`) without ``samples``."""
+    if samples is None:
+        return None
     check_count("samples", samples)  # before the samples are allocated (gearsym.budget)
-    T = system.period(params)
-    if not T:
-        return np.array([t0]), None
-    return t0 + T * np.arange(samples) / samples, T
-
-
-def _averaged(system: System, x: np.ndarray, times: np.ndarray, params: Mapping[str, float] | None,
-              jac: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-    """Period averages of the right-hand side and of its Jacobian at the state ``x``
-    (the mode -- side of every switching surface -- taken at ``(t, x)``)."""
-    f = np.zeros(len(x))
-    J = np.zeros((len(x), len(x))) if jac else None
-    for t in times:
-        f += system.rhs(float(t), x, params=params)
-        if J is not None:
-            J += system.jacobian(float(t), x, params=params)
-    f /= len(times)
-    if J is not None:
-        J /= len(times)
-    return f, J
+    return equal_nodes(system, system.param_vector(params), samples, t0)
 
 
 def _check_explicit(system: System) -> int:
@@ -233,10 +228,11 @@ def _check_explicit(system: System) -> int:
     return gen.nx // 2
 
 
-def static_equilibrium(system: System, params: Mapping[str, float] | None = None, *,
-                       x0: Sequence[float] | None = None, samples: int = 32, t0: float = 0.0,
-                       tol: float = 1e-12, max_iter: int = 50) -> tuple[np.ndarray, dict[str, Any]]:
-    """The static equilibrium ``<a(t, q, 0)> = 0`` under the period-averaged loads.
+def equilibrium(system: System, params: Mapping[str, float] | None = None, *,
+                x0: Sequence[float] | None = None, samples: int | None = None, t0: float = 0.0,
+                where: tuple[str | None, str | None] = (None, None)) -> StaticEquilibrium:
+    """The static equilibrium of a modal analysis: :func:`gearsym.static.static_equilibrium`
+    with rigid-body modes kept at the starting state.
 
     Parameters
     ----------
@@ -247,75 +243,62 @@ def static_equilibrium(system: System, params: Mapping[str, float] | None = None
     x0
         Starting state (default: the scene's initial state); only its coordinates are used.
     samples
-        Samples per forcing period for the averages.
+        Equally spaced samples per forcing period for the averages (default: the exact
+        mean, :func:`gearsym.static.period_nodes` refined until it settles).
     t0
-        Start of the averaging period.
-    tol
-        Convergence: the Newton step below ``tol`` times the largest ``|q_i|``.
-    max_iter
-        Newton iteration limit.
+        Start of the averaging period (with ``samples``).
+    where
+        ``(file, field)`` the errors name.
 
     Returns
     -------
-    q : ndarray
-        The coordinates at equilibrium.
-    info : dict
-        ``iterations``, ``residual`` (largest averaged acceleration left), ``singular``
-        (a least-squares step was needed: rigid-body mode).
+    StaticEquilibrium
+        Coordinates, contact state of every backlash mesh, the sides used at each sample.
 
     Raises
     ------
+    SpecError
+        No equilibrium: mean loads that do not balance along a rigid-body mode, or no
+        contact state consistent with the mean loads (naming the meshes).
     ConvergenceError
-        No equilibrium found (e.g. an unbalanced load on a rigid-body mode).
+        Newton did not converge.
     """
     nq = _check_explicit(system)
-    times, _ = _sample_times(system, params, samples, t0)
     x = np.array(system.x0 if x0 is None else x0, dtype=float)
     if x.shape != (2 * nq,):
         raise ParameterError(f"x0 must have {2 * nq} entries, got shape {x.shape}")
-    x[nq:] = 0.0
-    singular = False
-    a_scale = 0.0
-    history = []
-    for it in range(1, max_iter + 1):
-        f, J = _averaged(system, x, times, params)
-        assert J is not None
-        a, Aq = f[nq:], J[nq:, :nq]
-        a_scale = max(a_scale, float(np.max(np.abs(Aq))) * max(float(np.max(np.abs(x[:nq]))), 1e-300))
-        try:
-            dq = np.linalg.solve(Aq, -a)
-            if not np.all(np.isfinite(dq)) or np.linalg.cond(Aq) > 1e13:
-                raise np.linalg.LinAlgError
-        except np.linalg.LinAlgError:
-            singular = True
-            dq = np.linalg.lstsq(Aq, -a, rcond=1e-12)[0]
-        x[:nq] += dq
-        step = float(np.max(np.abs(dq)))
-        history.append(step)
-        if step <= tol * max(float(np.max(np.abs(x[:nq]))), 1e-300):
-            f, _ = _averaged(system, x, times, params, jac=False)
-            res = float(np.max(np.abs(f[nq:])))
-            if res <= 1e-8 * max(a_scale, 1e-300):
-                return x[:nq].copy(), {"iterations": it, "residual": res, "singular": singular}
-            raise ConvergenceError(
-                f"no static equilibrium: Newton stopped with mean accelerations up to {res:.3g} left "
-                f"(a rigid-body mode with an unbalanced mean load?)")
-    raise ConvergenceError(f"static equilibrium: Newton did not converge in {max_iter} iterations "
-                           f"(last steps {', '.join(f'{s:.3g}' for s in history[-5:])}); the contact "
-                           f"pattern of the backlash meshes may alternate")
+    return solve_static(system, params, guess=x, nodes=_nodes(system, params, samples, t0), rigid="keep",
+                        where=where)
+
+
+def static_equilibrium(system: System, params: Mapping[str, float] | None = None, *,
+                       x0: Sequence[float] | None = None, samples: int | None = None, t0: float = 0.0
+                       ) -> tuple[np.ndarray, dict[str, Any]]:
+    """The coordinates at the static equilibrium (:func:`equilibrium`) and
+    ``{"iterations", "residual", "singular", "contact"}``."""
+    eq = equilibrium(system, params, x0=x0, samples=samples, t0=t0)
+    return eq.q, {"iterations": eq.info["iterations"], "residual": eq.info["residual"],
+                  "singular": eq.free > 0, "contact": dict(eq.contact)}
 
 
 def averaged_linearization(system: System, q: Sequence[float], params: Mapping[str, float] | None = None,
-                           *, samples: int = 32, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+                           *, samples: int | None = None, t0: float = 0.0, sigma: np.ndarray | None = None,
+                           nodes: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``A = -<da/dq>`` and ``D = -<da/dv>`` at ``(q, v = 0)``, averaged over the forcing period.
 
     For ``M q'' + C q' + K q = F(t)`` these are ``M^-1 K`` and ``M^-1 C`` with the mean
-    stiffness and damping in the contact state at ``q``.
+    stiffness and damping in the contact state ``sigma`` (the surface sides at each
+    node, as :attr:`gearsym.static.StaticEquilibrium.sigma`; default: the sides at
+    ``(t, q)``).  The nodes: ``nodes`` if given, else ``samples`` equally spaced, else the
+    exact mean (:class:`gearsym.static.PeriodAverage`).
     """
     nq = _check_explicit(system)
-    times, _ = _sample_times(system, params, samples, t0)
     x = np.concatenate([np.asarray(q, float), np.zeros(nq)])
-    _, J = _averaged(system, x, times, params)
+    avg = PeriodAverage(system, params, nodes if nodes is not None else _nodes(system, params, samples, t0),
+                        probe=x)
+    if sigma is None:
+        sigma = np.where(avg.switching(x) >= 0, 1.0, -1.0)
+    _, J = avg.average(x, sigma)
     assert J is not None
     return -J[nq:, :nq], -J[nq:, nq:]
 
@@ -382,29 +365,9 @@ def _groups(f: np.ndarray, cluster_tol: float) -> list[list[int]]:
     return out
 
 
-def _contact(system: System, q: np.ndarray, params: Mapping[str, float] | None, t0: float) -> dict[str, str]:
-    surfaces = system.generated.surfaces
-    if not any(s.get("kind") in ("drive", "back") for s in surfaces):
-        return {}
-    x = np.concatenate([q, np.zeros_like(q)])
-    g = system.switching(float(t0), x, params)
-    state: dict[str, str] = {}
-    for j, s in enumerate(surfaces):
-        kind = s.get("kind")
-        if kind not in ("drive", "back"):
-            continue
-        mesh = s["name"].rsplit(".", 1)[0]
-        sign = int(s.get("contact_sign", 0))
-        touching = g[j] > 0 if sign > 0 else g[j] < 0
-        state.setdefault(mesh, "separated")
-        if touching:
-            state[mesh] = str(kind)
-    return state
-
-
-def modal_analysis(system: System, params: Mapping[str, float] | None = None, *, samples: int = 32,
-                   t0: float = 0.0, x0: Sequence[float] | None = None, cluster_tol: float = 1e-6
-                   ) -> ModalAnalysis:
+def modal_analysis(system: System, params: Mapping[str, float] | None = None, *, samples: int | None = None,
+                   t0: float = 0.0, x0: Sequence[float] | None = None, cluster_tol: float = 1e-6,
+                   where: tuple[str | None, str | None] = (None, None)) -> ModalAnalysis:
     """Natural frequencies and mode shapes about the static equilibrium (mean stiffness).
 
     Parameters
@@ -414,13 +377,17 @@ def modal_analysis(system: System, params: Mapping[str, float] | None = None, *,
     params
         Parameter overrides (declared units, as ``--set``).
     samples
-        Samples per forcing period for the averages (mean stiffness, mean loads).
+        Equally spaced samples per forcing period for the averages (mean stiffness, mean
+        loads); default: the exact mean (Gauss-Legendre on the forcing period, split at the
+        schedule breaks and refined until it settles, :class:`gearsym.static.PeriodAverage`).
     t0
-        Start of the averaging period.
+        Start of the averaging period (with ``samples``).
     x0
         Starting guess of the equilibrium (default: the scene's initial state).
     cluster_tol
         Relative tolerance under which frequencies count as equal (multiplicities).
+    where
+        ``(file, field)`` named by the errors of the static equilibrium (the scene file).
 
     Returns
     -------
@@ -430,14 +397,18 @@ def modal_analysis(system: System, params: Mapping[str, float] | None = None, *,
     ------
     ParameterError
         Implicit model, bad options.
+    SpecError
+        No static equilibrium (:func:`gearsym.static.static_equilibrium`).
     ConvergenceError
-        No static equilibrium.
+        The static equilibrium did not converge.
     """
-    check_count("samples", samples)
-    if samples < 1 or not (0 < cluster_tol < 1):
+    if samples is not None:
+        check_count("samples", samples)
+    if (samples is not None and samples < 1) or not (0 < cluster_tol < 1):
         raise ParameterError("need samples >= 1 and 0 < cluster_tol < 1")
-    q, eq_info = static_equilibrium(system, params, x0=x0, samples=samples, t0=t0)
-    A, D = averaged_linearization(system, q, params, samples=samples, t0=t0)
+    eq = equilibrium(system, params, x0=x0, samples=samples, t0=t0, where=where)
+    q = eq.q
+    A, D = averaged_linearization(system, q, params, sigma=eq.sigma, nodes=eq.nodes)
     n = len(q)
     m, sym_err = diagonal_mass(A)
     vectors = None
@@ -469,14 +440,14 @@ def modal_analysis(system: System, params: Mapping[str, float] | None = None, *,
     for g in groups:
         mult[g] = len(g)
     names = system.state_names[:n]
-    times, T = _sample_times(system, params, samples, t0)
     p_used = system.run_params(params)
     return ModalAnalysis(
         coordinate_names=names, equilibrium=q, frequencies_hz=f, shapes=shapes, multiplicities=mult,
         groups=groups, damping_ratios=zeta, symmetric=m is not None, mass=m, stiffness=A, damping=D,
-        contact=_contact(system, q, params, t0), params=p_used,
-        info={"samples": len(times), "period": T, "equilibrium_iterations": eq_info["iterations"],
-              "equilibrium_residual": eq_info["residual"], "rigid_body": eq_info["singular"] or bool(
-                  np.any(f == 0.0)), "symmetry_error": sym_err if math.isfinite(sym_err) else None,
-              "cluster_tol": cluster_tol},
+        contact=dict(eq.contact), params=p_used,
+        info={"samples": samples, "nodes": len(eq.nodes[0]), "period": system.period(params),
+              "equilibrium_iterations": eq.info["iterations"], "equilibrium_residual": eq.info["residual"],
+              "contact_states_tried": eq.info["states_tried"],
+              "rigid_body": eq.free > 0 or bool(np.any(f == 0.0)),
+              "symmetry_error": sym_err if math.isfinite(sym_err) else None, "cluster_tol": cluster_tol},
         _vectors=vectors)

@@ -19,9 +19,10 @@ def cmd_modes(args: argparse.Namespace) -> int:
     from ..analysis.modes import modal_analysis
     from ..analysis.planetary import classify_planetary
 
-    check_count("--samples", args.samples)  # before any work (memory and time grow with it)
+    if args.samples is not None:
+        check_count("--samples", args.samples)  # before any work (memory and time grow with it)
     scene = load(args)
-    res = classify_planetary(modal_analysis(scene.compile(), samples=args.samples))
+    res = classify_planetary(modal_analysis(scene.compile(), samples=args.samples, where=(scene.spec.path, None)))
     if args.json:
         emit({"scene": scene.name, **res.to_dict()})
     else:

@@ -133,8 +133,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("modes", help="natural frequencies and mode shapes about the static equilibrium "
                        "(mean mesh stiffness)")
     scene_args(p)
-    p.add_argument("--samples", type=int, default=32,
-                   help="samples per forcing period for the mean stiffness and loads (default 32)")
+    p.add_argument("--samples", type=int, default=None,
+                   help="equally spaced samples per forcing period for the mean stiffness and loads "
+                        "(default: the exact mean, Gauss-Legendre refined until it settles)")
     p.set_defaults(func=cmd_modes)
 
     p = sub.add_parser("map", help="two-parameter stability / response map (netCDF + heat map)")

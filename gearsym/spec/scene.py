@@ -143,8 +143,10 @@ class ResolvedScene:
         -------
         coordinates, velocities : list of str
         """
-        if self.model.reduction is not None:
-            return [self.model.reduction.coordinate], [self.model.reduction.velocity]
+        if self.model.reduction is not None:  # every reduced coordinate and every kept one
+            names = self.state_names()
+            half = len(names) // 2
+            return names[:half], names[half:]
         tied = {c.coordinate for c in self.model.constraints.values()}
         coords = [c for c in self.model.coordinates.values() if self.coordinate_active(c.name) and c.name not in tied]
         return [c.name for c in coords], [c.velocity for c in coords]
@@ -308,14 +310,13 @@ def resolve_scene(scene: SceneSpec, model: ModelSpec | None = None,
             initial[k] = evaluate_initial(k, v, params, model.units, model.units.get(k),
                                           lambda fld, msg, f=file: SpecError(msg, file=f, field=fld))
     static = bool(scene.static if scene.static is not None else model.static)
-    if static:  # the static equilibrium is at rest
-        velocities = ([model.reduction.velocity] if model.reduction is not None
-                      else [c.velocity for c in model.coordinates.values()])
-        for k in velocities:
+    rs = ResolvedScene(model, scene, state, values, active_params, initial, static, rules)
+    if static:  # the static equilibrium is at rest: every velocity (of reduced and kept coordinates)
+        for k in rs.coordinate_states()[1]:
             if initial.get(k, 0.0) != 0.0:
                 raise SpecError(f"static = true starts at rest: the velocity '{k}' must be 0 (or left out)",
                                 file=scene.path if k in scene.initial else model.path, field=f"initial.{k}")
-    return ResolvedScene(model, scene, state, values, active_params, initial, static, rules)
+    return rs
 
 
 def _used_names(model: ModelSpec, probe: ResolvedScene) -> tuple[set[str], dict[str, set[str]]]:

@@ -136,6 +136,7 @@ class SymbolicModel:
         self.outputs = self._outputs(ns)
         #: dynamic deflection (deflection - error) of every active mesh element, in the final states
         self.mesh_deflections: dict[str, sp.Expr] = dict(self._meshes)
+        self._check_final_states(ns)
         self.parameters = self._parameter_list()
 
     # ----------------------------------------------------------------- assembly
@@ -236,6 +237,27 @@ class SymbolicModel:
                                 file=spec.path, field=f"coordinates.{qi}")
         return M, Q
 
+    def _check_final_states(self, ns: Namespace) -> None:
+        """Every generated expression reads the final states only (after constraints and reduction).
+
+        A coordinate that is no longer a state would surface as an internal error of the
+        code generator ("symbol 'th1' has no value"); this names the spec field instead.
+        """
+        gone = (set(ns.coords.values()) | set(ns.vels.values())) - set(self.states)
+        if not gone:
+            return
+        spec = self.spec
+        rows = [(e, f"coordinates.{c}" if spec.reduction is None else "reduction")
+                for c, e in zip(self.coordinates, self.rhs[len(self.coordinates):])]
+        checks = [*rows, *((h.expr, _surface_field(spec, h.name)) for h in self._surface_hints),
+                  *((d, f"elements.{k}.deflection") for k, d in self.mesh_deflections.items())]
+        for expr, fld in checks:
+            left = sorted(str(s) for s in expr.free_symbols & gone)
+            if left:
+                raise SpecError(f"after the {'reduction' if spec.reduction is not None else 'constraints'} "
+                                f"this still depends on {', '.join(left)}, which are no longer states of the "
+                                f"model", file=spec.path, field=fld)
+
     @staticmethod
     def _collect(expr: sp.Expr) -> sp.Expr:
         return expr
@@ -245,11 +267,15 @@ class SymbolicModel:
         (:mod:`gearsym.symbolic.reduction_keep`)."""
         from .reduction_keep import reduce_keeping
 
-        q2, v2, M2, Q2, sub, m_eq, g = reduce_keeping(self, ns, q, v, M, Q, [h.expr for h in self._surface_hints])
+        hints = self._surface_hints
+        # the mesh deflections (per-mesh results) are rewritten in the new states with the surfaces
+        q2, v2, M2, Q2, sub, m_eq, g = reduce_keeping(self, ns, q, v, M, Q, [h.expr for h in hints], self._meshes,
+                                                      [_surface_field(self.spec, h.name) for h in hints])
         self._reduction_sub = sub
         self.reduced_mass = m_eq if self.structured else sp.simplify(m_eq)
         self._surface_hints = [SwitchingFunction(h.name, gh, h.meaning, h.contact_sign, h.kind)
-                               for h, gh in zip(self._surface_hints, g)]
+                               for h, gh in zip(hints, g)]
+        self._meshes = dict(zip(self._meshes, g[len(hints):]))
         return q2, v2, M2, Q2
 
     def _outputs(self, ns: Namespace) -> dict[str, sp.Expr]:
@@ -430,3 +456,9 @@ class SymbolicModel:
             cached = dimensionless_form(self)
             self.__dict__["_dimensionless"] = cached
         return cached
+
+
+def _surface_field(spec, name: str) -> str:
+    """The spec field a switching surface comes from: its element (``mesh.drive`` -> ``elements.mesh``)."""
+    element = name.rsplit(".", 1)[0]
+    return f"elements.{element}" if element in spec.elements else "reduction"

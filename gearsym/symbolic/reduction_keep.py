@@ -18,6 +18,7 @@ The reduced coordinate's mass is ``m_eq = 1/sum_E a_i^2/M_ii`` (``m_e`` of a pai
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import sympy as sp
@@ -30,8 +31,8 @@ if TYPE_CHECKING:
 
 
 def reduce_keeping(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: list[sp.Symbol], M: sp.Matrix,
-                   Q: sp.Matrix, surfaces: list[sp.Expr]
-                   ) -> tuple[list[sp.Symbol], list[sp.Symbol], sp.Matrix, sp.Matrix, dict[sp.Symbol, sp.Expr],
+                   Q: sp.Matrix, surfaces: list[sp.Expr], meshes: Mapping[str, sp.Expr] | None = None,
+                   surface_fields: Sequence[str] | None = None) -> tuple[list[sp.Symbol], list[sp.Symbol], sp.Matrix, sp.Matrix, dict[sp.Symbol, sp.Expr],
                               sp.Expr, list[sp.Expr]]:
     """Reduce ``M q'' = Q`` as described in the module docstring.
 
@@ -39,19 +40,26 @@ def reduce_keeping(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: l
     ----------
     surfaces
         Switching functions of the elements (contact surfaces), rewritten in the new states.
+    surface_fields
+        The spec field each surface comes from (named by the errors; default ``reduction``).
+    meshes
+        Dynamic deflection of every ``mesh`` element (by element name), rewritten in the
+        new states like the surfaces.
 
     Returns
     -------
-    coordinates, velocities, mass matrix, forces, substitution, reduced mass, surfaces
+    coordinates, velocities, mass matrix, forces, substitution, reduced mass, rewritten
         ``[x, q_K...]``, ``[x', v_K...]``, ``diag(m_eq, M_KK)``, ``[m_eq x'', Q_K]``, the
-        substitution of the eliminated coordinate and velocity, ``m_eq``, the surfaces.
+        substitution of the eliminated coordinate and velocity, ``m_eq``, the surfaces
+        followed by the mesh deflections (in the order given).
 
     Raises
     ------
     SpecError
         The definition is not linear with constant coefficients in the eliminated
-        coordinates, the mass matrix is not diagonal, or the reduced equations still
-        depend on an eliminated coordinate.
+        coordinates, the mass matrix is not diagonal, or the reduced equations, a surface
+        or a mesh deflection still depend on an eliminated coordinate (naming the
+        element's field).
     """
     from .expand import _expand_in_states
 
@@ -134,12 +142,24 @@ def reduce_keeping(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: l
     m_eq = 1 / sum(a[i] ** 2 / M[i, i] for i in E if a[i] != 0)
     Mr = sp.diag(m_eq, *[M[i, i] for i in K])
     Qr = sp.Matrix([m_eq * acc] + [accK[q[i]] * M[i, i] for i in K])
+    meshes = dict(meshes or {})
+    owners = list(surface_fields or ["reduction.keep"] * len(surfaces)) + \
+        [f"elements.{name}.deflection" for name in meshes]
+    rewritten = list(surfaces) + list(meshes.values())
     if is_direct:
-        surfaces = [hide(g).subs(definition, x) for g in surfaces]
-    surfaces = [g if not g.has(*[q[i] for i in E]) else
-                _expand_in_states(hide(g).subs(sub), states, t, blocks=True) for g in surfaces]
+        rewritten = [hide(g).subs(definition, x) for g in rewritten]
+    eliminated = [q[i] for i in E] + [v[i] for i in E]
+    rewritten = [g if not g.has(*eliminated) else
+                 _expand_in_states(hide(g).subs(sub), states, t, blocks=True) for g in rewritten]
+    for g, owner in zip(rewritten, owners):
+        left = sorted(str(o) for o in eliminated if g.has(o))
+        if left:
+            raise SpecError(f"cannot reduce to '{red.coordinate}' keeping {', '.join(red.keep)}: after the "
+                            f"reduction this still depends on {', '.join(left)} (it sees a combination of the "
+                            f"eliminated coordinates that the reduced coordinate does not describe)",
+                            file=spec.path, field=owner)
     shown = {d: e for e, d in hidden.items()}
-    return [x, *qK], [xd, *vK], Mr, Qr.xreplace(shown), sub, m_eq, [g.xreplace(shown) for g in surfaces]
+    return [x, *qK], [xd, *vK], Mr, Qr.xreplace(shown), sub, m_eq, [g.xreplace(shown) for g in rewritten]
 
 
 def _second_derivative(model: SymbolicModel, ns: Namespace, red, E: list[int], q: list[sp.Symbol],
