@@ -26,9 +26,8 @@ import numpy as np
 import pytest
 
 from gearsym.engine.build import find_sundials_libs
-from gearsym.export.bundle import elf_dynamic, sundials_bundle
 
-from .conftest import ROOT, make, scene_path
+from .conftest import make, scene_path
 
 #: Folders the system's dynamic loader takes libraries from (Debian multiarch and the rest).
 SYSTEM_DIRS = ("/lib/", "/lib64/", "/usr/lib/", "/usr/lib64/", "/usr/local/lib/")
@@ -62,6 +61,8 @@ needs_binutils = pytest.mark.skipif(shutil.which("readelf") is None or shutil.wh
 @needs_binutils
 def test_elf_reader_agrees_with_readelf():
     # the bundle reads DT_SONAME / DT_NEEDED itself (no binutils needed at export)
+    from gearsym.export.bundle import elf_dynamic
+
     for p in sorted(find_sundials_libs().libdir.glob("*.so*")):
         soname, needed = elf_dynamic(p.read_bytes())
         ref = _readelf(p)
@@ -69,6 +70,8 @@ def test_elf_reader_agrees_with_readelf():
 
 
 def test_bundle_is_the_linked_libraries_and_their_folder_dependencies():
+    from gearsym.export.bundle import elf_dynamic, sundials_bundle
+
     b = sundials_bundle()
     libdir = find_sundials_libs().libdir
     # the six libraries the driver links, and everything they need from the wheel's folder
@@ -143,9 +146,15 @@ def test_program_runs_after_the_exporting_environment_is_deleted(ks, tmp_path):
     where = subprocess.run([py, "-c", "from gearsym.engine.build import find_sundials_libs as f; "
                             "print(f().libdir)"], capture_output=True, text=True, env=env, check=True)
     assert Path(where.stdout.strip()).is_relative_to(venv)  # the export links the throwaway's copy
+    import gearsym
+
+    which = subprocess.run([py, "-c", "import gearsym; print(gearsym.__file__)"], capture_output=True, text=True,
+                           env=env, check=True, cwd=tmp_path)
+    assert which.stdout.strip() == gearsym.__file__  # the gearsym under test
     d = tmp_path / "ks_c"
+    # (not run from the repository: `-m` would import the gearsym in the working folder)
     exp = subprocess.run([py, "-m", "gearsym", "export", str(scene_path("kahraman_singh")), "--c", str(d)],
-                         capture_output=True, text=True, env=env, cwd=ROOT)
+                         capture_output=True, text=True, env=env, cwd=tmp_path)
     assert exp.returncode == 0, exp.stderr
     assert make(d).returncode == 0
     shutil.rmtree(venv)
