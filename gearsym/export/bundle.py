@@ -27,6 +27,7 @@ import importlib.metadata
 import re
 import struct
 from dataclasses import dataclass, field
+from importlib import resources
 from pathlib import Path
 
 from ..engine.build import find_sundials_libs
@@ -127,9 +128,7 @@ def _version(core: Path) -> str:
 
 
 def _template(name: str) -> str:
-    from .c_project import template
-
-    return template(name)
+    return resources.files("gearsym.export").joinpath("templates", name).read_text(encoding="utf-8")
 
 
 def _wheel_licences() -> dict[str, str]:
