@@ -212,3 +212,33 @@ def test_cs_fmu_runs_without_gearsym_or_its_environment(ks, tmp_path):
     ratio = ks.system.defaults["atol"] / ks.system.defaults["rtol"]
     ref = ks.system.simulate(periods=10, n_out=2, rtol=1e-8, atol=1e-8 * ratio, params={"Omega": 0.9})
     assert abs(float(x_end) - ref.y[-1, 0]) < 1e-6 and int(n_ev) == len(ref.events)
+
+
+def test_mesh_output_directional_derivatives(ks):
+    # in drive-side contact (x > b) the benchmark's mesh force is (1 + eps cos(Omega t)) (x - b) + 2 zeta v:
+    # its derivatives by x and v are the stiffness and the damping; the deflection's are 1 and 0
+    from fmpy.fmi2 import FMU2Model
+
+    md = read_model_description(str(ks.fmu))
+    v = {x.name: x.valueReference for x in md.modelVariables}
+    m = FMU2Model(guid=md.guid, unzipDirectory=extract(str(ks.fmu)),
+                  modelIdentifier=md.modelExchange.modelIdentifier, instanceName="me")
+    m.instantiate()
+    m.setupExperiment(startTime=0.0)
+    m.setReal([v["x"], v["v"]], [1.7, 0.3])
+    m.enterInitializationMode()
+    m.exitInitializationMode()
+    m.newDiscreteStates()
+    m.enterContinuousTimeMode()
+    t = 2.0
+    m.setTime(t)
+    p = ks.system.params
+    unknown = [v["mesh_force[mesh]"], v["mesh_deflection[mesh]"]]
+    dx = m.getDirectionalDerivative(unknown, [v["x"]], [1.0])
+    dv = m.getDirectionalDerivative(unknown, [v["v"]], [1.0])
+    k = 1 + p["eps"] * np.cos(p["Omega"] * t)
+    np.testing.assert_allclose(dx, [k, 1.0], rtol=1e-14)
+    np.testing.assert_allclose(dv, [2 * p["zeta"], 0.0], rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(m.getReal(unknown), [k * (1.7 - p["b"]) + 2 * p["zeta"] * 0.3, 1.7], rtol=1e-14)
+    m.terminate()
+    m.freeInstance()
