@@ -242,3 +242,23 @@ def test_mesh_output_directional_derivatives(ks):
     np.testing.assert_allclose(m.getReal(unknown), [k * (1.7 - p["b"]) + 2 * p["zeta"] * 0.3, 1.7], rtol=1e-14)
     m.terminate()
     m.freeInstance()
+
+
+def test_mesh_force_of_a_reduced_model():
+    # spur_pair_torsional is reduced to its DTE x = rb1 th1 - rb2 th2 - e_s: the mesh force in the
+    # reduced state is (k_m + k_a cos(omega t)) f(x) + c_m v, f the dead zone of half width b_m
+    import gearsym
+
+    from .conftest import scene_path
+
+    system = gearsym.load_scene(scene_path("spur_pair_torsional")).compile()
+    assert system.state_names == ["x", "v"]
+    f = system.generated.casadi_function("gs_mesh_force")
+    p = {**system.params, **system.units.to_si(system.params)}
+    pv = system.param_vector()
+    b = p["b_m"]
+    for t, x, v in [(1e-4, 2.5 * b, 0.3), (3e-4, 0.2 * b, -0.1), (7e-4, -1.7 * b, 0.05)]:
+        m = system.modes(np.array([t]), np.array([[x, v]]), pv)[0]
+        fx = x - b if x > b else (x + b if x < -b else 0.0)
+        ref = (p["k_m"] + p["k_a"] * np.cos(p["omega"] * t)) * fx + p["c_m"] * v
+        assert float(f(t, [x, v], pv, m)) == pytest.approx(ref, rel=1e-13, abs=1e-12 * p["k_m"] * b)

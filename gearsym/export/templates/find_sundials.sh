@@ -128,6 +128,8 @@ if [ -n "$BUNDLED_LIBDIR" ] && [ -d "$BUNDLED_LIBDIR" ]; then
   esac
   if find_libs "$BUNDLED_LIBDIR"; then emit "\$ORIGIN/$BUNDLED_LIBDIR"; fi
   note "skipping $BUNDLED_LIBDIR: $WHY"
+elif [ -n "$BUNDLED_LIBDIR" ]; then
+  note "no $BUNDLED_LIBDIR/ folder (the SUNDIALS libraries shipped at export; re-export to get it): looking elsewhere"
 fi
 
 # 4. pkg-config
