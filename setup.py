@@ -18,6 +18,7 @@ DATA = {
     "gearsym.templates": ["*.toml"],
     "gearsym.export.templates": ["*.c", "*.h", "*.sh", "*.in"],
     "gearsym.export.templates.fmi2": ["*.h"],
+    "gearsym.export.templates.sundials": ["LICENSE", "NOTICE"],
     **{pkg: ["*.toml"] for pkg in SHIPPED},
 }
 

@@ -154,7 +154,9 @@ def write_files(folder: str | Path, files: Mapping[str, str | bytes], executable
     folder
         An existing folder.
     files
-        File name (no folder part) -> text (UTF-8) or bytes.
+        File name -> text (UTF-8) or bytes.  A name is a plain file name or a relative
+        path of plain names (``"lib/libfoo.so"``): its folders are created (and removed
+        again on failure if they were created here and are still empty).
     executable
         Names of the files to make executable (as far as the umask allows).
 
@@ -166,11 +168,18 @@ def write_files(folder: str | Path, files: Mapping[str, str | bytes], executable
     folder = Path(folder)
     execs = set(executable)
     done: list[tuple[Path, Path]] = []
+    made: list[Path] = []
     try:
         for name, content in files.items():
             target = folder / name
-            if target.parent != folder:
-                raise ValueError(f"'{name}' is not a plain file name")
+            parts = Path(name).parts
+            if not parts or Path(name).is_absolute() or any(p in ("", ".", "..") for p in parts) \
+                    or target.name != parts[-1]:
+                raise ValueError(f"'{name}' is not a plain file name or relative path")
+            for sub in [folder.joinpath(*parts[:k]) for k in range(1, len(parts))]:
+                if not sub.exists():
+                    sub.mkdir()
+                    made.append(sub)
             tmp, mode = _new_temp(target, name in execs)
             done.append((tmp, target))
             data = content.encode("utf-8") if isinstance(content, str) else bytes(content)
@@ -182,6 +191,11 @@ def write_files(folder: str | Path, files: Mapping[str, str | bytes], executable
     except BaseException:
         for tmp, _ in done:
             tmp.unlink(missing_ok=True)
+        for sub in reversed(made):
+            try:
+                sub.rmdir()
+            except OSError:
+                pass
         raise
     return [t for _, t in done]
 

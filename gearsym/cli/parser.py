@@ -122,10 +122,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="folder for orbit.json, orbit_phase.png, orbit_multipliers.png")
     p.set_defaults(func=cmd_orbit)
 
-    p = sub.add_parser("export", help="standalone C project (--c DIR) and/or FMI 2.0 Model Exchange FMU "
-                       "(--fmu FILE.fmu) of a scene")
+    p = sub.add_parser("export", help="standalone C project (--c DIR, SUNDIALS libraries included) and/or "
+                       "FMI 2.0 FMU for Model Exchange and Co-Simulation (--fmu FILE.fmu) of a scene")
     scene_args(p)
-    p.add_argument("--c", metavar="DIR", help="folder for the C project (main.c, driver, Makefile, README)")
+    p.add_argument("--c", metavar="DIR", help="folder for the C project (main.c, driver, Makefile, README, "
+                   "lib/ with the SUNDIALS libraries)")
     p.add_argument("--fmu", metavar="FILE", help="FMU file to write (.fmu)")
     p.add_argument("--force", action="store_true", help="write into an existing non-empty folder / over a file")
     p.set_defaults(func=cmd_export)

@@ -131,7 +131,8 @@ def _steady_start(traj: Any) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """Export a scene as a standalone C project (--c DIR) and/or an FMI 2.0 ME FMU (--fmu FILE)."""
+    """Export a scene as a standalone C project (--c DIR) and/or an FMI 2.0 FMU (--fmu FILE), Model
+    Exchange and Co-Simulation."""
     from ..export import ExportError, export_scene
 
     if not args.c and not args.fmu:
@@ -144,6 +145,7 @@ def cmd_export(args: argparse.Namespace) -> int:
             print(f"wrote the C project {info['c']['directory']} (build: make -C {info['c']['directory']}; "
                   f"run: ./{info['c']['program']} --help)")
         if "fmu" in info:
-            print(f"wrote {info['fmu']['fmu']} (FMI 2.0 Model Exchange, linux64 binary built in "
+            print(f"wrote {info['fmu']['fmu']} (FMI 2.0 Model Exchange and Co-Simulation, "
+                  f"{info['fmu']['n_outputs']} continuous outputs, linux64 binary built in "
                   f"{info['fmu']['build_seconds']:.2f} s)")
     return 0

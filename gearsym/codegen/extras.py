@@ -5,6 +5,9 @@
   only when the model has rigid-body modes.
 * ``gs_mesh(t, x, p, m)``: the dynamic deflection (deflection - error) of every mesh
   element, in the order of ``GeneratedModel.meshes``; only when the model has meshes.
+* ``gs_mesh_force(t, x, p, m)``: the force of every mesh element along its line of action,
+  ``stiffness*f(delta) + damping*delta'`` (``f`` the backlash dead zone), in the same order
+  (exported FMUs give it as outputs); only when every mesh's force is known.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ __all__ = ["DOCS", "analysis_functions"]
 DOCS = {
     "gs_rigid": "rigid-body modes R(p) (columns, coordinates x modes): span{[R;0],[0;R]} of the state",
     "gs_mesh": "dynamic deflection (deflection - error) of every mesh element, for per-mesh results",
+    "gs_mesh_force": "force k*f(delta) + c*delta' of every mesh element along its line of action",
 }
 
 
@@ -33,6 +37,10 @@ def analysis_functions(model: SymbolicModel, tr: SXTranslator, t: ca.SX, x: ca.S
     if meshes:
         d = ca.vertcat(*[tr(e) for e in meshes.values()])
         fns["gs_mesh"] = ca.Function("gs_mesh", [t, x, p, m], [d], ["t", "x", "p", "m"], ["delta"])
+        forces = getattr(model, "mesh_forces", {})
+        if list(forces) == list(meshes):  # every mesh's force is known in the final states
+            w = ca.vertcat(*[tr(e) for e in forces.values()])
+            fns["gs_mesh_force"] = ca.Function("gs_mesh_force", [t, x, p, m], [w], ["t", "x", "p", "m"], ["W"])
     return fns
 
 

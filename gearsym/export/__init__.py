@@ -1,9 +1,13 @@
-"""Generated models outside Python: a standalone C project and an FMI 2.0 Model Exchange FMU.
+"""Generated models outside Python: a standalone C project and an FMI 2.0 FMU (Model Exchange
+and Co-Simulation).
 
 ``gearsym export SCENE --c DIR`` writes a C project (generated model, gearsym's driver, a
-command-line ``main.c``, a Makefile that finds SUNDIALS >= 7) that builds and runs without
-Python; ``gearsym export SCENE --fmu FILE.fmu`` writes an FMU whose runtime applies gearsym's
-mode-switch rule in the FMI event update.  Everything Python computes for a simulation
+command-line ``main.c``, a Makefile, and the SUNDIALS libraries it links in ``lib/``, found
+through the run path ``$ORIGIN/lib``) that builds and runs without Python and without the
+environment that exported it; ``gearsym export SCENE --fmu FILE.fmu`` writes an FMU whose
+runtime applies gearsym's mode-switch rule in the FMI event update (Model Exchange) or
+integrates each communication step with gearsym's driver (Co-Simulation), with the mesh
+deflections and mesh forces as outputs.  Everything Python computes for a simulation
 (parameters in SI units, bound functions such as the fractal backlash height, the scene's
 defaults) is evaluated at export time; the forcing period and the outputs are generated C.
 

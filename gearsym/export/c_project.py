@@ -3,8 +3,11 @@
 The folder holds the generated model (``gs_model.c/h``), gearsym's driver
 (``gs_driver.c/h`` and the ``gs_*.c`` / ``gs_internal.h`` it is split into,
 ``gs_model_abi.h``, ``sundials7.h``, copied from :mod:`gearsym.engine`), the exported metadata (``gs_export_data.h``), a command-line
-``main.c``, a ``Makefile`` with ``find_sundials.sh`` and a ``README.md`` that says how to
-build and run it without Python.
+``main.c``, a ``Makefile`` with ``find_sundials.sh``, a ``README.md`` that says how to
+build and run it without Python, and ``lib/``: the SUNDIALS libraries gearsym links (copied
+from the scikit-sundae wheel with their licence, :mod:`gearsym.export.bundle`), which the
+program finds through the run path ``$ORIGIN/lib``: it does not need the Python environment
+that exported it, and the folder can be moved.
 """
 
 from __future__ import annotations
@@ -13,9 +16,9 @@ import time
 from importlib import resources
 from pathlib import Path
 
-from ..engine.build import ENGINE_DIR, find_sundials_libs
-from ..engine.errors import SundialsNotFoundError
+from ..engine.build import ENGINE_DIR
 from ..files import write_files
+from .bundle import sundials_bundle
 from .model_info import ExportError, ExportModel, data_header
 from .targets import check_target_dir
 
@@ -35,11 +38,8 @@ def template(name: str) -> str:
     return resources.files("gearsym.export").joinpath("templates", name).read_text(encoding="utf-8")
 
 
-def _wheel_libdir() -> str:
-    try:
-        return str(find_sundials_libs().libdir)
-    except SundialsNotFoundError:
-        return ""
+#: The folder of the C project that holds the bundled SUNDIALS libraries.
+LIB_DIR = "lib"
 
 
 def write_c_project(em: ExportModel, directory: str | Path, force: bool = False) -> dict:
@@ -58,18 +58,24 @@ def write_c_project(em: ExportModel, directory: str | Path, force: bool = False)
     renamed onto their names only when all are complete: a failure (a full disk) leaves the
     folder's files as they were.
 
+    The SUNDIALS libraries are copied into ``lib/`` (:func:`gearsym.export.bundle.sundials_bundle`)
+    and the Makefile links them with the run path ``$ORIGIN/lib``, unless ``make
+    SUNDIALS_LIBDIR=...`` or ``SUNDIALS_DIR=...`` names others.
+
     Returns
     -------
     dict
-        ``{"directory", "files", "program", "seconds"}``.
+        ``{"directory", "files", "program", "sundials_version", "bundled", "seconds"}``
+        (``bundled``: the library files in ``lib/``).
 
     Raises
     ------
     ExportError
-        The target cannot be written.
+        The target cannot be written, or the SUNDIALS libraries cannot be found.
     """
     t0 = time.perf_counter()
     d = check_target_dir(directory, force)
+    bundle = sundials_bundle()
     try:
         d.mkdir(parents=True, exist_ok=True)
         files = {
@@ -78,34 +84,34 @@ def write_c_project(em: ExportModel, directory: str | Path, force: bool = False)
             "gs_export_data.h": data_header(em),
             "main.c": template("main.c"),
             "find_sundials.sh": template("find_sundials.sh"),
-            "Makefile": makefile(em.program, _wheel_libdir()),
-            "README.md": readme(em),
+            "Makefile": makefile(em.program, bundle.linked),
+            "README.md": readme(em, bundle.version),
             "params.txt": params_file(em),
         }
         for name in driver_files():
             files[name] = (ENGINE_DIR / name).read_text()
-        clash = [n for n in files if n.lower() == em.program.lower()]
+        clash = [n for n in [*files, LIB_DIR] if n.lower() == em.program.lower()]
         if clash:  # program_name() avoids it; a guard against a new file of the project
             raise ExportError(f"--c: the program '{em.program}' would be built over the project's '{clash[0]}'")
         # every file complete beside its target before any is renamed: a full disk or an
         # interrupt leaves the folder as it was (gearsym.files.write_files)
-        write_files(d, files, executable=["find_sundials.sh"])
+        libs = {f"{LIB_DIR}/{name}": content for name, content in bundle.files().items()}
+        write_files(d, {**files, **libs}, executable=["find_sundials.sh"])
     except OSError as exc:
         raise ExportError(f"--c: cannot write into '{d}': {exc.strerror or exc}") from None
-    return {"directory": str(d), "files": sorted(files), "program": em.program,
+    return {"directory": str(d), "files": sorted(files) + sorted(libs), "program": em.program,
+            "sundials_version": bundle.version, "bundled": sorted(f"{LIB_DIR}/{n}" for n in bundle.libs),
             "seconds": time.perf_counter() - t0}
 
 
-def makefile(program: str, wheel_libdir: str) -> str:
-    """The project's Makefile: main.c, the model and every C file of the driver."""
+def makefile(program: str, bundled: tuple[str, ...] | list[str] = ()) -> str:
+    """The project's Makefile: main.c, the model and every C file of the driver, linked
+    against the SUNDIALS libraries ``bundled`` (file names in ``lib/``, link order) unless
+    the user names others."""
     sources = " ".join(["main.c", "gs_model.c"] + [f for f in driver_files() if f.endswith(".c")])
     headers = " ".join(["gs_model.h", "gs_export_data.h"] + [f for f in driver_files() if f.endswith(".h")])
     return (template("Makefile.in").replace("@PROG@", program).replace("@SRCS@", sources)
-            .replace("@HDRS@", headers).replace("@WHEEL_LIBDIR@", _make_escape(wheel_libdir)))
-
-
-def _make_escape(path: str) -> str:
-    return path.replace("$", "$$").replace("#", "\\#").replace(" ", "\\ ")
+            .replace("@HDRS@", headers).replace("@BUNDLED@", " ".join(bundled)))
 
 
 def params_file(em: ExportModel) -> str:
@@ -133,8 +139,8 @@ def _md(text: str) -> str:
     return text.replace("|", "\\|").replace("\n", " ")
 
 
-def readme(em: ExportModel) -> str:
-    """README.md of the exported C project."""
+def readme(em: ExportModel, sundials_version: str = "") -> str:
+    """README.md of the exported C project (``sundials_version``: of the libraries in ``lib/``)."""
     dflt = em.defaults
     ex = "Omega=0.9 " if any(q.name == "Omega" for q in em.params) else ""
     rows = "\n".join(f"| `{q.name}` | {q.value:.10g} | {q.unit or '1'} | {_md(q.description)}"
@@ -168,17 +174,23 @@ the command-line program.
 ## Build
 
 ```sh
-make                                   # finds SUNDIALS >= 7, builds ./{em.program}
-make SUNDIALS_DIR=/opt/sundials-7.2    # a SUNDIALS installed under that prefix
-make SUNDIALS_LIBDIR=/path/to/libs     # a folder with the libsundials_*.so libraries
+make                                   # builds ./{em.program} with the SUNDIALS libraries in lib/
+make SUNDIALS_DIR=/opt/sundials-7.2    # a SUNDIALS >= 7 installed under that prefix instead
+make SUNDIALS_LIBDIR=/path/to/libs     # a folder with the libsundials_*.so libraries instead
 ```
 
-Needs a C compiler and the SUNDIALS >= 7 shared libraries (core, cvode, ida, nvecserial,
-sunmatrixdense, sunlinsoldense) built in double precision with 32-bit `sunindextype`; no SUNDIALS
-headers (the driver declares what it uses in `sundials7.h`).  `find_sundials.sh` looks at
-`SUNDIALS_LIBDIR`, `SUNDIALS_DIR`, pkg-config, CMake packages and the standard prefixes, and last
-at the libraries of the scikit-sundae wheel gearsym used when exporting (`WHEEL_LIBDIR` in the
-Makefile; `pip install scikit-sundae` on any machine provides them, no other Python is involved).
+Needs a C compiler only: `lib/` holds the SUNDIALS {sundials_version} shared libraries the program
+links (core, cvode, ida, nvecserial, sunmatrixdense, sunlinsoldense), copied at export from the
+scikit-sundae wheel gearsym uses.  The program finds them through its run path `$ORIGIN/lib`
+(the `lib/` folder beside it): it runs without Python and without the environment that exported
+it, and the folder can be moved or copied to another Linux x86-64 machine (glibc at least as
+recent as the wheel's manylinux tag).  SUNDIALS is distributed under the BSD 3-Clause licence;
+its text (`lib/LICENSE-SUNDIALS`, `lib/NOTICE-SUNDIALS`) goes with the libraries, and
+`lib/README.md` lists them with their checksums.
+
+Another SUNDIALS >= 7 (double precision, 32-bit `sunindextype`; no headers needed: the driver
+declares what it uses in `sundials7.h`) can be named with `SUNDIALS_DIR` or `SUNDIALS_LIBDIR`;
+without `lib/`, `find_sundials.sh` looks at pkg-config, CMake packages and the standard prefixes.
 SUNDIALS 6 (e.g. Debian 12's `libsundials-dev`) is refused with a message: the driver uses the
 SUNDIALS 7 API (`SUNContext_Create(SUNComm)`, the error-handler stack, `SUNLogger` file setters).
 The program checks the version and the index size again when it starts.

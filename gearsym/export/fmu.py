@@ -1,13 +1,20 @@
-"""``gearsym export SCENE --fmu FILE.fmu``: an FMI 2.0 Model Exchange FMU of a scene.
+"""``gearsym export SCENE --fmu FILE.fmu``: an FMI 2.0 FMU of a scene, for Model Exchange
+and for Co-Simulation.
 
 The FMU holds ``modelDescription.xml`` (states, derivatives, tunable parameters with units
-and descriptions, outputs, the side of each switching surface and the event count as
-discrete outputs, one event indicator per switching function), the linux64 binary built at
-export, and its sources (``sources/`` with ``buildDescription.xml``).  The runtime
-(``templates/fmu.c``: instance, event update, lifecycle; ``templates/fmu_access.c``: values,
-directional derivatives, the Model Exchange calls; ``templates/fmu_internal.h`` between them)
-applies gearsym's mode-switch rule in ``fmi2NewDiscreteStates`` and announces the scheduled
-breakpoints as time events.  The importer integrates the states.
+and descriptions, outputs: the model's ``[outputs]``, the dynamic deflection and the force
+of every mesh, the side of each switching surface and the event count; one event
+indicator per switching function), the linux64 binary built at export with the SUNDIALS
+libraries it links beside it (``binaries/linux64/``, found through the run path
+``$ORIGIN``; their licence in ``documentation/licenses/``), and its sources (``sources/``
+with ``buildDescription.xml``).  The runtime (``templates/fmu.c``: instance, event update,
+lifecycle; ``templates/fmu_access.c``: values, directional derivatives, the Model
+Exchange calls; ``templates/fmu_cs.c``: the Co-Simulation calls; ``templates/fmu_internal.h``
+between them) applies gearsym's mode-switch rule in ``fmi2NewDiscreteStates`` and announces
+the scheduled breakpoints as time events for Model Exchange (the importer integrates);
+for Co-Simulation ``fmi2DoStep`` integrates each communication step with gearsym's own
+driver (``gs_simulate``, the same code as ``System.simulate``), events and breakpoints
+handled inside the step.
 """
 
 from __future__ import annotations
@@ -25,10 +32,12 @@ from pathlib import Path
 
 import casadi as ca
 
-from ..errors import CompileError
+from ..engine.build import ENGINE_DIR, driver_cache_dir, driver_object, model_cflags
+from ..errors import CompileError, GearsymError
 from ..files import atomic_path
 from ..signals import run_child
-from .c_project import template
+from .bundle import sundials_bundle
+from .c_project import driver_files, template
 from .model_info import ExportError, ExportModel, Quantity, data_header, guid_of
 from .targets import check_target_file
 
@@ -36,29 +45,43 @@ __all__ = ["write_fmu", "model_description"]
 
 _FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 #: the FMU runtime: the same files for every model, copied from templates/ into sources/
-_RUNTIME = ("fmu.c", "fmu_access.c", "fmu_internal.h")
-_SOURCES = ("fmu.c", "fmu_access.c", "gs_model.c", "gsx_outx.c")
+_RUNTIME = ("fmu.c", "fmu_access.c", "fmu_cs.c", "fmu_internal.h")
+_OWN_SOURCES = ("fmu.c", "fmu_access.c", "fmu_cs.c", "gs_model.c", "gsx_out.c")
+#: the entry points the binary exports (everything else is local: the driver, the model)
+_EXPORTS_MAP = "{ global: fmi2*; local: *; };\n"
 
 
-def _outx_source(em: ExportModel) -> tuple[str, str] | None:
-    """C and header of ``gsx_outx(t, x, p, m) = d gs_out / d x`` (dense), for the
-    directional derivatives of the outputs; ``None`` if the model has no outputs."""
-    if not em.outputs:
+def _sources(outx: bool) -> list[str]:
+    """The C files of the binary: the runtime, the model, its outputs, gearsym's driver."""
+    own = [s for s in _OWN_SOURCES if s != "gsx_out.c" or outx]
+    return own + [f for f in driver_files() if f.endswith(".c")]
+
+
+def _out_source(em: ExportModel) -> tuple[str, str] | None:
+    """C and header of ``gsx_out(t, x, p, m)`` (the FMU's continuous outputs: the model's
+    ``gs_out``, then ``gs_mesh`` and ``gs_mesh_force``) and ``gsx_outx = d gsx_out / d x``
+    (dense, for the directional derivatives); ``None`` if the FMU has no continuous outputs."""
+    if not em.output_functions:
         return None
     from ..codegen.generate import GeneratedModel
 
     gen = GeneratedModel.from_json((em.generated_dir / "meta.json").read_text())
-    f = gen.casadi_function("gs_out")
-    t, x, p, m = (ca.SX.sym(f.name_in(i), f.size1_in(i)) for i in range(4))
-    J = ca.densify(ca.jacobian(f(t, x, p, m), x))
-    fn = ca.Function("gsx_outx", [t, x, p, m], [J], ["t", "x", "p", "m"], ["J"])
+    f0 = gen.casadi_function(em.output_functions[0])
+    t, x, p, m = (ca.SX.sym(f0.name_in(i), f0.size1_in(i)) for i in range(4))
+    y = ca.vertcat(*[gen.casadi_function(name)(t, x, p, m) for name in em.output_functions])
+    if y.size1() != len(em.fmu_outputs):  # pragma: no cover - collect() lists what these functions give
+        raise ExportError(f"the output functions give {y.size1()} values for {len(em.fmu_outputs)} outputs")
+    out = ca.Function("gsx_out", [t, x, p, m], [ca.densify(y)], ["t", "x", "p", "m"], ["y"])
+    outx = ca.Function("gsx_outx", [t, x, p, m], [ca.densify(ca.jacobian(y, x))], ["t", "x", "p", "m"], ["J"])
     with tempfile.TemporaryDirectory(prefix="gearsym-fmu-") as tmp:
-        cg = ca.CodeGenerator("gsx_outx.c", {"with_header": True, "casadi_real": "double", "prefix": "gsx_"})
-        cg.add(fn)
+        cg = ca.CodeGenerator("gsx_out.c", {"with_header": True, "casadi_real": "double", "prefix": "gsx_"})
+        cg.add(out)
+        cg.add(outx)
         cg.generate(tmp + "/")
-        c_text = (Path(tmp) / "gsx_outx.c").read_text()
-        h_text = (Path(tmp) / "gsx_outx.h").read_text()
-    header = "/* d gs_out / d x, for fmi2GetDirectionalDerivative (generated by gearsym export). */\n"
+        c_text = (Path(tmp) / "gsx_out.c").read_text()
+        h_text = (Path(tmp) / "gsx_out.h").read_text()
+    header = ("/* The FMU's outputs ([outputs], mesh deflections, mesh forces) and their Jacobian d / d x,\n"
+              " * for fmi2GetReal and fmi2GetDirectionalDerivative (generated by gearsym export). */\n")
     return header + c_text, header + h_text
 
 
@@ -88,7 +111,7 @@ _NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
 def _xml_texts(em: ExportModel) -> list[tuple[str, str]]:
     """(field, text) of every free text of the model that reaches ``modelDescription.xml``."""
     texts = [(f"the description of scene '{em.scene}' (or of its model '{em.model}')", em.description)]
-    for kind, items in (("state", em.states), ("parameter", em.params + em.extras), ("output", em.outputs)):
+    for kind, items in (("state", em.states), ("parameter", em.params + em.extras), ("output", em.fmu_outputs)):
         for q in items:
             texts.append((f"the meaning of {kind} '{q.name}' (model '{em.model}')", q.description))
             texts.append((f"the note of {kind} '{q.name}'", q.locked))
@@ -112,8 +135,24 @@ def check_xml_text(em: ExportModel) -> None:
                               f"(modelDescription.xml) cannot carry; remove it from the model or scene file")
 
 
+def _interfaces(root: ET.Element, em: ExportModel, outx: bool) -> None:
+    """The ``ModelExchange`` and ``CoSimulation`` elements (one binary serves both)."""
+    common = {"modelIdentifier": em.program, "needsExecutionTool": "false",
+              "canBeInstantiatedOnlyOncePerProcess": "false", "canNotUseMemoryManagementFunctions": "true",
+              "canGetAndSetFMUstate": "false", "canSerializeFMUstate": "false",
+              "providesDirectionalDerivative": "true"}
+    me = ET.SubElement(root, "ModelExchange", {**common, "completedIntegratorStepNotNeeded": "true"})
+    cs = ET.SubElement(root, "CoSimulation", {**common, "canHandleVariableCommunicationStepSize": "true",
+                                              "canInterpolateInputs": "false", "maxOutputDerivativeOrder": "0",
+                                              "canRunAsynchronuously": "false"})
+    for el in (me, cs):
+        sf = ET.SubElement(el, "SourceFiles")
+        for name in _sources(outx):
+            ET.SubElement(sf, "File", name=name)
+
+
 def model_description(em: ExportModel, guid: str, outx: bool) -> str:
-    """The ``modelDescription.xml`` of the FMU (FMI 2.0, Model Exchange).
+    """The ``modelDescription.xml`` of the FMU (FMI 2.0, Model Exchange and Co-Simulation).
 
     Raises
     ------
@@ -129,16 +168,8 @@ def model_description(em: ExportModel, guid: str, outx: bool) -> str:
         "generationTool": f"gearsym {em.gearsym_version}",
         "generationDateAndTime": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "variableNamingConvention": "flat", "numberOfEventIndicators": str(len(em.surfaces))})
-    me = ET.SubElement(root, "ModelExchange", {
-        "modelIdentifier": em.program, "needsExecutionTool": "false",
-        "completedIntegratorStepNotNeeded": "true", "canBeInstantiatedOnlyOncePerProcess": "false",
-        "canNotUseMemoryManagementFunctions": "true", "canGetAndSetFMUstate": "false",
-        "canSerializeFMUstate": "false", "providesDirectionalDerivative": "true"})
-    sf = ET.SubElement(me, "SourceFiles")
-    for name in _SOURCES:
-        if name != "gsx_outx.c" or outx:
-            ET.SubElement(sf, "File", name=name)
-    _unit_defs(root, em.states + em.params + em.extras + em.outputs + ([_period_unit(em)] if em.period else []))
+    _interfaces(root, em, outx)
+    _unit_defs(root, em.states + em.params + em.extras + em.fmu_outputs + ([_period_unit(em)] if em.period else []))
     lc = ET.SubElement(root, "LogCategories")
     ET.SubElement(lc, "Category", name="logEvents", description="mode switches (surface crossings)")
     ET.SubElement(lc, "Category", name="logStatusError", description="errors")
@@ -181,7 +212,7 @@ def model_description(em: ExportModel, guid: str, outx: bool) -> str:
                  "forcing period T(p) of the scene (stop time = periods * T)")
         _real(sv, unit=_period_unit(em).unit)
         vr += 1
-    for q in em.outputs:
+    for q in em.fmu_outputs:
         sv = add(q.name, vr, "output", "continuous", "calculated", q.description)
         _real(sv, unit=q.unit)
         vr += 1
@@ -194,7 +225,7 @@ def model_description(em: ExportModel, guid: str, outx: bool) -> str:
     ET.SubElement(sv, "Integer")
 
     ms = ET.SubElement(root, "ModelStructure")
-    outputs = [q.name for q in em.outputs] + [f"sigma[{s}]" for s, _ in em.surfaces] + ["n_events"]
+    outputs = [q.name for q in em.fmu_outputs] + [f"sigma[{s}]" for s, _ in em.surfaces] + ["n_events"]
     o = ET.SubElement(ms, "Outputs")
     for name in outputs:
         ET.SubElement(o, "Unknown", index=str(index[name]))
@@ -218,32 +249,58 @@ def _period_unit(em: ExportModel) -> Quantity:
     return Quantity("forcing_period", 0.0, "s", {"s": 1}) if em.time_unit == "s" else Quantity("T", 0.0)
 
 
-def _build_description(em: ExportModel, outx: bool) -> str:
+def _build_description(em: ExportModel, outx: bool, libs: list[str]) -> str:
     root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
     bc = ET.SubElement(root, "BuildConfiguration", modelIdentifier=em.program,
-                       description="gcc -O2 -fPIC -shared -fvisibility=hidden sources/*.c -lm")
+                       description="gcc -O2 -fPIC -shared -fvisibility=hidden -Wl,-Bsymbolic sources/*.c "
+                                   "the SUNDIALS libraries of binaries/linux64 -Wl,-rpath,$ORIGIN -lm")
     sfs = ET.SubElement(bc, "SourceFileSet", language="C99")
-    for name in _SOURCES:
-        if name != "gsx_outx.c" or outx:
-            ET.SubElement(sfs, "SourceFile", name=name)
+    for name in _sources(outx):
+        ET.SubElement(sfs, "SourceFile", name=name)
     ET.SubElement(sfs, "PreprocessorDefinition", name="CASADI_SYMBOL_EXPORT", value="")
+    for lib in libs:
+        ET.SubElement(bc, "Library", name=lib, description="SUNDIALS >= 7 (32-bit indices), in binaries/linux64")
     ET.SubElement(bc, "Library", name="m")
     ET.indent(root, space="  ")
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
 
-def _compile(src: Path, out: Path, sources: list[str], cc: str | None = None) -> float:
+def _compile(src: Path, out: Path, outx: bool, libs: list[Path], driver_fallback: Path,
+             cc: str | None = None) -> float:
+    """Build the FMU binary: the runtime and the model compiled here, the driver from gearsym's
+    driver object (the same sources, compiled once per driver version: :func:`driver_object`),
+    linked against ``libs`` (beside the binary) with the run path ``$ORIGIN``; only the
+    ``fmi2*`` entry points are exported."""
     cc = cc or os.environ.get("CC") or "gcc"
     if shutil.which(cc) is None:
         raise CompileError(f"C compiler '{cc}' not found; the FMU binary is built at export (install gcc)")
-    cmd = [cc, "-O2", "-pipe", "-fPIC", "-shared", "-fvisibility=hidden", "-DCASADI_SYMBOL_EXPORT=",
-           "-Wl,-Bsymbolic", f"-I{src}", *[str(src / s) for s in sources], "-o", str(out), "-lm"]
+    own = [s for s in _OWN_SOURCES if s != "gsx_out.c" or outx]
     t0 = time.perf_counter()
+    try:
+        driver = driver_object(driver_cache_dir(driver_fallback), cc)
+    except GearsymError as exc:
+        raise CompileError(f"building the FMU binary failed (the driver): {exc}") from None
+    (src.parent / "exports.map").write_text(_EXPORTS_MAP)
+    flags = ["-O2", "-pipe", "-fPIC", "-fvisibility=hidden", "-DCASADI_SYMBOL_EXPORT=", f"-I{src}"]
+    objs = []
+    for name in own:
+        obj = src.parent / (Path(name).stem + ".o")
+        extra = model_cflags((src / name).stat().st_size) if name == "gs_model.c" else []
+        _run([cc, *flags, *extra, "-c", str(src / name), "-o", str(obj)])
+        objs.append(str(obj))
+    _run([cc, "-shared", "-Wl,-Bsymbolic", f"-Wl,--version-script={src.parent / 'exports.map'}", *objs,
+          str(driver), *[str(p) for p in libs], "-Wl,-rpath,$ORIGIN", "-o", str(out), "-lm"])
+    for o in objs:
+        Path(o).unlink()
+    (src.parent / "exports.map").unlink()
+    return time.perf_counter() - t0
+
+
+def _run(cmd: list[str]) -> None:
     proc = run_child(cmd)  # stopped gently on Ctrl-C / SIGTERM: the compiler removes its temporary files
     if proc.returncode != 0:
         raise CompileError(f"building the FMU binary failed (exit {proc.returncode}):\n{' '.join(cmd)}\n"
                            f"{proc.stderr.strip()}")
-    return time.perf_counter() - t0
 
 
 def write_fmu(em: ExportModel, path: str | Path, force: bool = False) -> dict:
@@ -278,21 +335,24 @@ def write_fmu(em: ExportModel, path: str | Path, force: bool = False) -> dict:
     if platform.system() != "Linux" or platform.machine() not in ("x86_64", "AMD64"):
         raise ExportError(f"the FMU binary is built for linux64 only (this is {platform.system()} "
                           f"{platform.machine()}); use --c for a portable C project")
-    outx_src = _outx_source(em)
-    outx = outx_src is not None
+    out_src = _out_source(em)
+    outx = out_src is not None
+    bundle = sundials_bundle("`$ORIGIN` (binaries/linux64, beside the FMU's binary)")
     model_c = (em.generated_dir / "gs_model.c").read_text()
-    guid = guid_of(model_c, data_header(em, "", outx), repr([(q.name, q.value) for q in em.params]))
+    guid = guid_of(model_c, data_header(em, "", outx, fmu=True), repr([(q.name, q.value) for q in em.params]),
+                   *sorted(bundle.libs))
     files: dict[str, str] = {
         **{name: template(name) for name in _RUNTIME},
         "gs_model.c": model_c,
         "gs_model.h": (em.generated_dir / "gs_model.h").read_text(),
-        "gs_export_data.h": data_header(em, guid, outx),
-        "buildDescription.xml": _build_description(em, outx),
+        "gs_export_data.h": data_header(em, guid, outx, fmu=True),
+        "buildDescription.xml": _build_description(em, outx, [n.split(".so")[0][3:] for n in bundle.linked]),
+        **{name: (ENGINE_DIR / name).read_text() for name in driver_files()},
     }
     for h in _FMI_HEADERS:
         files[h] = template(f"fmi2/{h}")
-    if outx_src is not None:
-        files["gsx_outx.c"], files["gsx_outx.h"] = outx_src
+    if out_src is not None:
+        files["gsx_out.c"], files["gsx_out.h"] = out_src
     md = model_description(em, guid, outx)
     with tempfile.TemporaryDirectory(prefix="gearsym-fmu-") as tmp:
         root = Path(tmp)
@@ -302,11 +362,16 @@ def write_fmu(em: ExportModel, path: str | Path, force: bool = False) -> dict:
             (src / name).write_text(text, encoding="utf-8")
         binary = root / "binaries" / "linux64" / f"{em.program}.so"
         binary.parent.mkdir(parents=True)
-        build_s = _compile(src, binary, [s for s in _SOURCES if s != "gsx_outx.c" or outx])
+        for name, data in bundle.libs.items():  # found by the binary through its run path $ORIGIN
+            (binary.parent / name).write_bytes(data)
+        build_s = _compile(src, binary, outx, [binary.parent / n for n in bundle.linked],
+                           em.generated_dir.parent / ".driver")
         (root / "modelDescription.xml").write_text(md, encoding="utf-8")
         doc = root / "documentation"
-        doc.mkdir()
+        (doc / "licenses").mkdir(parents=True)
         (doc / "index.html").write_text(_doc_html(em), encoding="utf-8")
+        for name, text in bundle.notices.items():
+            (doc / "licenses" / name).write_text(text, encoding="utf-8")
         try:
             target.parent.mkdir(parents=True, exist_ok=True)
             # the archive is written beside the target and renamed onto it when complete: a
@@ -320,6 +385,8 @@ def write_fmu(em: ExportModel, path: str | Path, force: bool = False) -> dict:
             "n_states": em.nx, "n_event_indicators": len(em.surfaces),
             "n_parameters": sum(1 for q in em.params if not q.locked),
             "time_events": bool(em.schedule_breaks), "build_seconds": build_s,
+            "interfaces": ["ModelExchange", "CoSimulation"], "n_outputs": len(em.fmu_outputs),
+            "sundials_version": bundle.version,
             "seconds": time.perf_counter() - t0}
 
 
@@ -332,9 +399,14 @@ def _doc_html(em: ExportModel) -> str:
     notes = "".join(f"<li>{escape(n)}</li>" for n in em.bound_notes)
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{escape(em.scene)}</title></head><body>"
             f"<h1>{escape(em.scene)}</h1><p>{escape(em.description)}</p>"
-            "<p>Exported by gearsym as an FMI 2.0 Model Exchange FMU. The event indicators are the switching "
+            "<p>Exported by gearsym as an FMI 2.0 FMU for Model Exchange and Co-Simulation. Model Exchange: "
+            "the event indicators are the switching "
             "functions; the side sigma of each surface is a discrete state, switched in the event update "
             "(disarmed until the trajectory crosses back); scheduled breakpoints are time events. "
-            "Parameters are in SI units.</p>"
+            "Co-Simulation: fmi2DoStep integrates each communication step with gearsym's driver (SUNDIALS "
+            "CVODE, events and breakpoints handled inside the step as System.simulate does; rtol from "
+            "fmi2SetupExperiment, else the scene's). Outputs: the model's outputs, the dynamic deflection and "
+            "the force of every mesh. Parameters are in SI units. The SUNDIALS libraries beside the binary are "
+            "BSD-3-Clause licensed (documentation/licenses).</p>"
             f"<table><tr><th>parameter</th><th>value</th><th>unit</th><th>meaning</th></tr>{rows}</table>"
             f"{'<p>Recorded at export:</p><ul>' + notes + '</ul>' if notes else ''}</body></html>\n")

@@ -87,6 +87,16 @@ class ExportModel:
     bound_notes: list[str] = field(default_factory=list)
     gearsym_version: str = ""
     time_unit: str = "s"
+    #: per mesh element: its dynamic deflection ``mesh_deflection[NAME]`` (``gs_mesh``), then
+    #: its force ``mesh_force[NAME]`` (``gs_mesh_force``): outputs of the FMU
+    mesh_outputs: list[Quantity] = field(default_factory=list)
+    #: the generated functions behind the FMU's outputs, in output order
+    output_functions: tuple[str, ...] = ()
+
+    @property
+    def fmu_outputs(self) -> list[Quantity]:
+        """The FMU's continuous outputs: the model's ``[outputs]``, then :attr:`mesh_outputs`."""
+        return self.outputs + self.mesh_outputs
 
     @property
     def nx(self) -> int:
@@ -259,6 +269,7 @@ def collect(scene, generated_dir: str | Path | None = None) -> ExportModel:
         spec = ms.outputs.get(name)
         outputs.append(Quantity(name, 0.0, si, base, _describe(spec.meaning if spec else "", declared, si)))
     states = _state_quantities(scene, gen.state_names, system.x0)
+    mesh_outputs, out_fns = _mesh_outputs(scene, gen)
     sim = scene.spec.simulate
     method = "ida" if gen.implicit else str(sim.get("method", "adams"))
     defaults: dict[str, float | int | str] = {
@@ -276,9 +287,70 @@ def collect(scene, generated_dir: str | Path | None = None) -> ExportModel:
         extras=extras, outputs=outputs, surfaces=[(s["name"], s.get("meaning", "")) for s in gen.surfaces],
         schedule_breaks=[int(s["n_breaks"]) for s in gen.schedules], period=period, implicit=gen.implicit,
         defaults=defaults, effects={k: v for k, v in scene.resolved.effects.items() if v is not False},
-        bound_notes=notes, gearsym_version=__version__, time_unit=getattr(ms, "time_unit", "s") or "s")
+        bound_notes=notes, gearsym_version=__version__, time_unit=getattr(ms, "time_unit", "s") or "s",
+        mesh_outputs=mesh_outputs, output_functions=(("gs_out",) if outputs else ()) + out_fns)
     _check_names(em)
     return em
+
+
+def _mesh_units(scene, names: list[str]) -> dict[str, tuple[str, str]]:
+    """SI units ``(deflection, force)`` of each mesh, from the dimensions of its expressions
+    (``("", "")`` where they cannot be told)."""
+    from ..symbolic.dims import DimensionError, Dimensions
+
+    sm = scene.model
+    spec = sm.spec
+    table = {}
+
+    def dims(name: str):
+        u = spec.units.get(name)
+        return tuple(Fraction(d) for d in u.dims) if u is not None else (Fraction(0),) * 3
+
+    for name, sym in sm.ns.params.items():
+        table[sym] = dims(name)
+    for sym in sm.ns.derived:
+        table[sym] = dims(str(sym))
+    for sym in sm.states:
+        table[sym] = dims(str(sym))
+    table[sm.t] = tuple(Fraction(d) for d in spec.time_dims.dims)
+    dz = Dimensions(table)
+
+    def unit(e) -> str:
+        try:
+            d = dz(e)
+        except DimensionError:
+            return ""
+        return "*".join(b if k == 1 else f"{b}^{k}" for b, k in zip(("kg", "m", "s"), d) if k)
+
+    out = {}
+    for name in names:
+        defl = sm.mesh_deflections.get(name)
+        force = sm.mesh_forces.get(name)
+        out[name] = (unit(defl) if defl is not None else "", unit(force) if force is not None else "")
+    return out
+
+
+def _mesh_outputs(scene, gen) -> tuple[list[Quantity], tuple[str, ...]]:
+    """The mesh deflections (``gs_mesh``) and mesh forces (``gs_mesh_force``) as outputs."""
+    names = list(getattr(gen, "meshes", []) or [])
+    if not names or "gs_mesh" not in gen.functions:
+        return [], ()
+    fns: tuple[str, ...] = ("gs_mesh",)
+    has_force = "gs_mesh_force" in gen.functions
+    if has_force:
+        fns += ("gs_mesh_force",)
+    units = _mesh_units(scene, names)
+    out = []
+    for name in names:
+        si, base = si_unit(units[name][0])
+        out.append(Quantity(f"mesh_deflection[{name}]", 0.0, si, base,
+                            f"dynamic deflection of mesh {name} along its line of action (deflection - error)"))
+    for name in names if has_force else ():
+        si, base = si_unit(units[name][1])
+        out.append(Quantity(f"mesh_force[{name}]", 0.0, si, base,
+                            f"force of mesh {name} along its line of action: stiffness*f(delta) + damping*delta' "
+                            f"(f the backlash dead zone)"))
+    return out, fns
 
 
 def _check_names(em: ExportModel) -> None:
@@ -333,7 +405,7 @@ def guid_of(*texts: str) -> str:
     return "{" + f"{h[:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:32]}" + "}"
 
 
-def data_header(em: ExportModel, guid: str = "", outx: bool = False) -> str:
+def data_header(em: ExportModel, guid: str = "", outx: bool = False, fmu: bool = False) -> str:
     """The text of ``gs_export_data.h`` for this model.
 
     Parameters
@@ -343,8 +415,13 @@ def data_header(em: ExportModel, guid: str = "", outx: bool = False) -> str:
     guid
         The FMU's GUID (``""`` for the C project).
     outx
-        Whether ``gsx_outx`` (output Jacobian, FMU only) is compiled in.
+        Whether ``gsx_out`` / ``gsx_outx`` (the FMU's outputs and their Jacobian) are
+        compiled in.
+    fmu
+        For the FMU: the outputs are :attr:`ExportModel.fmu_outputs` (the model's outputs and
+        the mesh outputs); for the C program the model's ``[outputs]``.
     """
+    outputs = em.fmu_outputs if fmu else em.outputs
     nx, np_, nsw = em.nx, len(em.params), len(em.surfaces)
     nsched = len(em.schedule_breaks)
     nsched_total = sum(1 + b for b in em.schedule_breaks)
@@ -359,7 +436,7 @@ def data_header(em: ExportModel, guid: str = "", outx: bool = False) -> str:
         f"#define GSX_GUID {c_string(guid)}\n",
         f"#define GSX_NX {nx}\n#define GSX_NP {np_}\n#define GSX_NSW {nsw}\n#define GSX_NSCHED {nsched}\n",
         "#define GSX_NM (GSX_NSW + 2 * GSX_NSCHED)\n",
-        f"#define GSX_NSCHED_TOTAL {nsched_total}\n#define GSX_NOUT {len(em.outputs)}\n",
+        f"#define GSX_NSCHED_TOTAL {nsched_total}\n#define GSX_NOUT {len(outputs)}\n",
         f"#define GSX_NEXTRA {len(em.extras)}\n",
         f"#define GSX_HAS_PERIOD {1 if em.period else 0}\n#define GSX_HAS_OUTX {1 if outx else 0}\n",
         f"#define GSX_IMPLICIT {1 if em.implicit else 0}\n\n",
@@ -391,7 +468,7 @@ def data_header(em: ExportModel, guid: str = "", outx: bool = False) -> str:
         _arr("char* const", "gsx_extra_units", [c_string(q.unit) for q in em.extras]),
         _arr("double", "gsx_extra_value", [_c_double(q.value) for q in em.extras]),
         _arr("char* const", "gsx_extra_note", [c_string(q.locked) for q in em.extras]),
-        _arr("char* const", "gsx_output_names", [c_string(q.name) for q in em.outputs]),
+        _arr("char* const", "gsx_output_names", [c_string(q.name) for q in outputs]),
         _arr("char* const", "gsx_surface_names", [c_string(s) for s, _ in em.surfaces]),
         _arr("int", "gsx_sched_nb", [str(b) for b in em.schedule_breaks]),
         "\n#endif\n",

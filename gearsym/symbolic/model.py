@@ -70,6 +70,7 @@ class SymbolicModel:
         self._deflections: list[sp.Expr] = []    # geometric deflections of springs, dampers, meshes
         self._force_exprs: list[sp.Expr] = []    # other expressions that enter forces
         self._meshes: dict[str, sp.Expr] = {}    # mesh element -> dynamic deflection (deflection - error)
+        self._mesh_forces: dict[str, sp.Expr] = {}  # mesh element -> mesh force k*f(delta) + c*delta'
         M, Q = self._assemble(ns, q, v)
         #: algebraic variables (constraint multipliers; states after the velocities) and the
         #: constraint rows ``= 0`` in terms of the accelerations (gearsym/symbolic/constraints.py)
@@ -137,6 +138,9 @@ class SymbolicModel:
         #: dynamic deflection (deflection - error) of every active mesh element, in the final states
         self.mesh_deflections: dict[str, sp.Expr] = dict(self._meshes)
         self._check_final_states(ns)
+        #: force of every active mesh element along its line of action, ``k*f(delta) + c*delta'``
+        #: (``f`` the backlash dead zone), in the final states
+        self.mesh_forces: dict[str, sp.Expr] = self._final_mesh_forces()
         self.parameters = self._parameter_list()
 
     # ----------------------------------------------------------------- assembly
@@ -217,6 +221,7 @@ class SymbolicModel:
                     f, surfaces = dead_zone(el.name, el.drive_side, delta, b)
                     self._surface_hints += surfaces
                     W = k * f + c * ddt(delta)
+                    self._mesh_forces[el.name] = W
                 gfree = geom.free_symbols
                 for i, qi in enumerate(q):
                     if qi not in gfree:
@@ -257,6 +262,22 @@ class SymbolicModel:
                 raise SpecError(f"after the {'reduction' if spec.reduction is not None else 'constraints'} "
                                 f"this still depends on {', '.join(left)}, which are no longer states of the "
                                 f"model", file=spec.path, field=fld)
+    def _final_mesh_forces(self) -> dict[str, sp.Expr]:
+        """The mesh forces in the final states (constraints, then the reduction, substituted
+        as for the mesh deflections); a force that still reads an eliminated coordinate is left out."""
+        states = tuple(self.states)
+        allowed = set(states) | {self.t}
+        dynamic = set(self.ns.coords.values()) | set(self.ns.vels.values())
+        out = {}
+        for name, W in self._mesh_forces.items():
+            if self.constraint_rows is not None:
+                W = W.xreplace(self._constraint_sub)
+            sub = getattr(self, "_reduction_sub", None)
+            if sub is not None:
+                W = _expand_in_states(W.subs(sub), states, self.t)
+            if not ((W.free_symbols & dynamic) - allowed):
+                out[name] = W
+        return out
 
     @staticmethod
     def _collect(expr: sp.Expr) -> sp.Expr:

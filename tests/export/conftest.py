@@ -68,3 +68,9 @@ def vs(export_root) -> Exported:
 def yu(export_root) -> Exported:
     """Yu et al. 6-DOF pair with dynamic and fractal backlash (a bound function, outputs)."""
     return Exported(export_root, "yu_dynamic_D14")
+
+
+@pytest.fixture(scope="session")
+def ts(export_root) -> Exported:
+    """The free two-stage train (two meshes, rectangular mesh stiffness schedules): FMU only."""
+    return Exported(export_root, "two_stage_train", c=False)

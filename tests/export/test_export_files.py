@@ -74,7 +74,7 @@ def full_disk(monkeypatch, folder: Path, room: int) -> None:
     def fake_open(file, mode="r", *args, **kwargs):
         f = real_open(file, mode, *args, **kwargs)
         if isinstance(file, (str, os.PathLike)) and any(c in mode for c in "wax+") and \
-                Path(file).resolve().parent == folder:
+                folder in Path(file).resolve().parents:
             return Writer(f)
         return f
 
@@ -92,7 +92,9 @@ def em(ks):
 
 
 def _snapshot(folder: Path) -> dict[str, bytes]:
-    return {p.name: p.read_bytes() for p in folder.iterdir()}
+    """Every file under ``folder`` (the C project's ``lib/`` included) by relative path, and
+    every folder (as ``b"<dir>"``)."""
+    return {str(p.relative_to(folder)): b"<dir>" if p.is_dir() else p.read_bytes() for p in folder.rglob("*")}
 
 
 def test_fmu_force_on_a_full_disk_keeps_the_old_fmu(em, ks, tmp_path, monkeypatch):
@@ -109,8 +111,9 @@ def test_fmu_force_on_a_full_disk_keeps_the_old_fmu(em, ks, tmp_path, monkeypatc
 def test_c_project_on_a_full_disk_changes_no_file(em, tmp_path, monkeypatch):
     d = tmp_path / "ks_c"
     write_c_project(em, d)
-    for f in d.iterdir():  # an older export: every file differs from what is written now
-        f.write_bytes(b"old " + f.name.encode())
+    for f in d.rglob("*"):  # an older export: every file differs from what is written now
+        if f.is_file():
+            f.write_bytes(b"old " + f.name.encode())
     before = _snapshot(d)
     full_disk(monkeypatch, d, room=60_000)
     with pytest.raises(ExportError, match="No space left on device"):
@@ -278,8 +281,10 @@ def test_exported_files_have_the_permissions_of_new_files(em, ks, tmp_path):
         write_fmu(em, fmu, force=True)
     finally:
         os.umask(old)
-    modes = {p.name: stat.S_IMODE(p.stat().st_mode) for p in d.iterdir()}
+    modes = {str(p.relative_to(d)): stat.S_IMODE(p.stat().st_mode) for p in d.rglob("*")}
     assert modes.pop("find_sundials.sh") == 0o750
+    assert modes.pop("lib") == 0o750  # a new folder: 0o777 less the umask
+    assert any(n.startswith("lib/libsundials_cvode") for n in modes)
     assert set(modes.values()) == {0o640}
     assert stat.S_IMODE(fmu.stat().st_mode) == 0o640
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c", "ks.fmu"]

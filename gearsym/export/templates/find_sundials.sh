@@ -7,11 +7,13 @@
 #   1. SUNDIALS_LIBDIR  a folder holding libsundials_core, _cvode, _ida, _nvecserial,
 #                       _sunmatrixdense, _sunlinsoldense (*.so*)
 #   2. SUNDIALS_DIR     an install prefix (or its lib/cmake/sundials folder)
-#   3. pkg-config       modules sundials-cvode / sundials_cvode, if the install has them
-#   4. CMake packages   SUNDIALSConfig.cmake under CMAKE_PREFIX_PATH, /usr/local, /usr,
+#   3. BUNDLED_LIBDIR   the libraries shipped with this project (lib/, copied at export
+#                       from the scikit-sundae wheel), linked by relative path with the
+#                       run path $ORIGIN/lib: the program finds them beside itself
+#   4. pkg-config       modules sundials-cvode / sundials_cvode, if the install has them
+#   5. CMake packages   SUNDIALSConfig.cmake under CMAKE_PREFIX_PATH, /usr/local, /usr,
 #                       /opt/sundials*; and headers + libraries under those prefixes
-#   5. WHEEL_LIBDIR     the SUNDIALS libraries of the scikit-sundae wheel recorded at export
-# An explicit choice (1, 2) that does not fit is an error; an automatic find (3, 4) that
+# An explicit choice (1, 2) that does not fit is an error; an automatic find (3, 4, 5) that
 # does not fit is skipped with a note.
 #
 # What fits: SUNDIALS >= 7 (the driver uses the v7 API: SUNContext_Create(SUNComm),
@@ -119,7 +121,18 @@ if [ -n "$SUNDIALS_DIR" ]; then
   try_prefix "$SUNDIALS_DIR" 1
 fi
 
-# 3. pkg-config
+# 3. the libraries shipped in the project (a relative folder: found beside the program)
+if [ -n "$BUNDLED_LIBDIR" ] && [ -d "$BUNDLED_LIBDIR" ]; then
+  case "$BUNDLED_LIBDIR" in
+    /*) note "BUNDLED_LIBDIR must be relative to the project folder"; exit 1 ;;
+  esac
+  if find_libs "$BUNDLED_LIBDIR"; then emit "\$ORIGIN/$BUNDLED_LIBDIR"; fi
+  note "skipping $BUNDLED_LIBDIR: $WHY"
+elif [ -n "$BUNDLED_LIBDIR" ]; then
+  note "no $BUNDLED_LIBDIR/ folder (the SUNDIALS libraries shipped at export; re-export to get it): looking elsewhere"
+fi
+
+# 4. pkg-config
 if command -v pkg-config >/dev/null 2>&1; then
   for mod in sundials-cvode sundials_cvode; do
     if pkg-config --exists "$mod" 2>/dev/null; then
@@ -133,7 +146,7 @@ if command -v pkg-config >/dev/null 2>&1; then
   done
 fi
 
-# 4. CMake packages and standard prefixes
+# 5. CMake packages and standard prefixes
 OLDIFS=$IFS
 IFS=:
 for p in $CMAKE_PREFIX_PATH; do
@@ -149,12 +162,6 @@ for p in /usr/local /opt/sundials* /usr; do
     try_prefix "$p" 0
   fi
 done
-
-# 5. the scikit-sundae wheel recorded at export
-if [ -n "$WHEEL_LIBDIR" ] && [ -d "$WHEEL_LIBDIR" ]; then
-  if find_libs "$WHEEL_LIBDIR"; then emit "$WHEEL_LIBDIR"; fi
-  note "WHEEL_LIBDIR=$WHEEL_LIBDIR: $WHY"
-fi
 
 note "no SUNDIALS >= 7 found.  Install SUNDIALS >= 7 (32-bit indices) and run"
 note "  make SUNDIALS_DIR=/its/prefix    or    make SUNDIALS_LIBDIR=/folder/with/the/libraries"

@@ -1,8 +1,9 @@
 /*
  * fmu_access.c -- FMI 2.0 entry points of the gearsym FMU runtime that read and write
  * a running instance: values (fmi2Get/Set*), directional derivatives, the Model
- * Exchange calls (event mode, states, derivatives, event indicators), and the
- * unsupported FMU-state and Co-Simulation calls, which report an error.
+ * Exchange calls (event mode, states, derivatives, event indicators; refused on a
+ * Co-Simulation instance), and the unsupported FMU-state calls, which report an error.
+ * The Co-Simulation calls are in fmu_cs.c.
  *
  * The instance, the calls of the generated functions and the event update are in
  * fmu.c (see there for the hybrid-model rule); fmu_internal.h is what the two share.
@@ -242,6 +243,7 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component comp, const fmi2ValueRefer
 /* ---- Model Exchange ---- */
 fmi2Status fmi2EnterEventMode(fmi2Component comp) {
   gsx_inst* c = (gsx_inst*)comp;
+  if (c && c->cs) return gsx_fail(c, "%s: a Model Exchange call on a Co-Simulation instance", "fmi2EnterEventMode");
   if (!c) return fmi2Error;
   if (c->mode != M_CONT && c->mode != M_EVENT) return gsx_fail(c, "fmi2EnterEventMode: wrong state%s", "");
   c->mode = M_EVENT;
@@ -250,6 +252,7 @@ fmi2Status fmi2EnterEventMode(fmi2Component comp) {
 
 fmi2Status fmi2NewDiscreteStates(fmi2Component comp, fmi2EventInfo* ei) {
   gsx_inst* c = (gsx_inst*)comp;
+  if (c && c->cs) return gsx_fail(c, "%s: a Model Exchange call on a Co-Simulation instance", "fmi2NewDiscreteStates");
   if (!c || !ei) return fmi2Error;
   if (c->mode != M_EVENT) return gsx_fail(c, "fmi2NewDiscreteStates: not in event mode%s", "");
   ei->newDiscreteStatesNeeded = fmi2False;
@@ -270,6 +273,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component comp, fmi2EventInfo* ei) {
 
 fmi2Status fmi2EnterContinuousTimeMode(fmi2Component comp) {
   gsx_inst* c = (gsx_inst*)comp;
+  if (c && c->cs) return gsx_fail(c, "%s: a Model Exchange call on a Co-Simulation instance", "fmi2EnterContinuousTimeMode");
   if (!c) return fmi2Error;
   if (c->mode != M_EVENT) return gsx_fail(c, "fmi2EnterContinuousTimeMode: not in event mode%s", "");
   c->mode = M_CONT;
@@ -287,6 +291,7 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component comp, fmi2Boolean noSetFMUS
 
 fmi2Status fmi2SetTime(fmi2Component comp, fmi2Real time) {
   gsx_inst* c = (gsx_inst*)comp;
+  if (c && c->cs) return gsx_fail(c, "%s: a Model Exchange call on a Co-Simulation instance", "fmi2SetTime");
   if (!c) return fmi2Error;
   c->t = time;
   return fmi2OK;
@@ -294,6 +299,7 @@ fmi2Status fmi2SetTime(fmi2Component comp, fmi2Real time) {
 
 fmi2Status fmi2SetContinuousStates(fmi2Component comp, const fmi2Real x[], size_t nx) {
   gsx_inst* c = (gsx_inst*)comp;
+  if (c && c->cs) return gsx_fail(c, "%s: a Model Exchange call on a Co-Simulation instance", "fmi2SetContinuousStates");
   if (!c || nx != GSX_NX || !x) return fmi2Error;
   memcpy(c->x, x, sizeof(double) * GSX_NX);
   return fmi2OK;
@@ -301,6 +307,7 @@ fmi2Status fmi2SetContinuousStates(fmi2Component comp, const fmi2Real x[], size_
 
 fmi2Status fmi2GetDerivatives(fmi2Component comp, fmi2Real derivatives[], size_t nx) {
   gsx_inst* c = (gsx_inst*)comp;
+  if (c && c->cs) return gsx_fail(c, "%s: a Model Exchange call on a Co-Simulation instance", "fmi2GetDerivatives");
   if (!c || nx != GSX_NX || !derivatives) return fmi2Error;
   if (gsx_pre_init_mode(c) || gsx_rhs(c, c->m, derivatives)) {
     gsx_log(c, fmi2Error, "logStatusError", "the right-hand side is not finite at t=%.17g", c->t);
@@ -311,6 +318,7 @@ fmi2Status fmi2GetDerivatives(fmi2Component comp, fmi2Real derivatives[], size_t
 
 fmi2Status fmi2GetEventIndicators(fmi2Component comp, fmi2Real eventIndicators[], size_t ni) {
   gsx_inst* c = (gsx_inst*)comp;
+  if (c && c->cs) return gsx_fail(c, "%s: a Model Exchange call on a Co-Simulation instance", "fmi2GetEventIndicators");
   if (!c || ni != GSX_NSW) return fmi2Error;
   if (ni == 0) return fmi2OK;
   if (gsx_swfn(c, &c->sw, eventIndicators)) {
@@ -322,6 +330,7 @@ fmi2Status fmi2GetEventIndicators(fmi2Component comp, fmi2Real eventIndicators[]
 
 fmi2Status fmi2GetContinuousStates(fmi2Component comp, fmi2Real x[], size_t nx) {
   gsx_inst* c = (gsx_inst*)comp;
+  if (c && c->cs) return gsx_fail(c, "%s: a Model Exchange call on a Co-Simulation instance", "fmi2GetContinuousStates");
   if (!c || nx != GSX_NX || !x) return fmi2Error;
   memcpy(x, c->x, sizeof(double) * GSX_NX);
   return fmi2OK;
@@ -329,59 +338,8 @@ fmi2Status fmi2GetContinuousStates(fmi2Component comp, fmi2Real x[], size_t nx) 
 
 fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component comp, fmi2Real x_nominal[], size_t nx) {
   gsx_inst* c = (gsx_inst*)comp;
+  if (c && c->cs) return gsx_fail(c, "%s: a Model Exchange call on a Co-Simulation instance", "fmi2GetNominalsOfContinuousStates");
   if (!c || nx != GSX_NX || !x_nominal) return fmi2Error;
   memcpy(x_nominal, gsx_nominal, sizeof(double) * GSX_NX);
   return fmi2OK;
-}
-
-/* ---- Co-Simulation entry points: this is a Model Exchange FMU ---- */
-fmi2Status fmi2SetRealInputDerivatives(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr,
-                                       const fmi2Integer order[], const fmi2Real value[]) {
-  (void)vr;
-  (void)nvr;
-  (void)order;
-  (void)value;
-  return gsx_fail((gsx_inst*)comp, "Co-Simulation is not supported%s", "");
-}
-fmi2Status fmi2GetRealOutputDerivatives(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr,
-                                        const fmi2Integer order[], fmi2Real value[]) {
-  (void)vr;
-  (void)nvr;
-  (void)order;
-  (void)value;
-  return gsx_fail((gsx_inst*)comp, "Co-Simulation is not supported%s", "");
-}
-fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean noSet) {
-  (void)t;
-  (void)h;
-  (void)noSet;
-  return gsx_fail((gsx_inst*)comp, "Co-Simulation is not supported%s", "");
-}
-fmi2Status fmi2CancelStep(fmi2Component comp) {
-  return gsx_fail((gsx_inst*)comp, "Co-Simulation is not supported%s", "");
-}
-fmi2Status fmi2GetStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Status* value) {
-  (void)s;
-  (void)value;
-  return gsx_fail((gsx_inst*)comp, "Co-Simulation is not supported%s", "");
-}
-fmi2Status fmi2GetRealStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Real* value) {
-  (void)s;
-  (void)value;
-  return gsx_fail((gsx_inst*)comp, "Co-Simulation is not supported%s", "");
-}
-fmi2Status fmi2GetIntegerStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Integer* value) {
-  (void)s;
-  (void)value;
-  return gsx_fail((gsx_inst*)comp, "Co-Simulation is not supported%s", "");
-}
-fmi2Status fmi2GetBooleanStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Boolean* value) {
-  (void)s;
-  (void)value;
-  return gsx_fail((gsx_inst*)comp, "Co-Simulation is not supported%s", "");
-}
-fmi2Status fmi2GetStringStatus(fmi2Component comp, const fmi2StatusKind s, fmi2String* value) {
-  (void)s;
-  (void)value;
-  return gsx_fail((gsx_inst*)comp, "Co-Simulation is not supported%s", "");
 }

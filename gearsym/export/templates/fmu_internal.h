@@ -1,6 +1,6 @@
 /*
- * fmu_internal.h -- private header of the FMU runtime (fmu.c, fmu_access.c): the
- * instance, and the functions of fmu.c that fmu_access.c calls.  Not part of the FMU's
+ * fmu_internal.h -- private header of the FMU runtime (fmu.c, fmu_access.c, fmu_cs.c):
+ * the instance, and the functions of fmu.c that the other two call.  Not part of the FMU's
  * interface: those functions are hidden in the shared library even when it is built
  * without -fvisibility=hidden; the FMI entry points are exported by the FMI2_Export
  * declarations of fmi2Functions.h.
@@ -11,6 +11,7 @@
 #include <stddef.h>
 
 #include "fmi2Functions.h"
+#include "gs_driver.h"
 #include "gs_model.h"
 #include "gs_export_data.h"
 
@@ -20,7 +21,8 @@
 #define GSX_HIDDEN
 #endif
 
-typedef enum { M_INSTANTIATED, M_INIT, M_EVENT, M_CONT, M_TERMINATED, M_ERROR } gsx_mode;
+/* M_EVENT, M_CONT: Model Exchange; M_STEP: Co-Simulation, between communication points */
+typedef enum { M_INSTANTIATED, M_INIT, M_EVENT, M_CONT, M_STEP, M_TERMINATED, M_ERROR } gsx_mode;
 
 /* One CasADi function with its single output's sparsity. */
 typedef struct {
@@ -53,6 +55,11 @@ typedef struct {
   double outx[GSX_NOUT * GSX_NX + 1];
   double dummy[1];
   gsx_fn rhs, jac, sw, swx, swt, sch, per, out, outxf;
+  /* Co-Simulation: gearsym's driver integrates each communication step */
+  int cs;            /* 1: instantiated as fmi2CoSimulation */
+  gs_workspace* ws;  /* the driver's workspace (integrator reused from step to step) */
+  double rtol;       /* fmi2SetupExperiment's tolerance, else the scene's rtol */
+  double xf[GSX_NX + 1], sf[GSX_NSW + 1];
   const casadi_real** arg;
   casadi_real** res;
   casadi_int* iw;
@@ -79,5 +86,7 @@ GSX_HIDDEN int gsx_period(gsx_inst* c, double* T);
  * before fmi2ExitInitializationMode */
 GSX_HIDDEN int gsx_update(gsx_inst* c, int initial);
 GSX_HIDDEN int gsx_pre_init_mode(gsx_inst* c);
+/* ---- fmu.c: the schedule part of the mode for the interval starting at c->t */
+GSX_HIDDEN int gsx_set_schedules(gsx_inst* c);
 
 #endif
