@@ -14,6 +14,8 @@ explicit equations add to ``Q`` directly.  Then ``M q'' = Q``.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import sympy as sp
 
 from ..errors import SpecError
@@ -71,6 +73,8 @@ class SymbolicModel:
         self._force_exprs: list[sp.Expr] = []    # other expressions that enter forces
         self._meshes: dict[str, sp.Expr] = {}    # mesh element -> dynamic deflection (deflection - error)
         M, Q = self._assemble(ns, q, v)
+        # the surfaces written in the fields (named after them), after the elements' contact surfaces
+        self._surface_hints += [SwitchingFunction.of_hint(h) for h in ns.surfaces.hints]
         #: algebraic variables (constraint multipliers; states after the velocities) and the
         #: constraint rows ``= 0`` in terms of the accelerations (gearsym/symbolic/constraints.py)
         self.algebraic: list[sp.Symbol] = []
@@ -103,10 +107,12 @@ class SymbolicModel:
             for h in self._surface_hints:
                 g = _expand_in_states(h.expr.subs(rr.sub), states, ns.t)
                 if g.free_symbols & others:
+                    if h.kind == "switch":  # a condition the reduced equations do not have: no name needed
+                        continue
                     raise SpecError(f"the reduced model is not closed: the switching function of {h.name} "
                                     f"still depends on {', '.join(sorted(map(str, g.free_symbols & others)))}",
                                     file=self.spec.path, field="reduction")
-                hints.append(SwitchingFunction(h.name, g, h.meaning, h.contact_sign, h.kind))
+                hints.append(replace(h, expr=g))
             self._surface_hints = hints
             self._meshes = {k: _expand_in_states(d.subs(rr.sub), states, ns.t) for k, d in self._meshes.items()}
             R = transform_modes(R, rr.A)
@@ -153,8 +159,8 @@ class SymbolicModel:
         self._deflections = [d.xreplace(cs.sub) for d in self._deflections]
         self._force_exprs = [f.xreplace(cs.sub) for f in self._force_exprs]
         self._meshes = {k: d.xreplace(cs.sub) for k, d in self._meshes.items()}
-        self._surface_hints = [SwitchingFunction(h.name, _expand_in_states(h.expr.xreplace(cs.sub), states, ns.t),
-                                                 h.meaning, h.contact_sign, h.kind) for h in self._surface_hints]
+        self._surface_hints = [replace(h, expr=_expand_in_states(h.expr.xreplace(cs.sub), states, ns.t))
+                               for h in self._surface_hints]
         return cs.coordinates, cs.velocities, cs.mass, cs.forces
 
     def _assemble(self, ns: Namespace, q: list[sp.Symbol], v: list[sp.Symbol]):
@@ -248,8 +254,7 @@ class SymbolicModel:
         q2, v2, M2, Q2, sub, m_eq, g = reduce_keeping(self, ns, q, v, M, Q, [h.expr for h in self._surface_hints])
         self._reduction_sub = sub
         self.reduced_mass = m_eq if self.structured else sp.simplify(m_eq)
-        self._surface_hints = [SwitchingFunction(h.name, gh, h.meaning, h.contact_sign, h.kind)
-                               for h, gh in zip(self._surface_hints, g)]
+        self._surface_hints = [replace(h, expr=gh) for h, gh in zip(self._surface_hints, g)]
         return q2, v2, M2, Q2
 
     def _outputs(self, ns: Namespace) -> dict[str, sp.Expr]:

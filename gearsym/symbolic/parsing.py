@@ -25,6 +25,8 @@ from ..spec.expressions import BOUND_FUNCTIONS, FUNCTIONS, ExpressionError, name
 from ..spec.model import Term
 from ..spec.scene import ResolvedScene
 from ..spec.syntax import quote
+from .budget import check_expression, checkpoint
+from .surfaces import RECORDED_CALLS, SurfaceFinder
 
 _SYMPY_FUNCTIONS: dict[str, Callable[..., sp.Basic]] = {
     name: getattr(sp, fn) for name, fn in FUNCTIONS.items() if name != "Piecewise"}
@@ -57,12 +59,18 @@ class Builder:
     bound
         Called as ``bound(function name, argument names)`` for a call of a bound
         function; returns the symbol standing for its value.
+    record
+        Called as ``record(node, value, argument values)`` for every comparison,
+        ``Piecewise`` and call of :data:`~gearsym.symbolic.surfaces.RECORDED_CALLS`
+        (what :class:`~gearsym.symbolic.surfaces.SurfaceFinder` needs).
     """
 
     def __init__(self, names: Mapping[str, sp.Basic],
-                 bound: Callable[[str, list[str]], sp.Basic] | None = None):
+                 bound: Callable[[str, list[str]], sp.Basic] | None = None,
+                 record: Callable[[sx.Node, sp.Basic, tuple], None] | None = None):
         self.names = names
         self.bound = bound
+        self.record = record
 
     def build(self, expr: sx.Expression) -> sp.Basic:
         """The sympy object of a checked expression."""
@@ -89,20 +97,28 @@ class Builder:
         if isinstance(node, sx.Power):
             return self.visit(node.base) ** self.visit(node.exponent)
         if isinstance(node, sx.Compare):
-            return _COMPARE[node.op](self.visit(node.left), self.visit(node.right))
+            sides = (self.visit(node.left), self.visit(node.right))
+            return self._recorded(node, _COMPARE[node.op](*sides), sides)
         if isinstance(node, sx.Logic):
             ops = [self.visit(c) for c in node.operands]
             return sp.And(*ops) if node.op == "and" else sp.Or(*ops)
         if isinstance(node, sx.Piecewise):
-            return sp.Piecewise(*[(self.visit(v), self.visit(c)) for v, c in node.pairs])
+            return self._recorded(node, sp.Piecewise(*[(self.visit(v), self.visit(c)) for v, c in node.pairs]), ())
         if isinstance(node, sx.Call):
             if node.func in BOUND_FUNCTIONS:
-                args = [a.id if isinstance(a, sx.Name) else None for a in node.args]
-                if self.bound is None or any(a is None for a in args):
+                names = [a.id if isinstance(a, sx.Name) else None for a in node.args]
+                if self.bound is None or any(a is None for a in names):
                     raise ExpressionError(f"arguments of {node.func}() must be parameter names")
-                return self.bound(node.func, args)  # type: ignore[arg-type]
-            return _SYMPY_FUNCTIONS[node.func](*[self.visit(a) for a in node.args])
+                return self.bound(node.func, names)  # type: ignore[arg-type]
+            args = tuple(self.visit(a) for a in node.args)
+            out = _SYMPY_FUNCTIONS[node.func](*args)
+            return self._recorded(node, out, args) if node.func in RECORDED_CALLS else out
         raise ExpressionError(f"unsupported expression node {type(node).__name__}")  # pragma: no cover
+
+    def _recorded(self, node: sx.Node, value: sp.Basic, args: tuple) -> sp.Basic:
+        if self.record is not None:
+            self.record(node, value, args)
+        return value
 
     def chain(self, node: sx.Chain) -> sp.Basic:
         """A flat chain of ``+ -`` or ``* /``, without recursion and without quadratic cost.
@@ -184,6 +200,9 @@ class Namespace:
             self._local[m.reduction.coordinate] = sp.Symbol(m.reduction.coordinate, real=True)
             self._local[m.reduction.velocity] = sp.Symbol(m.reduction.velocity, real=True)
         self._local.update(self.alg)
+        #: the switching surfaces written in the fields parsed so far, with their names
+        self.surfaces = SurfaceFinder(frozenset({*self.coords.values(), *self.vels.values(), *self.alg.values()}),
+                                      self.t, m.path)
         for c in m.coordinates.values():
             if c.name not in self.coords:  # gated coordinate of a switched-off effect
                 self._local[c.name] = sp.Integer(0)
@@ -260,13 +279,23 @@ class Namespace:
         self.bound[sym] = (fname, tuple(names))
         return sym
 
-    def parse(self, text: str, where: str = "") -> sp.Expr:
-        """Build the sympy expression of an expression string (checked by the spec layer)."""
+    def parse(self, text: str, where: str = "", surfaces: tuple[str, ...] = ()) -> sp.Expr:
+        """Build the sympy expression of an expression string (checked by the spec layer).
+
+        The result is measured before anything else walks it (:mod:`gearsym.symbolic.budget`:
+        a chain of derived quantities can make it grow without bound), and its switching
+        surfaces are recorded (:attr:`surfaces`), named by ``surfaces`` if given.
+        """
+        checkpoint(where or None)
         try:
-            out = Builder(self._local, self._bound_call).build(parse(text))
+            tree = parse(text)
+            records, record = self.surfaces.recorder()
+            out = Builder(self._local, self._bound_call, record).build(tree)
+            check_expression(out, self.rs.model.path, where or None)
             if out.has(*_NOT_REAL):
                 raise ExpressionError(f"'{quote(text)}' evaluates to an infinite, undefined or complex "
                                       f"value ({sp.sstr(out)[:60]})")
+            self.surfaces.collect(tree, records, where, surfaces)
             return out
         except ExpressionError as exc:
             raise SpecError(str(exc), file=self.rs.model.path, field=where or None) from None
@@ -278,7 +307,7 @@ class Namespace:
                   el_variant: str | None = None) -> sp.Expr:
         """Sum of the active terms of an expression field (one ``Add``: the same object as
         adding them one by one, in one pass however many terms there are)."""
-        return sp.Add(*[self.parse(term.expr, term.field) for term in terms
+        return sp.Add(*[self.parse(term.expr, term.field, term.surface) for term in terms
                         if self.rs.is_active(term, el_effect, el_variant)])
 
     def param_value(self, name: str) -> float:

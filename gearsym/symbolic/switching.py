@@ -12,14 +12,16 @@ the engine sets the segment index between scheduled breakpoints.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import sympy as sp
 from sympy.core.relational import Relational
 
 from ..errors import SpecError
+from .budget import MAX_SURFACES, checkpoint
 from .parsing import internal_symbol
+from .surfaces import SurfaceHint
 
 if TYPE_CHECKING:
     from .model import SymbolicModel
@@ -60,6 +62,10 @@ class SwitchingFunction:
         surface is not a contact surface.
     kind
         ``"drive"``, ``"back"`` or ``"switch"``.
+    origin
+        The spec field it is written in (``elements.fx.value[1]``), if known.
+    given
+        Whether the user named it (the ``surface`` key of a term).
     """
 
     name: str
@@ -67,6 +73,13 @@ class SwitchingFunction:
     meaning: str
     contact_sign: int = 0
     kind: str = "switch"
+    origin: str = ""
+    given: bool = False
+
+    @classmethod
+    def of_hint(cls, hint: SurfaceHint) -> SwitchingFunction:
+        """The switching function of a surface found in a spec field."""
+        return cls(hint.name, hint.expr, hint.meaning, 0, "switch", hint.origin, hint.given)
 
 
 
@@ -127,11 +140,12 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
         def block(e: sp.Expr) -> sp.Expr:
             if e.is_Number:
                 return e
-            neg = e.could_extract_minus_sign()
-            key = -e if neg else e
+            coeff, key = e.as_coeff_Mul()  # the number apart: g and 4*g are one surface
+            if key.could_extract_minus_sign():
+                coeff, key = -coeff, -key
             if key not in blocks:
                 blocks[key] = sp.Dummy(f"c{len(blocks)}")
-            return -blocks[key] if neg else blocks[key]
+            return coeff * blocks[key]
 
         def atom(e: sp.Basic) -> sp.Basic:
             if isinstance(e, sp.Expr) and not (e.free_symbols & states):
@@ -157,6 +171,8 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
         key, sgn = _canonical(canon(h.expr)[0])
         hint_keys.setdefault(key, (h, sgn))
 
+    names = _Names(model.spec.path)
+
     def register(g: sp.Expr) -> tuple[int, int]:
         gk, ge = canon(g)
         key, sgn = _canonical(gk)
@@ -164,13 +180,17 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
             j, sj = known[key]
             return j, sgn * sj
         j = len(surfaces)
+        if j >= MAX_SURFACES:
+            raise SpecError(f"the equations have more than {MAX_SURFACES} switching surfaces (state-dependent "
+                            f"conditions and kinks)", file=model.spec.path)
+        checkpoint("switching surfaces")
         if key in hint_keys:
             h, sh = hint_keys[key]
-            surfaces.append(h)
+            surfaces.append(names.claim(h))
             known[key] = (j, sh)
             sigma.append(internal_symbol(f"sigma_{j}"))
             return j, sgn * sh
-        surfaces.append(SwitchingFunction(f"surface{j}", ge, f"switch {j} (g > 0 side)", 0, "switch"))
+        surfaces.append(names.claim(SwitchingFunction(f"surface{j}", ge, f"switch {j} (g > 0 side)", 0, "switch")))
         known[key] = (j, sgn)
         sigma.append(internal_symbol(f"sigma_{j}"))
         return j, 1
@@ -200,6 +220,8 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
         # make sympy split the condition into ITE branches, i.e. spurious extra surfaces
         def fix(e: sp.Basic) -> sp.Basic:
             if isinstance(e, _NONSMOOTH) and (e.free_symbols & states):
+                if isinstance(e, sp.Heaviside):  # (sympy's rewrite has Eq(x, 0): not a surface)
+                    return sp.Piecewise((1, e.args[0] > 0), (0, True))
                 return e.rewrite(sp.Piecewise)
             return e
         return _bottom_up(expr, fix, skip=Relational)
@@ -211,8 +233,8 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
             if isinstance(e, sp.Piecewise):
                 args = []
                 for val, cond in e.args:
-                    if cond not in (sp.true, sp.false):
-                        cond = cond.xreplace({r: to_sigma(r) for r in cond.atoms(Relational)})
+                    if cond not in (sp.true, sp.false):  # surfaces in the order they are met (not a set's)
+                        cond = cond.xreplace({r: to_sigma(r) for r in _relationals(cond)})
                     args.append((val, cond))
                 return sp.Piecewise(*args)
             return e
@@ -241,8 +263,53 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
     return ModalForm(rhs, forces, surfaces, sigma, used, algebraic)
 
 
+class _Names:
+    """Surface names in use: a generated name taken twice gets ``#2``, ``#3``, ...; a name the
+    user gave twice (to different surfaces) is an error."""
+
+    def __init__(self, file: str | None):
+        self.file = file
+        self.used: set[str] = set()
+
+    def claim(self, sf: SwitchingFunction) -> SwitchingFunction:
+        name = sf.name
+        if name in self.used:
+            if sf.given:
+                raise SpecError(f"the surface name '{name}' is given to two different switching surfaces",
+                                file=self.file, field=f"{sf.origin}.surface" if sf.origin else None)
+            k = 2
+            while f"{sf.name}#{k}" in self.used:
+                k += 1
+            name = f"{sf.name}#{k}"
+            sf = replace(sf, name=name)
+        self.used.add(name)
+        return sf
+
+
+def _relationals(cond: sp.Basic) -> list[Relational]:
+    """The relations of a condition, each once, in the order of its (sorted) ``args``.
+
+    Not ``atoms()`` (a set) nor ``preorder_traversal`` (it walks the *set* of arguments of
+    an ``And``/``Or``): both give an order that changes with the hash seed, and the
+    surfaces are numbered in the order they are met.
+    """
+    out: dict[Relational, None] = {}
+    todo = [cond]
+    while todo:
+        c = todo.pop()
+        if isinstance(c, Relational):
+            out.setdefault(c)
+        else:
+            todo.extend(reversed(c.args))
+    return list(out)
+
+
 def _canonical(e: sp.Expr) -> tuple[sp.Expr, int]:
-    """``(key, s)`` with ``e = s*key``; ``key`` is the same for ``e`` and ``-e``."""
+    """``(key, s)`` with ``e = s*c*key`` for a number ``c > 0``; ``key`` is the same for ``e``,
+    ``-e`` and ``c*e`` (one surface, the same sides)."""
+    content, primitive = e.as_content_primitive()
+    if not content.is_zero:
+        e = primitive
     if e.could_extract_minus_sign():
         return -e, -1
     return e, 1
@@ -253,6 +320,7 @@ def _bottom_up(expr: sp.Basic, fn, skip: type | tuple[type, ...] = ()) -> sp.Bas
     the types ``skip`` are left as they are, with their subtrees."""
     if skip and isinstance(expr, skip):
         return expr
+    checkpoint()
     if expr.args:
         new_args = [_bottom_up(a, fn, skip) for a in expr.args]
         if any(a is not b for a, b in zip(new_args, expr.args)):
