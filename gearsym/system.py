@@ -244,7 +244,7 @@ class System(Evaluations, SensitivityMethods):
                 raise ParameterError(f"parameter '{k}': non-finite value {v}")
         values.update(self.units.to_si(params))
         for name, (fn, args) in self.generated.bound.items():
-            values[name] = evaluate_bound(fn, [values[a] for a in args])
+            values[name] = evaluate_bound(fn, [values[a] for a in args], args)
         return np.array([values[k] for k in self.generated.param_names], dtype=float)
 
     def run_params(self, params: Mapping[str, float] | None = None) -> dict[str, float]:

@@ -254,7 +254,13 @@ class Budget:
 
     @contextlib.contextmanager
     def active(self) -> Iterator[Budget]:
-        """Make this the budget that :func:`checkpoint` checks (within the ``with`` block)."""
+        """Make this the budget that :func:`checkpoint` checks (within the ``with`` block).
+
+        Inside another active budget, the earlier deadline of the two holds.
+        """
+        outer = _CURRENT.get()
+        if outer is not None and outer.deadline < self.deadline:
+            self.deadline, self.seconds, self.what = outer.deadline, outer.seconds, outer.what
         token = _CURRENT.set(self)
         try:
             yield self

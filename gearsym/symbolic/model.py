@@ -20,6 +20,7 @@ import sympy as sp
 
 from ..errors import SpecError
 from ..spec.scene import ResolvedScene
+from .budget import Budget, check_expression, checkpoint
 from .elements import ASSEMBLERS, Assembly
 from .expand import _expand_in_states
 from .parsing import Namespace, internal_symbol
@@ -59,6 +60,11 @@ class SymbolicModel:
     """
 
     def __init__(self, rs: ResolvedScene, structured: bool = False):
+        # the whole derivation under one time budget (gearsym/symbolic/budget.py)
+        with Budget(what=f"deriving the equations of model '{rs.model.name}'", file=rs.model.path).active():
+            self._derive(rs, structured)
+
+    def _derive(self, rs: ResolvedScene, structured: bool) -> None:
         self.resolved = rs
         self.spec = rs.model
         self.name = rs.model.name
@@ -73,6 +79,9 @@ class SymbolicModel:
         self._force_exprs: list[sp.Expr] = []    # other expressions that enter forces
         self._meshes: dict[str, sp.Expr] = {}    # mesh element -> dynamic deflection (deflection - error)
         M, Q = self._assemble(ns, q, v)
+        for i, qi in enumerate(q):  # the sums of the elements' terms, before anything expands them
+            check_expression(Q[i, 0], self.spec.path, f"coordinates.{qi}", f"generalised force on '{qi}'")
+            check_expression(M[i, i], self.spec.path, f"coordinates.{qi}", f"mass of '{qi}'")
         # the surfaces written in the fields (named after them), after the elements' contact surfaces
         self._surface_hints += [SwitchingFunction.of_hint(h) for h in ns.surfaces.hints]
         #: algebraic variables (constraint multipliers; states after the velocities) and the
@@ -178,6 +187,7 @@ class SymbolicModel:
             if not self.resolved.effect_active(el.effect, el.variant):
                 continue
             w = f"elements.{el.name}"
+            checkpoint(w)
 
             def field(key: str, el=el) -> sp.Expr:
                 return ns.sum_terms(el.fields.get(key, ()), el.effect, el.variant)
@@ -432,6 +442,7 @@ class SymbolicModel:
 
         cached = self.__dict__.get("_dimensionless")
         if cached is None:
-            cached = dimensionless_form(self)
+            with Budget(what=f"the dimensionless form of model '{self.name}'", file=self.spec.path).active():
+                cached = dimensionless_form(self)
             self.__dict__["_dimensionless"] = cached
         return cached
