@@ -58,7 +58,7 @@ MAX_STATE_ARGS = 16
 #: Most state-dependent conditions of one ``Piecewise`` (each one is a surface).
 MAX_PIECEWISE_CONDITIONS = 64
 #: Most switching surfaces of one model.
-MAX_SURFACES = 512
+MAX_SURFACES = 256
 #: Default time budget of one derivation or one code generation (seconds); the environment
 #: variable ``GEARSYM_SYMBOLIC_SECONDS`` sets another.
 DEFAULT_SECONDS = 900.0
@@ -110,16 +110,44 @@ def _binomial_capped(n: int, k: int, cap: int) -> int:
 _GENERATORS_TRACKED = 64
 
 
-def measure(expr: sp.Basic) -> Measure:
+@dataclass(frozen=True, slots=True)
+class _Poly:
+    """Degree, number of terms (bound) and generators of the expansion of one node."""
+
+    degree: int
+    terms: int
+    gens: frozenset | None  # None: too many to track
+
+
+@dataclass(frozen=True, slots=True)
+class _Node:
+    nodes: int
+    depth: int
+    static: bool    # no dynamic symbol below
+    full: _Poly     # sp.expand: every symbol and function is a generator
+    blocked: _Poly  # expanded in the dynamic symbols, each static sub-expression one generator
+
+
+_NUMBER = _Poly(0, 1, frozenset())
+
+
+def measure(expr: sp.Basic, dynamic: frozenset = frozenset()) -> Measure:
     """The sizes of ``expr``, one visit per distinct sub-expression.
+
+    Parameters
+    ----------
+    expr
+        The expression.
+    dynamic
+        The states: the expansions of the derivation in the states hold every
+        sub-expression free of them as one symbol (a "block"); their size is bounded too.
 
     Raises
     ------
     ExpressionTooLarge
         As soon as one size is above its limit, or a number is out of range.
     """
-    # per distinct node (by identity): (nodes, depth, degree, terms, generators or None)
-    memo: dict[int, tuple[int, int, int, int, frozenset | None]] = {}
+    memo: dict[int, _Node] = {}
     stack: list[tuple[sp.Basic, bool]] = [(expr, False)]
     while stack:
         e, ready = stack.pop()
@@ -130,17 +158,16 @@ def measure(expr: sp.Basic) -> Measure:
             stack.append((e, True))
             stack.extend((a, False) for a in e.args if id(a) not in memo)
             continue
-        memo[key] = _measure_node(e, [memo[id(a)] for a in e.args])
-    nodes, depth, degree, terms, _ = memo[id(expr)]
-    return Measure(nodes, depth, degree, terms)
+        memo[key] = _measure_node(e, [memo[id(a)] for a in e.args], dynamic)
+    top = memo[id(expr)]
+    return Measure(top.nodes, top.depth, top.full.degree, max(top.full.terms, top.blocked.terms))
 
 
-def _measure_node(e: sp.Basic, kids: list[tuple[int, int, int, int, frozenset | None]]
-                  ) -> tuple[int, int, int, int, frozenset | None]:
-    nodes = 1 + sum(k[0] for k in kids)
+def _measure_node(e: sp.Basic, kids: list[_Node], dynamic: frozenset) -> _Node:
+    nodes = 1 + sum(k.nodes for k in kids)
     if nodes > MAX_TREE_NODES:
         raise ExpressionTooLarge(f"more than {MAX_TREE_NODES} nodes")
-    depth = 1 + max((k[1] for k in kids), default=0)
+    depth = 1 + max((k.depth for k in kids), default=0)
     if depth > MAX_TREE_DEPTH:
         raise ExpressionTooLarge(f"nested more than {MAX_TREE_DEPTH} levels deep")
     if not kids:
@@ -148,46 +175,65 @@ def _measure_node(e: sp.Basic, kids: list[tuple[int, int, int, int, frozenset | 
         if problem:
             raise ExpressionTooLarge(problem)
         if isinstance(e, sp.Symbol):
-            return nodes, depth, 1, 1, frozenset((e,))
-        return nodes, depth, 0, 1, frozenset()
+            own = _Poly(1, 1, frozenset((e,)))
+            return _Node(nodes, depth, e not in dynamic, own, own)
+        return _Node(nodes, depth, True, _NUMBER, _NUMBER)
+    static = all(k.static for k in kids)
+    full = _combine(e, [k.full for k in kids])
+    if full.degree > MAX_DEGREE:
+        raise ExpressionTooLarge(f"a polynomial degree of {full.degree} (limit {MAX_DEGREE}; products add the "
+                                 f"degrees, powers multiply them)")
+    if static and dynamic:  # one block
+        blocked = _Poly(1, 1, frozenset((e,))) if full.degree else _NUMBER
+    elif dynamic and isinstance(e, (sp.Add, sp.Mul)) and any(k.static and k.full.degree for k in kids):
+        # the static terms (factors) of a sum (product) are held together as one block, as
+        # switching.make_modal's canonical form does: one generator per distinct block (up to
+        # a numeric factor), so (x + t + 1)*(x + t + 2)*... has as many as it has factors
+        block = tuple(a if a.is_Number else a.as_coeff_Mul()[1]
+                      for a, k in zip(e.args, kids) if k.static and (k.full.degree or isinstance(e, sp.Add)))
+        group = _Poly(1, 1, frozenset((("block", block),)))
+        blocked = _combine(e, [k.blocked for k in kids if not k.static] + [group])
+    else:
+        blocked = _combine(e, [k.blocked for k in kids])
+    return _Node(nodes, depth, static, full, blocked)
+
+
+def _combine(e: sp.Basic, kids: list[_Poly]) -> _Poly:
+    """The expansion of node ``e`` from those of its arguments."""
     gens = _generators(kids)
     if isinstance(e, sp.Add):
-        degree = max(k[2] for k in kids)
-        terms = sum(k[3] for k in kids)
+        degree = max(k.degree for k in kids)
+        terms = sum(k.terms for k in kids)
     elif isinstance(e, sp.Mul):
-        degree = sum(k[2] for k in kids)
+        degree = sum(k.degree for k in kids)
         terms = 1
         for k in kids:
-            terms = min(terms * k[3], MAX_EXPANDED_TERMS + 1)
+            terms = min(terms * k.terms, MAX_EXPANDED_TERMS + 1)
     elif isinstance(e, sp.Pow) and e.exp.is_Rational:
         n = abs(e.exp)
-        base_degree, base_terms = kids[0][2], kids[0][3]
-        degree = math.ceil(n * base_degree)
-        power = _binomial_capped(base_terms + int(n) - 1, int(n), MAX_EXPANDED_TERMS) if n.is_Integer else 1
+        degree = math.ceil(n * kids[0].degree)
+        power = _binomial_capped(kids[0].terms + int(n) - 1, int(n), MAX_EXPANDED_TERMS) if n.is_Integer else 1
         if e.exp.is_negative or not n.is_Integer:  # a denominator or a root: expanded inside, one term outside
             _check_terms(power)
             terms = 1
         else:
             terms = power
     else:  # functions, symbolic powers, Piecewise, conditions: one generator of their own
-        degree = 1 if any(k[2] for k in kids) else 0
+        degree = 1 if any(k.degree for k in kids) else 0
         terms = 1
         for k in kids:  # their arguments are expanded inside
-            _check_terms(k[3])
+            _check_terms(k.terms)
         gens = frozenset((e,)) if degree else frozenset()
-    if degree > MAX_DEGREE:
-        raise ExpressionTooLarge(f"a polynomial degree of {degree} (limit {MAX_DEGREE}; products add the "
-                                 f"degrees, powers multiply them)")
     if gens is not None and terms > 1:  # at most the number of monomials of that degree in its generators
         terms = min(terms, _binomial_capped(len(gens) + degree, degree, MAX_EXPANDED_TERMS))
     _check_terms(terms)
-    return nodes, depth, degree, terms, gens
+    return _Poly(degree, terms, gens)
 
 
-def _generators(kids: list[tuple[int, int, int, int, frozenset | None]]) -> frozenset | None:
-    if any(k[4] is None for k in kids):
+def _generators(kids: list[_Poly]) -> frozenset | None:
+    if any(k.gens is None for k in kids):
         return None
-    sets = [k[4] for k in kids if k[4]]
+    sets = [k.gens for k in kids if k.gens]
     if not sets:
         return frozenset()
     out = sets[0]
@@ -204,10 +250,12 @@ def _check_terms(terms: int) -> None:
         raise ExpressionTooLarge(f"an expansion of more than {MAX_EXPANDED_TERMS} terms")
 
 
-def check_expression(expr: sp.Basic, file: str | None, field: str | None, what: str = "expression") -> Measure:
-    """Measure ``expr`` and turn a limit it breaks into a :class:`SpecError` naming ``field``."""
+def check_expression(expr: sp.Basic, file: str | None, field: str | None, what: str = "expression",
+                     dynamic: frozenset = frozenset()) -> Measure:
+    """Measure ``expr`` (:func:`measure`) and turn a limit it breaks into a :class:`SpecError`
+    naming ``field``."""
     try:
-        return measure(expr)
+        return measure(expr, dynamic)
     except ExpressionTooLarge as exc:
         raise SpecError(f"the {what} is too large for the symbolic layer once the derived quantities are "
                         f"substituted: {exc}", file=file, field=field) from None

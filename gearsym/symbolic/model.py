@@ -79,9 +79,10 @@ class SymbolicModel:
         self._force_exprs: list[sp.Expr] = []    # other expressions that enter forces
         self._meshes: dict[str, sp.Expr] = {}    # mesh element -> dynamic deflection (deflection - error)
         M, Q = self._assemble(ns, q, v)
+        dynamic = frozenset(q) | frozenset(v)
         for i, qi in enumerate(q):  # the sums of the elements' terms, before anything expands them
-            check_expression(Q[i, 0], self.spec.path, f"coordinates.{qi}", f"generalised force on '{qi}'")
-            check_expression(M[i, i], self.spec.path, f"coordinates.{qi}", f"mass of '{qi}'")
+            check_expression(Q[i, 0], self.spec.path, f"coordinates.{qi}", f"generalised force on '{qi}'", dynamic)
+            check_expression(M[i, i], self.spec.path, f"coordinates.{qi}", f"mass of '{qi}'", dynamic)
         # the surfaces written in the fields (named after them), after the elements' contact surfaces
         self._surface_hints += [SwitchingFunction.of_hint(h) for h in ns.surfaces.hints]
         #: algebraic variables (constraint multipliers; states after the velocities) and the

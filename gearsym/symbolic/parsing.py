@@ -26,7 +26,7 @@ from ..spec.model import Term
 from ..spec.scene import ResolvedScene
 from ..spec.syntax import quote
 from .budget import check_expression, checkpoint
-from .surfaces import RECORDED_CALLS, SurfaceFinder
+from .surfaces import RECORDED_CALLS, Recorder, SurfaceFinder
 
 _SYMPY_FUNCTIONS: dict[str, Callable[..., sp.Basic]] = {
     name: getattr(sp, fn) for name, fn in FUNCTIONS.items() if name != "Piecewise"}
@@ -60,14 +60,16 @@ class Builder:
         Called as ``bound(function name, argument names)`` for a call of a bound
         function; returns the symbol standing for its value.
     record
-        Called as ``record(node, value, argument values)`` for every comparison,
-        ``Piecewise`` and call of :data:`~gearsym.symbolic.surfaces.RECORDED_CALLS`
-        (what :class:`~gearsym.symbolic.surfaces.SurfaceFinder` needs).
+        Sees every comparison, ``Piecewise`` and call of
+        :data:`~gearsym.symbolic.surfaces.RECORDED_CALLS`: ``record.before(node, argument
+        values)`` before sympy builds it (a check that may raise: sympy's ``Max`` of n
+        arguments costs n**2 comparisons), ``record(node, value, argument values)`` after
+        (:class:`~gearsym.symbolic.surfaces.Recorder`).
     """
 
     def __init__(self, names: Mapping[str, sp.Basic],
                  bound: Callable[[str, list[str]], sp.Basic] | None = None,
-                 record: Callable[[sx.Node, sp.Basic, tuple], None] | None = None):
+                 record: Recorder | None = None):
         self.names = names
         self.bound = bound
         self.record = record
@@ -98,12 +100,17 @@ class Builder:
             return self.visit(node.base) ** self.visit(node.exponent)
         if isinstance(node, sx.Compare):
             sides = (self.visit(node.left), self.visit(node.right))
+            if self.record is not None:
+                self.record.before(node, sides)
             return self._recorded(node, _COMPARE[node.op](*sides), sides)
         if isinstance(node, sx.Logic):
             ops = [self.visit(c) for c in node.operands]
             return sp.And(*ops) if node.op == "and" else sp.Or(*ops)
         if isinstance(node, sx.Piecewise):
-            return self._recorded(node, sp.Piecewise(*[(self.visit(v), self.visit(c)) for v, c in node.pairs]), ())
+            pairs = [(self.visit(v), self.visit(c)) for v, c in node.pairs]
+            if self.record is not None:
+                self.record.before(node, tuple(c for _, c in pairs))
+            return self._recorded(node, sp.Piecewise(*pairs), ())
         if isinstance(node, sx.Call):
             if node.func in BOUND_FUNCTIONS:
                 names = [a.id if isinstance(a, sx.Name) else None for a in node.args]
@@ -111,8 +118,11 @@ class Builder:
                     raise ExpressionError(f"arguments of {node.func}() must be parameter names")
                 return self.bound(node.func, names)  # type: ignore[arg-type]
             args = tuple(self.visit(a) for a in node.args)
-            out = _SYMPY_FUNCTIONS[node.func](*args)
-            return self._recorded(node, out, args) if node.func in RECORDED_CALLS else out
+            if node.func not in RECORDED_CALLS:
+                return _SYMPY_FUNCTIONS[node.func](*args)
+            if self.record is not None:
+                self.record.before(node, args)
+            return self._recorded(node, _SYMPY_FUNCTIONS[node.func](*args), args)
         raise ExpressionError(f"unsupported expression node {type(node).__name__}")  # pragma: no cover
 
     def _recorded(self, node: sx.Node, value: sp.Basic, args: tuple) -> sp.Basic:
@@ -289,13 +299,13 @@ class Namespace:
         checkpoint(where or None)
         try:
             tree = parse(text)
-            records, record = self.surfaces.recorder()
+            record = self.surfaces.recorder(tree, where)
             out = Builder(self._local, self._bound_call, record).build(tree)
-            check_expression(out, self.rs.model.path, where or None)
+            check_expression(out, self.rs.model.path, where or None, dynamic=self.surfaces.dynamic)
             if out.has(*_NOT_REAL):
                 raise ExpressionError(f"'{quote(text)}' evaluates to an infinite, undefined or complex "
                                       f"value ({sp.sstr(out)[:60]})")
-            self.surfaces.collect(tree, records, where, surfaces)
+            self.surfaces.collect(record, surfaces)
             return out
         except ExpressionError as exc:
             raise SpecError(str(exc), file=self.rs.model.path, field=where or None) from None

@@ -38,7 +38,7 @@ from sympy.core.relational import Relational
 
 from ..errors import SpecError
 from ..spec import syntax as sx
-from .budget import MAX_PIECEWISE_CONDITIONS, MAX_STATE_ARGS
+from .budget import MAX_PIECEWISE_CONDITIONS, MAX_STATE_ARGS, MAX_SURFACES
 
 #: Calls of the spec language whose kinks or jumps in the states are switching surfaces.
 SWITCHING_CALLS = frozenset({"abs", "Abs", "sign", "Heaviside", "Max", "Min", "max", "min"})
@@ -85,6 +85,128 @@ class _Found:
     meaning: str
 
 
+class Recorder:
+    """What :class:`~gearsym.symbolic.parsing.Builder` reports while it builds one field.
+
+    Parameters
+    ----------
+    finder
+        The namespace's :class:`SurfaceFinder`.
+    expr
+        The checked expression being built.
+    where
+        Its spec field.
+    """
+
+    def __init__(self, finder: SurfaceFinder, expr: sx.Expression, where: str):
+        self.finder = finder
+        self.expr = expr
+        self.where = where
+        self.records: list[tuple[sx.Node, sp.Basic, tuple]] = []
+        self.first = (where, expr.text) not in finder._done  # a field built again counts once
+
+    def source(self, node: sx.Node) -> str:
+        return self.expr.text[node.start:node.end]
+
+    def error(self, message: str) -> SpecError:
+        return SpecError(message, file=self.finder.file, field=self.where or None)
+
+    def before(self, node: sx.Node, args: tuple) -> None:
+        """Check a call (or the conditions of a ``Piecewise``) before sympy builds it.
+
+        Raises
+        ------
+        SpecError
+            ``floor`` of a time- or state-dependent argument, a ``Max``/``Min`` or
+            ``Piecewise`` with too many state-dependent arguments.
+        """
+        self._check(node, args)
+        self._count(node, args)
+
+    def _check(self, node: sx.Node, args: tuple) -> None:
+        of_states = self.finder.of_states
+        if isinstance(node, sx.Piecewise):
+            n = sum(1 for c in args for r in _relations(c) if of_states(r))
+            if n > MAX_PIECEWISE_CONDITIONS:
+                raise self.error(f"Piecewise with {n} conditions on the states (limit {MAX_PIECEWISE_CONDITIONS}: "
+                                 f"each one is a switching surface)")
+            return
+        if not isinstance(node, sx.Call):
+            return
+        if node.func in JUMP_CALLS:
+            src = sx.quote(self.source(node))
+            if of_states(args[0]):
+                raise self.error(f"{node.func}() of the states ('{src}') jumps at every integer: it is not a "
+                                 f"switching surface the integrator can locate (write the jumps the model needs "
+                                 f"as Piecewise conditions)")
+            if args[0].has(self.finder.t):
+                raise self.error(f"{node.func}() of time ('{src}') jumps at every integer, which the integrator "
+                                 f"would step across: declare a [schedules] entry and use a piecewise_cycle "
+                                 f"field (or <schedule>_segment)")
+        elif node.func in ("Max", "Min", "max", "min") and len(args) > MAX_STATE_ARGS \
+                and any(of_states(a) for a in args):
+            raise self.error(f"{node.func}() of the states with {len(args)} arguments (limit {MAX_STATE_ARGS}: "
+                             f"every pair of arguments is a switching surface)")
+
+    def _count(self, node: sx.Node, args: tuple) -> None:
+        """Count the surfaces this call or comparison can make, before sympy builds it (a
+        field of 20 000 ``Max`` calls would take sympy minutes to build)."""
+        of_states = self.finder.of_states
+        if not self.first:
+            return
+        if isinstance(node, sx.Compare):
+            n = 1 if any(of_states(a) for a in args) else 0
+        elif isinstance(node, sx.Call) and node.func in SWITCHING_CALLS and any(of_states(a) for a in args):
+            n = len(args) * (len(args) - 1) // 2 if node.func in ("Max", "Min", "max", "min") else 1
+        else:
+            return
+        self.finder.potential += n
+        if self.finder.potential > MAX_SURFACES:
+            raise self.error(f"the fields up to this one have more than {MAX_SURFACES} switching surfaces "
+                             f"(state-dependent conditions and kinks)")
+
+    def __call__(self, node: sx.Node, value: sp.Basic, args: tuple) -> None:
+        self.records.append((node, value, args))
+
+    def surfaces(self) -> list[_Found]:
+        """The switching surfaces of the recorded comparisons and calls, in the order written."""
+        found: list[_Found] = []
+        for node, value, args in self.records:
+            found += self._surfaces_of(node, value, args)
+        unique: list[_Found] = []
+        seen: set[sp.Expr] = set()
+        for f in found:  # one surface per distinct function (g and -g are one surface)
+            if f.g not in seen and -f.g not in seen:
+                seen.add(f.g)
+                unique.append(f)
+        return unique
+
+    def _surfaces_of(self, node: sx.Node, value: sp.Basic, args: tuple) -> list[_Found]:
+        of_states, where, src = self.finder.of_states, self.where, self.source(node)
+        if isinstance(node, sx.Compare):
+            if not isinstance(value, Relational) or not of_states(value):
+                return []
+            left, right = args
+            g = left - right if node.op in (">", ">=") else right - left
+            return [_Found(g, label(src), f"{sx.quote(src)} holds where g > 0 ({where})")]
+        if not isinstance(node, sx.Call) or node.func in JUMP_CALLS or not args or not of_states(args[0]) \
+                and node.func not in ("Max", "Min", "max", "min"):
+            return []
+        if node.func in ("Max", "Min", "max", "min"):
+            out = []
+            for i in range(len(args)):
+                for j in range(i + 1, len(args)):
+                    g = args[i] - args[j]
+                    if of_states(g):
+                        si, sj = self.source(node.args[i]), self.source(node.args[j])
+                        out.append(_Found(g, label(f"{si}={sj}"), f"kink of {sx.quote(src)} where "
+                                                                    f"{sx.quote(si, 30)} = {sx.quote(sj, 30)} ({where})"))
+            return out
+        kind = "kink" if node.func in ("abs", "Abs") else "jump"
+        return [_Found(args[0], label(f"{self.source(node.args[0])}=0"),
+                       f"{kind} of {sx.quote(src)} where g = 0 ({where})")]
+
+
 @dataclass
 class SurfaceFinder:
     """Records the switching surfaces of the fields of one namespace.
@@ -104,43 +226,35 @@ class SurfaceFinder:
     t: sp.Symbol
     file: str | None = None
     hints: list[SurfaceHint] = field(default_factory=list)
+    #: surfaces the fields built so far can make (counted before sympy builds them)
+    potential: int = 0
     _done: set = field(default_factory=set)
 
-    def recorder(self) -> tuple[list, object]:
-        """A list and the ``record`` callback of :class:`~gearsym.symbolic.parsing.Builder` that fills it."""
-        records: list[tuple[sx.Node, sp.Basic, tuple]] = []
-
-        def record(node: sx.Node, value: sp.Basic, args: tuple) -> None:
-            records.append((node, value, args))
-        return records, record
+    def recorder(self, expr: sx.Expression, where: str) -> Recorder:
+        """A :class:`Recorder` for building one field."""
+        return Recorder(self, expr, where)
 
     def of_states(self, e: sp.Basic) -> bool:
+        """Whether ``e`` depends on the states."""
         return bool(e.free_symbols & self.dynamic)
 
-    def collect(self, expr: sx.Expression, records: list, where: str, names: tuple[str, ...] = ()) -> None:
-        """Check the recorded calls of one field and keep its surfaces as hints.
+    def collect(self, record: Recorder, names: tuple[str, ...] = ()) -> None:
+        """Keep the surfaces of one built field as hints, named by ``names`` if given.
 
         Raises
         ------
         SpecError
-            ``floor`` of a time- or state-dependent argument, a ``Max``/``Min`` or
-            ``Piecewise`` with too many state-dependent arguments, or a ``surface`` key
-            whose number of names is not the number of surfaces of the term.
+            If ``names`` are given and their number is not the number of surfaces.
         """
-        found: list[_Found] = []
-        for node, value, args in records:
-            found += self._surfaces_of(expr, node, value, args, where)
-        unique: list[_Found] = []
-        for f in found:  # one surface per distinct function (g and -g are one surface)
-            if not any(f.g == u.g or f.g == -u.g for u in unique):
-                unique.append(f)
+        unique = record.surfaces()
+        where = record.where
         if names and len(names) != len(unique):
             listed = ", ".join(f"'{u.label}'" for u in unique) or "none"
             raise SpecError(f"{len(names)} surface name{'s' if len(names) != 1 else ''} for "
                             f"{len(unique)} switching surface{'s' if len(unique) != 1 else ''} of the "
                             f"states ({listed})", file=self.file, field=f"{where}.surface")
-        key = (where, expr.text)
-        if key in self._done:  # a field parsed twice (its hints are there already)
+        key = (where, record.expr.text)
+        if key in self._done:  # a field built twice (its hints are there already)
             return
         self._done.add(key)
         owner = owner_of(where)
@@ -148,60 +262,16 @@ class SurfaceFinder:
             name = f"{owner}.{names[i]}" if names else f"{owner}.{u.label}"
             self.hints.append(SurfaceHint(name, u.g, u.meaning, where, bool(names)))
 
-    def _surfaces_of(self, expr: sx.Expression, node: sx.Node, value: sp.Basic, args: tuple,
-                     where: str) -> list[_Found]:
-        src = expr.text[node.start:node.end]
-        if isinstance(node, sx.Compare):
-            if not isinstance(value, Relational) or not self.of_states(value):
-                return []
-            left, right = args
-            g = left - right if node.op in (">", ">=") else right - left
-            return [_Found(g, label(src), f"{sx.quote(src)} holds where g > 0 ({where})")]
-        if isinstance(node, sx.Piecewise):
-            conds = [c for _, c in value.args] if isinstance(value, sp.Piecewise) else []
-            n = sum(1 for c in conds for r in sp.preorder_traversal(c)
-                    if isinstance(r, Relational) and self.of_states(r))
-            if n > MAX_PIECEWISE_CONDITIONS:
-                raise SpecError(f"Piecewise with {n} conditions on the states (limit {MAX_PIECEWISE_CONDITIONS}: "
-                                f"each one is a switching surface)", file=self.file, field=where)
-            return []
-        assert isinstance(node, sx.Call)
-        state_args = [a for a in args if self.of_states(a)]
-        if node.func in JUMP_CALLS:
-            return self._jump(node, args, src, where)
-        if not state_args:
-            return []
-        func = node.func
-        if func in ("Max", "Min", "max", "min"):
-            if len(args) > MAX_STATE_ARGS:
-                raise SpecError(f"{func}() of the states with {len(args)} arguments (limit {MAX_STATE_ARGS}: "
-                                f"every pair of arguments is a switching surface)", file=self.file, field=where)
-            out = []
-            for i in range(len(args)):
-                for j in range(i + 1, len(args)):
-                    g = args[i] - args[j]
-                    if self.of_states(g):
-                        si, sj = (expr.text[a.start:a.end] for a in (node.args[i], node.args[j]))
-                        out.append(_Found(g, label(f"{si}={sj}"), f"kink of {sx.quote(src)} where "
-                                                                    f"{sx.quote(si, 30)} = {sx.quote(sj, 30)} ({where})"))
-            return out
-        if not self.of_states(args[0]):  # (the value at 0 of a Heaviside may be anything)
-            return []
-        arg_src = expr.text[node.args[0].start:node.args[0].end]
-        return [_Found(args[0], label(f"{arg_src}=0"), f"{'jump' if func != 'abs' and func != 'Abs' else 'kink'} "
-                                                       f"of {sx.quote(src)} where g = 0 ({where})")]
 
-    def _jump(self, node: sx.Call, args: tuple, src: str, where: str) -> list[_Found]:
-        arg = args[0]
-        if self.of_states(arg):
-            raise SpecError(f"{node.func}() of the states ('{sx.quote(src)}') jumps at every integer: it is not "
-                            f"a switching surface the integrator can locate (write the jumps the model needs as "
-                            f"Piecewise conditions)", file=self.file, field=where)
-        if arg.has(self.t):
-            raise SpecError(f"{node.func}() of time ('{sx.quote(src)}') jumps at every integer, which the "
-                            f"integrator would step across: declare a [schedules] entry and use a "
-                            f"piecewise_cycle field (or <schedule>_segment)", file=self.file, field=where)
-        return []
+def _relations(cond: sp.Basic) -> list[Relational]:
+    out, todo = [], [cond]
+    while todo:
+        c = todo.pop()
+        if isinstance(c, Relational):
+            out.append(c)
+        elif isinstance(c, sp.logic.boolalg.Boolean):
+            todo.extend(c.args)
+    return out
 
 
 def owner_of(where: str) -> str:
