@@ -310,7 +310,8 @@ class GroupFinder:
                     if a not in g or not g[a]:
                         continue
                     c = vec[a] / g[a]
-                    cand = {b: vec.get(b, Fraction(0)) - c * g.get(b, Fraction(0)) for b in set(vec) | set(g)}
+                    # (the atoms in a fixed order, not a set's: the first improvement found is taken)
+                    cand = {b: vec.get(b, Fraction(0)) - c * g.get(b, Fraction(0)) for b in dict.fromkeys([*vec, *g])}
                     cand = {b: x for b, x in cand.items() if x}
                     if cand and size(cand) < size(vec):
                         vec = cand
