@@ -150,7 +150,7 @@ def test_a_condition_on_a_contact_surface_keeps_the_contact_name():
 def test_bad_surface_names(tmp_path, surface, message):
     bad = MODEL.replace('surface = ["far", "moving"]', f"surface = {surface}")
     with pytest.raises(SpecError, match=re.escape(message)) as info:
-        gearsym.load_scene(_write(tmp_path, bad)).model
+        _ = gearsym.load_scene(_write(tmp_path, bad)).model
     assert info.value.field.startswith("elements.fx.value[5].surface")
 
 
