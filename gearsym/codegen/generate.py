@@ -283,7 +283,7 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], staging
         scene=scene, key=build_key[:16], directory=str(directory), so_path=str(directory / so.name),
         state_names=model.state_names, param_names=model.parameter_names,
         surfaces=[{"name": s.name, "kind": s.kind, "contact_sign": s.contact_sign,
-                   "meaning": s.meaning, "expr": sp.sstr(s.expr)} for s in model.switching],
+                   "meaning": s.meaning, "expr": sp.sstr(s.expr), "field": s.origin} for s in model.switching],
         schedules=[{"name": s.name, "n_breaks": len(s.breaks)} for s in model.schedules],
         implicit=model.form == "implicit",
         n_ops={name: int(f.n_instructions()) for name, f in fns.items()},
