@@ -220,3 +220,17 @@ def test_cli_refuses_lam_close_to_one(tmp_path):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("gearsym: error: "), r.stderr
     assert "wm_mean_height(D, G, lam, L_c, l_a)" in r.stderr and "lam = 1.000001" in r.stderr
+
+
+def test_a_long_chain_of_derived_quantities_written_backwards(tmp_path):
+    """1 500 derived quantities, each defined by the next one (the file written bottom-up): the
+    spec layer's cycle check was a recursion (RecursionError, exit 1) and the namespace took one
+    pass over the table per level of the chain; now one walk each."""
+    ks = (ROOT / "models" / "kahraman_singh.toml").read_text()
+    n = 1500
+    table = "[derived]\n" + "\n".join(f'e{k} = "e{k + 1} + b"' for k in range(n)) + f'\ne{n} = "b"\n\n[forcing]'
+    model = ks.replace("[forcing]", table, 1).replace('value = ["Fm",', 'value = ["Fm*e0/(1501*b)",', 1)
+    (tmp_path / "m.toml").write_text(model)
+    (tmp_path / "s.toml").write_text('[scene]\nname = "chain"\nmodel = "m.toml"\n')
+    m = gearsym.load_scene(tmp_path / "s.toml").model
+    assert m.ns._local["e0"] == (n + 1) * sp.Symbol("b", real=True)
