@@ -42,6 +42,7 @@ from .budget import MAX_PIECEWISE_CONDITIONS, MAX_STATE_ARGS, MAX_SURFACES
 
 #: Calls of the spec language whose kinks or jumps in the states are switching surfaces.
 SWITCHING_CALLS = frozenset({"abs", "Abs", "sign", "Heaviside", "Max", "Min", "max", "min"})
+_MAX_MIN = frozenset({"Max", "Min", "max", "min"})
 #: Calls that jump at every integer of their argument (no finite set of surfaces).
 JUMP_CALLS = frozenset({"floor"})
 #: Calls and nodes :class:`SurfaceFinder` records.
@@ -103,7 +104,7 @@ class Recorder:
         self.expr = expr
         self.where = where
         self.records: list[tuple[sx.Node, sp.Basic, tuple]] = []
-        self.first = (where, expr.text) not in finder._done  # a field built again counts once
+        self.first = not finder.seen(where, expr.text)  # a field built again counts once
 
     def source(self, node: sx.Node) -> str:
         return self.expr.text[node.start:node.end]
@@ -143,7 +144,7 @@ class Recorder:
                 raise self.error(f"{node.func}() of time ('{src}') jumps at every integer, which the integrator "
                                  f"would step across: declare a [schedules] entry and use a piecewise_cycle "
                                  f"field (or <schedule>_segment)")
-        elif node.func in ("Max", "Min", "max", "min") and len(args) > MAX_STATE_ARGS \
+        elif node.func in _MAX_MIN and len(args) > MAX_STATE_ARGS \
                 and any(of_states(a) for a in args):
             raise self.error(f"{node.func}() of the states with {len(args)} arguments (limit {MAX_STATE_ARGS}: "
                              f"every pair of arguments is a switching surface)")
@@ -157,7 +158,7 @@ class Recorder:
         if isinstance(node, sx.Compare):
             n = 1 if any(of_states(a) for a in args) else 0
         elif isinstance(node, sx.Call) and node.func in SWITCHING_CALLS and any(of_states(a) for a in args):
-            n = len(args) * (len(args) - 1) // 2 if node.func in ("Max", "Min", "max", "min") else 1
+            n = len(args) * (len(args) - 1) // 2 if node.func in _MAX_MIN else 1
         else:
             return
         self.finder.potential += n
@@ -189,10 +190,9 @@ class Recorder:
             left, right = args
             g = left - right if node.op in (">", ">=") else right - left
             return [_Found(g, label(src), f"{sx.quote(src)} holds where g > 0 ({where})")]
-        if not isinstance(node, sx.Call) or node.func in JUMP_CALLS or not args or not of_states(args[0]) \
-                and node.func not in ("Max", "Min", "max", "min"):
+        if not isinstance(node, sx.Call) or node.func not in SWITCHING_CALLS:
             return []
-        if node.func in ("Max", "Min", "max", "min"):
+        if node.func in _MAX_MIN:
             out = []
             for i in range(len(args)):
                 for j in range(i + 1, len(args)):
@@ -202,6 +202,8 @@ class Recorder:
                         out.append(_Found(g, label(f"{si}={sj}"), f"kink of {sx.quote(src)} where "
                                                                     f"{sx.quote(si, 30)} = {sx.quote(sj, 30)} ({where})"))
             return out
+        if not of_states(args[0]):  # abs, sign, Heaviside (its value at 0 may be anything)
+            return []
         kind = "kink" if node.func in ("abs", "Abs") else "jump"
         return [_Found(args[0], label(f"{self.source(node.args[0])}=0"),
                        f"{kind} of {sx.quote(src)} where g = 0 ({where})")]
@@ -233,6 +235,10 @@ class SurfaceFinder:
     def recorder(self, expr: sx.Expression, where: str) -> Recorder:
         """A :class:`Recorder` for building one field."""
         return Recorder(self, expr, where)
+
+    def seen(self, where: str, text: str) -> bool:
+        """Whether the field ``where`` with this text was collected already."""
+        return (where, text) in self._done
 
     def of_states(self, e: sp.Basic) -> bool:
         """Whether ``e`` depends on the states."""
