@@ -210,3 +210,30 @@ def test_heaviside_and_sign_of_a_state_are_surfaces(tmp_path):
     at = system.simulate(periods=20, rtol=1e-10, atol=1e-12, t_out=np.array([e.t for e in events]))
     for e, x, v in zip(events, at["x"], at["v"]):
         assert abs(x - 1.2 if e.surface == "load.x-1.2=0" else v) < 1e-8, (e, x, v)
+
+
+_GROUPS = """
+import json, sys
+import sympy as sp
+from gearsym import load_scene
+form = load_scene(sys.argv[1]).model.dimensionless()
+print(json.dumps({k: sp.sstr(v) for k, v in form.definitions.items()}))
+"""
+
+
+def test_dimensionless_groups_for_every_hash_seed():
+    """The groups of a dimensionless form (``inspect``, dimensionless builds) do not depend on the
+    hash seed (before: the two-stage train's ``me2_hat`` was ``me2*rb1**2/J1`` or
+    ``bh1**2*me2/J1`` depending on it)."""
+    scene = ROOT / "scenes" / "two_stage_train.toml"
+    procs = [subprocess.Popen([sys.executable, "-c", _GROUPS, str(scene)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True,
+                              env=dict(os.environ, PYTHONHASHSEED=str(seed), PYTHONPATH=str(PACKAGE_ROOT)))
+             for seed in (0, 1, 2)]
+    runs = []
+    for p in procs:
+        out, err = p.communicate(timeout=600)
+        assert p.returncode == 0, err
+        runs.append(json.loads(out))
+    assert runs[1] == runs[0] and runs[2] == runs[0]
+    assert runs[0]["me2_hat"] == "me2*rb1**2/J1"
