@@ -22,7 +22,7 @@ import sympy as sp
 from ..errors import SpecError
 from ..spec import syntax as sx
 from ..spec.expressions import BOUND_FUNCTIONS, FUNCTIONS, ExpressionError, names_in, parse
-from ..spec.model import Term
+from ..spec.model import ModelSpec, Term
 from ..spec.scene import ResolvedScene
 from ..spec.syntax import quote
 from .budget import check_expression, checkpoint
@@ -152,7 +152,7 @@ class Builder:
         return acc
 
 
-def _derived_order(m) -> list[str]:
+def _derived_order(m: ModelSpec) -> list[str]:
     """The derived quantities of model ``m`` in dependency order.
 
     The order of passes over the table, each taking (in file order) every quantity whose
