@@ -25,20 +25,35 @@ IMPLEMENTATIONS: dict[str, Callable[..., float]] = {
 }
 
 
-def evaluate(name: str, args: Sequence[float]) -> float:
+def evaluate(name: str, args: Sequence[float], arg_names: Sequence[str] | None = None) -> float:
     """Evaluate a bound function.
+
+    Parameters
+    ----------
+    name
+        The function.
+    args
+        Its arguments (SI values).
+    arg_names
+        The model's parameters passed as its arguments: an error then names the call as the
+        model writes it (``wm_mean_height(D, G, lam, L_c, l_a): ...``).
 
     Raises
     ------
     ParameterError
-        Unknown function, or a non-finite result.
+        Unknown function, arguments it refuses, or a non-finite result.
     """
     try:
         fn = IMPLEMENTATIONS[name]
     except KeyError:
         raise ParameterError(f"unknown bound function '{name}' (known: {', '.join(IMPLEMENTATIONS)})") \
             from None
-    value = float(fn(*[float(a) for a in args]))
+    call = f"{name}({', '.join(arg_names)})" if arg_names is not None else name
+    try:
+        value = float(fn(*[float(a) for a in args]))
+    except ParameterError as exc:
+        text = str(exc)
+        raise ParameterError(f"{call}: {text.removeprefix(name + ': ')}") from None
     if not math.isfinite(value):
-        raise ParameterError(f"{name}{tuple(args)} is not finite")
+        raise ParameterError(f"{call} is not finite (arguments {tuple(args)})")
     return value

@@ -31,6 +31,16 @@ How the series is truncated
     as well.  If the work limit is reached first, :class:`~gearsym.errors.ConvergenceError`
     is raised (it names the parameters).
 
+How much work is allowed
+    Before any evaluation, the number of levels the tolerance needs at the asymptotic
+    rate, ``log(rtol) / (2 (D-2) log(lam))``, and the grid of the first truncation are
+    compared with the limits (``max_levels`` levels, ``max_points`` grid points): a
+    ``lam`` close to 1 (``1.000001`` needs about ten million levels: the series
+    converges almost never) or a sampling length of millions of asperities is refused at
+    once with a :class:`~gearsym.errors.ParameterError` naming the parameter, instead of
+    an evaluation that does not end.  The levels are capped during the evaluation too,
+    and the work of one truncation (grid points times levels) by ``max_work``.
+
 How the integral is evaluated
     Not by quadrature: the antiderivative of the truncated series is known in
     closed form, ``Z(l) = sum a_k sin(2 pi f_k l)/(2 pi f_k)``, so
@@ -192,7 +202,8 @@ def wm_mean_height_truncated(D: float, G: float, lam: float, L: float, l_a: floa
 
 def wm_mean_height_report(D: float, G: float, lam: float, L: float, l_a: float, *, rtol: float = 1e-6,
                           atol: float = 1e-11, points_per_wavelength: int = 24,
-                          max_points: float = 2e7, n_start: int = 6) -> MeanHeight:
+                          max_points: float = 2e7, n_start: int = 6, max_levels: int = 400,
+                          max_work: float = 2e9) -> MeanHeight:
     """Mean absolute height of the infinite W-M series (eq. 4), with its convergence record.
 
     Parameters
@@ -212,25 +223,34 @@ def wm_mean_height_report(D: float, G: float, lam: float, L: float, l_a: float, 
         Work limit (grid points of the finest truncation).
     n_start
         First truncation tried.
+    max_levels
+        Most levels of the series.
+    max_work
+        Most grid points times levels of one truncation.
 
     Raises
     ------
+    ParameterError
+        If the parameters need more levels or grid points than the limits allow, before
+        any evaluation (see the module docstring).
     ConvergenceError
         If the tolerance is not met within the work limit, or the grid check fails.
     """
     _check(D, G, lam, L, l_a)
+    N = max(int(n_start), 2)
+    _check_work(D, G, lam, L, l_a, (rtol, atol), points_per_wavelength, max_points, N, max_levels)
     rho = lam ** (4.0 * (D - 2.0))  # asymptotic ratio of successive differences (2 levels)
     hist: list[tuple[int, float]] = []
-    N = max(int(n_start), 2)
     tail = math.inf
     n_roots = 0
     while True:
         points = L * lam ** (N - 1) / l_a * points_per_wavelength
-        if points > max_points:
+        if points > max_points or N > max_levels or points * N > max_work:
             last = hist[-1][1] if hist else float("nan")
             raise ConvergenceError(
                 f"wm_mean_height(D={D}, G={G}, lam={lam}, L={L}, l_a={l_a}): the W-M series did not "
-                f"converge to max({rtol}*b, {atol}) within the work limit ({max_points:g} grid points): "
+                f"converge to max({rtol}*b, {atol}) within the work limit ({max_points:g} grid points, "
+                f"{max_levels} levels, {max_work:g} points x levels): "
                 f"b = {last:.6g} with {N - 2} levels, estimated remainder {tail:.3g}")
         b, n_roots = wm_mean_height_truncated(D, G, lam, L, l_a, N, points_per_wavelength)
         hist.append((N, b))
@@ -253,6 +273,26 @@ def wm_mean_height_report(D: float, G: float, lam: float, L: float, l_a: float, 
     _, a = wm_levels(D, G, lam, l_a, N + 1)
     bound = float(a[-1] / (1.0 - lam ** (D - 2.0)))
     return MeanHeight(b, N, tail, bound, grid, n_roots, tuple(hist))
+
+
+def _check_work(D: float, G: float, lam: float, L: float, l_a: float, tol: tuple[float, float], ppw: int,
+                max_points: float, n_start: int, max_levels: int) -> None:
+    """Refuse parameters whose series needs more levels or grid points than the limits."""
+    rtol, atol = tol
+    rate = 2.0 * (2.0 - D) * math.log(lam)  # decay (log) of the differences per level, asymptotically
+    first_amplitude = G ** (D - 1.0) * l_a ** (2.0 - D)  # of the first level: the size of b
+    reduction = min(1.0 / max(rtol, 1e-300), first_amplitude / max(atol, 1e-300))
+    needed = math.log(max(reduction, 1.0)) / rate if rate > 0 else math.inf
+    if needed > max_levels:
+        raise ParameterError(
+            f"wm_mean_height: the W-M series with the frequency density lam = {lam!r} and the fractal "
+            f"dimension D = {D!r} needs about {needed:.3g} levels to converge (limit {max_levels}): lam "
+            f"is too close to 1 (surfaces use lam = 1.5)")
+    first = L / l_a * lam ** (n_start - 1) * ppw
+    if not first <= max_points:
+        raise ParameterError(
+            f"wm_mean_height: the sampling length L = {L!r} spans {L / l_a:.3g} times the largest asperity "
+            f"l_a = {l_a!r}: even the first truncation needs {first:.3g} grid points (limit {max_points:g})")
 
 
 @lru_cache(maxsize=256)

@@ -261,7 +261,7 @@ class System(Evaluations, SensitivityMethods):
         if broken is not None:  # the values every analysis runs on: maps, continuation, params=
             raise ParameterError(self.rules.message(*broken, values, self.units))
         for name, (fn, args) in self.generated.bound.items():
-            values[name] = evaluate_bound(fn, [values[a] for a in args])
+            values[name] = evaluate_bound(fn, [values[a] for a in args], args)
         return np.array([values[k] for k in self.generated.param_names], dtype=float)
 
     def run_params(self, params: Mapping[str, float] | None = None) -> dict[str, float]:

@@ -62,7 +62,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         },
         "modes": [{"name": mo.name, "condition": mo.condition} for mo in m.modes],
         "switching_functions": [
-            {"name": s.name, "expr": sp.sstr(s.expr), "meaning": s.meaning, "kind": s.kind}
+            {"name": s.name, "expr": sp.sstr(s.expr), "meaning": s.meaning, "kind": s.kind, "field": s.origin}
             for s in m.switching
         ],
         "breakpoints": [

@@ -32,7 +32,7 @@ class GeneratedModel:
         Order of the state and parameter vectors of the generated functions.
     surfaces
         One dict per switching function: ``name``, ``kind`` (drive/back/switch),
-        ``contact_sign``, ``meaning``, ``expr``.
+        ``contact_sign``, ``meaning``, ``expr``, ``field`` (the spec field it is written in, if known).
     schedules
         One dict per schedule: ``name``, ``n_breaks``.
     implicit

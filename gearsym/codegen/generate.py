@@ -23,6 +23,7 @@ import casadi as ca
 import sympy as sp
 
 from ..errors import CompileError
+from ..symbolic.budget import Budget
 from ..symbolic.model import SymbolicModel
 from .artifact import CODEGEN_VERSION, GeneratedModel
 from .cache import KEY_MARKER
@@ -82,6 +83,12 @@ def build_functions(model: SymbolicModel, derivatives: bool = False) -> dict[str
     ``gs_jacp`` has 1.3-4x the operations of ``gs_rhs``), which a user who never asks
     for sensitivities should not pay.
     """
+    budget = Budget(what=f"generating the functions of model '{model.name}'", file=model.spec.path)
+    with budget.active():
+        return _build_functions(model, derivatives, budget)
+
+
+def _build_functions(model: SymbolicModel, derivatives: bool, budget: Budget) -> dict[str, ca.Function]:
     derivatives = derivatives and model.form == "explicit"
     nx = len(model.states)
     params = model.parameters
@@ -99,7 +106,7 @@ def build_functions(model: SymbolicModel, derivatives: bool = False) -> dict[str
     for k, s in enumerate(model.schedules):
         symbols[s.n] = m[nsw + 2 * k]
         symbols[s.seg] = m[nsw + 2 * k + 1]
-    tr = SXTranslator(symbols)
+    tr = SXTranslator(symbols, budget)
     fns: dict[str, ca.Function] = {}
     if model.form == "explicit":
         f = ca.cse(tr.matrix(model.modal.rhs))  # common subexpressions once (10-30 % fewer operations)
@@ -120,6 +127,7 @@ def build_functions(model: SymbolicModel, derivatives: bool = False) -> dict[str
         fns["gs_resjac"] = ca.Function("gs_resjac", [t, x, xd, p, m, cj], [jr],
                                        ["t", "x", "xd", "p", "m", "cj"], ["Jr"])
         # the explicit right-hand side is still useful from Python (plots, checks)
+    budget.check("gs_sw")
     g = ca.vertcat(*[tr(s.expr) for s in model.switching]) if nsw else ca.SX(0, 1)
     fns["gs_sw"] = ca.Function("gs_sw", [t, x, p], [g], ["t", "x", "p"], ["g"])
     fns["gs_swx"] = ca.Function("gs_swx", [t, x, p], [ca.jacobian(g, x)], ["t", "x", "p"], ["G"])  # sparse
@@ -144,6 +152,7 @@ def build_functions(model: SymbolicModel, derivatives: bool = False) -> dict[str
     if outputs:
         o = ca.vertcat(*[tr(e) for e in outputs.values()])
         fns["gs_out"] = ca.Function("gs_out", [t, x, p, m], [o], ["t", "x", "p", "m"], ["y"])
+    budget.check("analysis functions")
     fns.update(analysis_functions(model, tr, t, x, p, m))
     return fns
 
@@ -274,7 +283,7 @@ def write_and_compile(model: SymbolicModel, fns: dict[str, ca.Function], staging
         scene=scene, key=build_key[:16], directory=str(directory), so_path=str(directory / so.name),
         state_names=model.state_names, param_names=model.parameter_names,
         surfaces=[{"name": s.name, "kind": s.kind, "contact_sign": s.contact_sign,
-                   "meaning": s.meaning, "expr": sp.sstr(s.expr)} for s in model.switching],
+                   "meaning": s.meaning, "expr": sp.sstr(s.expr), "field": s.origin} for s in model.switching],
         schedules=[{"name": s.name, "n_breaks": len(s.breaks)} for s in model.schedules],
         implicit=model.form == "implicit",
         n_ops={name: int(f.n_instructions()) for name, f in fns.items()},

@@ -15,6 +15,7 @@ import sympy as sp
 from sympy.logic.boolalg import BooleanFalse, BooleanTrue
 
 from ..errors import CompileError
+from ..symbolic.budget import Budget
 
 _UNARY = {
     sp.sin: ca.sin, sp.cos: ca.cos, sp.tan: ca.tan, sp.exp: ca.exp, sp.log: ca.log,
@@ -30,16 +31,22 @@ class SXTranslator:
     ----------
     symbols
         Maps every free sympy symbol to an SX scalar.
+    budget
+        The deadline of the code generation, checked once per distinct sub-expression
+        (:class:`gearsym.symbolic.budget.Budget`).
     """
 
-    def __init__(self, symbols: Mapping[sp.Symbol, ca.SX]):
+    def __init__(self, symbols: Mapping[sp.Symbol, ca.SX], budget: Budget | None = None):
         self.symbols = dict(symbols)
         self.cache: dict[sp.Basic, ca.SX] = {}
+        self.budget = budget
 
     def __call__(self, expr: sp.Basic) -> ca.SX:
         """Translate one expression (scalar)."""
         if expr in self.cache:
             return self.cache[expr]
+        if self.budget is not None:
+            self.budget.check()
         out = self._walk(expr)
         self.cache[expr] = out
         return out

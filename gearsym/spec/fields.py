@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import SpecError
 from . import expressions as ex
+from .names import check_symbol_name
 from .units import Unit, UnitSyntaxError, parse_unit
 
 if TYPE_CHECKING:
@@ -22,12 +23,18 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Term:
-    """One term of an expression field, possibly tagged with an effect (variant)."""
+    """One term of an expression field, possibly tagged with an effect (variant).
+
+    ``surface`` names the switching surfaces of the term's state-dependent conditions and
+    kinks, in the order they are written (the ``surface`` key of a term table; see
+    :mod:`gearsym.symbolic.surfaces`).
+    """
 
     expr: str
     field: str
     effect: str | None = None
     variant: str | None = None
+    surface: tuple[str, ...] = ()
 
 
 
@@ -56,7 +63,7 @@ def read_terms(ctx: Ctx, where: str, value: Any, schedules: dict[str, Schedule],
         if kind is not None and kind not in _TERM_KEYS:
             raise ctx.error(f"{where}.type", f"unknown excitation type '{kind}'{did_you_mean(str(kind), _TYPES)} "
                                              f"(known: {', '.join(_TYPES)})")
-        only_keys(ctx, where, value, {"effect", "variant", "type", *_TERM_KEYS[kind]})
+        only_keys(ctx, where, value, {"effect", "variant", "type", "surface", *_TERM_KEYS[kind]})
         eff = value.get("effect", effect)
         var = value.get("variant", variant)
         for k, v in (("effect", eff), ("variant", var)):
@@ -65,8 +72,10 @@ def read_terms(ctx: Ctx, where: str, value: Any, schedules: dict[str, Schedule],
         if kind is None:
             if "expr" not in value:
                 raise ctx.error(where, "a term table needs 'expr' or 'type'")
-            return (Term(expr_str(ctx, f"{where}.expr", value["expr"]), where, eff, var),)
-        return (Term(_typed(ctx, where, kind, value, schedules), where, eff, var),)
+            return (Term(expr_str(ctx, f"{where}.expr", value["expr"]), where, eff, var,
+                         _surface_names(ctx, where, value)),)
+        return (Term(_typed(ctx, where, kind, value, schedules), where, eff, var,
+                     _surface_names(ctx, where, value)),)
     return (Term(expr_str(ctx, where, value), where, effect, variant),)
 
 
@@ -78,6 +87,24 @@ _TERM_KEYS: dict[str | None, tuple[str, ...]] = {
     "piecewise_cycle": ("schedule", "values"),
 }
 _TYPES = tuple(k for k in _TERM_KEYS if k is not None)
+
+
+def _surface_names(ctx: Ctx, where: str, table: dict[str, Any]) -> tuple[str, ...]:
+    """The ``surface`` key of a term table: one name or an array of names (symbol names)."""
+    if "surface" not in table:
+        return ()
+    value = table["surface"]
+    names = [value] if isinstance(value, str) else value
+    if not isinstance(names, (list, tuple)) or not names:
+        raise ctx.error(f"{where}.surface", "must be a name or a non-empty array of names")
+    for i, name in enumerate(names):
+        here = f"{where}.surface" if isinstance(value, str) else f"{where}.surface[{i}]"
+        problem = check_symbol_name(name)
+        if problem:
+            raise ctx.error(here, problem)
+    if len(set(names)) != len(names):
+        raise ctx.error(f"{where}.surface", "a surface name is given twice")
+    return tuple(names)
 
 
 def _typed(ctx: Ctx, where: str, kind: str, v: dict[str, Any], schedules: dict[str, Schedule]) -> str:

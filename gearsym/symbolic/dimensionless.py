@@ -19,7 +19,7 @@ expression (``DimensionlessForm.check``).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import TYPE_CHECKING
 
@@ -252,7 +252,7 @@ class DimensionlessSystem:
     """
 
     def __init__(self, model: SymbolicModel):
-        from .switching import ModalForm, ScheduleInfo, SwitchingFunction
+        from .switching import ModalForm, ScheduleInfo
 
         if model.form != "explicit":
             raise SpecError("simulating in dimensionless variables needs an explicit model",
@@ -278,8 +278,7 @@ class DimensionlessSystem:
                             f"({', '.join(d.leftover)})", file=model.spec.path, field="dimensionless")
         self.modal = ModalForm(sp.Matrix(list(self.velocities) + acc), sp.Matrix([]),
                                [], list(model.modal.sigma), set(model.modal.used_schedules))
-        self.switching = [SwitchingFunction(s.name, g.xreplace(groups), s.meaning, s.contact_sign, s.kind)
-                          for s, g in zip(model.switching, d.switching)]
+        self.switching = [replace(s, expr=g.xreplace(groups)) for s, g in zip(model.switching, d.switching)]
         self.modal.surfaces = self.switching
         T = d.scales_inlined["time"]
         self.scales = [T] + [d.scales_inlined[str(c)] for c in model.coordinates]

@@ -26,6 +26,7 @@ from fractions import Fraction
 import sympy as sp
 from sympy.core.relational import Relational
 
+from .budget import checkpoint
 from .dims import ZERO, Dim, DimensionError, Dimensions, add, monomial, scale
 
 Vector = dict[sp.Basic, Fraction]
@@ -72,6 +73,7 @@ class Normalizer:
         return self._collect(self._norm(e))
 
     def _norm(self, e: sp.Basic) -> sp.Basic:  # noqa: C901 - a flat dispatch
+        checkpoint("dimensionless")
         if self._static(e):
             if isinstance(e, (Relational, sp.logic.boolalg.Boolean)) and not isinstance(e, sp.Expr):
                 return e
@@ -166,6 +168,7 @@ class GroupFinder:
     # ---------------------------------------------------------------- pass 1
     def split(self, e: sp.Basic) -> sp.Basic:
         """``e`` with every monomial over atoms replaced by a placeholder (see :meth:`finish`)."""
+        checkpoint("dimensionless")
         if e.is_Number or isinstance(e, sp.logic.boolalg.BooleanAtom):
             return e
         if isinstance(e, sp.Add):
@@ -307,7 +310,8 @@ class GroupFinder:
                     if a not in g or not g[a]:
                         continue
                     c = vec[a] / g[a]
-                    cand = {b: vec.get(b, Fraction(0)) - c * g.get(b, Fraction(0)) for b in set(vec) | set(g)}
+                    # (the atoms in a fixed order, not a set's: the first improvement found is taken)
+                    cand = {b: vec.get(b, Fraction(0)) - c * g.get(b, Fraction(0)) for b in dict.fromkeys([*vec, *g])}
                     cand = {b: x for b, x in cand.items() if x}
                     if cand and size(cand) < size(vec):
                         vec = cand

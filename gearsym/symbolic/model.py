@@ -14,10 +14,13 @@ explicit equations add to ``Q`` directly.  Then ``M q'' = Q``.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import sympy as sp
 
 from ..errors import SpecError
 from ..spec.scene import ResolvedScene
+from .budget import Budget, check_expression, checkpoint
 from .elements import ASSEMBLERS, Assembly
 from .expand import _expand_in_states
 from .parsing import Namespace, internal_symbol
@@ -57,6 +60,11 @@ class SymbolicModel:
     """
 
     def __init__(self, rs: ResolvedScene, structured: bool = False):
+        # the whole derivation under one time budget (gearsym/symbolic/budget.py)
+        with Budget(what=f"deriving the equations of model '{rs.model.name}'", file=rs.model.path).active():
+            self._derive(rs, structured)
+
+    def _derive(self, rs: ResolvedScene, structured: bool) -> None:
         self.resolved = rs
         self.spec = rs.model
         self.name = rs.model.name
@@ -72,6 +80,12 @@ class SymbolicModel:
         self._meshes: dict[str, sp.Expr] = {}    # mesh element -> dynamic deflection (deflection - error)
         self._mesh_forces: dict[str, sp.Expr] = {}  # mesh element -> mesh force k*f(delta) + c*delta'
         M, Q = self._assemble(ns, q, v)
+        dynamic = frozenset(q) | frozenset(v)
+        for i, qi in enumerate(q):  # the sums of the elements' terms, before anything expands them
+            check_expression(Q[i, 0], self.spec.path, f"coordinates.{qi}", f"generalised force on '{qi}'", dynamic)
+            check_expression(M[i, i], self.spec.path, f"coordinates.{qi}", f"mass of '{qi}'", dynamic)
+        # the surfaces written in the fields (named after them), after the elements' contact surfaces
+        self._surface_hints += [SwitchingFunction.of_hint(h) for h in ns.surfaces.hints]
         #: algebraic variables (constraint multipliers; states after the velocities) and the
         #: constraint rows ``= 0`` in terms of the accelerations (gearsym/symbolic/constraints.py)
         self.algebraic: list[sp.Symbol] = []
@@ -104,10 +118,12 @@ class SymbolicModel:
             for h in self._surface_hints:
                 g = _expand_in_states(h.expr.subs(rr.sub), states, ns.t)
                 if g.free_symbols & others:
+                    if h.kind == "switch":  # a condition the reduced equations do not have: no name needed
+                        continue
                     raise SpecError(f"the reduced model is not closed: the switching function of {h.name} "
                                     f"still depends on {', '.join(sorted(map(str, g.free_symbols & others)))}",
                                     file=self.spec.path, field="reduction")
-                hints.append(SwitchingFunction(h.name, g, h.meaning, h.contact_sign, h.kind))
+                hints.append(replace(h, expr=g))
             self._surface_hints = hints
             self._meshes = {k: _expand_in_states(d.subs(rr.sub), states, ns.t) for k, d in self._meshes.items()}
             R = transform_modes(R, rr.A)
@@ -158,8 +174,8 @@ class SymbolicModel:
         self._deflections = [d.xreplace(cs.sub) for d in self._deflections]
         self._force_exprs = [f.xreplace(cs.sub) for f in self._force_exprs]
         self._meshes = {k: d.xreplace(cs.sub) for k, d in self._meshes.items()}
-        self._surface_hints = [SwitchingFunction(h.name, _expand_in_states(h.expr.xreplace(cs.sub), states, ns.t),
-                                                 h.meaning, h.contact_sign, h.kind) for h in self._surface_hints]
+        self._surface_hints = [replace(h, expr=_expand_in_states(h.expr.xreplace(cs.sub), states, ns.t))
+                               for h in self._surface_hints]
         return cs.coordinates, cs.velocities, cs.mass, cs.forces
 
     def _assemble(self, ns: Namespace, q: list[sp.Symbol], v: list[sp.Symbol]):
@@ -177,6 +193,7 @@ class SymbolicModel:
             if not self.resolved.effect_active(el.effect, el.variant):
                 continue
             w = f"elements.{el.name}"
+            checkpoint(w)
 
             def field(key: str, el=el) -> sp.Expr:
                 return ns.sum_terms(el.fields.get(key, ()), el.effect, el.variant)
@@ -291,11 +308,10 @@ class SymbolicModel:
         hints = self._surface_hints
         # the mesh deflections (per-mesh results) are rewritten in the new states with the surfaces
         q2, v2, M2, Q2, sub, m_eq, g = reduce_keeping(self, ns, q, v, M, Q, [h.expr for h in hints], self._meshes,
-                                                      [_surface_field(self.spec, h.name) for h in hints])
+                                                      [h.origin or _surface_field(self.spec, h.name) for h in hints])
         self._reduction_sub = sub
         self.reduced_mass = m_eq if self.structured else sp.simplify(m_eq)
-        self._surface_hints = [SwitchingFunction(h.name, gh, h.meaning, h.contact_sign, h.kind)
-                               for h, gh in zip(hints, g)]
+        self._surface_hints = [replace(h, expr=gh) for h, gh in zip(hints, g)]
         self._meshes = dict(zip(self._meshes, g[len(hints):]))
         return q2, v2, M2, Q2
 
@@ -474,7 +490,8 @@ class SymbolicModel:
 
         cached = self.__dict__.get("_dimensionless")
         if cached is None:
-            cached = dimensionless_form(self)
+            with Budget(what=f"the dimensionless form of model '{self.name}'", file=self.spec.path).active():
+                cached = dimensionless_form(self)
             self.__dict__["_dimensionless"] = cached
         return cached
 

@@ -22,9 +22,11 @@ import sympy as sp
 from ..errors import SpecError
 from ..spec import syntax as sx
 from ..spec.expressions import BOUND_FUNCTIONS, FUNCTIONS, ExpressionError, names_in, parse
-from ..spec.model import Term
+from ..spec.model import ModelSpec, Term
 from ..spec.scene import ResolvedScene
 from ..spec.syntax import quote
+from .budget import check_expression, checkpoint
+from .surfaces import RECORDED_CALLS, Recorder, SurfaceFinder
 
 _SYMPY_FUNCTIONS: dict[str, Callable[..., sp.Basic]] = {
     name: getattr(sp, fn) for name, fn in FUNCTIONS.items() if name != "Piecewise"}
@@ -57,12 +59,20 @@ class Builder:
     bound
         Called as ``bound(function name, argument names)`` for a call of a bound
         function; returns the symbol standing for its value.
+    record
+        Sees every comparison, ``Piecewise`` and call of
+        :data:`~gearsym.symbolic.surfaces.RECORDED_CALLS`: ``record.before(node, argument
+        values)`` before sympy builds it (a check that may raise: sympy's ``Max`` of n
+        arguments costs n**2 comparisons), ``record(node, value, argument values)`` after
+        (:class:`~gearsym.symbolic.surfaces.Recorder`).
     """
 
     def __init__(self, names: Mapping[str, sp.Basic],
-                 bound: Callable[[str, list[str]], sp.Basic] | None = None):
+                 bound: Callable[[str, list[str]], sp.Basic] | None = None,
+                 record: Recorder | None = None):
         self.names = names
         self.bound = bound
+        self.record = record
 
     def build(self, expr: sx.Expression) -> sp.Basic:
         """The sympy object of a checked expression."""
@@ -89,20 +99,36 @@ class Builder:
         if isinstance(node, sx.Power):
             return self.visit(node.base) ** self.visit(node.exponent)
         if isinstance(node, sx.Compare):
-            return _COMPARE[node.op](self.visit(node.left), self.visit(node.right))
+            sides = (self.visit(node.left), self.visit(node.right))
+            if self.record is not None:
+                self.record.before(node, sides)
+            return self._recorded(node, _COMPARE[node.op](*sides), sides)
         if isinstance(node, sx.Logic):
             ops = [self.visit(c) for c in node.operands]
             return sp.And(*ops) if node.op == "and" else sp.Or(*ops)
         if isinstance(node, sx.Piecewise):
-            return sp.Piecewise(*[(self.visit(v), self.visit(c)) for v, c in node.pairs])
+            pairs = [(self.visit(v), self.visit(c)) for v, c in node.pairs]
+            if self.record is not None:
+                self.record.before(node, tuple(c for _, c in pairs))
+            return self._recorded(node, sp.Piecewise(*pairs), ())
         if isinstance(node, sx.Call):
             if node.func in BOUND_FUNCTIONS:
-                args = [a.id if isinstance(a, sx.Name) else None for a in node.args]
-                if self.bound is None or any(a is None for a in args):
+                names = [a.id if isinstance(a, sx.Name) else None for a in node.args]
+                if self.bound is None or any(a is None for a in names):
                     raise ExpressionError(f"arguments of {node.func}() must be parameter names")
-                return self.bound(node.func, args)  # type: ignore[arg-type]
-            return _SYMPY_FUNCTIONS[node.func](*[self.visit(a) for a in node.args])
+                return self.bound(node.func, names)  # type: ignore[arg-type]
+            args = tuple(self.visit(a) for a in node.args)
+            if node.func not in RECORDED_CALLS:
+                return _SYMPY_FUNCTIONS[node.func](*args)
+            if self.record is not None:
+                self.record.before(node, args)
+            return self._recorded(node, _SYMPY_FUNCTIONS[node.func](*args), args)
         raise ExpressionError(f"unsupported expression node {type(node).__name__}")  # pragma: no cover
+
+    def _recorded(self, node: sx.Node, value: sp.Basic, args: tuple) -> sp.Basic:
+        if self.record is not None:
+            self.record(node, value, args)
+        return value
 
     def chain(self, node: sx.Chain) -> sp.Basic:
         """A flat chain of ``+ -`` or ``* /``, without recursion and without quadratic cost.
@@ -124,6 +150,39 @@ class Builder:
         for op, x in node.rest:  # left to right, as Python evaluates a chain
             acc = acc * self.visit(x) if op == "*" else acc / self.visit(x)
         return acc
+
+
+def _derived_order(m: ModelSpec) -> list[str]:
+    """The derived quantities of model ``m`` in dependency order.
+
+    The order of passes over the table, each taking (in file order) every quantity whose
+    dependencies are done: a quantity's pass is the largest of its dependencies' passes,
+    plus one for a dependency written after it.  Computed in one walk (repeated passes cost
+    a pass per level of a chain written backwards: hours for 20 000 quantities).
+    """
+    index = {name: i for i, name in enumerate(m.derived)}
+    deps = {name: sorted(set().union(*[names_in(t.expr) for t in d.terms]) & index.keys()) if d.terms else []
+            for name, d in m.derived.items()}
+    rank: dict[str, int] = {}
+    waiting: set[str] = set()  # on the stack, under their dependencies
+    for root in m.derived:  # depth first with an explicit stack (a chain may be long)
+        todo = [root]
+        while todo:
+            name = todo[-1]
+            if name in rank:
+                todo.pop()
+                continue
+            missing = [d for d in deps[name] if d not in rank]
+            if missing:
+                if name in waiting or waiting.intersection(missing):  # pragma: no cover - rejected by the spec layer
+                    raise SpecError("circular derived quantities", file=m.path, field="derived")
+                waiting.add(name)
+                todo += missing
+                continue
+            waiting.discard(name)
+            rank[name] = max([rank[d] + (index[d] > index[name]) for d in deps[name]], default=0)
+            todo.pop()
+    return sorted(m.derived, key=lambda name: (rank[name], index[name]))
 
 
 class Namespace:
@@ -184,6 +243,9 @@ class Namespace:
             self._local[m.reduction.coordinate] = sp.Symbol(m.reduction.coordinate, real=True)
             self._local[m.reduction.velocity] = sp.Symbol(m.reduction.velocity, real=True)
         self._local.update(self.alg)
+        #: the switching surfaces written in the fields parsed so far, with their names
+        self.surfaces = SurfaceFinder(frozenset({*self.coords.values(), *self.vels.values(), *self.alg.values()}),
+                                      self.t, m.path)
         for c in m.coordinates.values():
             if c.name not in self.coords:  # gated coordinate of a switched-off effect
                 self._local[c.name] = sp.Integer(0)
@@ -199,23 +261,13 @@ class Namespace:
             self._local[f"{s.name}_phase"] = self.t / placeholder[s.name] - self.sched_n[s.name]
             self._local[f"{s.name}_segment"] = self.sched_seg[s.name]
         # derived quantities, in dependency order (validated acyclic by the spec layer)
-        pending = dict(m.derived)
-        while pending:
-            progressed = False
-            for name, d in list(pending.items()):
-                deps = set().union(*[names_in(t.expr) for t in d.terms]) if d.terms else set()
-                if deps & set(pending):
-                    continue
-                value = self.sum_terms(d.terms)
-                if structured and not value.is_Atom and (structured == "all" or self._parameter_only(value)):
-                    sym = sp.Symbol(name, real=True)
-                    self.derived[sym] = value
-                    value = sym
-                self._local[name] = value
-                del pending[name]
-                progressed = True
-            if not progressed:  # pragma: no cover - the spec layer rejects cycles
-                raise SpecError("circular derived quantities", file=m.path, field="derived")
+        for name in _derived_order(m):
+            value = self.sum_terms(m.derived[name].terms)
+            if structured and not value.is_Atom and (structured == "all" or self._parameter_only(value)):
+                sym = sp.Symbol(name, real=True)
+                self.derived[sym] = value
+                value = sym
+            self._local[name] = value
         for s in m.schedules.values():
             self.schedule_period[s.name] = self.parse(s.period, f"schedules.{s.name}.period")
             self.schedule_breaks[s.name] = [self.parse(b, f"schedules.{s.name}.breaks[{i}]")
@@ -260,13 +312,23 @@ class Namespace:
         self.bound[sym] = (fname, tuple(names))
         return sym
 
-    def parse(self, text: str, where: str = "") -> sp.Expr:
-        """Build the sympy expression of an expression string (checked by the spec layer)."""
+    def parse(self, text: str, where: str = "", surfaces: tuple[str, ...] = ()) -> sp.Expr:
+        """Build the sympy expression of an expression string (checked by the spec layer).
+
+        The result is measured before anything else walks it (:mod:`gearsym.symbolic.budget`:
+        a chain of derived quantities can make it grow without bound), and its switching
+        surfaces are recorded (:attr:`surfaces`), named by ``surfaces`` if given.
+        """
+        checkpoint(where or None)
         try:
-            out = Builder(self._local, self._bound_call).build(parse(text))
+            tree = parse(text)
+            record = self.surfaces.recorder(tree, where)
+            out = Builder(self._local, self._bound_call, record).build(tree)
+            check_expression(out, self.rs.model.path, where or None, dynamic=self.surfaces.dynamic)
             if out.has(*_NOT_REAL):
                 raise ExpressionError(f"'{quote(text)}' evaluates to an infinite, undefined or complex "
                                       f"value ({sp.sstr(out)[:60]})")
+            self.surfaces.collect(record, surfaces)
             return out
         except ExpressionError as exc:
             raise SpecError(str(exc), file=self.rs.model.path, field=where or None) from None
@@ -278,7 +340,7 @@ class Namespace:
                   el_variant: str | None = None) -> sp.Expr:
         """Sum of the active terms of an expression field (one ``Add``: the same object as
         adding them one by one, in one pass however many terms there are)."""
-        return sp.Add(*[self.parse(term.expr, term.field) for term in terms
+        return sp.Add(*[self.parse(term.expr, term.field, term.surface) for term in terms
                         if self.rs.is_active(term, el_effect, el_variant)])
 
     def param_value(self, name: str) -> float:

@@ -12,14 +12,16 @@ the engine sets the segment index between scheduled breakpoints.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import sympy as sp
 from sympy.core.relational import Relational
 
 from ..errors import SpecError
+from .budget import MAX_SURFACES, checkpoint
 from .parsing import internal_symbol
+from .surfaces import SurfaceHint
 
 if TYPE_CHECKING:
     from .model import SymbolicModel
@@ -60,6 +62,10 @@ class SwitchingFunction:
         surface is not a contact surface.
     kind
         ``"drive"``, ``"back"`` or ``"switch"``.
+    origin
+        The spec field it is written in (``elements.fx.value[1]``), if known.
+    given
+        Whether the user named it (the ``surface`` key of a term).
     """
 
     name: str
@@ -67,6 +73,13 @@ class SwitchingFunction:
     meaning: str
     contact_sign: int = 0
     kind: str = "switch"
+    origin: str = ""
+    given: bool = False
+
+    @classmethod
+    def of_hint(cls, hint: SurfaceHint) -> SwitchingFunction:
+        """The switching function of a surface found in a spec field."""
+        return cls(hint.name, hint.expr, hint.meaning, 0, "switch", hint.origin, hint.given)
 
 
 
@@ -110,70 +123,8 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
     ns = model.ns
     seg_syms = {ns.sched_seg[s]: s for s in ns.sched_seg}
     n_syms = {ns.sched_n[s]: s for s in ns.sched_n}
-    surfaces: list[SwitchingFunction] = []
-    sigma: list[sp.Symbol] = []
-    # registry of surfaces by canonical form (expanded, sign fixed so that exactly one
-    # of g and -g is the key): a dict lookup per condition instead of expanding the
-    # difference with every registered surface (quadratic in the number of surfaces)
-    known: dict[sp.Expr, tuple[int, int]] = {}
-    hint_keys: dict[sp.Expr, tuple[SwitchingFunction, int]] = {}
-    # canonical form of a switching function: expanded in the states only, every
-    # parameter block and every nonsmooth function (the Max of a dynamic backlash) held as
-    # one symbol (sign normalised), so that equal surfaces meet without a full expansion
-    blocks: dict[sp.Expr, sp.Dummy] = {}
-    nonsmooth: dict[tuple, tuple[sp.Dummy, sp.Expr]] = {}
-
-    def canon(g: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
-        def block(e: sp.Expr) -> sp.Expr:
-            if e.is_Number:
-                return e
-            neg = e.could_extract_minus_sign()
-            key = -e if neg else e
-            if key not in blocks:
-                blocks[key] = sp.Dummy(f"c{len(blocks)}")
-            return -blocks[key] if neg else blocks[key]
-
-        def atom(e: sp.Basic) -> sp.Basic:
-            if isinstance(e, sp.Expr) and not (e.free_symbols & states):
-                return block(e)
-            if e.is_Atom:
-                return e
-            if isinstance(e, (sp.Add, sp.Mul)):  # the parameter terms/factors together: one block
-                static = [a for a in e.args if not (a.free_symbols & states)]
-                rest = [atom(a) for a in e.args if a.free_symbols & states]
-                return e.func(*rest, *([block(e.func(*static))] if static else []))
-            if isinstance(e, _NONSMOOTH):  # keyed by its canonical arguments
-                key = (e.func, tuple(sp.expand(atom(a)) for a in e.args))  # no Max(...) rebuilt: costly
-                if key not in nonsmooth:
-                    nonsmooth[key] = (sp.Dummy(f"n{len(nonsmooth)}"), e)
-                return nonsmooth[key][0]
-            return e.func(*[atom(a) for a in e.args])
-        ge = sp.expand(atom(g))
-        back = {d: e for e, d in blocks.items()}
-        back.update({d: e for d, e in nonsmooth.values()})
-        return ge, ge.xreplace(back)
-
-    for h in hints:
-        key, sgn = _canonical(canon(h.expr)[0])
-        hint_keys.setdefault(key, (h, sgn))
-
-    def register(g: sp.Expr) -> tuple[int, int]:
-        gk, ge = canon(g)
-        key, sgn = _canonical(gk)
-        if key in known:  # ge = sgn*key, surface j = sj*key
-            j, sj = known[key]
-            return j, sgn * sj
-        j = len(surfaces)
-        if key in hint_keys:
-            h, sh = hint_keys[key]
-            surfaces.append(h)
-            known[key] = (j, sh)
-            sigma.append(internal_symbol(f"sigma_{j}"))
-            return j, sgn * sh
-        surfaces.append(SwitchingFunction(f"surface{j}", ge, f"switch {j} (g > 0 side)", 0, "switch"))
-        known[key] = (j, sgn)
-        sigma.append(internal_symbol(f"sigma_{j}"))
-        return j, 1
+    reg = _Registry(states, hints, model.spec.path)
+    surfaces, sigma, register = reg.surfaces, reg.sigma, reg.register
 
     def to_sigma(rel: Relational) -> sp.Basic:
         free = rel.free_symbols
@@ -200,6 +151,8 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
         # make sympy split the condition into ITE branches, i.e. spurious extra surfaces
         def fix(e: sp.Basic) -> sp.Basic:
             if isinstance(e, _NONSMOOTH) and (e.free_symbols & states):
+                if isinstance(e, sp.Heaviside):  # (sympy's rewrite has Eq(x, 0): not a surface)
+                    return sp.Piecewise((1, e.args[0] > 0), (0, True))
                 return e.rewrite(sp.Piecewise)
             return e
         return _bottom_up(expr, fix, skip=Relational)
@@ -211,8 +164,8 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
             if isinstance(e, sp.Piecewise):
                 args = []
                 for val, cond in e.args:
-                    if cond not in (sp.true, sp.false):
-                        cond = cond.xreplace({r: to_sigma(r) for r in cond.atoms(Relational)})
+                    if cond not in (sp.true, sp.false):  # surfaces in the order they are met (not a set's)
+                        cond = cond.xreplace({r: to_sigma(r) for r in _relationals(cond)})
                     args.append((val, cond))
                 return sp.Piecewise(*args)
             return e
@@ -241,8 +194,136 @@ def make_modal(model: SymbolicModel, hints: list[SwitchingFunction]) -> ModalFor
     return ModalForm(rhs, forces, surfaces, sigma, used, algebraic)
 
 
+class _Registry:
+    """The surfaces of a model by canonical form, with their sides ``sigma_j``.
+
+    The canonical form of a switching function: expanded in the states only, every
+    parameter block and every nonsmooth function (the Max of a dynamic backlash) held as one
+    symbol, the numeric content and the sign taken out (``g``, ``-g`` and ``4*g`` are one
+    surface), so that equal surfaces meet by a dict lookup instead of expanding the
+    difference with every registered surface (quadratic in the number of surfaces).  A
+    surface with the canonical form of a hint (an element's contact surface, a condition
+    found in a spec field) takes the hint's name and function.
+    """
+
+    def __init__(self, states: set[sp.Symbol], hints: list[SwitchingFunction], file: str | None):
+        self.states = states
+        self.file = file
+        self.surfaces: list[SwitchingFunction] = []
+        self.sigma: list[sp.Symbol] = []
+        self.known: dict[sp.Expr, tuple[int, int]] = {}
+        self.blocks: dict[sp.Expr, sp.Dummy] = {}
+        self.nonsmooth: dict[tuple, tuple[sp.Dummy, sp.Expr]] = {}
+        self.names = _Names(file)
+        self.hint_keys: dict[sp.Expr, tuple[SwitchingFunction, int]] = {}
+        for h in hints:
+            key, sgn = _canonical(self.canon(h.expr)[0])
+            self.hint_keys.setdefault(key, (h, sgn))
+
+    def block(self, e: sp.Expr) -> sp.Expr:
+        if e.is_Number:
+            return e
+        coeff, key = e.as_coeff_Mul()  # the number apart: g and 4*g are one surface
+        if key.could_extract_minus_sign():
+            coeff, key = -coeff, -key
+        if key not in self.blocks:
+            self.blocks[key] = sp.Dummy(f"c{len(self.blocks)}")
+        return coeff * self.blocks[key]
+
+    def atom(self, e: sp.Basic) -> sp.Basic:
+        states = self.states
+        if isinstance(e, sp.Expr) and not (e.free_symbols & states):
+            return self.block(e)
+        if e.is_Atom:
+            return e
+        if isinstance(e, (sp.Add, sp.Mul)):  # the parameter terms/factors together: one block
+            static = [a for a in e.args if not (a.free_symbols & states)]
+            rest = [self.atom(a) for a in e.args if a.free_symbols & states]
+            return e.func(*rest, *([self.block(e.func(*static))] if static else []))
+        if isinstance(e, _NONSMOOTH):  # keyed by its canonical arguments
+            key = (e.func, tuple(sp.expand(self.atom(a)) for a in e.args))  # no Max(...) rebuilt: costly
+            if key not in self.nonsmooth:
+                self.nonsmooth[key] = (sp.Dummy(f"n{len(self.nonsmooth)}"), e)
+            return self.nonsmooth[key][0]
+        return e.func(*[self.atom(a) for a in e.args])
+
+    def canon(self, g: sp.Expr) -> tuple[sp.Expr, sp.Expr]:
+        """``(canonical form, g expanded in the states)``."""
+        ge = sp.expand(self.atom(g))
+        back = {d: e for e, d in self.blocks.items()}
+        back.update({d: e for d, e in self.nonsmooth.values()})
+        return ge, ge.xreplace(back)
+
+    def register(self, g: sp.Expr) -> tuple[int, int]:
+        """``(j, s)``: ``g`` is ``s`` times a positive multiple of surface ``j`` (registered if new)."""
+        gk, ge = self.canon(g)
+        key, sgn = _canonical(gk)
+        if key in self.known:  # ge = sgn*key, surface j = sj*key
+            j, sj = self.known[key]
+            return j, sgn * sj
+        j = len(self.surfaces)
+        if j >= MAX_SURFACES:
+            raise SpecError(f"the equations have more than {MAX_SURFACES} switching surfaces (state-dependent "
+                            f"conditions and kinks)", file=self.file)
+        checkpoint("switching surfaces")
+        self.sigma.append(internal_symbol(f"sigma_{j}"))
+        if key in self.hint_keys:
+            h, sh = self.hint_keys[key]
+            self.surfaces.append(self.names.claim(h))
+            self.known[key] = (j, sh)
+            return j, sgn * sh
+        self.surfaces.append(self.names.claim(SwitchingFunction(f"surface{j}", ge, f"switch {j} (g > 0 side)")))
+        self.known[key] = (j, sgn)
+        return j, 1
+
+
+class _Names:
+    """Surface names in use: a generated name taken twice gets ``#2``, ``#3``, ...; a name the
+    user gave twice (to different surfaces) is an error."""
+
+    def __init__(self, file: str | None):
+        self.file = file
+        self.used: set[str] = set()
+
+    def claim(self, sf: SwitchingFunction) -> SwitchingFunction:
+        name = sf.name
+        if name in self.used:
+            if sf.given:
+                raise SpecError(f"the surface name '{name}' is given to two different switching surfaces",
+                                file=self.file, field=f"{sf.origin}.surface" if sf.origin else None)
+            k = 2
+            while f"{sf.name}#{k}" in self.used:
+                k += 1
+            name = f"{sf.name}#{k}"
+            sf = replace(sf, name=name)
+        self.used.add(name)
+        return sf
+
+
+def _relationals(cond: sp.Basic) -> list[Relational]:
+    """The relations of a condition, each once, in the order of its (sorted) ``args``.
+
+    Not ``atoms()`` (a set) nor ``preorder_traversal`` (it walks the *set* of arguments of
+    an ``And``/``Or``): both give an order that changes with the hash seed, and the
+    surfaces are numbered in the order they are met.
+    """
+    out: dict[Relational, None] = {}
+    todo = [cond]
+    while todo:
+        c = todo.pop()
+        if isinstance(c, Relational):
+            out.setdefault(c)
+        else:
+            todo.extend(reversed(c.args))
+    return list(out)
+
+
 def _canonical(e: sp.Expr) -> tuple[sp.Expr, int]:
-    """``(key, s)`` with ``e = s*key``; ``key`` is the same for ``e`` and ``-e``."""
+    """``(key, s)`` with ``e = s*c*key`` for a number ``c > 0``; ``key`` is the same for ``e``,
+    ``-e`` and ``c*e`` (one surface, the same sides)."""
+    content, primitive = e.as_content_primitive()
+    if not content.is_zero:
+        e = primitive
     if e.could_extract_minus_sign():
         return -e, -1
     return e, 1
@@ -253,6 +334,7 @@ def _bottom_up(expr: sp.Basic, fn, skip: type | tuple[type, ...] = ()) -> sp.Bas
     the types ``skip`` are left as they are, with their subtrees."""
     if skip and isinstance(expr, skip):
         return expr
+    checkpoint()
     if expr.args:
         new_args = [_bottom_up(a, fn, skip) for a in expr.args]
         if any(a is not b for a, b in zip(new_args, expr.args)):

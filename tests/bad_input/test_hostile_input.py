@@ -64,6 +64,62 @@ def name_case(id_: str, old: str, new: str, field: str, *needles: str, model: st
     return Hostile(id_, sub(model, old, new), (field, *needles))
 
 
+def derived_case(id_: str, derived: list[str], expr: str, *needles: str) -> Hostile:
+    """The KS model with a ``[derived]`` table (``name = "expression"`` lines) and ``expr`` as
+    the first term of the load force."""
+    table = "[derived]\n" + "\n".join(f"{line.split('=', 1)[0].strip()} = {_toml(line.split('=', 1)[1].strip())}"
+                                       for line in derived) + "\n\n[forcing]"
+    return Hostile(id_, sub(sub(KS_MODEL, LOAD, "value = [" + _toml(expr) + ","), "[forcing]", table), needles)
+
+
+def term_case(id_: str, table: str, *needles: str) -> Hostile:
+    """The KS model with the TOML ``table`` as the first term of the load force."""
+    return Hostile(id_, sub(KS_MODEL, LOAD, "value = [" + table + ","), needles)
+
+
+#: the issue's symbolic hangs (gearsym issue 25, item 6) and more of their kind: each used to
+#: run for minutes or hours in sympy (or end in an internal error) and must now be refused at once
+BUDGETS = [
+    expr_case("Max of 256 state-dependent arguments",
+              "Max(" + ", ".join(f"{i + 1}*x - {i}*v" for i in range(256)) + ")",
+              "Max() of the states with 256 arguments"),
+    derived_case("power tower of integers over derived", ["c1 = 2**64"] + [f"c{k} = c{k - 1}**64" for k in range(2, 7)],
+                 "Fm*c6/c6", "derived.c2.value", "number out of range"),
+    derived_case("power tower of a state over derived", ["c1 = x**64"] + [f"c{k} = c{k - 1}**64" for k in range(2, 7)],
+                 "Fm*c6", "derived.c2.value", "polynomial degree of 4096"),
+    derived_case("24-step derived chain of products of a state",
+                 ["d0 = x"] + [f"d{k} = (d{k - 1} + b)*(d{k - 1} + 2*b)" for k in range(1, 25)],
+                 "Fm*d24", "derived.d9.value", "too large for the symbolic layer"),
+    derived_case("24-step derived chain of products of a parameter",
+                 ["d0 = b"] + [f"d{k} = (d{k - 1} + b)*(d{k - 1} + 2*b)" for k in range(1, 25)],
+                 "Fm*d24", "derived.d9.value", "too large for the symbolic layer"),
+    expr_case("floor of a state", "Fm*floor(x)", "floor() of the states"),
+    expr_case("floor of time", "Fm*floor(Omega*t)", "floor() of time", "[schedules]"),
+    derived_case("200-step derived chain of sin", ["d0 = x"] + [f"d{k} = sin(d{k - 1})" for k in range(1, 201)],
+                 "Fm*d200", "derived.d150.value", "nested more than 150 levels"),
+    derived_case("float overflow over derived", ["c1 = 1e200", "c2 = c1*c1"], "Fm*c2/c2", "derived.c2.value",
+                 "number out of range"),
+    derived_case("rational underflow over derived", ["c1 = 2**-64", "c2 = c1**64", "c3 = c2**64"], "Fm + c3",
+                 "derived.c2.value", "number out of range"),
+    expr_case("Piecewise with 100 state conditions",
+              "Piecewise(" + ", ".join(f"({i}, x > {i})" for i in range(1, 101)) + ", (0, True))",
+              "Piecewise with 100 conditions on the states"),
+    expr_case("600 switching surfaces", " + ".join(f"Max(x, {i})" for i in range(1, 600)),
+              "more than 256 switching surfaces"),
+    expr_case("product of 60 sums of states and time in a condition",
+              "Piecewise((Fm, " + "*".join(f"(x + v + t + {i})" for i in range(1, 61)) + " > 0), (0, True))",
+              "an expansion of more than 100000 terms"),
+    term_case("more surface names than surfaces",
+              '{ expr = "Piecewise((Fm, x > 2*b), (0, True))", surface = ["stop", "end"] }',
+              "elements.load.value[0].surface", "2 surface names for 1 switching surface of the states ('x>2*b')"),
+    term_case("surface name that is not a name", '{ expr = "Piecewise((Fm, x > 2*b), (0, True))", surface = "a b" }',
+              "elements.load.value[0].surface", "not a valid symbol name"),
+    Hostile("one surface name for two surfaces",
+            sub(KS_MODEL, LOAD, 'value = [{ expr = "Piecewise((Fm, x > 2*b), (0, True))", surface = "stop" }, '
+                                '{ expr = "Piecewise((Fm, x > 3*b), (0, True))", surface = "stop" },'),
+            ("elements.load.value[1].surface", "'load.stop' is given to two different switching surfaces")),
+]
+
 DEEP = "(" * 1000 + "Fm" + ")" * 1000
 HOSTILE = [
     # ---- the issue's cases
@@ -176,6 +232,7 @@ HOSTILE = [
     Hostile("unit of 10 000 factors", sub(KS_MODEL, 'zeta  = { value = 0.05,',
                                           'zeta  = { value = 0.05, unit = "' + "*".join(["m"] * 10_000) + '",'),
             ("parameters.zeta.unit", "cannot parse unit")),
+    *BUDGETS,
 ]
 
 

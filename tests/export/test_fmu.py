@@ -57,7 +57,7 @@ def test_model_description(yu, vs):
     # the bound function and its arguments are constants recorded at export
     assert v["D"].variability == "constant" and float(v["D"].start) == 1.4
     assert v["wm_mean_height_D_G_lam_L_c_l_a"].variability == "constant"
-    assert {o.variable.name for o in md.outputs} == {"backlash_B", "mesh_force", "n_events", "sigma[surface0]",
+    assert {o.variable.name for o in md.outputs} == {"backlash_B", "mesh_force", "n_events", "sigma[db.0=1-kappa^2]",
                                                       "sigma[mesh.drive]", "sigma[mesh.back]"}
     assert v["mesh_force"].unit == "kg*m*s^-2"
     vmd = read_model_description(str(vs.fmu))
