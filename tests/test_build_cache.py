@@ -288,3 +288,25 @@ def test_compiler_writing_garbage_leaves_no_build(tmp_path, monkeypatch):
     with pytest.raises(CompileError, match="cannot load|invalid ELF|damaged"):
         gearsym.load_scene(KS_SCENE).generate(generated_dir=tmp_path / "cache")
     assert not (tmp_path / "cache").exists() or list((tmp_path / "cache").iterdir()) == []
+
+
+def test_sources_digest_covers_modules_in_subpackages(tmp_path, monkeypatch):
+    """An edit to an element module (``symbolic/elements/*.py``) changes the build key: the
+    digest covers every module below spec/, symbolic/ and codegen/, not only the top level."""
+    import shutil
+
+    from gearsym.codegen import cache
+
+    pkg = Path(cache.__file__).resolve().parent.parent
+    for sub in cache._SOURCE_DIRS:
+        shutil.copytree(pkg / sub, tmp_path / sub, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(cache, "_PKG", tmp_path)
+    cache._sources_digest.cache_clear()
+    try:
+        before = cache._sources_digest()
+        element = tmp_path / "symbolic" / "elements" / "base.py"
+        element.write_text(element.read_text() + "\n# an edit\n")
+        cache._sources_digest.cache_clear()
+        assert cache._sources_digest() != before
+    finally:
+        cache._sources_digest.cache_clear()

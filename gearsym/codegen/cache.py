@@ -98,9 +98,9 @@ def safe_name(name: str, limit: int = 64) -> str:
 @functools.lru_cache(maxsize=1)
 def _sources_digest() -> str:
     h = hashlib.sha256()
-    for sub in _SOURCE_DIRS:
-        for f in sorted((_PKG / sub).glob("*.py")):
-            h.update(f"{sub}/{f.name}".encode() + b"\0" + f.read_bytes() + b"\0")
+    for sub in _SOURCE_DIRS:  # every module below them (element modules in subpackages included)
+        for f in sorted((_PKG / sub).rglob("*.py")):
+            h.update(f.relative_to(_PKG).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
     return h.hexdigest()
 
 
