@@ -44,7 +44,7 @@ Conventions
 -----------
 * Exponents are per unit of the system's time (seconds for SI models; for a system that
   simulates in dimensionless time, per unit of it: divide by :meth:`System.time_scale`
-  for per second), in decreasing order.
+  for per second), largest first (the order of the QR's columns).
 * **Forced (non-autonomous) models**: the state space is the model's states; the forcing
   phase is not a state, so the time direction adds no zero exponent.  The ``n`` exponents
   are those of the period map divided by the period.  The Kaplan-Yorke dimension is that
@@ -85,7 +85,7 @@ from .stability import ERROR_FACTOR, rigid_state_basis
 if TYPE_CHECKING:  # pragma: no cover
     from ..system import System
 
-__all__ = ["GROWTH_LIMIT", "LyapunovOptions", "LyapunovResult", "batch_errors", "kaplan_yorke",
+__all__ = ["GROWTH_LIMIT", "LyapunovOptions", "LyapunovResult", "batch_errors", "format_estimate", "kaplan_yorke",
            "lyapunov_exponents", "weighted_average", "window"]
 
 #: Largest ``log R_11 - log R_kk`` (the separation of the tangent directions) of one block
@@ -172,6 +172,12 @@ class LyapunovOptions:
             _number("abs_tol", self.abs_tol, 0.0, math.inf)
         if self.method is not None and self.method not in ("bdf", "adams", "ida"):
             raise ParameterError(f"method must be 'bdf', 'adams' or 'ida', got {self.method!r}")
+        b = 1.0 if self.block is None else float(self.block)
+        n_min = MIN_BATCH_BLOCKS * self.batches
+        if self.periods / b < n_min:
+            raise ParameterError(f"periods={self.periods:g}: the convergence estimate needs at least {n_min} blocks "
+                                 f"({self.batches} batches of {MIN_BATCH_BLOCKS}); give periods >= {n_min * b:g}"
+                                 + (" or a shorter block" if self.block is not None else ""))
 
 
 def _number(name: str, v: Any, lo: float, hi: float, low_open: bool = False, high_open: bool = False) -> None:
@@ -202,7 +208,9 @@ class LyapunovResult:
     Attributes
     ----------
     exponents : ndarray
-        The exponents, largest first, per unit of the system's time (windowed time averages).
+        The exponents, per unit of the system's time (windowed time averages), in the order of the
+        QR's columns: largest first once converged (equal ones, e.g. of a complex pair of
+        multipliers, in either order within their errors).
     errors : ndarray
         The 95 % half-width of each (module docstring, step 5).
     converged : bool
@@ -217,7 +225,9 @@ class LyapunovResult:
         Kaplan-Yorke dimension ``j + (lambda_1 + ... + lambda_j) / |lambda_{j+1}|`` (``j`` the
         largest index with a non-negative partial sum; 0 if ``lambda_1 < 0``); NaN when all
         partial sums of fewer than all exponents are non-negative (more are needed).  For a
-        forced model, that of the period map's attractor (module docstring).
+        forced model, that of the period map's attractor (module docstring); for an autonomous
+        one the exponent nearest 0 counts as 0 (the flow direction) when it is within its error
+        (``info["kaplan_yorke_zero"]`` is then its index).
     trivial : ndarray
         The exponents of the rigid-body directions: zeros, two per rigid-body mode (empty
         without them), not part of :attr:`exponents`.
@@ -240,8 +250,9 @@ class LyapunovResult:
         variational equations, alignment included, per second of wall time), ``n_events``,
         ``n_steps``, ``max_growth`` (the largest ``log R_11 - log R_kk`` of a block).
     info : dict
-        ``forced`` (bool), ``period``, ``rigid_split`` (how the rigid-body modes were
-        handled), ``invariance_defect``, ``dimension`` (directions the exponents are of).
+        ``forced`` (bool), ``period``, ``tangent_scales`` (the unit of each state in the tangent
+        space), ``rigid_split`` (how the rigid-body modes were handled), ``invariance_defect``,
+        ``dimension`` (directions the exponents are of).
     """
 
     exponents: np.ndarray
@@ -321,8 +332,8 @@ class LyapunovResult:
         run = self.running
         t = self.block_time * np.arange(1, run.shape[0] + 1)
         for i in range(run.shape[1]):
-            line, = ax.plot(t, run[:, i], lw=1, label=f"$\\lambda_{{{i + 1}}}$ = {self.exponents[i]:.5g} "
-                            f"$\\pm$ {self.errors[i]:.2g}")
+            text = format_estimate(float(self.exponents[i]), float(self.errors[i])).replace("+-", "$\\pm$")
+            line, = ax.plot(t, run[:, i], lw=1, label=f"$\\lambda_{{{i + 1}}}$ = {text}")
             ax.axhline(self.exponents[i], color=line.get_color(), ls="--", lw=0.8)
             ax.axhspan(self.exponents[i] - self.errors[i], self.exponents[i] + self.errors[i],
                        color=line.get_color(), alpha=0.15, lw=0)
@@ -339,6 +350,26 @@ class LyapunovResult:
 
 
 # ------------------------------------------------------------------ statistics
+def format_estimate(value: float, error: float) -> str:
+    """``"value +- error"`` with the digits the error allows (the error to two significant digits).
+
+    Parameters
+    ----------
+    value, error
+        An estimate and its error.
+
+    Returns
+    -------
+    str
+    """
+    if not math.isfinite(value):
+        return f"{value}"
+    if not (math.isfinite(error) and error > 0):
+        return f"{value:.6g} +- {error:.2g}"
+    decimals = min(max(0, 1 - math.floor(math.log10(error))), 15)
+    return f"{value:.{decimals}f} +- {error:.2g}"
+
+
 def window(n: int, ramp: float = RAMP) -> np.ndarray:
     """Weights of ``n`` consecutive blocks: 1 in the middle, ``C^inf`` ramps over the first and
     last ``ramp`` of them that vanish with all derivatives at both ends.
@@ -417,12 +448,12 @@ def batch_errors(stretches: np.ndarray, h: float, batches: int) -> np.ndarray:
 
 
 def kaplan_yorke(exponents: Sequence[float], complete: bool = True) -> float:
-    """Kaplan-Yorke dimension of a spectrum (largest first).
+    """Kaplan-Yorke dimension of a spectrum.
 
     Parameters
     ----------
     exponents
-        The exponents, decreasing.
+        The exponents (sorted here, largest first).
     complete
         Whether these are all the exponents; if not and every partial sum is non-negative,
         the dimension is not known (NaN).
@@ -434,7 +465,7 @@ def kaplan_yorke(exponents: Sequence[float], complete: bool = True) -> float:
         partial sum is >= 0; 0 if ``lambda_1 < 0``; the number of exponents if every partial
         sum is >= 0 and the spectrum is complete.
     """
-    lam = [float(v) for v in exponents]
+    lam = sorted((float(v) for v in exponents), reverse=True)
     if not lam or not all(math.isfinite(v) or v == -math.inf for v in lam):
         return math.nan
     partial, j = 0.0, 0
@@ -546,11 +577,6 @@ def lyapunov_exponents(system: System, params: Mapping[str, float] | None = None
         raise ParameterError(f"exponents={k}: the system has {m} directions"
                              + (f" besides its {run.nd - m} rigid-body ones" if m < run.nd else ""))
     b = 1.0 if opts.block is None else float(opts.block)
-    n_min = MIN_BATCH_BLOCKS * opts.batches
-    if opts.periods / b < n_min:
-        raise ParameterError(f"periods={opts.periods:g}: the convergence estimate needs at least {n_min} blocks "
-                             f"({opts.batches} batches of {MIN_BATCH_BLOCKS}); give periods >= {n_min * b:g}"
-                             + (" or a shorter block" if opts.block is not None else ""))
     n_blocks = int(round(opts.periods / b))
     if n_blocks * k > MAX_HISTORY:
         raise ParameterError(f"periods={opts.periods:g} with {k} exponents keeps {n_blocks * k:.3g} stretches, "
@@ -654,8 +680,6 @@ def _result(system: System, params: Mapping[str, float] | None, opts: LyapunovOp
     h = b * unit
     lam = weighted_average(L, h)
     err = batch_errors(L, h, opts.batches) + ERROR_FACTOR * opts.rtol / h
-    order = np.argsort(-lam, kind="stable")  # the QR gives them in decreasing order up to noise
-    lam, err, L = lam[order], err[order], L[:, order]
     abs_tol = opts.abs_tol if opts.abs_tol is not None else 1e-4 / unit
     finite = lam[np.isfinite(lam)]
     scale = float(np.max(np.abs(finite))) if finite.size else 0.0
@@ -669,12 +693,19 @@ def _result(system: System, params: Mapping[str, float] | None, opts: LyapunovOp
     stats = {"n_calls": run.n_calls, "wall_s": time.perf_counter() - wall,
              "periods_per_second": periods_tangent / phase if phase > 0 else math.nan,
              "n_events": run.n_events, "n_steps": run.n_steps, "max_growth": growth}
-    info = {"forced": forced, "period": unit if forced else None, "rigid_split": defect_note,
+    info = {"forced": forced, "period": unit if forced else None, "tangent_scales": run.scales.tolist(),
+            "rigid_split": defect_note,
             "invariance_defect": run.defect, "dimension": m, "estimator": "windowed time average",
             "batches": min(opts.batches, L.shape[0] // MIN_BATCH_BLOCKS)}
+    ky = lam.copy()
+    if not forced and len(ky):  # the flow direction's exponent is 0: count it as 0 when it is within its error
+        i = int(np.argmin(np.abs(ky)))
+        if abs(ky[i]) <= err[i]:
+            ky[i] = 0.0
+            info["kaplan_yorke_zero"] = i
     return LyapunovResult(
         exponents=lam, errors=err, converged=not reason, reason=reason, periods=L.shape[0] * b,
-        time=L.shape[0] * h, kaplan_yorke=kaplan_yorke(lam, complete=(k == m)), trivial=np.zeros(n_triv),
+        time=L.shape[0] * h, kaplan_yorke=kaplan_yorke(ky, complete=(k == m)), trivial=np.zeros(n_triv),
         block=b, block_time=h, stretches=L, tolerance=need, params=system.run_params(params),
         x_final=run.x.copy(), t_final=run.t, stats=stats, info=info)
 
