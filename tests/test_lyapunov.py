@@ -310,6 +310,14 @@ def test_autonomous_limit_cycle_has_a_zero_exponent(tmp_path):
     assert r.exponents[1] == pytest.approx(div, abs=5e-6)
     assert r.converged, r.reason
     assert r.kaplan_yorke == pytest.approx(1.0, abs=1e-5)
+    # blocks of 17 time units: the directions separate by exp(1.06 * 17) > 1e6 in one, so the
+    # automatic block length halves it to 8.5 (exp(9)).  (Not 20: halved to 10 = 1.5008 cycles, the
+    # block stretches nearly repeat every two blocks and the windowed average is 6e-4 off after
+    # 200 blocks, more than the batches' spread shows.)
+    r2 = lyapunov_exponents(s, periods=100, transient=4, block_time=17.0)
+    assert r2.block == 0.5 and r2.block_time == 8.5 and r2.periods == 100
+    assert 8 < r2.stats["max_growth"] < math.log(1e6)
+    assert r2.exponents[1] == pytest.approx(div, abs=1e-5)
 
 
 # ------------------------------------------------------------------ statistics, options
@@ -356,6 +364,11 @@ def test_format_estimate_shows_the_digits_the_error_allows():
 def test_bad_options(kw, match):
     with pytest.raises(ParameterError, match=match):
         LyapunovOptions(**kw)
+
+
+def test_unknown_option_is_named(ks):
+    with pytest.raises(ParameterError, match="unknown option"):
+        lyapunov_exponents(ks, periods=64, period=3)
 
 
 def test_block_time_refused_for_a_forced_model(ks):
