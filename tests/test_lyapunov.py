@@ -229,6 +229,12 @@ def test_largest_exponent_only(ks):
     assert math.isnan(one.kaplan_yorke)  # lambda_1 > 0 alone: more exponents are needed
 
 
+def test_progress_bar_on_stderr(ks, capsys):
+    pytest.importorskip("tqdm")
+    lyapunov_exponents(ks, periods=32, transient=0, align=0, progress=True)
+    assert "Lyapunov blocks" in capsys.readouterr().err
+
+
 def test_not_converged_is_reported_not_hidden(ks):
     """A short chaotic run: converged False, a reason naming the exponents and their errors."""
     r = lyapunov_exponents(ks, CHAOS, periods=40, transient=50, batches=2, rel_tol=1e-3)

@@ -564,7 +564,7 @@ def _qr_step(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def lyapunov_exponents(system: System, params: Mapping[str, float] | None = None,
                        options: LyapunovOptions | None = None, *, x0: Sequence[float] | None = None,
-                       **overrides: Any) -> LyapunovResult:
+                       progress: bool | None = False, **overrides: Any) -> LyapunovResult:
     """Lyapunov exponents of a compiled system at a parameter point (module docstring).
 
     Parameters
@@ -577,6 +577,8 @@ def lyapunov_exponents(system: System, params: Mapping[str, float] | None = None
         Settings (:class:`LyapunovOptions`; default: its defaults).
     x0
         Initial state at ``t = 0`` (default: the scene's).
+    progress
+        A progress bar on stderr (tqdm; ``None``: when stderr is a terminal).
     **overrides
         Fields of :class:`LyapunovOptions` overriding ``options`` (e.g. ``periods=500``).
 
@@ -626,12 +628,35 @@ def lyapunov_exponents(system: System, params: Mapping[str, float] | None = None
                              f"{opts.periods:g} periods need {n_blocks:,} blocks; compute fewer exponents")
     h = b * unit
     L = np.empty((n_blocks, k))
-    for j in range(n_blocks):
-        Q, L[j] = _qr_step(run.tangent_map(h) @ Q)
-        if k > 1:
-            growth = max(growth, float(L[j, 0] - L[j, -1]))
+    bar = _progress_bar(progress, n_blocks)
+    step = max(n_blocks // 200, 1)
+    try:
+        for j in range(n_blocks):
+            Q, L[j] = _qr_step(run.tangent_map(h) @ Q)
+            if k > 1:
+                growth = max(growth, float(L[j, 0] - L[j, -1]))
+            if bar is not None and (j + 1) % step == 0:
+                bar.update(step)
+    finally:
+        if bar is not None:
+            bar.close()
     rate = (run.t - t_start) / unit / max(time.perf_counter() - t_phase, 1e-300)
     return _result(system, params, opts, run, L, b, unit, forced, k, m, growth, wall, rate)
+
+
+def _progress_bar(enabled: bool | None, total: int) -> Any:
+    """A tqdm bar over the blocks on stderr, or None (disabled, or tqdm missing)."""
+    import sys
+
+    if enabled is None:
+        enabled = bool(getattr(sys.stderr, "isatty", lambda: False)())
+    if not enabled:
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover
+        return None
+    return tqdm(total=total, desc="Lyapunov blocks", file=sys.stderr, leave=False)
 
 
 def _time_unit(system: System, params: Mapping[str, float] | None, opts: LyapunovOptions) -> tuple[float, bool]:

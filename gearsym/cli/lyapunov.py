@@ -57,6 +57,7 @@ def add_lyapunov_parser(sub: argparse._SubParsersAction) -> None:
                    "(default 0.05)")
     p.add_argument("--abs-tol", type=float, help="convergence: see --rel-tol (default 1e-4 per forcing period)")
     p.add_argument("--x0", help="initial state, comma-separated (default: the scene's)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.add_argument("--out", help="folder for lyapunov.json and lyapunov.png (the running estimates)")
     p.set_defaults(func=cmd_lyapunov)
 
@@ -97,7 +98,7 @@ def cmd_lyapunov(args: argparse.Namespace) -> int:
     scene = load(args)
     system = scene.compile()
     try:
-        res = lyapunov_exponents(system, options=opts, x0=x0)
+        res = lyapunov_exponents(system, options=opts, x0=x0, progress=False if args.no_progress else None)
     except ParameterError as exc:
         raise flagged(exc) from None
     info: dict[str, Any] = {"scene": scene.name, **res.as_dict()}
