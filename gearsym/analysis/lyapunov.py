@@ -15,9 +15,12 @@
    stretch of the ``i``-th direction in the block; the run continues from the block's end
    state (and surface sides).  ``align`` blocks first let ``Q`` settle on the most
    expanding directions; they are not counted.  The engine gives ``M`` only at the end of
-   a run (not at a series of times), so a block is one call; its fixed cost (about 70 us
-   on the benchmark oscillator, against 380 us for one period with the variational
-   equations) is why a block is not shorter than a period unless it has to be:
+   a run (not at a series of times), so a block is one call.  Its fixed cost (50-90 us
+   measured on the benchmark oscillator, against 170-340 us for one period with the
+   variational equations; through :meth:`System.flow` twice that, so the blocks call the
+   engine directly) is why a block is not shorter than a period unless it has to be; it
+   is not longer by default because the windowed average (step 4) converges with the
+   number of blocks:
 3. **Block length.**  Within a block the directions separate by ``exp((lambda_1 - lambda_k) h)``;
    the QR recovers the weakest one from columns that the strongest dominates, with a
    rounding error of about ``eps * exp(growth)``.  A block in which ``log R_11 - log R_kk``
