@@ -110,6 +110,8 @@ RAMP = 0.25
 MIN_BATCH_BLOCKS = 4
 #: Most values of the per-block history (blocks x exponents, 8 bytes each).
 MAX_HISTORY = 50_000_000
+#: The transient is integrated in calls of at most this many forcing periods (or blocks).
+TRANSIENT_CHUNK = 10_000.0
 #: Limit on ``periods``, ``transient`` (forcing periods or blocks).
 MAX_PERIODS = 1e9
 
@@ -611,6 +613,10 @@ def lyapunov_exponents(system: System, params: Mapping[str, float] | None = None
     wall = time.perf_counter()
     p = system.param_vector(params)
     unit, forced = _time_unit(system, params, opts)
+    k_most = opts.exponents if opts.exponents is not None else system.differential_states
+    if opts.periods / (1.0 if opts.block is None else float(opts.block)) * k_most > MAX_HISTORY:
+        raise ParameterError(f"periods={opts.periods:g} with {k_most} exponents keeps more than {MAX_HISTORY:.3g} "
+                             "stretches: use fewer periods, fewer exponents or a longer block")
     run = _setup(system, p, params, opts, x0, unit)
     m = run.W.shape[1] if run.W is not None else run.nd
     k = opts.exponents if opts.exponents is not None else m
@@ -618,10 +624,6 @@ def lyapunov_exponents(system: System, params: Mapping[str, float] | None = None
         raise ParameterError(f"exponents={k}: the system has {m} directions"
                              + (f" besides its {run.nd - m} rigid-body ones" if m < run.nd else ""))
     b = 1.0 if opts.block is None else float(opts.block)
-    n_blocks = int(round(opts.periods / b))
-    if n_blocks * k > MAX_HISTORY:
-        raise ParameterError(f"periods={opts.periods:g} with {k} exponents keeps {n_blocks * k:.3g} stretches, "
-                             f"above the limit of {MAX_HISTORY:.3g}: use fewer periods or a longer block")
     Q = np.eye(m)[:, :k]
     t_phase, t_start = time.perf_counter(), run.t
     Q, b, growth = _align(run, Q, b, unit, opts)
@@ -690,8 +692,10 @@ def _setup(system: System, p: np.ndarray, params: Mapping[str, float] | None, op
         kw["method"] = opts.method
     run = _Run(system, p, kw, x, nd=system.differential_states)
     span = opts.transient if opts.transient > 0 else 1.0
-    samples = int(min(max(16 * span, 2), 20_001))
-    fl = run.advance(span * unit, False, samples)
+    while span > TRANSIENT_CHUNK:  # (one call's step budget: the magnitudes come from the last piece)
+        run.advance(TRANSIENT_CHUNK * unit, False)
+        span -= TRANSIENT_CHUNK
+    fl = run.advance(span * unit, False, int(min(max(16 * span, 2), 20_001)))
     amp = np.max(np.abs(np.vstack([fl.samples, x[None, :]])), axis=0)
     if opts.transient <= 0:  # the run only measured the magnitudes: start again from x0
         run.x, run.t, run.sigma = x, 0.0, None
@@ -788,6 +792,6 @@ def _verdict(lam: np.ndarray, err: np.ndarray, need: float, periods: float, forc
     worst = max(err[i] / need for i in bad) if need > 0 else math.inf
     what = "periods" if forced else "blocks"
     parts = ", ".join(f"lambda_{i + 1} = {lam[i]:.4g} +- {err[i]:.2g}" for i in bad)
-    more = (f"; about {periods * worst ** 2:.3g} {what} would do (the error falls like 1/sqrt(periods))"
-            if math.isfinite(worst) else "")
+    more = (f"; about {periods * worst ** 2:.3g} {what} would do (the error of a chaotic response falls like "
+            f"1/sqrt({what}), of a periodic or quasi-periodic one faster)" if math.isfinite(worst) else "")
     return f"not converged after {periods:g} {what}: {parts} (95 %), needed +- {need:.2g}{more}"
