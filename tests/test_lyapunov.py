@@ -419,6 +419,8 @@ def test_cli_not_converged_exits_1_with_the_reason(capsys):
     (["--block-time", "2", "--periods", "64"], "--block-time: block_time=2"),
     (["--set", "nope=1"], "unknown parameter 'nope'"),
     (["--out", str(KS)], "--out: "),
+    (["--periods", "1e8"], "--periods: periods=1e+08 with 2 exponents keeps more than"),
+    (["--set", "Omega=0"], "the forcing period is not finite and positive at Omega = 0"),
 ])
 def test_cli_bad_input_exits_2(capsys, args, match):
     rc, _, stderr = _cli(capsys, str(KS), *args)
