@@ -31,6 +31,9 @@ _EXPORTS: dict[str, str] = {
     "ContinuationOptions": ".analysis.options",
     "ShootingOptions": ".analysis.options",
     "PeriodicOrbit": ".analysis.orbit",
+    "LyapunovOptions": ".analysis.lyapunov",
+    "LyapunovResult": ".analysis.lyapunov",
+    "lyapunov_exponents": ".analysis.lyapunov",
     "CompileError": ".errors",
     "ConvergenceError": ".errors",
     "GearsymError": ".errors",
@@ -46,14 +49,16 @@ _EXPORTS: dict[str, str] = {
 
 __all__ = [
     "Bifurcation", "Branch", "BranchPoint", "CompileError", "ContinuationOptions", "ConvergenceError", "Event",
-    "GearsymError", "ParameterError", "PeriodicOrbit", "Scene", "ShootingOptions", "SimulationError", "SpecError",
-    "System", "Trajectory", "__version__", "continuation", "load_scene", "switch_period_doubling",
+    "GearsymError", "LyapunovOptions", "LyapunovResult", "ParameterError", "PeriodicOrbit", "Scene",
+    "ShootingOptions", "SimulationError", "SpecError", "System", "Trajectory", "__version__", "continuation",
+    "load_scene", "lyapunov_exponents", "switch_period_doubling",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
     from .analysis.branch import Bifurcation, Branch, BranchPoint
     from .analysis.branch_switching import switch_period_doubling
     from .analysis.continuation import continuation
+    from .analysis.lyapunov import LyapunovOptions, LyapunovResult, lyapunov_exponents
     from .analysis.options import ContinuationOptions, ShootingOptions
     from .analysis.orbit import PeriodicOrbit
     from .errors import (

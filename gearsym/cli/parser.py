@@ -9,6 +9,7 @@ from .cache import add_cache_parser
 from .catalog import add_catalog_parsers
 from .checks import GearsymArgumentParser, scene_args
 from .inspect_model import cmd_inspect
+from .lyapunov import add_lyapunov_parser
 from .maps import cmd_map
 from .modes import cmd_modes
 from .orbits import cmd_continue, cmd_orbit
@@ -158,6 +159,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_map)
 
     add_stiffness_parser(sub)
+    add_lyapunov_parser(sub)
     add_cache_parser(sub)
     add_catalog_parsers(sub)
     return parser
