@@ -274,8 +274,29 @@ def equilibrium(system: System, params: Mapping[str, float] | None = None, *,
 def static_equilibrium(system: System, params: Mapping[str, float] | None = None, *,
                        x0: Sequence[float] | None = None, samples: int | None = None, t0: float = 0.0
                        ) -> tuple[np.ndarray, dict[str, Any]]:
-    """The coordinates at the static equilibrium (:func:`equilibrium`) and
-    ``{"iterations", "residual", "singular", "contact"}``."""
+    """The coordinates at the static equilibrium (:func:`equilibrium`).
+
+    Parameters
+    ----------
+    system
+        The compiled system.
+    params
+        Parameter overrides (declared units, as ``--set``).
+    x0
+        Full state whose coordinates start the solve (default: the system's ``x0``).
+    samples
+        Average over this many equally spaced times of the forcing period instead of the
+        exact mean (:class:`gearsym.static.PeriodAverage`).
+    t0
+        Start of the averaged period.
+
+    Returns
+    -------
+    q : ndarray
+        The coordinates at the equilibrium (SI units).
+    info : dict
+        ``{"iterations", "residual", "singular", "contact"}``.
+    """
     eq = equilibrium(system, params, x0=x0, samples=samples, t0=t0)
     return eq.q, {"iterations": eq.info["iterations"], "residual": eq.info["residual"],
                   "singular": eq.free > 0, "contact": dict(eq.contact)}
