@@ -40,7 +40,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("engine", ("gearsym.engine",)),
     ("codegen", ("gearsym.codegen",)),
     ("system", ("gearsym.system", "gearsym.facade", "gearsym.results", "gearsym.static", "gearsym.evaluation",
-                "gearsym.sensitivity")),
+                "gearsym.sensitivity", "gearsym.simulation_options")),
     ("analysis", ("gearsym.analysis",)),
     ("presentation", ("gearsym.plots", "gearsym.inspection", "gearsym.export")),
     ("top", ("gearsym.cli", "gearsym.cli_cache", "gearsym.cli_catalog", "gearsym.cli_checks", "gearsym.bench",
