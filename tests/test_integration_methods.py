@@ -227,3 +227,19 @@ def test_fixedpoint_scene_continues_with_the_corrector_in_c(tmp_path, ks, monkey
     for a, b in zip(sorted(br.bifurcations, key=lambda x: x.value), sorted(ref.bifurcations, key=lambda x: x.value),
                     strict=True):
         assert abs(a.value - b.value) < 1e-7
+
+
+def test_cli_simulates_with_a_registry_method(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    run = lambda *a: subprocess.run([sys.executable, "-m", "gearsym.cli", "simulate", *a, "--periods", "3",  # noqa: E731
+                                     "--json"], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    r = run(str(ROOT / "scenes" / "kahraman_singh.toml"), "--method", "adams_fixedpoint")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["method"] == "adams_fixedpoint"
+    r = run(str(_scene(tmp_path, "adams_fixedpoint")))  # the scene's method
+    assert r.returncode == 0 and json.loads(r.stdout)["method"] == "adams_fixedpoint", r.stderr
+    r = run(str(ROOT / "scenes" / "kahraman_singh.toml"), "--method", "rk4")
+    assert r.returncode == 2 and "invalid choice: 'rk4'" in r.stderr
