@@ -19,8 +19,9 @@ methods reads this registry:
 * the analysis: the predicates :func:`supports_c_shooting`, :func:`supports_c_corrector`, ...,
   so that no analysis module names a method.
 
-The module is data and checks only (it imports nothing of gearsym but :mod:`gearsym.errors`),
-so the lowest layer that reads a method name, the scene's settings, may use it too.
+The module is data and checks only (it imports nothing of gearsym but :mod:`gearsym.errors` and
+:mod:`gearsym.options`), so the lowest layer that reads a method name, the scene's settings, may
+use it too.
 Adding a method is one entry here plus the C it needs (``docs/contributing.md``, "Adding a
 solver method").
 """
