@@ -432,8 +432,11 @@ class System(Evaluations, SensitivityMethods):
             :data:`MAX_OUTPUT_VALUES` numbers; a horizon that needs more than ``max_steps`` steps.
         """
         wall = time.perf_counter()
-        given = {k: v for k, v in (("rtol", rtol), ("atol", atol), ("n_out", n_out)) if v is not None}
-        o = merge_options(SimulateOptions, options, {**keywords, **given} if given else keywords, "System.simulate")
+        for k, v in (("rtol", rtol), ("atol", atol), ("n_out", n_out)):
+            if v is not None:
+                keywords[k] = v
+        o = cached_options(SimulateOptions, keywords, "System.simulate") if options is None else \
+            merge_options(SimulateOptions, options, keywords, "System.simulate")
         p = self.param_vector(params)
         plan = self._plan(p, params, t_end, periods, o)
         x0v = self.x0 if x0 is None else np.asarray(x0, dtype=float)
@@ -448,11 +451,11 @@ class System(Evaluations, SensitivityMethods):
             if not supports_sensitivities(plan.method):
                 raise ParameterError(f"method '{plan.method}' does not integrate parameter sensitivities; use one "
                                      f"of {', '.join(n for n in method_names() if supports_sensitivities(n))}")
+            sens_kw["sens_out"] = True
         engine = self.engine if sensitivities is None else self.derivative_engine()
         res = engine.run(x0v, p, o.t0, plan.t_end, plan.grid, method=plan.method, rtol=plan.rtol, atol=plan.atol,
                          sigma0=o.sigma0, want_monodromy=o.monodromy, max_steps=plan.max_steps,
-                         max_step=plan.max_step, nonlinear=o.nonlinear, linear_solver=o.linear_solver,
-                         sens_out=sensitivities is not None, **sens_kw)
+                         max_step=plan.max_step, nonlinear=o.nonlinear, linear_solver=o.linear_solver, **sens_kw)
         return self._trajectory(res, plan, p, sensitivities, wall)
 
     def _plan(self, p: np.ndarray, params: Mapping[str, float] | None, t_end: float | None,
