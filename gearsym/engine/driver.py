@@ -350,7 +350,9 @@ class Engine:
             if not SENSITIVITY_KEYWORDS.keys().isdisjoint(keywords):
                 sens_kw = {SENSITIVITY_KEYWORDS[k]: keywords.pop(k) for k in list(keywords)
                            if k in SENSITIVITY_KEYWORDS}
-                if sensitivities is None and sens_kw.get("directions") is not None:
+                if sens_kw.get("directions") is not None:
+                    if sensitivities is not None:
+                        raise EngineInputError("give the sensitivities once: sensitivities= or sens_dir=, not both")
                     sensitivities = SensitivityRequest(**sens_kw)
             settings = settings_from_keywords(settings, keywords)
         elif settings is None:
