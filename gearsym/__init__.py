@@ -45,13 +45,14 @@ _EXPORTS: dict[str, str] = {
     "Event": ".results",
     "Trajectory": ".results",
     "System": ".system",
+    "SimulateOptions": ".simulation_options",
 }
 
 __all__ = [
     "Bifurcation", "Branch", "BranchPoint", "CompileError", "ContinuationOptions", "ConvergenceError", "Event",
     "GearsymError", "LyapunovOptions", "LyapunovResult", "ParameterError", "PeriodicOrbit", "Scene",
-    "ShootingOptions", "SimulationError", "SpecError", "System", "Trajectory", "__version__", "continuation",
-    "load_scene", "lyapunov_exponents", "switch_period_doubling",
+    "ShootingOptions", "SimulateOptions", "SimulationError", "SpecError", "System", "Trajectory", "__version__",
+    "continuation", "load_scene", "lyapunov_exponents", "switch_period_doubling",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -71,6 +72,7 @@ if TYPE_CHECKING:  # pragma: no cover
     )
     from .facade import Scene, load_scene
     from .results import Event, Trajectory
+    from .simulation_options import SimulateOptions
     from .system import System
 
 

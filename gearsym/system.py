@@ -19,13 +19,14 @@ from .codegen.artifact import GeneratedModel
 from .engine.driver import Engine, load_engine
 from .errors import GearsymError, ParameterError
 from .evaluation import Evaluations
+from .integrators import check_method, default_method, method_names, supports_sensitivities
+from .options import cached_options, merge_options
 from .results import Event, Flow, Trajectory
 from .sensitivity import SensitivityMethods
+from .simulation_options import FlowOptions, SimulateOptions
 from .spec.rules import ParameterRules
 from .spec.settings import resolve_settings
 from .spec.units import ParameterUnits
-
-_METHODS = ("bdf", "adams", "ida")
 
 # the largest output grid (points x (states + 1)) and the step budget: gearsym.budget
 
@@ -366,10 +367,7 @@ class System(Evaluations, SensitivityMethods):
     def simulate(self, t_end: float | None = None, periods: float | None = None,
                  x0: Sequence[float] | None = None, rtol: float | None = None, atol: float | None = None,
                  n_out: int | None = None, params: Mapping[str, float] | None = None, *,
-                 t0: float = 0.0, method: str | None = None, max_step: float | None = None,
-                 monodromy: bool = False, sigma0: Sequence[float] | None = None,
-                 max_steps: int = 0, t_out: Sequence[float] | None = None, nonlinear: str = "auto",
-                 linear_solver: str = "auto", sensitivities: Sequence[str] | None = None) -> Trajectory:
+                 options: SimulateOptions | None = None, **keywords: Any) -> Trajectory:
         """Integrate the system with the C engine (one call into C).
 
         Parameters
@@ -391,42 +389,27 @@ class System(Evaluations, SensitivityMethods):
             period (or 1001).
         params
             Parameter overrides for this call only (declared units).
-        t0
-            Start time.
-        method
-            ``"adams"`` (default for explicit models unless the scene's ``[simulate]`` says
-            otherwise: non-stiff gear models take fewer, more accurate steps with it),
-            ``"bdf"`` (stiff models) or ``"ida"`` (implicit models).
-        max_step
-            Largest internal step; default an eighth of the forcing period, so that
-            no pair of surface crossings hides inside one step.
-        monodromy
-            Also integrate the variational equations and return ``d x(t_end)/d x0``
-            (with saltation matrices at the events).  On IDA with algebraic variables
-            (the last states) the monodromy is over the differential states: the columns
-            of the algebraic variables are 0 (their initial values follow from the
-            differential states) and the top-left block of the differential states is
-            the monodromy of the underlying ODE, whose eigenvalues are the Floquet
-            multipliers (:attr:`differential_states`).
-        sigma0
-            Side (+1/-1) of each switching surface at ``t0``; from the state if ``None``.
-        max_steps
-            Limit on internal steps (0: the scene's ``max_steps``, else ten million).  A run
-            that needs more than this many steps of ``max_step`` is refused before it starts.
-        t_out
-            Explicit output times (ascending, in ``[t0, t_end]``; overrides ``n_out``).  Without
-            ``t_end`` and ``periods`` the integration ends at ``t_out[-1]``.
-        nonlinear, linear_solver
-            CVODE's nonlinear solver (``"newton"``, ``"fixedpoint"``) and Newton's
-            linear solver (``"dense"``, ``"blockdiag"``), ``"auto"`` by default; see
-            :meth:`gearsym.engine.driver.Engine.run`.
-        sensitivities
-            Run-time parameters (e.g. ``["omega"]``) whose exact sensitivities
-            ``d x(t) / d p`` to return along the trajectory (at the fixed output times)
-            in :attr:`Trajectory.sensitivities`: the parameter variational equations are
-            integrated with the state, with the event-time terms at contact events and
-            the breakpoint-time terms at scheduled breakpoints.  Explicit models (CVODE)
-            only; ``x0`` is held fixed.
+        options
+            The other settings (:class:`~gearsym.simulation_options.SimulateOptions`, each with
+            its default): ``t0``, ``method``, ``max_step``, ``monodromy``, ``sigma0``,
+            ``max_steps``, ``t_out``, ``nonlinear``, ``linear_solver``, ``sensitivities``.
+            ``rtol``, ``atol`` and ``n_out`` given here override the object's.
+        **keywords
+            The fields of :class:`~gearsym.simulation_options.SimulateOptions` as keywords
+            (``method="bdf", monodromy=True, ...``), overriding those of ``options``.  Notably:
+            ``method`` (``"adams"``, ``"bdf"``, ``"adams_fixedpoint"``; ``"ida"`` for implicit
+            models); ``monodromy``: also integrate the variational equations and return ``d
+            x(t_end)/d x0`` (with saltation matrices at the events; on IDA with algebraic
+            variables, the last states, their columns are 0 and the top-left block of the
+            differential states is the monodromy of the underlying ODE, whose eigenvalues are the
+            Floquet multipliers: :attr:`differential_states`); ``max_steps``: a run that needs
+            more than this many steps of ``max_step`` is refused before it starts; ``t_out``:
+            without ``t_end`` and ``periods`` the integration ends at ``t_out[-1]``;
+            ``sensitivities``: run-time parameters (e.g. ``["omega"]``) whose exact sensitivities
+            ``d x(t) / d p`` to return along the trajectory (at the fixed output times) in
+            :attr:`Trajectory.sensitivities`: the parameter variational equations are integrated
+            with the state, with the event-time terms at contact events and the breakpoint-time
+            terms at scheduled breakpoints (explicit models; ``x0`` is held fixed).
 
         Returns
         -------
@@ -444,33 +427,43 @@ class System(Evaluations, SensitivityMethods):
         SimulationError
             Too much work, event storm, non-finite state, solver failure.
         ParameterError
-            Unknown or non-finite parameter override; an output grid above
+            Unknown or non-finite parameter override; an unknown keyword (named, with the
+            closest one); a method not offered for the model's form; an output grid above
             :data:`MAX_OUTPUT_VALUES` numbers; a horizon that needs more than ``max_steps`` steps.
         """
         wall = time.perf_counter()
+        for k, v in (("rtol", rtol), ("atol", atol), ("n_out", n_out)):
+            if v is not None:
+                keywords[k] = v
+        o = cached_options(SimulateOptions, keywords, "System.simulate") if options is None else \
+            merge_options(SimulateOptions, options, keywords, "System.simulate")
         p = self.param_vector(params)
-        plan = self._plan(p, params, t0, t_end, periods, rtol, atol, n_out, method, max_step, max_steps, t_out)
+        plan = self._plan(p, params, t_end, periods, o)
         x0v = self.x0 if x0 is None else np.asarray(x0, dtype=float)
         if x0v.shape != (self.generated.nx,):
             raise ParameterError(f"x0 must have {self.generated.nx} entries "
                                  f"({', '.join(self.state_names)}), got shape {x0v.shape}")
+        sensitivities = o.sensitivities
         sens_kw: dict = {}
         if sensitivities is not None:
             sens_kw = self._sensitivity_args(list(sensitivities), p, np.full(self.generated.nx, plan.atol),
-                                             monodromy, plan.atol, inputs=params)
+                                             o.monodromy, plan.atol, inputs=params)
+            if not supports_sensitivities(plan.method):
+                raise ParameterError(f"method '{plan.method}' does not integrate parameter sensitivities; use one "
+                                     f"of {', '.join(n for n in method_names() if supports_sensitivities(n))}")
+            sens_kw["sens_out"] = True
         engine = self.engine if sensitivities is None else self.derivative_engine()
-        res = engine.run(x0v, p, t0, plan.t_end, plan.grid, method=plan.method, rtol=plan.rtol, atol=plan.atol,
-                         sigma0=sigma0, want_monodromy=monodromy, max_steps=plan.max_steps, max_step=plan.max_step,
-                         nonlinear=nonlinear, linear_solver=linear_solver, sens_out=sensitivities is not None,
-                         **sens_kw)
+        res = engine.run(x0v, p, o.t0, plan.t_end, plan.grid, method=plan.method, rtol=plan.rtol, atol=plan.atol,
+                         sigma0=o.sigma0, want_monodromy=o.monodromy, max_steps=plan.max_steps,
+                         max_step=plan.max_step, nonlinear=o.nonlinear, linear_solver=o.linear_solver, **sens_kw)
         return self._trajectory(res, plan, p, sensitivities, wall)
 
-    def _plan(self, p: np.ndarray, params: Mapping[str, float] | None, t0: float, t_end: float | None,
-              periods: float | None, rtol: float | None, atol: float | None, n_out: int | None,
-              method: str | None, max_step: float | None, max_steps: int, t_out: Sequence[float] | None
-              ) -> _Plan:
+    def _plan(self, p: np.ndarray, params: Mapping[str, float] | None, t_end: float | None,
+              periods: float | None, o: SimulateOptions) -> _Plan:
         """The settings of one :meth:`simulate` run: the caller's, else the scene's, else the defaults
         (:func:`~gearsym.spec.settings.resolve_settings`), checked before any work."""
+        t0, rtol, atol, n_out, method, max_step, max_steps, t_out = (o.t0, o.rtol, o.atol, o.n_out, o.method,
+                                                                      o.max_step, o.max_steps, o.t_out)
         T = self.period(params)
         grid = _explicit_grid(t_out)
         given_horizon = t_end is not None or periods is not None
@@ -494,8 +487,8 @@ class System(Evaluations, SensitivityMethods):
             t_end = t0 + float(periods) * T
         _check_tolerances(t0, t_end, s["rtol"], s["atol"])
         grid = self._output_grid(grid, t0, t_end, T, n_out, int(s["points_per_period"]))
-        method = "ida" if self.generated.implicit and method is None else str(s["method"] or "adams")
-        self._check_method(method)
+        method = default_method(self.generated.implicit and method is None, s["method"])
+        check_method(method, self.generated.implicit)
         if max_step is None:
             max_step = T / 8 if T else 0.0
         steps = int(s["max_steps"] or 0)
@@ -527,14 +520,6 @@ class System(Evaluations, SensitivityMethods):
             grid[-1] = t_end
         return grid
 
-    def _check_method(self, method: str) -> None:
-        if method not in _METHODS:
-            raise ParameterError(f"method must be one of {_METHODS}, got '{method}'")
-        if self.generated.implicit and method != "ida":
-            raise ParameterError("this model is in implicit (mass-matrix) form: use method='ida'")
-        if not self.generated.implicit and method == "ida":
-            raise ParameterError("method='ida' needs a model in implicit form (model.form = 'implicit')")
-
     def _trajectory(self, res: Any, plan: _Plan, p: np.ndarray, sensitivities: Sequence[str] | None,
                     wall: float) -> Trajectory:
         """The :class:`Trajectory` of an engine run."""
@@ -552,13 +537,11 @@ class System(Evaluations, SensitivityMethods):
                           x_final=res.x_final, monodromy=res.monodromy,
                           event_speed=np.asarray(res.events.speed), sensitivities=sens, settings=plan.settings)
 
-    def flow(self, x0: Sequence[float], t0: float, t1: float, p: np.ndarray | None = None, *,
-             rtol: float = 1e-10, atol: float | np.ndarray = 1e-12, monodromy: bool = True,
-             method: str | None = None, max_step: float | None = None, n_samples: int = 2,
-             sigma0: Sequence[float] | None = None, max_steps: int = 0,
+    def flow(self, x0: Sequence[float], t0: float, t1: float, p: np.ndarray | None = None,
+             options: FlowOptions | None = None, *, sigma0: Sequence[float] | None = None,
              scales: np.ndarray | None = None, sensitivities: Sequence[str] | None = None,
              span_derivative: tuple[Sequence[float] | float, Sequence[float] | float] | None = None,
-             inputs: Mapping[str, float] | None = None) -> Flow:
+             inputs: Mapping[str, float] | None = None, **keywords: Any) -> Flow:
         """The flow map ``phi(t1, t0, x0)`` and its Jacobian: the cheap path of the orbit solvers.
 
         One C call with a reused engine workspace; no output grid beyond ``n_samples``
@@ -572,22 +555,17 @@ class System(Evaluations, SensitivityMethods):
             Time span, ``t1 > t0``.
         p
             Parameter vector (:meth:`param_vector`); the current values when ``None``.
-        rtol, atol
-            Tolerances; ``atol`` a number or one per state.
-        monodromy
-            Integrate the variational equations (CVODE, or IDA for implicit models; with
-            algebraic variables their columns are 0, see :meth:`simulate`).
-        method
-            ``"adams"`` / ``"bdf"`` (default: the scene's, else Adams), ``"ida"`` for
-            implicit models.
-        max_step
-            Largest internal step; default an eighth of the forcing period.
-        n_samples
-            Evenly spaced samples from ``t0`` to ``t1`` (:attr:`Flow.samples`, :attr:`Flow.amplitude`).
+        options
+            How to integrate (:class:`~gearsym.simulation_options.FlowOptions`, each with its
+            default): ``rtol``, ``atol`` (a number or one per state), ``monodromy`` (integrate
+            the variational equations: CVODE, or IDA for implicit models; with algebraic
+            variables their columns are 0, see :meth:`simulate`), ``method`` (default: the
+            scene's, else Adams; IDA for implicit models), ``max_step`` (default: an eighth of
+            the forcing period), ``n_samples`` (evenly spaced samples from ``t0`` to ``t1``:
+            :attr:`Flow.samples`, :attr:`Flow.amplitude`), ``max_steps`` (0: the scene's, else
+            ten million).
         sigma0
             Side of each switching surface at ``t0`` (default: from the state).
-        max_steps
-            Step budget (0: the scene's, else ten million).
         scales
             Magnitude of each state (e.g. its largest value on the orbit).  With it the
             variational entry ``Phi_ij = d x_i / d x0_j`` gets the absolute tolerance
@@ -609,51 +587,72 @@ class System(Evaluations, SensitivityMethods):
             The parameter overrides ``p`` was made with (:meth:`param_vector`), needed for the
             derivative of a bound parameter whose arguments ``p`` does not hold; default: the
             current values.
+        **keywords
+            The fields of :class:`~gearsym.simulation_options.FlowOptions` as keywords
+            (``rtol=1e-10, monodromy=False, ...``), overriding those of ``options``.
 
         Returns
         -------
         Flow
+
+        Raises
+        ------
+        ParameterError
+            An unknown keyword (named, with the closest one), an output grid or a horizon
+            beyond the work budget.
+        SimulationError
+            The integration failed.
         """
+        if keywords:
+            o = cached_options(FlowOptions, keywords, "System.flow") if options is None else \
+                merge_options(FlowOptions, options, keywords, "System.flow")
+        else:
+            o = merge_options(FlowOptions, options, keywords, "System.flow")
         pv = self.param_vector() if p is None else p
-        if method is None:
-            method = "ida" if self.generated.implicit else str(self.defaults.get("method", "adams"))
+        method = o.method if o.method is not None else default_method(self.generated.implicit,
+                                                                         self.defaults.get("method"))
+        max_step = o.max_step
         if max_step is None:
             T = self.engine.period(pv)
             max_step = T / 8 if math.isfinite(T) and T > 0 else 0.0
-        check_output_grid(n_samples, self.generated.nx, "use fewer n_samples")
-        grid = np.linspace(t0, t1, max(int(n_samples), 2))
+        check_output_grid(o.n_samples, self.generated.nx, "use fewer n_samples")
+        grid = np.linspace(t0, t1, max(int(o.n_samples), 2))
         grid[-1] = t1
-        max_steps = max_steps or int(self.defaults.get("max_steps", 0))
+        max_steps = o.max_steps or int(self.defaults.get("max_steps", 0))
         _check_step_budget(t0, t1, max_step, max_steps, False)
-        mono = bool(monodromy)
-        nx = self.generated.nx
-        nd = nx - len(self.generated.algebraic)  # variational columns: the differential states
-        atol_vec = None
-        if np.ndim(atol) or scales is not None:
-            ax = np.broadcast_to(np.asarray(atol, float), (nx,))
-            if mono:
-                sc = np.ones(nx) if scales is None else np.maximum(np.asarray(scales, float),
-                                                                    np.finfo(float).tiny)
-                atol_vec = np.concatenate([ax, (ax[:, None] / sc[None, :nd]).T.ravel()])  # Phi column-major
-            else:
-                atol_vec = np.array(ax)
-            atol = float(np.min(ax))
+        mono = bool(o.monodromy)
+        atol, atol_vec = self._flow_tolerances(o.atol, mono, scales)
         sens_kw: dict = {}
         if sensitivities is not None:
+            nx = self.generated.nx
             ax = np.broadcast_to(np.asarray(atol if atol_vec is None else atol_vec[:nx], float), (nx,))
             sens_kw = self._sensitivity_args(list(sensitivities), pv, np.array(ax), mono, ax, scales, inputs)
             if span_derivative is not None:
                 sens_kw["sens_dt0"], sens_kw["sens_dt1"] = span_derivative
             atol_vec = sens_kw.pop("atol_vec")
         engine = self.engine if sensitivities is None else self.derivative_engine()
-        res = engine.run(x0, pv, t0, t1, grid, method=method, rtol=rtol, atol=atol, sigma0=sigma0,
-                              atol_vec=atol_vec, want_monodromy=mono,
-                              max_steps=max_steps, max_step=max_step, **sens_kw)
+        res = engine.run(x0, pv, t0, t1, grid, method=method, rtol=o.rtol, atol=atol, sigma0=sigma0,
+                         atol_vec=atol_vec, want_monodromy=mono, max_steps=max_steps, max_step=max_step, **sens_kw)
         ev = res.events
         return Flow(x_final=res.x_final, monodromy=res.monodromy, event_t=ev.t, event_surface=ev.surface,
                     event_direction=ev.direction, event_speed=ev.speed, sigma_final=res.sigma_final,
                     amplitude=np.max(np.abs(res.y), axis=0), stats=res.stats, sensitivity=res.sensitivity,
                     samples=res.y)
+
+    def _flow_tolerances(self, atol: Any, mono: bool, scales: np.ndarray | None) -> tuple[Any, np.ndarray | None]:
+        """``(atol, atol_vec)`` of a :meth:`flow` run: the scalar ``atol``, or per state (and, with the
+        monodromy, per variational entry ``atol_i / scales_j``, column-major) with the smallest as scalar."""
+        if not (np.ndim(atol) or scales is not None):
+            return atol, None
+        nx = self.generated.nx
+        nd = nx - len(self.generated.algebraic)  # variational columns: the differential states
+        ax = np.broadcast_to(np.asarray(atol, float), (nx,))
+        if mono:
+            sc = np.ones(nx) if scales is None else np.maximum(np.asarray(scales, float), np.finfo(float).tiny)
+            atol_vec = np.concatenate([ax, (ax[:, None] / sc[None, :nd]).T.ravel()])  # Phi column-major
+        else:
+            atol_vec = np.array(ax)
+        return float(np.min(ax)), atol_vec
 
     def periodic_orbit(self, period: float | None = None, periods: float | None = None,
                        x0: Sequence[float] | None = None, method: str | None = None,

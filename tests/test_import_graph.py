@@ -19,7 +19,8 @@ ROOT = Path(__file__).resolve().parents[1] / "gearsym"
 #: The layers, lowest first, as the code has them (data flows one way, upwards):
 #:
 #: * base: errors, the version, file helpers, optional extras, bound (fractal) functions, the work budget,
-#:   signals; the gear-geometry mesh stiffness (numpy only);
+#:   signals; the gear-geometry mesh stiffness (numpy only); frozen options objects; the registry of
+#:   integration methods (data: the scene's settings check method names against it);
 #: * spec: TOML parsing/validation (no sympy); the catalogue of shipped models and scenes;
 #: * symbolic: sympy equations of motion, modes, switching surfaces;
 #: * engine: the generic C driver over SUNDIALS and its build; it knows no model, so it sits
@@ -32,13 +33,14 @@ ROOT = Path(__file__).resolve().parents[1] / "gearsym"
 #: * top: the CLI, the benchmark harness and the package root (its lazy public namespace).
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("base", ("gearsym._version", "gearsym.errors", "gearsym.files", "gearsym.extras", "gearsym.fractal",
-              "gearsym.bound_functions", "gearsym.budget", "gearsym.signals", "gearsym.gears")),
+              "gearsym.bound_functions", "gearsym.budget", "gearsym.signals", "gearsym.gears", "gearsym.options",
+              "gearsym.integrators")),
     ("spec", ("gearsym.spec", "gearsym.catalog")),
     ("symbolic", ("gearsym.symbolic",)),
     ("engine", ("gearsym.engine",)),
     ("codegen", ("gearsym.codegen",)),
     ("system", ("gearsym.system", "gearsym.facade", "gearsym.results", "gearsym.static", "gearsym.evaluation",
-                "gearsym.sensitivity")),
+                "gearsym.sensitivity", "gearsym.simulation_options")),
     ("analysis", ("gearsym.analysis",)),
     ("presentation", ("gearsym.plots", "gearsym.inspection", "gearsym.export")),
     ("top", ("gearsym.cli", "gearsym.cli_cache", "gearsym.cli_catalog", "gearsym.cli_checks", "gearsym.bench",

@@ -205,8 +205,8 @@ class Continuer:
         return out
 
     def _make_c_setup(self, lam: float) -> dict | None:
-        from ..engine.driver import METHODS
         from ..engine.shoot import MAX_STATES
+        from ..integrators import default_method, supports_c_corrector
         from ..sensitivity import directions
 
         res = self.res
@@ -230,8 +230,8 @@ class Continuer:
         engine = system.derivative_engine()
         if not hasattr(engine._lib, "gs_correct_ws"):
             return None
-        method = res.method or str(system.defaults.get("method", "adams"))
-        if method not in ("adams", "bdf") or np.ndim(res.atol):
+        method = res.method or default_method(False, system.defaults.get("method"))
+        if not supports_c_corrector(method) or np.ndim(res.atol):
             return None
         p0 = np.array(res.pvec(lam), float)
         D = directions(system, [res.param], p0, res.params(lam))[:, 0]
@@ -240,7 +240,7 @@ class Continuer:
             pl = res.pvec(lam + d * max(1.0, abs(lam)))
             if np.max(np.abs(pl - (p0 + d * max(1.0, abs(lam)) * D))) > 1e-12 * max(1.0, float(np.max(np.abs(pl)))):
                 return None
-        return {"engine": engine, "method": METHODS[method], "lam0": float(lam), "p0": p0, "D": D,
+        return {"engine": engine, "method": method, "lam0": float(lam), "p0": p0, "D": D,
                 "max_steps": int(system.defaults.get("max_steps", 0)), "anchor": anchor}
 
     def _correct_in_c(self, z: np.ndarray, row: np.ndarray, target: float, t_ref: np.ndarray | None = None

@@ -89,6 +89,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ParameterError, SimulationError
+from ..integrators import INTEGRATION_METHODS, default_method
 from .stability import ERROR_FACTOR, rigid_state_basis
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -182,8 +183,8 @@ class LyapunovOptions:
         _number("rel_tol", self.rel_tol, 0.0, math.inf)
         if self.abs_tol is not None:
             _number("abs_tol", self.abs_tol, 0.0, math.inf)
-        if self.method is not None and self.method not in ("bdf", "adams", "ida"):
-            raise ParameterError(f"method must be 'bdf', 'adams' or 'ida', got {self.method!r}")
+        if self.method is not None and self.method not in INTEGRATION_METHODS:
+            raise ParameterError(f"method must be one of {', '.join(INTEGRATION_METHODS)}, got {self.method!r}")
         b = 1.0 if self.block is None else float(self.block)
         n_min = MIN_BATCH_BLOCKS * self.batches
         if self.periods / b < n_min:
@@ -528,8 +529,7 @@ class _Run:
         """The arguments of the blocks' engine calls, made once: what :meth:`System.flow` would pass
         (method, ``max_step = T/8``, the variational entries' absolute tolerances ``atol_i / magnitude_j``)."""
         system, nx = self.system, self.system.generated.nx
-        method = self.kw.get("method") or ("ida" if system.generated.implicit
-                                           else str(system.defaults.get("method", "adams")))
+        method = self.kw.get("method") or default_method(system.generated.implicit, system.defaults.get("method"))
         T = system.period_of(self.p)
         ax = np.broadcast_to(np.asarray(self.kw["atol"], float), (nx,))
         sc = np.maximum(np.asarray(magnitude, float), np.finfo(float).tiny)

@@ -43,9 +43,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..budget import check_shooting
-from ..engine.driver import METHODS
 from ..engine.shoot import MAX_STATES, shoot_in_c
 from ..errors import ConvergenceError, GearsymError, ParameterError
+from ..integrators import default_method, supports_c_shooting
 from .floquet import monodromy_product
 from .isolation import Isolation, isolation, monodromy_error, truncated_solve
 from .newton import NewtonPolicy, damped_newton
@@ -457,8 +457,8 @@ def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.n
     gen = system.generated
     if gen.implicit or gen.nx > MAX_STATES or not hasattr(system.engine._lib, "gs_shoot_ws"):
         return None
-    method = method or str(system.defaults.get("method", "adams"))
-    if method not in ("adams", "bdf"):
+    method = method or default_method(False, system.defaults.get("method"))
+    if not supports_c_shooting(method):
         return None
     max_steps = int(system.defaults.get("max_steps", 0))
     if max_step and (t1 - t0) / max_step > (max_steps or 10_000_000):
@@ -470,7 +470,7 @@ def _newton_in_c(system: System, x: np.ndarray, t0: float, t1: float, pvec: np.n
     # when a pivot gets within a factor 10 of that level (a stricter factor, 1e3, sent
     # lightly damped 48- and 130-state models to the Python iteration after a wasted C one)
     pivot_tol = 10 * monodromy_error(1.0, rtol)
-    out = shoot_in_c(system.engine, x, pvec, t0, t1, grid, method=METHODS[method], rtol=rtol, atol=atol,
+    out = shoot_in_c(system.engine, x, pvec, t0, t1, grid, method=method, rtol=rtol, atol=atol,
                      max_step=max_step, max_steps=max_steps, tol=tol, scale_floor=atol / tol,
                      pivot_tol=pivot_tol, max_iter=max_iter, want_run=False)
     return out

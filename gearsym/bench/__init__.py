@@ -56,6 +56,7 @@ from .workprecision import (
     DEFAULT_RTOLS,
     DIVERGENCE_LEVEL,
     EXTRA_RTOLS,
+    WorkPrecisionOptions,
     bench_scene,
     parse_rtols,
     run_work_precision,
@@ -66,4 +67,5 @@ __all__ = ["DEFAULT_RTOLS", "DIVERGENCE_LEVEL", "EXTRA_RTOLS", "METHOD_NAMES", "
            "PythonModel", "Reference", "RunOutput", "RunTimeout", "_json_default", "_multiplier_error",
            "analysis_costs", "bench_scene", "check_out_dir", "compile_times", "environment", "format_table",
            "make_methods", "make_reference", "multiplier_error", "pareto_report", "parse_methods", "parse_rtols",
-           "plot_work_precision", "run_work_precision", "scene_atol_ratio", "solve_with_events", "write_outputs"]
+           "plot_work_precision", "run_work_precision", "scene_atol_ratio", "solve_with_events",
+           "WorkPrecisionOptions", "write_outputs"]

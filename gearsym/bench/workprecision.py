@@ -7,11 +7,13 @@ import math
 import statistics
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..errors import ParameterError
+from ..options import merge_options
 from .events import RunTimeout
 from .measures import _grid_crossings, _normalised_error, _stat_deviation, _statistics, pareto_report
 from .model import PythonModel
@@ -20,8 +22,8 @@ from .peers import METHOD_NAMES, _Context, make_methods
 from .reference import Reference, make_reference
 from .timing import _time_round_robin, compile_times, environment
 
-__all__ = ["DEFAULT_RTOLS", "DIVERGENCE_LEVEL", "EXTRA_RTOLS", "bench_scene", "parse_rtols", "run_work_precision",
-           "scene_atol_ratio"]
+__all__ = ["DEFAULT_RTOLS", "DIVERGENCE_LEVEL", "EXTRA_RTOLS", "WorkPrecisionOptions", "bench_scene", "parse_rtols",
+           "run_work_precision", "scene_atol_ratio"]
 
 #: Relative tolerances of a work-precision run (1e-3 ... 1e-10; 1e-11, 1e-12 where the
 #: reference is exact or good enough).
@@ -32,19 +34,12 @@ EXTRA_RTOLS: tuple[float, ...] = (1e-11, 1e-12)
 DIVERGENCE_LEVEL = 1e-8
 
 
-def run_work_precision(scene, *, label: str | None = None, rtols: Sequence[float] | None = None,
-                       periods: float | None = None, t_end: float | None = None, points_per_period: int = 32,
-                       methods: Sequence[str] | None = None, reference: Reference | None = None,
-                       extra_rtols: bool | None = None, rounds: int = 3, slot: float = 0.1,
-                       single_run_s: float = 2.0, max_seconds: float = 20.0, x0: Sequence[float] | None = None,
-                       params: Mapping[str, float] | None = None, progress: Callable[[str], None] | None = None,
-                       system=None, stats_skip_periods: float | None = None) -> dict[str, Any]:
-    """Work-precision data of one scene (see the module docstring).
+@dataclass(frozen=True)
+class WorkPrecisionOptions:
+    """The settings of one :func:`run_work_precision` (each with its default).
 
     Parameters
     ----------
-    scene
-        A :class:`gearsym.Scene`.
     label
         Name of the case in tables (default: the scene name).
     rtols
@@ -53,51 +48,132 @@ def run_work_precision(scene, *, label: str | None = None, rtols: Sequence[float
     periods, t_end
         Horizon (default: the scene's ``[simulate] periods``, else 100 periods).
     points_per_period
-        Output grid density (the error is the largest over the grid).
+        Output grid density (the error is the largest over the grid; default 32).
     methods
-        Subset of :data:`METHOD_NAMES`.
-    reference
-        A reference on the grid; default :func:`make_reference`.
+        Subset of :data:`~gearsym.bench.peers.METHOD_NAMES` (default: all).
     extra_rtols
         Also run rtol 1e-11 and 1e-12 (default: when the reference's floor is below
         1e-13, e.g. an exact reference).
     rounds, slot, single_run_s
-        Timing: warm-up, then ``rounds`` interleaved rounds of about ``slot`` seconds
-        per method (a method slower than ``single_run_s`` is timed once).
+        Timing: warm-up, then ``rounds`` interleaved rounds (default 3) of about ``slot``
+        seconds (default 0.1) per method (a method slower than ``single_run_s``, default 2 s,
+        is timed once).
     max_seconds
-        A method slower than this at one tolerance is skipped at the tighter ones.
+        A method slower than this at one tolerance is skipped at the tighter ones (default 20 s).
+    stats_skip_periods
+        Transient left out of the statistics (default: a tenth of the horizon).
+    """
+
+    label: str | None = None
+    rtols: Sequence[float] | None = None
+    periods: float | None = None
+    t_end: float | None = None
+    points_per_period: int = 32
+    methods: Sequence[str] | None = None
+    extra_rtols: bool | None = None
+    rounds: int = 3
+    slot: float = 0.1
+    single_run_s: float = 2.0
+    max_seconds: float = 20.0
+    stats_skip_periods: float | None = None
+
+
+@dataclass(frozen=True)
+class _Case:
+    """The horizon, grid and reference of one work-precision run."""
+
+    T: float | None
+    t_end: float
+    grid: np.ndarray
+    x0: np.ndarray
+    reference: Reference
+    scale: np.ndarray
+    floor: float
+    i_h: int
+    skip: int
+    pm: Any
+    lambdify_s: float
+
+
+def run_work_precision(scene, options: WorkPrecisionOptions | None = None, *, reference: Reference | None = None,
+                       x0: Sequence[float] | None = None, params: Mapping[str, float] | None = None,
+                       progress: Callable[[str], None] | None = None, system=None, **keywords: Any) -> dict[str, Any]:
+    """Work-precision data of one scene (see the module docstring).
+
+    Parameters
+    ----------
+    scene
+        A :class:`gearsym.Scene`.
+    options
+        The settings (:class:`WorkPrecisionOptions`: tolerances, horizon, grid, methods, timing).
+    reference
+        A reference on the grid; default :func:`make_reference`.
     x0, params
         Initial state (default: the scene's) and parameter overrides (declared units).
     progress
         Called with one-line progress messages.
     system
         An already compiled system of ``scene`` (default: ``scene.compile()``).
-    stats_skip_periods
-        Transient left out of the statistics (default: a tenth of the horizon).
+    **keywords
+        The fields of :class:`WorkPrecisionOptions` as keywords, overriding those of ``options``.
 
     Returns
     -------
     dict
         JSON-ready: case, grid, reference, divergence, results (one row per method and
         rtol: best_s, median_s, error, error_final, stats, ...), statistics.
+
+    Raises
+    ------
+    ParameterError
+        An unknown keyword (named, with the closest one).
     """
+    o = merge_options(WorkPrecisionOptions, options, keywords, "run_work_precision")
     say = progress or (lambda s: None)
     system = system if system is not None else scene.compile()
+    names = list(o.methods or METHOD_NAMES)
+    case = _case(scene, system, o, names, reference, x0, params, say)
+    extra = case.floor < 1e-13 if o.extra_rtols is None else o.extra_rtols
+    rtols = list(o.rtols) if o.rtols is not None else list(DEFAULT_RTOLS) + (list(EXTRA_RTOLS) if extra else [])
+    ctx = _Context(system, case.pm, case.x0, case.grid, dict(params) if params else None, case.T)
+    mlist = make_methods(ctx, names)
+    for m in mlist:
+        m.max_run_s = max(3 * o.max_seconds, 30.0)
+    ref_stats = _statistics(case.reference.y, system.state_names, case.skip)
+    ref_cross = _grid_crossings(case.pm, case.grid, case.reference.y, case.skip)
+    results: list[dict[str, Any]] = []
+    too_slow: dict[str, float] = {}
+    atol_ratio = scene_atol_ratio(scene)
+    for rtol in rtols:
+        ready, rows = _set_up(mlist, rtol, rtol * atol_ratio, too_slow, o.max_seconds)
+        say(f"rtol {rtol:g}: {', '.join(m.name for _, m in ready)}")
+        firsts, times = _time_round_robin([m.run for _, m in ready], o.rounds, o.slot, o.single_run_s)
+        for (row, m), first, ts in zip(ready, firsts, times):
+            _measure_row(row, m, first, ts, case, system, (ref_stats, ref_cross), too_slow, o.max_seconds)
+        results += rows
+    g = {r["rtol"]: r for r in results if r["method"] == "gearsym" and "best_s" in r}
+    for r in results:
+        if "best_s" in r and r["rtol"] in g:
+            r["ratio_to_gearsym"] = r["best_s"] / g[r["rtol"]]["best_s"]
+    data = _report(scene, system, o, case, params, atol_ratio, (ref_stats, ref_cross), rtols, results)
+    data["pareto"] = pareto_report(data)
+    return data
+
+
+def _case(scene, system, o: WorkPrecisionOptions, names: list[str], reference: Reference | None,
+          x0: Sequence[float] | None, params: Mapping[str, float] | None, say: Callable[[str], None]) -> _Case:
+    """The horizon and output grid, the reference on it, its floor and divergence horizon."""
     sim = scene.spec.simulate
     T = system.period(params)
+    t_end, periods = o.t_end, o.periods
     if t_end is None:
         if periods is None:
             periods = float(sim.get("periods", 100)) if T else None
-        if T:
-            t_end = float(periods) * T
-        else:
-            t_end = float(sim.get("t_end", 100.0))
-    n_out = int(round(t_end / T * points_per_period)) + 1 if T else 1001
+        t_end = float(periods) * T if T else float(sim.get("t_end", 100.0))
+    n_out = int(round(t_end / T * o.points_per_period)) + 1 if T else 1001
     grid = np.linspace(0.0, t_end, n_out)
     grid[-1] = t_end
     x0v = np.asarray(system.x0 if x0 is None else x0, dtype=float)
-    atol_ratio = scene_atol_ratio(scene)
-    names = list(methods or METHOD_NAMES)
     need_py = any(not n.startswith("gearsym") and n != "CasADi cvodes" for n in names) or reference is None
     t = time.perf_counter()
     pm = PythonModel(scene.model, system, params) if need_py else None
@@ -106,10 +182,9 @@ def run_work_precision(scene, *, label: str | None = None, rtols: Sequence[float
     probe = system.simulate(t_end=t_end, x0=x0v, t_out=grid, params=params,
                             rtol=float(sim.get("rtol", 1e-8)), atol=float(sim.get("atol", 1e-10)))
     scale = np.max(np.abs(probe.y), axis=0)
-    scale = np.where(scale > 0, scale, 1.0)
     if reference is None:
         say("reference ...")
-        reference = make_reference(system, pm, x0v, grid, params, atol_scale=scale)
+        reference = make_reference(system, pm, x0v, grid, params, atol_scale=np.where(scale > 0, scale, 1.0))
     y_ref = reference.y
     scale = np.max(np.abs(y_ref), axis=0)
     scale = np.where(scale > 0, scale, 1.0)
@@ -120,110 +195,103 @@ def run_work_precision(scene, *, label: str | None = None, rtols: Sequence[float
         i_h = int(beyond[0]) if beyond.size else grid.size
         floor = float(np.max(u[:i_h])) if i_h > 0 else float("nan")
     else:
-        u = None
         i_h = grid.size
         floor = 1e-14
-    chaotic = i_h < grid.size
-    floor = max(floor, 1e-15)
-    if extra_rtols is None:
-        extra_rtols = floor < 1e-13
-    if rtols is None:
-        rtols = list(DEFAULT_RTOLS) + (list(EXTRA_RTOLS) if extra_rtols else [])
-    skip = int(round((stats_skip_periods if stats_skip_periods is not None else 0.1 * t_end / (T or 1))
-                     * (points_per_period if T else n_out / t_end)))
+    skip = int(round((o.stats_skip_periods if o.stats_skip_periods is not None else 0.1 * t_end / (T or 1))
+                     * (o.points_per_period if T else n_out / t_end)))
     skip = min(max(skip, 0), grid.size - 2)
-    ref_stats = _statistics(y_ref, system.state_names, skip)
-    ref_cross = _grid_crossings(pm, grid, y_ref, skip)
-    ctx = _Context(system, pm, x0v, grid, dict(params) if params else None, T)
-    mlist = make_methods(ctx, names)
+    return _Case(T, t_end, grid, x0v, reference, scale, max(floor, 1e-15), i_h, skip, pm, lambdify_s)
+
+
+def _set_up(mlist: list[Any], rtol: float, atol: float, too_slow: dict[str, float], max_seconds: float
+            ) -> tuple[list[tuple[dict[str, Any], Any]], list[dict[str, Any]]]:
+    """The rows of one tolerance, and the methods set up for it (those not skipped or failed)."""
+    rows, ready = [], []
     for m in mlist:
-        m.max_run_s = max(3 * max_seconds, 30.0)
-    results: list[dict[str, Any]] = []
-    too_slow: dict[str, float] = {}
-    for rtol in rtols:
-        atol = rtol * atol_ratio
-        rows, ready = [], []
-        for m in mlist:
-            row: dict[str, Any] = {"method": m.name, "description": m.description, "events": m.events,
-                                   "gearsym": m.gearsym, "rtol": rtol, "atol": atol}
-            if m.name in too_slow:
-                row["skipped"] = f"slower than {max_seconds:g} s at rtol {too_slow[m.name]:g}"
-                rows.append(row)
-                continue
-            try:
-                t = time.perf_counter()
-                m.setup(rtol, atol)
-                row["setup_s"] = time.perf_counter() - t
-                ready.append((row, m))
-            except Exception as exc:
-                row["failed"] = f"setup: {type(exc).__name__}: {exc}"
+        row: dict[str, Any] = {"method": m.name, "description": m.description, "events": m.events,
+                               "gearsym": m.gearsym, "rtol": rtol, "atol": atol}
+        if m.name in too_slow:
+            row["skipped"] = f"slower than {max_seconds:g} s at rtol {too_slow[m.name]:g}"
             rows.append(row)
-        say(f"rtol {rtol:g}: {', '.join(m.name for _, m in ready)}")
-        firsts, times = _time_round_robin([m.run for _, m in ready], rounds, slot, single_run_s)
-        for (row, m), first, ts in zip(ready, firsts, times):
-            if isinstance(first, Exception):
-                row["failed"] = f"{type(first).__name__}: {first}"[:500]
-                if isinstance(first, RunTimeout):
-                    too_slow[m.name] = rtol
-                continue
-            y = np.asarray(first.y, dtype=float)
-            if y.shape != y_ref.shape or not np.all(np.isfinite(y)):
-                row["failed"] = "non-finite or mis-shaped output"
-                continue
-            err = _normalised_error(y, y_ref, scale)
-            best = min(ts)
-            row.update(best_s=best, median_s=statistics.median(ts), repeats=len(ts),
-                       error=float(np.max(err[:i_h])) if i_h > 0 else float("nan"),
-                       error_final=float(err[i_h - 1]) if i_h > 0 else float("nan"),
-                       error_full_horizon=float(np.max(err)),
-                       below_floor=bool(np.max(err[:i_h]) <= 10 * floor) if i_h > 0 else False,
-                       **{k: v for k, v in first.stats.items()})
-            for k in ("n_steps", "n_rhs", "n_events"):
-                row.setdefault(k, None)
-            row["statistics"] = _statistics(y, system.state_names, skip)
-            row["grid_crossings"] = _grid_crossings(pm, grid, y, skip)
-            row["statistics_deviation"] = _stat_deviation(row, ref_stats, ref_cross, scale, system.state_names)
-            if best > max_seconds:
-                too_slow[m.name] = rtol
-        results += rows
-    g = {r["rtol"]: r for r in results if r["method"] == "gearsym" and "best_s" in r}
-    for r in results:
-        if "best_s" in r and r["rtol"] in g:
-            r["ratio_to_gearsym"] = r["best_s"] / g[r["rtol"]]["best_s"]
-    horizon_periods = (grid[i_h - 1] / T) if (T and i_h > 0) else None
-    data: dict[str, Any] = {
-        "case": label or scene.name,
+            continue
+        try:
+            t = time.perf_counter()
+            m.setup(rtol, atol)
+            row["setup_s"] = time.perf_counter() - t
+            ready.append((row, m))
+        except Exception as exc:
+            row["failed"] = f"setup: {type(exc).__name__}: {exc}"
+        rows.append(row)
+    return ready, rows
+
+
+def _measure_row(row: dict[str, Any], m: Any, first: Any, ts: list[float], case: _Case, system,
+                 ref: tuple[Any, Any], too_slow: dict[str, float], max_seconds: float) -> None:
+    """Fill ``row`` with the error, timing and statistics of one method's run at one tolerance."""
+    rtol, i_h, y_ref = row["rtol"], case.i_h, case.reference.y
+    if isinstance(first, Exception):
+        row["failed"] = f"{type(first).__name__}: {first}"[:500]
+        if isinstance(first, RunTimeout):
+            too_slow[m.name] = rtol
+        return
+    y = np.asarray(first.y, dtype=float)
+    if y.shape != y_ref.shape or not np.all(np.isfinite(y)):
+        row["failed"] = "non-finite or mis-shaped output"
+        return
+    err = _normalised_error(y, y_ref, case.scale)
+    best = min(ts)
+    row.update(best_s=best, median_s=statistics.median(ts), repeats=len(ts),
+               error=float(np.max(err[:i_h])) if i_h > 0 else float("nan"),
+               error_final=float(err[i_h - 1]) if i_h > 0 else float("nan"),
+               error_full_horizon=float(np.max(err)),
+               below_floor=bool(np.max(err[:i_h]) <= 10 * case.floor) if i_h > 0 else False,
+               **{k: v for k, v in first.stats.items()})
+    for k in ("n_steps", "n_rhs", "n_events"):
+        row.setdefault(k, None)
+    row["statistics"] = _statistics(y, system.state_names, case.skip)
+    row["grid_crossings"] = _grid_crossings(case.pm, case.grid, y, case.skip)
+    row["statistics_deviation"] = _stat_deviation(row, ref[0], ref[1], case.scale, system.state_names)
+    if best > max_seconds:
+        too_slow[m.name] = rtol
+
+
+def _report(scene, system, o: WorkPrecisionOptions, case: _Case, params: Mapping[str, float] | None,
+            atol_ratio: float, ref: tuple[Any, Any], rtols: list[float], results: list[dict[str, Any]]
+            ) -> dict[str, Any]:
+    """The JSON-ready data of one run (without its Pareto report)."""
+    T, grid, i_h, reference = case.T, case.grid, case.i_h, case.reference
+    chaotic = i_h < grid.size
+    return {
+        "case": o.label or scene.name,
         "scene": str(scene.path),
         "params": {k: float(v) for k, v in system.params.items()} | (dict(params) if params else {}),
-        "x0": x0v.tolist(),
+        "x0": case.x0.tolist(),
         "state_names": system.state_names,
         "forcing_period": T,
-        "t_end": t_end,
-        "periods": (t_end / T) if T else None,
-        "points_per_period": points_per_period if T else None,
+        "t_end": case.t_end,
+        "periods": (case.t_end / T) if T else None,
+        "points_per_period": o.points_per_period if T else None,
         "n_grid": int(grid.size),
         "atol_rule": f"atol = rtol * {atol_ratio:g} (the scene's atol/rtol)",
         "error_definition": ("max over the output grid (up to the divergence horizon) of max_i |y_i - y_ref_i| "
                              "/ max_t |y_ref_i| (each state scaled by its largest magnitude)"),
-        "state_scale": scale.tolist(),
+        "state_scale": case.scale.tolist(),
         "reference": {"kind": reference.kind, "description": reference.description,
-                      "wall_s": reference.wall_s, "events": reference.events, "floor": floor},
-        "lambdify_s": lambdify_s,
+                      "wall_s": reference.wall_s, "events": reference.events, "floor": case.floor},
+        "lambdify_s": case.lambdify_s,
         "divergence": {"chaotic": chaotic, "level": DIVERGENCE_LEVEL,
                        "horizon_t": float(grid[i_h - 1]) if i_h > 0 else 0.0,
-                       "horizon_periods": horizon_periods,
+                       "horizon_periods": (grid[i_h - 1] / T) if (T and i_h > 0) else None,
                        "note": ("the two references drift apart beyond the horizon (sensitive/chaotic "
                                 "regime): errors are measured up to it, statistics over the whole run")
                        if chaotic else "the two references agree over the whole horizon"},
-        "statistics_reference": {"states": ref_stats, "grid_crossings": ref_cross, "skip_points": skip},
+        "statistics_reference": {"states": ref[0], "grid_crossings": ref[1], "skip_points": case.skip},
         "statistics_deviation_definition": ("largest of |mean - mean_ref| / scale and |rms - rms_ref| / scale over "
                                             "the states (after the first tenth of the run), and the relative "
                                             "difference of the number of surface crossings seen on the grid"),
         "rtols": list(rtols),
         "results": results,
     }
-    data["pareto"] = pareto_report(data)
-    return data
 
 
 def parse_rtols(text: str) -> list[float]:

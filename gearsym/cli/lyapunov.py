@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from ..errors import ParameterError
+from ..integrators import method_names
 from .checks import emit, float_list, load, scene_args
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
@@ -52,7 +53,7 @@ def add_lyapunov_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--rtol", type=float, help="integrator relative tolerance (default 1e-9)")
     p.add_argument("--atol", type=float, help="integrator absolute tolerance (default: 1e-2 * rtol * each "
                    "state's magnitude)")
-    p.add_argument("--method", choices=["bdf", "adams", "ida"], help="integrator (default: the scene's)")
+    p.add_argument("--method", choices=method_names(), help="integrator (default: the scene's)")
     p.add_argument("--rel-tol", type=float, help="convergence: error at most abs-tol + rel-tol * max|lambda| "
                    "(default 0.05)")
     p.add_argument("--abs-tol", type=float, help="convergence: see --rel-tol (default 1e-4 per forcing period)")

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
+from ..integrators import method_names
 from .benchmark import cmd_bench
 from .cache import add_cache_parser
 from .catalog import add_catalog_parsers
@@ -29,7 +31,24 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"gearsym {_version()}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=GearsymArgumentParser)
+    _add_inspect(sub)
+    _add_compile(sub)
+    _add_simulate(sub)
+    _add_bench(sub)
+    _add_continue(sub)
+    _add_orbit(sub)
+    _add_export(sub)
+    _add_modes(sub)
+    _add_map(sub)
+    add_stiffness_parser(sub)
+    add_lyapunov_parser(sub)
+    add_cache_parser(sub)
+    add_catalog_parsers(sub)
+    return parser
 
+
+def _add_inspect(sub: Any) -> None:
+    """The ``gearsym inspect`` subcommand."""
     p = sub.add_parser("inspect", help="show derived equations, states, parameters, effects, modes")
     p.add_argument("path", help="scene or model file, or the name of a shipped scene or model")
     p.add_argument("--latex", action="store_true", help="also print the equations as LaTeX")
@@ -40,11 +59,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-effect", action="append", metavar="NAME", help="switch an effect off")
     p.set_defaults(func=cmd_inspect)
 
+
+def _add_compile(sub: Any) -> None:
+    """The ``gearsym compile`` subcommand."""
     p = sub.add_parser("compile", help="generate C and compile it (cached by content)")
     scene_args(p)
     p.add_argument("--force", action="store_true", help="rebuild even if cached")
     p.set_defaults(func=cmd_compile)
 
+
+def _add_simulate(sub: Any) -> None:
+    """The ``gearsym simulate`` subcommand."""
     p = sub.add_parser("simulate", help="simulate a scene with the C engine")
     scene_args(p)
     p.add_argument("--periods", type=float, help="number of forcing periods (default: the scene's [simulate] "
@@ -52,7 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--t-end", type=float, help="final time (instead of --periods)")
     p.add_argument("--rtol", type=float, help="relative tolerance (default: the scene's [simulate], else 1e-8)")
     p.add_argument("--atol", type=float, help="absolute tolerance (default: the scene's [simulate], else 1e-10)")
-    p.add_argument("--method", choices=["bdf", "adams", "ida"], help="integrator (default: the scene's "
+    p.add_argument("--method", choices=method_names(), help="integrator (default: the scene's "
                    "[simulate], else adams; ida for implicit models)")
     p.add_argument("--x0", help="initial state, comma-separated")
     p.add_argument("--max-steps", type=int, help="limit on internal integrator steps (default: the scene's, "
@@ -62,6 +87,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "shows (default: every state)")
     p.set_defaults(func=cmd_simulate)
 
+
+def _add_bench(sub: Any) -> None:
+    """The ``gearsym bench`` subcommand."""
     p = sub.add_parser("bench", help="work-precision benchmark: error vs wall time, gearsym vs peer integrators")
     scene_args(p)
     p.add_argument("--out", help="folder for work_precision_<scene>.json and .png (written at the end)")
@@ -75,6 +103,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-analyses", action="store_true", help="skip the shooting / continuation costs")
     p.set_defaults(func=cmd_bench)
 
+
+def _add_continue(sub: Any) -> None:
+    """The ``gearsym continue`` subcommand."""
     p = sub.add_parser("continue", help="continue periodic orbits in one parameter (branch, folds, period "
                        "doubling, Neimark-Sacker, grazing)")
     scene_args(p)
@@ -103,6 +134,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="folder for branch.json, response.png, multipliers.png")
     p.set_defaults(func=cmd_continue)
 
+
+def _add_orbit(sub: Any) -> None:
+    """The ``gearsym orbit`` subcommand."""
     p = sub.add_parser("orbit", help="periodic orbit by shooting or harmonic balance, Floquet multipliers")
     scene_args(p)
     p.add_argument("--periods", type=float, help="forcing periods per orbit (default: the scene's [orbit], else 1)")
@@ -123,6 +157,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="folder for orbit.json, orbit_phase.png, orbit_multipliers.png")
     p.set_defaults(func=cmd_orbit)
 
+
+def _add_export(sub: Any) -> None:
+    """The ``gearsym export`` subcommand."""
     p = sub.add_parser("export", help="standalone C project (--c DIR, SUNDIALS libraries included) and/or "
                        "FMI 2.0 FMU for Model Exchange and Co-Simulation (--fmu FILE.fmu) of a scene")
     scene_args(p)
@@ -132,6 +169,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="write into an existing non-empty folder / over a file")
     p.set_defaults(func=cmd_export)
 
+
+def _add_modes(sub: Any) -> None:
+    """The ``gearsym modes`` subcommand."""
     p = sub.add_parser("modes", help="natural frequencies and mode shapes about the static equilibrium "
                        "(mean mesh stiffness)")
     scene_args(p)
@@ -140,6 +180,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default: the exact mean, Gauss-Legendre refined until it settles)")
     p.set_defaults(func=cmd_modes)
 
+
+def _add_map(sub: Any) -> None:
+    """The ``gearsym map`` subcommand."""
     p = sub.add_parser("map", help="two-parameter stability / response map (netCDF + heat map)")
     scene_args(p)
     p.add_argument("--x", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"),
@@ -157,12 +200,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
     p.add_argument("--out", required=True, help="folder for map.nc and map.png")
     p.set_defaults(func=cmd_map)
-
-    add_stiffness_parser(sub)
-    add_lyapunov_parser(sub)
-    add_cache_parser(sub)
-    add_catalog_parsers(sub)
-    return parser
 
 
 def _version() -> str:

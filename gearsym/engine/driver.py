@@ -17,14 +17,22 @@ from typing import Any
 
 import numpy as np
 
-from gearsym.budget import check_count, check_counts, check_matrix
+from gearsym.budget import check_matrix
 from gearsym.engine import interrupt as _interrupt
 from gearsym.engine.errors import EngineABIError, EngineInputError, error_for_status
+from gearsym.engine.run_settings import (
+    SENSITIVITY_KEYWORDS,
+    RunSettings,
+    SensitivityRequest,
+    settings_from_keywords,
+)
 from gearsym.engine.sim_args import GsCorrectArgs, GsIsolation, GsMultipliers, GsShootArgs, GsSimArgs
 from gearsym.errors import ParameterError
+from gearsym.integrators import INTEGRATION_METHODS, LINEAR_SOLVERS, NONLINEAR
 
 __all__ = ["EVAL_FUNCTIONS", "Engine", "GsSimArgs", "LINEAR_SOLVERS", "METHODS", "NONLINEAR", "RunResult",
-           "c_layout", "check_mirrors", "check_solver_size", "load_engine", "mirror_layout"]
+           "RunSettings", "SensitivityRequest", "c_layout", "check_mirrors", "check_solver_size", "load_engine",
+           "mirror_layout"]
 
 #: Status of a run stopped by SIGINT (gs_driver.h).
 GS_ERR_INTERRUPTED = -8
@@ -32,14 +40,14 @@ GS_ERR_INTERRUPTED = -8
 #: by ``gs_check_abi``): the most components of a solver vector and entries of a dense matrix.
 INDEX_MAX = 2 ** 31 - 1
 
-#: Integration methods: name -> GS_METHOD_* code.
-METHODS: dict[str, int] = {"bdf": 0, "adams": 1, "ida": 2}
+#: Integration methods: name -> GS_METHOD_* code (read from the registry
+#: :data:`gearsym.integrators.INTEGRATION_METHODS`, which also holds their settings).
+METHODS: dict[str, int] = {name: m.code for name, m in INTEGRATION_METHODS.items()}
 #: Functions of :meth:`Engine.evaluate`: name -> GS_EVAL_* code.
 EVAL_FUNCTIONS: dict[str, int] = {"sw": 0, "out": 1, "rhs": 2, "jac": 3, "mode": 4, "mesh": 5}
-#: CVODE nonlinear solvers: name -> GS_NONLIN_* code.
-NONLINEAR: dict[str, int] = {"auto": 0, "newton": 1, "fixedpoint": 2}
-#: Newton's linear solvers: name -> GS_LINSOL_* code.
-LINEAR_SOLVERS: dict[str, int] = {"auto": 0, "dense": 1, "blockdiag": 2}
+# CVODE's nonlinear solvers (NONLINEAR) and Newton's linear solvers (LINEAR_SOLVERS): name -> C
+# code, from gearsym.integrators
+_DEFAULT_SETTINGS = RunSettings()
 
 
 @dataclass(frozen=True)
@@ -273,33 +281,9 @@ class Engine:
             f"nsched={self.nsched}, implicit={self.implicit}, SUNDIALS {self.sundials_version})"
         )
 
-    def run(
-        self,
-        x0: Any,
-        p: Any,
-        t0: float,
-        t_end: float,
-        t_out: Any = None,
-        method: str = "bdf",
-        rtol: float = 1e-8,
-        atol: float = 1e-10,
-        sigma0: Any = None,
-        want_monodromy: bool = False,
-        max_steps: int = 0,
-        max_step: float = 0.0,
-        init_step: float = 0.0,
-        max_events: int = 0,
-        storm_events: int = 0,
-        storm_window: float = 0.0,
-        max_events_out: int = 4096,
-        nonlinear: str = "auto",
-        linear_solver: str = "auto",
-        atol_vec: Any = None,
-        sens_dir: Any = None,
-        sens_dt0: Any = None,
-        sens_dt1: Any = None,
-        sens_out: bool = False,
-    ) -> RunResult:
+    def run(self, x0: Any, p: Any, t0: float, t_end: float, t_out: Any = None, settings: RunSettings | None = None,
+            *, sigma0: Any = None, atol_vec: Any = None, sensitivities: SensitivityRequest | None = None,
+            **keywords: Any) -> RunResult:
         """Integrate the model from ``t0`` to ``t_end`` in one C call.
 
         Parameters
@@ -312,53 +296,34 @@ class Engine:
             Time span, ``t_end > t0``.
         t_out
             Ascending output times in [t0, t_end] (default: none).
-        method
-            ``"bdf"`` or ``"adams"`` (CVODE, explicit models) or ``"ida"``.
-        rtol, atol
-            Scalar tolerances (with ``want_monodromy`` they apply to the
-            variational states too).
+        settings
+            How to integrate: the method (CVODE ``"bdf"`` / ``"adams"`` for explicit models,
+            IDA ``"ida"``; :data:`gearsym.integrators.INTEGRATION_METHODS`), tolerances, step
+            and event budgets, nonlinear iteration, linear solver; see
+            :class:`~gearsym.engine.run_settings.RunSettings` for each and its default.  With
+            ``want_monodromy`` the variational equations are integrated (CVODE, or IDA: the
+            DAE's ``F_y S + F_y' S' = 0``) and ``d x(t_end) / d x0`` is returned with saltation
+            matrices at events; with algebraic variables its columns for them are 0 (see
+            :attr:`nalg`).
         sigma0
             Initial side (+1/-1) of each switching surface; default: from the
             sign of g(t0, x0) (g >= 0 -> +1).
-        want_monodromy
-            Integrate the variational equations (CVODE, or IDA: the DAE's variational
-            equations ``F_y S + F_y' S' = 0``) and return d x(t_end) / d x0 with
-            saltation matrices at events; with algebraic variables the columns of
-            those are 0 (see :attr:`nalg`).
-        max_steps
-            Total internal step budget (0: 10,000,000).
-        max_step, init_step
-            Maximal / initial internal step (0: solver's choice).
-        max_events
-            Total events allowed (0: 1,000,000).
-        storm_events, storm_window
-            More than ``storm_events`` events each within ``storm_window`` of
-            the previous one is an event storm (0: 50 and 1e-9*max(1,|t|)).
-        max_events_out
-            Initial capacity of the event log; the run is repeated with a
-            larger log if more events occur (the result is deterministic).
-        nonlinear
-            CVODE's nonlinear solver: ``"newton"`` (modified Newton with the
-            analytic Jacobian), ``"fixedpoint"`` (functional iteration: no
-            Jacobian and no linear algebra, for non-stiff models; cheapest for
-            large models) or ``"auto"`` (Newton).
         atol_vec
             One absolute tolerance per solver component instead of ``atol``:
             ``nx * (1 + nd * want_monodromy + n_sens)`` entries (``nd = nx - nalg``) (the state, then the
             variational matrix column by column, then the sensitivities column by
             column), so that the variational entries, whose scale is that of
             ``x_i / x0_j`` (or ``x_i / p_k``), get a tolerance of their own.
-        sens_dir, sens_dt0, sens_dt1, sens_out
-            Parameter sensitivities (explicit models, CVODE): directions ``D = d p / d
-            lambda`` (np, n_sens); ``d t0 / d lambda`` and ``d t_end / d lambda`` (n_sens,;
-            default 0) of a span that moves with them; whether to return them at the
-            output times too (see ``gs_driver.c`` for the equations and jumps).
-        linear_solver
-            Newton's linear solver: ``"dense"`` (SUNDIALS' dense LU of the whole
-            system; with the monodromy that is an (n + n^2)^2 matrix),
-            ``"blockdiag"`` (monodromy only: one n x n LU applied to the state and
-            every column of the variational matrix) or ``"auto"`` (blockdiag with
-            the monodromy, dense without).
+        sensitivities
+            Parameter sensitivities (explicit models, CVODE): directions ``D = d p / d lambda``,
+            the span's derivatives, whether at the output times too
+            (:class:`~gearsym.engine.run_settings.SensitivityRequest`; see ``gs_driver.c`` for
+            the equations and jumps).
+        **keywords
+            The fields of :class:`~gearsym.engine.run_settings.RunSettings` (``method="adams",
+            rtol=1e-10, want_monodromy=True, ...``; they override those of ``settings``) and,
+            for :class:`~gearsym.engine.run_settings.SensitivityRequest`, ``sens_dir``,
+            ``sens_dt0``, ``sens_dt1``, ``sens_out``.
 
         Returns
         -------
@@ -368,28 +333,50 @@ class Engine:
         ------
         EngineError
             A subclass per failure (:class:`~gearsym.engine.errors.TooMuchWorkError`,
-            :class:`~gearsym.engine.errors.NonFiniteError`, ...), with the
-            driver's message; :class:`~gearsym.engine.errors.EngineInputError` for
-            sizes that do not fit SUNDIALS' 32-bit index or the matrix budget
+            :class:`~gearsym.engine.errors.EventStormError`, ...); bad input is
+            :class:`~gearsym.engine.errors.EngineInputError` (a
+            :class:`~gearsym.errors.ParameterError`), as is a run whose solver sizes do not fit
             (:func:`check_solver_size`).
         ParameterError
-            ``max_steps``, ``max_events`` or ``storm_events`` beyond :data:`gearsym.budget.LIMITS`.
+            An unknown keyword (with the closest one); ``max_steps``, ``max_events`` or
+            ``storm_events`` beyond :data:`gearsym.budget.LIMITS`.
         KeyboardInterrupt
             On Ctrl-C (SIGINT) during the integration, within a few thousand
             right-hand side evaluations (calls from the main thread; see
             :mod:`gearsym.engine.interrupt`); likewise :class:`~gearsym.engine.interrupt.Terminated`
             on SIGTERM inside :func:`~gearsym.engine.interrupt.sigterm_interrupts`.
         """
-        if method not in METHODS:
-            raise EngineInputError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
-        # (the C fields are long / int: a larger value would be truncated silently by ctypes)
-        check_count("max_steps", max_steps, low=0)
-        check_counts(max_events=max_events, storm_events=storm_events)
-        if nonlinear not in NONLINEAR:
-            raise EngineInputError(f"unknown nonlinear solver {nonlinear!r}; use one of {sorted(NONLINEAR)}")
-        if linear_solver not in LINEAR_SOLVERS:
-            raise EngineInputError(f"unknown linear solver {linear_solver!r}; use one of "
-                                   f"{sorted(LINEAR_SOLVERS)}")
+        if keywords:
+            if not SENSITIVITY_KEYWORDS.keys().isdisjoint(keywords):
+                sens_kw = {SENSITIVITY_KEYWORDS[k]: keywords.pop(k) for k in list(keywords)
+                           if k in SENSITIVITY_KEYWORDS}
+                if sens_kw.get("directions") is not None:
+                    if sensitivities is not None:
+                        raise EngineInputError("give the sensitivities once: sensitivities= or sens_dir=, not both")
+                    sensitivities = SensitivityRequest(**sens_kw)
+            settings = settings_from_keywords(settings, keywords)
+        elif settings is None:
+            settings = _DEFAULT_SETTINGS
+        elif not isinstance(settings, RunSettings):
+            raise EngineInputError(f"settings must be a RunSettings, got {type(settings).__name__}")
+        c = settings.c
+        x0a, pa, tout, sig = self._run_inputs(x0, p, t_out, sigma0)
+        sens = None if sensitivities is None else self._sensitivity_input(sensitivities)
+        av = None if atol_vec is None else self._atol_vec_input(atol_vec, c.want_monodromy, sens)
+        cap = c.max_events_out
+        while True:
+            res = self._run_once(x0a, pa, float(t0), float(t_end), tout, c.method, c.rtol, c.atol, sig,
+                                 c.want_monodromy, c.max_steps, c.max_step, c.init_step, c.max_events,
+                                 c.storm_events, c.storm_window, cap, c.nonlinear, c.linear_solver, av, sens)
+            if isinstance(res, int):  # event log too small: rerun with the exact size
+                cap = res
+                continue
+            return res
+
+    def _run_inputs(self, x0: Any, p: Any, t_out: Any, sigma0: Any
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+        """The state, parameters, output times and initial sides of a run as the C side reads them
+        (C-contiguous float64, sizes checked)."""
         x0a = np.ascontiguousarray(np.asarray(x0, dtype=float).reshape(-1))
         pa = np.ascontiguousarray(np.asarray(p if p is not None else [], dtype=float).reshape(-1))
         if x0a.shape[0] != self.nx:
@@ -402,48 +389,24 @@ class Engine:
             sig = np.ascontiguousarray(np.asarray(sigma0, dtype=float).reshape(-1))
             if sig.shape[0] != self.nsw:
                 raise EngineInputError(f"sigma0 has {sig.shape[0]} entries, the model has nsw={self.nsw}")
-        av = None
-        if atol_vec is not None:
-            av = np.ascontiguousarray(np.asarray(atol_vec, dtype=float).reshape(-1))
-            n_s = 0 if sens_dir is None else int(np.asarray(sens_dir).reshape(self.np, -1).shape[1])
-            want = self.nx * (1 + ((self.nx - self.nalg) if want_monodromy else 0) + n_s)
-            if av.shape[0] != want:
-                raise EngineInputError(f"atol_vec has {av.shape[0]} entries, need {want}")
-        sens = None
-        if sens_dir is not None:
-            D = np.asarray(sens_dir, dtype=float).reshape(self.np, -1)  # ValueError on a wrong shape
-            vec = [None if v is None else np.ascontiguousarray(np.broadcast_to(np.asarray(v, float), D.shape[1:]))
-                   for v in (sens_dt0, sens_dt1)]
-            sens = (np.ascontiguousarray(D.T).reshape(-1), D.shape[1], vec[0], vec[1], bool(sens_out))
-        cap = max(int(max_events_out), 1)
-        while True:
-            res = self._run_once(
-                x0a,
-                pa,
-                float(t0),
-                float(t_end),
-                tout,
-                METHODS[method],
-                float(rtol),
-                float(atol),
-                sig,
-                bool(want_monodromy),
-                int(max_steps),
-                float(max_step),
-                float(init_step),
-                int(max_events),
-                int(storm_events),
-                float(storm_window),
-                cap,
-                NONLINEAR[nonlinear],
-                LINEAR_SOLVERS[linear_solver],
-                av,
-                sens,
-            )
-            if isinstance(res, int):  # event log too small: rerun with the exact size
-                cap = res
-                continue
-            return res
+        return x0a, pa, tout, sig
+
+    def _sensitivity_input(self, req: SensitivityRequest) -> tuple[Any, ...]:
+        """``(D^T flattened, n_sens, dt0, dt1, at_outputs)`` of a sensitivity request, as
+        :meth:`_prepare` takes it."""
+        D = np.asarray(req.directions, dtype=float).reshape(self.np, -1)  # ValueError on a wrong shape
+        vec = [None if v is None else np.ascontiguousarray(np.broadcast_to(np.asarray(v, float), D.shape[1:]))
+               for v in (req.dt0, req.dt1)]
+        return np.ascontiguousarray(D.T).reshape(-1), D.shape[1], vec[0], vec[1], bool(req.at_outputs)
+
+    def _atol_vec_input(self, atol_vec: Any, mono: bool, sens: tuple[Any, ...] | None) -> np.ndarray:
+        """The per-component absolute tolerances, their number checked."""
+        av = np.ascontiguousarray(np.asarray(atol_vec, dtype=float).reshape(-1))
+        n_s = 0 if sens is None else int(sens[1])
+        want = self.nx * (1 + ((self.nx - self.nalg) if mono else 0) + n_s)
+        if av.shape[0] != want:
+            raise EngineInputError(f"atol_vec has {av.shape[0]} entries, need {want}")
+        return av
 
     def _run_once(self, *args: Any) -> RunResult | int:
         a, buf = self._prepare(*args)

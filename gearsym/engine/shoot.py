@@ -13,11 +13,14 @@ except by round-off.
 from __future__ import annotations
 
 import ctypes as C
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..errors import ParameterError
+from ..integrators import by_code, get_method
+from ..options import cached_options, merge_options
 from .driver import EventLog
 from .errors import EngineInputError
 from .sim_args import GsShootArgs
@@ -25,7 +28,8 @@ from .sim_args import GsShootArgs
 if TYPE_CHECKING:  # pragma: no cover
     from .driver import Engine, RunResult
 
-__all__ = ["MAX_STATES", "OUTCOMES", "CorrectOutcome", "Corrector", "OrbitSamples", "SampleStats", "ShootOutcome", "Shooter", "correct_in_c", "shoot_in_c"]
+__all__ = ["MAX_STATES", "OUTCOMES", "CorrectOutcome", "Corrector", "OrbitSamples", "SampleStats", "ShootOutcome",
+           "ShootSettings", "Shooter", "c_method", "correct_in_c", "shoot_in_c"]
 
 #: Largest model the C iterations take (``GS_SHOOT_MAXN`` in gs_internal.h); larger ones iterate in Python.
 MAX_STATES = 256
@@ -109,10 +113,69 @@ class ShootOutcome:
     monodromy: np.ndarray | None = None
 
 
-def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, grid: np.ndarray, *,
-               method: int, rtol: float, atol: float, max_step: float, max_steps: int, tol: float,
-               scale_floor: float, pivot_tol: float, max_iter: int, max_events_out: int = 4096,
-               want_run: bool = True) -> ShootOutcome:
+@dataclass(frozen=True)
+class ShootSettings:
+    """The settings of :func:`shoot_in_c` (one :class:`Shooter`, its buffers made once, per
+    settings and thread).
+
+    Parameters
+    ----------
+    method
+        An integration method that runs the shooting Newton in C
+        (:func:`gearsym.integrators.supports_c_shooting`), by name, or its ``GS_METHOD_*``
+        code (:data:`gearsym.engine.driver.METHODS`).
+    rtol, atol, max_step, max_steps
+        Integration settings (scalar tolerances; the variational equations use them too).
+    tol, scale_floor, pivot_tol, max_iter
+        See ``gs_shoot_args`` in gs_driver.h.
+    max_events_out
+        Capacity of the event log (the iteration gives up if a run has more).
+
+    Raises
+    ------
+    EngineInputError
+        An unknown method, one without the Newton in C, or ``max_iter < 0``.
+    """
+
+    method: str | int
+    rtol: float
+    atol: float
+    max_step: float
+    max_steps: int
+    tol: float
+    scale_floor: float
+    pivot_tol: float
+    max_iter: int
+    max_events_out: int = 4096
+    codes: tuple[int, int] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "codes", c_method(self.method, "shooting", "c_shooting"))
+        if int(self.max_iter) < 0:
+            raise EngineInputError(f"shooting in C needs max_iter >= 0, got {self.max_iter}")
+
+
+def c_method(method: str | int, what: str, flag: str) -> tuple[int, int]:
+    """``(GS_METHOD_* code, GS_NONLIN_* code)`` of an integration method that runs ``what`` in C
+    (the registry's ``flag``: ``"c_shooting"``, ``"c_corrector"``), given by name or by code.
+
+    Raises
+    ------
+    EngineInputError
+        An unknown method, or one that does not run ``what`` in C.
+    """
+    try:
+        m = by_code(int(method)) if isinstance(method, (int, np.integer)) else get_method(method)
+        nonlinear = m.nonlinear_code()
+    except ParameterError as exc:
+        raise EngineInputError(str(exc)) from None
+    if not getattr(m, flag):
+        raise EngineInputError(f"the {what} in C does not run with method '{m.name}'")
+    return m.code, nonlinear
+
+
+def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, grid: np.ndarray,
+               settings: ShootSettings | None = None, *, want_run: bool = True, **keywords: Any) -> ShootOutcome:
     """Single-shooting Newton for ``x(t1; t0, x) = x`` in one driver call.
 
     Parameters
@@ -127,17 +190,14 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
         The orbit's span.
     grid
         Sample times in ``[t0, t1]`` (>= 2) whose state magnitudes are the scales.
-    method
-        ``METHODS`` code (CVODE: BDF or Adams).
-    rtol, atol, max_step, max_steps
-        Integration settings (scalar tolerances; the variational equations use them too).
-    tol, scale_floor, pivot_tol, max_iter
-        See ``gs_shoot_args`` in gs_driver.h.
-    max_events_out
-        Capacity of the event log (the iteration gives up if a run has more).
+    settings
+        The method, tolerances and Newton settings (:class:`ShootSettings`).
     want_run
         ``False``: the outcome's ``run`` is ``None`` (its ``events`` and ``monodromy`` are
         still given).
+    **keywords
+        The fields of :class:`ShootSettings` (``method=..., rtol=..., ...``), overriding those
+        of ``settings``.
 
     Returns
     -------
@@ -147,9 +207,16 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
     ------
     EngineError
         The first integration failed (a subclass per failure, as :meth:`Engine.run`).
+    ParameterError
+        A keyword that is no field of :class:`ShootSettings` (named, with the closest one).
     KeyboardInterrupt
         Ctrl-C during an integration.
     """
+    if keywords:
+        settings = cached_options(ShootSettings, keywords, "shoot_in_c") if settings is None else \
+            merge_options(ShootSettings, settings, keywords, "shoot_in_c")
+    elif not isinstance(settings, ShootSettings):
+        raise EngineInputError(f"shoot_in_c needs a ShootSettings (or its keywords), got {type(settings).__name__}")
     if engine.implicit or engine.nalg or not hasattr(engine._lib, "gs_shoot_ws"):
         raise EngineInputError("shooting in C needs an explicit model built with this gearsym")
     nx = engine.nx
@@ -157,17 +224,16 @@ def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: flo
     tout = np.asarray(grid, dtype=float).reshape(-1)
     p = np.asarray(p, dtype=float).reshape(-1)
     _check_sizes(engine, x0=(xa, nx), p=(p, engine.np))
-    if tout.shape[0] < 2 or nx > MAX_STATES or int(max_iter) < 0:
+    if tout.shape[0] < 2 or nx > MAX_STATES:
         raise EngineInputError(f"shooting in C needs >= 2 sample times, nx <= {MAX_STATES} and max_iter >= 0")
-    key = (int(method), float(rtol), float(atol), float(max_step), int(max_steps), int(tout.shape[0]), float(tol),
-           float(scale_floor), float(pivot_tol), int(max_iter), int(max_events_out))
+    key = (settings, tout.shape[0])
     # one Shooter per settings and thread (its buffers are reused; the workspace is per thread too)
     cache = engine._tls.__dict__.setdefault("shooters", {})
     shooter = cache.get(key)
     if shooter is None:
         if len(cache) >= 8:
             cache.pop(next(iter(cache)))
-        shooter = cache[key] = Shooter(engine, *key)
+        shooter = cache[key] = Shooter(engine, settings, tout.shape[0])
     return shooter(engine, xa, p, float(t0), float(t1), tout, want_run)
 
 
@@ -175,22 +241,35 @@ class Shooter:
     """The driver's argument structs and buffers of :func:`shoot_in_c` for one set of settings,
     made once (building the ``ctypes`` structs and buffer addresses of a call cost about a
     sixth of a warm orbit solve's time outside C).  Kept in the engine's thread-local storage,
-    so it holds no reference to the engine (no cycle keeps an engine's workspaces alive)."""
+    so it holds no reference to the engine (no cycle keeps an engine's workspaces alive).
 
-    def __init__(self, engine: Engine, method: int, rtol: float, atol: float, max_step: float, max_steps: int,
-                 n_grid: int, tol: float, scale_floor: float, pivot_tol: float, max_iter: int,
-                 max_events_out: int):
+    Parameters
+    ----------
+    engine
+        The engine it runs on.
+    settings
+        Its settings.
+    n_grid
+        The number of sample times.
+    """
+
+    def __init__(self, engine: Engine, settings: ShootSettings, n_grid: int):
+        st = settings
         nx = self.nx = engine.nx
+        method, nonlinear = st.codes
+        max_iter = int(st.max_iter)
         self.x, self.p, self.tout = np.empty(nx), np.empty(engine.np), np.empty(n_grid)
-        self.a, self.buf = engine._prepare(self.x, self.p, 0.0, 1.0, self.tout, method, rtol, atol, None, True,
-                                           max_steps, max_step, 0.0, 0, 0, 0.0, max_events_out)
+        self.a, self.buf = engine._prepare(self.x, self.p, 0.0, 1.0, self.tout, method, float(st.rtol),
+                                           float(st.atol), None, True, int(st.max_steps), float(st.max_step), 0.0,
+                                           0, 0, 0.0, int(st.max_events_out), nonlinear)
         self.scale, self.h_abs, self.h_rel = np.empty(nx), np.empty(max_iter + 1), np.empty(max_iter + 1)
         self.direction = np.empty(nx)
         s = self.s = GsShootArgs()
-        s.tol, s.scale_floor, s.pivot_tol, s.max_iter = tol, scale_floor, pivot_tol, max_iter
+        s.tol, s.scale_floor, s.pivot_tol, s.max_iter = float(st.tol), float(st.scale_floor), float(st.pivot_tol), \
+            max_iter
         s.x, s.scale = self.x.ctypes.data, self.scale.ctypes.data
         s.hist_abs, s.hist_rel = self.h_abs.ctypes.data, self.h_rel.ctypes.data
-        self.mult = MultiplierBuffers(s.mult, nx, rtol)  # the converged orbit's multipliers in the same call
+        self.mult = MultiplierBuffers(s.mult, nx, float(st.rtol))  # the converged orbit's multipliers in the same call
         s.iso.direction = self.direction.ctypes.data  # and its isolation
         self.g0 = np.empty(engine.nsw)
         if engine.nsw:  # and the switching functions at its start
@@ -339,10 +418,7 @@ class OrbitSamples:
 
 
 def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
-                 tol: float, max_iter: int, min_damping: float, periods: float, lam0: float, p0: np.ndarray,
-                 D: np.ndarray, atol: float, t0: float, method: int, rtol: float, max_steps: int,
-                 max_events_out: int = 4096, n_samples: int = 0, t_ref: np.ndarray | None = None
-                 ) -> CorrectOutcome:
+                 t_ref: np.ndarray | None = None, **corrector_args: Any) -> CorrectOutcome:
     """The continuation's pseudo-arclength corrector for single shooting in one driver call.
 
     ``F(x, lambda) = phi(t0 + P(lambda); t0, x, p(lambda)) - x`` with ``p(lambda) = p0 +
@@ -355,17 +431,33 @@ def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, 
     One call of a :class:`Corrector` made for it (a continuation keeps one and calls it at
     every point).
 
+    Parameters
+    ----------
+    engine
+        The engine with the parameter derivatives.
+    z, row, target, S, Rs
+        The start ``(x, lambda)``, the arclength row and its target, the scales of the
+        unknowns and of the residual (see :meth:`Corrector.__call__`).
+    t_ref
+        A reference direction for the tangent (``nx + 1`` entries), or ``None``.
+    **corrector_args
+        The keywords of :class:`Corrector` (``tol``, ``max_iter``, ``min_damping``, ``periods``,
+        ``lam0``, ``p0``, ``D``, ``atol``, ``t0``, ``method``, ``rtol``, ``max_steps``,
+        ``max_events_out``, ``n_samples``).
+
+    Returns
+    -------
+    CorrectOutcome
+
     Raises
     ------
     EngineInputError
-        An engine without the corrector or the derivatives, or arrays of the wrong size.
+        An engine without the corrector or the derivatives, a method without the corrector in
+        C, or arrays of the wrong size.
     KeyboardInterrupt
         Ctrl-C during an integration.
     """
-    corrector = Corrector(engine, tol=tol, max_iter=max_iter, min_damping=min_damping, periods=periods, lam0=lam0,
-                          p0=p0, D=D, atol=atol, t0=t0, method=method, rtol=rtol, max_steps=max_steps,
-                          max_events_out=max_events_out, n_samples=n_samples)
-    return corrector(z, row, target, S, Rs, t_ref=t_ref)
+    return Corrector(engine, **corrector_args)(z, row, target, S, Rs, t_ref=t_ref)
 
 
 _LAPACK: dict[str, int] | None = None
@@ -443,9 +535,10 @@ class Corrector:
         self.M = np.empty((nx, nx))
         self.tangent = np.empty(nx + 1)
         sens = (self.D, 1, None, None, False)
+        code, nonlinear = c_method(method, "corrector", "c_corrector")
         self.a, self.buf = engine._prepare(np.zeros(nx), self.p0, float(t0), float(t0) + 1.0, np.empty(0),
-                                           int(method), float(rtol), float(atol), None, True, int(max_steps), 0.0,
-                                           0.0, 0, 0, 0.0, int(max_events_out), 0, 0, None, sens)
+                                           code, float(rtol), float(atol), None, True, int(max_steps), 0.0,
+                                           0.0, 0, 0, 0.0, int(max_events_out), nonlinear, 0, None, sens)
         c = self.c = GsCorrectArgs()
         c.nx = nx
         c.z, c.row, c.S, c.Rs = self.z.ctypes.data, self.row.ctypes.data, self.S.ctypes.data, self.Rs.ctypes.data

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from ..engine.build import ENGINE_DIR
 from ..files import write_files
+from ..integrators import EXPLICIT, IMPLICIT, method_names
 from .bundle import sundials_bundle
 from .model_info import ExportError, ExportModel, data_header
 from .targets import check_target_dir
@@ -142,6 +143,7 @@ def _md(text: str) -> str:
 def readme(em: ExportModel, sundials_version: str = "") -> str:
     """README.md of the exported C project (``sundials_version``: of the libraries in ``lib/``)."""
     dflt = em.defaults
+    methods = " or ".join(f"`{n}`" for n in method_names(IMPLICIT if em.implicit else EXPLICIT))
     ex = "Omega=0.9 " if any(q.name == "Omega" for q in em.params) else ""
     rows = "\n".join(f"| `{q.name}` | {q.value:.10g} | {q.unit or '1'} | {_md(q.description)}"
                      f"{' **fixed**: ' + _md(q.locked) if q.locked else ''} |" for q in em.params + em.extras)
@@ -209,7 +211,7 @@ Every setting is `NAME=VALUE` on the command line or in a `--file` (a regular te
 NAME a parameter (**SI units**), a state (its initial value, SI units) or an option:
 `periods` (default {dflt['periods']:g}), `t_end`, `t0` (0), `n_out` (default
 `round(periods * points_per_period) + 1`), `points_per_period` ({dflt['points_per_period']}),
-`rtol` ({dflt['rtol']:g}), `atol` ({dflt['atol']:g}), `method` (`adams`, `bdf` or `ida`; default
+`rtol` ({dflt['rtol']:g}), `atol` ({dflt['atol']:g}), `method` ({methods}; default
 `{dflt['method']}`), `max_step` (default: forcing period / 8), `max_steps`.  {period}
 
 Output: CSV with the header `t,<states>,<outputs>` at `n_out` equally spaced times from `t0` to

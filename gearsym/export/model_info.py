@@ -18,6 +18,7 @@ from fractions import Fraction
 from pathlib import Path
 
 from ..errors import GearsymError
+from ..integrators import EXPLICIT, IMPLICIT, INTEGRATION_METHODS, NONLINEAR, default_method, method_names
 from ..spec.units import UnitSyntaxError, parse_unit
 
 __all__ = ["OPTION_NAMES", "RESERVED_PROGRAM_NAMES", "ExportError", "ExportModel", "Quantity", "c_string",
@@ -26,7 +27,6 @@ __all__ = ["OPTION_NAMES", "RESERVED_PROGRAM_NAMES", "ExportError", "ExportModel
 #: Names main.c reads as options; a parameter or state may not be called so.
 OPTION_NAMES = ("periods", "t_end", "t0", "n_out", "points_per_period", "rtol", "atol", "method", "max_step",
                 "max_steps")
-_METHODS = ("bdf", "adams", "ida")
 _ANGLES = {"rad", "deg", "rev"}
 
 
@@ -271,7 +271,7 @@ def collect(scene, generated_dir: str | Path | None = None) -> ExportModel:
     states = _state_quantities(scene, gen.state_names, system.x0)
     mesh_outputs, out_fns = _mesh_outputs(scene, gen)
     sim = scene.spec.simulate
-    method = "ida" if gen.implicit else str(sim.get("method", "adams"))
+    method = default_method(gen.implicit, sim.get("method"))
     defaults: dict[str, float | int | str] = {
         "periods": float(sim.get("periods", 100)),
         "t_end": float(sim.get("t_end", 100.0)),
@@ -394,6 +394,29 @@ def _c_double(v: float) -> str:
     return r if ("." in r or "e" in r or "inf" in r) else r + ".0"
 
 
+def _method_table(default: str) -> str:
+    """The integration methods the exported program offers (:data:`gearsym.integrators.INTEGRATION_METHODS`):
+    names, ``GS_METHOD_*`` and ``GS_NONLIN_*`` codes and the model forms of each, and the index of the
+    scene's one (``GSX_DEFAULT_METHOD``)."""
+    ms = list(INTEGRATION_METHODS.values())
+    for m in ms:  # the names go into printf formats and C strings
+        if not re.fullmatch(r"[a-z][a-z0-9_]*", m.name):
+            raise ExportError(f"integration method name {m.name!r} is not a lower-case identifier")
+    return "".join([
+        "/* the integration methods (gearsym.integrators): name, GS_METHOD_* code, GS_NONLIN_* code, forms */\n",
+        f"#define GSX_NMETHODS {len(ms)}\n",
+        f"#define GSX_METHOD_CHOICES {c_string('|'.join(method_names()))}\n",
+        f"#define GSX_METHOD_LIST {c_string(', '.join(method_names()))}\n",
+        f"#define GSX_IMPLICIT_METHODS {c_string(' or '.join(method_names(IMPLICIT)))}\n",
+        _arr("char* const", "gsx_method_names", [c_string(m.name) for m in ms]),
+        _arr("int", "gsx_method_code", [str(m.code) for m in ms]),
+        _arr("int", "gsx_method_nonlinear", [str(NONLINEAR[m.nonlinear[0]]) for m in ms]),
+        _arr("int", "gsx_method_explicit", ["1" if EXPLICIT in m.forms else "0" for m in ms]),
+        _arr("int", "gsx_method_implicit", ["1" if IMPLICIT in m.forms else "0" for m in ms]),
+        f"#define GSX_DEFAULT_METHOD {list(INTEGRATION_METHODS).index(default)}\n",
+    ])
+
+
 def _arr(ctype: str, name: str, items: list[str]) -> str:
     body = ", ".join(items + ["0"])
     return f"static const {ctype} {name}[{len(items) + 1}] = {{{body}}};\n"
@@ -453,7 +476,7 @@ def data_header(em: ExportModel, guid: str = "", outx: bool = False, fmu: bool =
         f"#define GSX_DEFAULT_RTOL {_c_double(float(d['rtol']))}\n",
         f"#define GSX_DEFAULT_ATOL {_c_double(float(d['atol']))}\n",
         f"#define GSX_DEFAULT_PPP {int(d['points_per_period'])}\n",
-        f"#define GSX_DEFAULT_METHOD {_METHODS.index(str(d['method']))}\n",
+        _method_table(str(d["method"])),
         f"#define GSX_DEFAULT_MAX_STEPS {int(d['max_steps'])}L\n\n",
         _arr("char* const", "gsx_state_names", [c_string(q.name) for q in em.states]),
         _arr("char* const", "gsx_state_units", [c_string(q.unit) for q in em.states]),

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..errors import ParameterError, SpecError
+from ..integrators import method_names
 from .fields import unknown_key
 
 __all__ = ["SETTINGS", "Setting", "read_settings", "resolve_settings"]
@@ -78,7 +79,7 @@ SETTINGS: dict[str, dict[str, Setting]] = {
         "rtol": Setting(_NUM, 1e-8, "rtol"),
         "atol": Setting(_NUM, 1e-10, "tolerance"),
         "points_per_period": Setting((int,), 64, "count"),
-        "method": Setting((str,), None, None, ("adams", "bdf", "ida")),
+        "method": Setting((str,), None, None, method_names()),
         "transient_periods": Setting(_NUM, None, "nonnegative"),
         "max_steps": Setting((int,), 0, "count0"),
         "dimensionless": Setting((bool,), False),

@@ -11,7 +11,7 @@
  * and the side of every surface the previous one ended with; the integrator and its
  * work arrays are kept in the instance's workspace and re-initialised (CVodeReInit).
  *
- * Solver settings: the scene's method (adams / bdf / ida); rtol = the tolerance of
+ * Solver settings: the scene's method (gearsym.integrators); rtol = the tolerance of
  * fmi2SetupExperiment, else the scene's rtol; atol = rtol * nominal (the scene's
  * atol / rtol ratio, as the nominals of the states say); the largest internal step is
  * an eighth of the forcing period (T / 8, as System.simulate); the scene's
@@ -43,7 +43,8 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean no
   if (h == 0.0) return fmi2OK;
   if (gsx_period(c, &T)) return gsx_fail(c, "fmi2DoStep: the forcing period is not finite%s", "");
   memset(&a, 0, sizeof(a));
-  a.method = GSX_DEFAULT_METHOD;
+  a.method = gsx_method_code[GSX_DEFAULT_METHOD];
+  a.nonlinear = gsx_method_nonlinear[GSX_DEFAULT_METHOD];
   a.rtol = c->rtol;
   a.atol = c->rtol * ratio;
   a.t0 = t;

@@ -40,20 +40,18 @@ typedef struct {
   double x0[GSX_NX + 1];
   double periods, t_end, t0, max_step, rtol, atol;
   long n_out, ppp, max_steps;
-  int method;
+  int method; /* index in the method table of gs_export_data.h */
   int periods_set, t_end_set, n_out_set, max_step_set;
   const char* out;
   const char* events;
 } gsx_opts;
-
-static const char* const gsx_methods[] = {"bdf", "adams", "ida"};
 
 static void usage(FILE* fp) {
   fprintf(fp,
           "usage: %s [NAME=VALUE ...] [--file FILE] [--out FILE] [--events FILE] [--list] [--help]\n"
           "  NAME=VALUE   a parameter (SI units), an initial state (SI units) or an option:\n"
           "               periods, t_end, t0, n_out, points_per_period, rtol, atol,\n"
-          "               method (adams|bdf|ida), max_step, max_steps\n"
+          "               method (" GSX_METHOD_CHOICES "), max_step, max_steps\n"
           "  --file FILE  NAME=VALUE lines ('#' starts a comment; a text file of at most 1 MiB)\n"
           "  --out FILE   CSV trajectory (default: stdout); header t,<states>,<outputs>\n"
           "  --events FILE  CSV events t,surface,direction,speed (default with --out X.csv: X_events.csv)\n"
@@ -112,12 +110,12 @@ static int apply(gsx_opts* o, const char* item, const char* where) {
   val = eq + 1;
   while (*val == ' ' || *val == '\t') ++val;
   if (strcmp(name, "method") == 0) {
-    for (k = 0; k < 3; ++k)
-      if (strcmp(val, gsx_methods[k]) == 0) {
+    for (k = 0; k < GSX_NMETHODS; ++k) /* the table of gs_export_data.h (gearsym.integrators) */
+      if (strcmp(val, gsx_method_names[k]) == 0) {
         o->method = k;
         return 0;
       }
-    return bad("method must be adams, bdf or ida, got '%s'%s", val, where);
+    return bad("method must be one of " GSX_METHOD_LIST ", got '%s'%s", val, where);
   }
   if (strcmp(name, "n_out") == 0 || strcmp(name, "points_per_period") == 0 || strcmp(name, "max_steps") == 0) {
     if (parse_long(val, &l) || l < (strcmp(name, "max_steps") == 0 ? 0 : 2))
@@ -270,7 +268,7 @@ static void list(void) {
   printf("  t0 = 0\n  points_per_period = %d\n  n_out = %s\n", GSX_DEFAULT_PPP,
          GSX_HAS_PERIOD ? "round(periods * points_per_period) + 1" : "1001");
   printf("  rtol = %.17g\n  atol = %.17g\n  method = %s\n  max_step = %s\n  max_steps = %ld\n", GSX_DEFAULT_RTOL,
-         GSX_DEFAULT_ATOL, gsx_methods[GSX_DEFAULT_METHOD], GSX_HAS_PERIOD ? "forcing period / 8" : "0 (unlimited)",
+         GSX_DEFAULT_ATOL, gsx_method_names[GSX_DEFAULT_METHOD], GSX_HAS_PERIOD ? "forcing period / 8" : "0 (unlimited)",
          (long)GSX_DEFAULT_MAX_STEPS);
 }
 
@@ -419,8 +417,10 @@ int main(int argc, char** argv) {
     fprintf(stderr, "%s: error: SUNDIALS: %s\n", GSX_PROGRAM, abimsg);
     return 1;
   }
-  if (GSX_IMPLICIT && o.method != 2) return bad("this model is implicit (mass-matrix form): use method=ida%s%s", "", "");
-  if (!GSX_IMPLICIT && o.method == 2) return bad("method=ida needs a model in implicit form%s%s", "", "");
+  if (GSX_IMPLICIT && !gsx_method_implicit[o.method])
+    return bad("this model is implicit (mass-matrix form): use method=%s%s", GSX_IMPLICIT_METHODS, "");
+  if (!GSX_IMPLICIT && !gsx_method_explicit[o.method])
+    return bad("method=%s needs a model in implicit form%s", gsx_method_names[o.method], "");
 
   /* forcing period from the generated gs_period */
 #if GSX_HAS_PERIOD
@@ -493,7 +493,8 @@ int main(int argc, char** argv) {
       return 1;
     }
     memset(&a, 0, sizeof(a));
-    a.method = o.method;
+    a.method = gsx_method_code[o.method];
+    a.nonlinear = gsx_method_nonlinear[o.method];
     a.rtol = o.rtol;
     a.atol = o.atol;
     a.t0 = o.t0;
