@@ -21,12 +21,12 @@ import sympy as sp
 from ..errors import SpecError
 from ..spec.scene import ResolvedScene
 from .budget import Budget, check_expression, checkpoint
-from .elements import ASSEMBLERS, Assembly
+from .elements import ASSEMBLERS, Assembly, SymbolicElement
 from .expand import _expand_in_states
 from .parsing import Namespace, internal_symbol
 from .reduction import reduce_model
 from .rigid import mode_dicts, rigid_body_modes, transform_modes
-from .switching import ModalForm, Mode, ScheduleInfo, SwitchingFunction, dead_zone, make_modal
+from .switching import ModalForm, Mode, ScheduleInfo, SwitchingFunction, make_modal
 
 
 class SymbolicModel:
@@ -79,6 +79,7 @@ class SymbolicModel:
         self._force_exprs: list[sp.Expr] = []    # other expressions that enter forces
         self._meshes: dict[str, sp.Expr] = {}    # mesh element -> dynamic deflection (deflection - error)
         self._mesh_forces: dict[str, sp.Expr] = {}  # mesh element -> mesh force k*f(delta) + c*delta'
+        self._mesh_fields: dict[str, str] = {}  # mesh element -> the field its deflection errors name
         M, Q = self._assemble(ns, q, v)
         dynamic = frozenset(q) | frozenset(v)
         for i, qi in enumerate(q):  # the sums of the elements' terms, before anything expands them
@@ -179,73 +180,36 @@ class SymbolicModel:
         return cs.coordinates, cs.velocities, cs.mass, cs.forces
 
     def _assemble(self, ns: Namespace, q: list[sp.Symbol], v: list[sp.Symbol]):
+        """``M`` and ``Q`` from the elements (each through the hooks of its type,
+        :mod:`gearsym.symbolic.elements`) and the explicit ``[equations]``."""
         spec = self.spec
         n = len(q)
         index = {s.name: i for i, s in enumerate(q)}
         M = sp.zeros(n, n)
         Q = sp.zeros(n, 1)
-
-        def ddt(expr: sp.Expr) -> sp.Expr:
-            free = expr.free_symbols
-            return sp.diff(expr, ns.t) + sum(sp.diff(expr, qi) * vi for qi, vi in zip(q, v) if qi in free)
-
+        a = Assembly(ns, q, v, M, Q)
+        #: the elements of this scene (effect on), by name: their symbolic side
+        self.elements: dict[str, SymbolicElement] = {}
         for el in spec.elements.values():
             if not self.resolved.effect_active(el.effect, el.variant):
                 continue
-            w = f"elements.{el.name}"
-            checkpoint(w)
-
-            def field(key: str, el=el) -> sp.Expr:
-                return ns.sum_terms(el.fields.get(key, ()), el.effect, el.variant)
-
-            if el.coordinate is not None and el.coordinate not in index:
-                continue  # element on a coordinate of a switched-off effect
-            if el.type == "inertia":
-                i = index[el.coordinate]  # type: ignore[index]
-                M[i, i] += field("value")
-            elif el.type == "force":
-                Q[index[el.coordinate], 0] += field("value")  # type: ignore[index]
-                self._force_exprs.append(field("value"))
-            elif el.type in ASSEMBLERS:  # element types with a module of their own
-                asm = Assembly(ns, q, v, M, Q)
-                ASSEMBLERS[el.type](asm, el)
-                self._surface_hints += asm.hints
-                self._force_exprs += asm.forces
-            else:
-                geom = field("deflection")
-                delta = geom - field("error") if el.type == "mesh" else geom
-                if not any(geom.has(qi) for qi in q):
-                    from ..spec.expressions import names_in
-
-                    gated = {c for c in spec.coordinates if c not in index}
-                    if any(names_in(t.expr) & gated for t in el.fields.get("deflection", ())):
-                        continue  # acts only on coordinates of switched-off effects
-                    raise SpecError("the deflection does not depend on any coordinate",
-                                    file=spec.path, field=f"{w}.deflection")
-                self._deflections.append(geom)
-                self._force_exprs += [field(k) for k in ("error", "stiffness", "damping", "backlash",
-                                                         "coefficient") if k in el.fields]
-                if el.type == "mesh":
-                    self._meshes[el.name] = delta
-                if el.type == "spring":
-                    W = field("stiffness") * delta
-                elif el.type == "damper":
-                    W = field("coefficient") * ddt(delta)
-                else:  # mesh
-                    k = field("stiffness")
-                    c = field("damping")
-                    b = field("backlash")
-                    f, surfaces = dead_zone(el.name, el.drive_side, delta, b)
-                    self._surface_hints += surfaces
-                    W = k * f + c * ddt(delta)
-                    self._mesh_forces[el.name] = W
-                gfree = geom.free_symbols
-                for i, qi in enumerate(q):
-                    if qi not in gfree:
-                        continue  # d(geom)/d(qi) = 0: skip the (costly) symbolic derivative
-                    dd = sp.diff(geom, qi)
-                    if dd != 0:
-                        Q[i, 0] -= W * dd
+            checkpoint(f"elements.{el.name}")
+            part = ASSEMBLERS[el.type](a, el)
+            self.elements[el.name] = part
+            if not part.present():
+                continue  # acts only on coordinates of switched-off effects
+            for c, value in part.mass():
+                a.add_mass(c, value)
+            applied = [value for c, value in part.forces() if a.add_force(c, value)]
+            self._surface_hints += part.surfaces()
+            mesh = part.mesh()
+            if mesh is not None:
+                self._meshes[el.name] = mesh.deflection
+                self._mesh_forces[el.name] = mesh.force
+                self._mesh_fields[el.name] = mesh.field
+            deflections, exprs = part.rigid_terms(applied)
+            self._deflections += deflections
+            self._force_exprs += exprs
         for eq in spec.equations.values():
             if eq.coordinate not in index:
                 continue  # coordinate of a switched-off effect
@@ -272,7 +236,7 @@ class SymbolicModel:
         rows = [(e, f"coordinates.{c}" if spec.reduction is None else "reduction")
                 for c, e in zip(self.coordinates, self.rhs[len(self.coordinates):])]
         checks = [*rows, *((h.expr, _surface_field(spec, h.name)) for h in self._surface_hints),
-                  *((d, f"elements.{k}.deflection") for k, d in self.mesh_deflections.items())]
+                  *((d, self._mesh_fields[k]) for k, d in self.mesh_deflections.items())]
         for expr, fld in checks:
             left = sorted(str(s) for s in expr.free_symbols & gone)
             if left:
@@ -308,7 +272,8 @@ class SymbolicModel:
         hints = self._surface_hints
         # the mesh deflections (per-mesh results) are rewritten in the new states with the surfaces
         q2, v2, M2, Q2, sub, m_eq, g = reduce_keeping(self, ns, q, v, M, Q, [h.expr for h in hints], self._meshes,
-                                                      [h.origin or _surface_field(self.spec, h.name) for h in hints])
+                                                      [h.origin or _surface_field(self.spec, h.name) for h in hints]
+                                                      + [self._mesh_fields[k] for k in self._meshes])
         self._reduction_sub = sub
         self.reduced_mass = m_eq if self.structured else sp.simplify(m_eq)
         self._surface_hints = [replace(h, expr=gh) for h, gh in zip(hints, g)]

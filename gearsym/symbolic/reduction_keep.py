@@ -41,9 +41,10 @@ def reduce_keeping(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: l
     surfaces
         Switching functions of the elements (contact surfaces), rewritten in the new states.
     surface_fields
-        The spec field each surface comes from (named by the errors; default ``reduction``).
+        The spec field each surface comes from, then (optionally) each mesh deflection's
+        (named by the errors; default ``reduction.keep`` and ``elements.NAME.deflection``).
     meshes
-        Dynamic deflection of every ``mesh`` element (by element name), rewritten in the
+        Dynamic deflection of every mesh element (by element name), rewritten in the
         new states like the surfaces.
 
     Returns
@@ -143,8 +144,8 @@ def reduce_keeping(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: l
     Mr = sp.diag(m_eq, *[M[i, i] for i in K])
     Qr = sp.Matrix([m_eq * acc] + [accK[q[i]] * M[i, i] for i in K])
     meshes = dict(meshes or {})
-    owners = list(surface_fields or ["reduction.keep"] * len(surfaces)) + \
-        [f"elements.{name}.deflection" for name in meshes]
+    owners = list(surface_fields or ["reduction.keep"] * len(surfaces))
+    owners += [f"elements.{name}.deflection" for name in meshes][len(owners) - len(surfaces):]
     rewritten = list(surfaces) + list(meshes.values())
     if is_direct:
         rewritten = [hide(g).subs(definition, x) for g in rewritten]
