@@ -250,12 +250,16 @@ class SymbolicModel:
         allowed = set(states) | {self.t}
         dynamic = set(self.ns.coords.values()) | set(self.ns.vels.values())
         out = {}
+        final = getattr(self, "_final_forces", {})  # rewritten with the reduction (keep)
         for name, W in self._mesh_forces.items():
-            if self.constraint_rows is not None:
-                W = W.xreplace(self._constraint_sub)
-            sub = getattr(self, "_reduction_sub", None)
-            if sub is not None:
-                W = _expand_in_states(W.subs(sub), states, self.t)
+            if name in final:
+                W = final[name]
+            else:
+                if self.constraint_rows is not None:
+                    W = W.xreplace(self._constraint_sub)
+                sub = getattr(self, "_reduction_sub", None)
+                if sub is not None:
+                    W = _expand_in_states(W.subs(sub), states, self.t)
             if not ((W.free_symbols & dynamic) - allowed):
                 out[name] = W
         return out
@@ -270,14 +274,19 @@ class SymbolicModel:
         from .reduction_keep import reduce_keeping
 
         hints = self._surface_hints
-        # the mesh deflections (per-mesh results) are rewritten in the new states with the surfaces
+        forces = self._mesh_forces
+        if self.constraint_rows is not None:
+            forces = {k: W.xreplace(self._constraint_sub) for k, W in forces.items()}
+        # the mesh deflections and forces (per-mesh results) are rewritten in the new states with the surfaces
         q2, v2, M2, Q2, sub, m_eq, g = reduce_keeping(self, ns, q, v, M, Q, [h.expr for h in hints], self._meshes,
                                                       [h.origin or _surface_field(self.spec, h.name) for h in hints]
-                                                      + [self._mesh_fields[k] for k in self._meshes])
+                                                      + [self._mesh_fields[k] for k in self._meshes], forces)
         self._reduction_sub = sub
         self.reduced_mass = m_eq if self.structured else sp.simplify(m_eq)
         self._surface_hints = [replace(h, expr=gh) for h, gh in zip(hints, g)]
-        self._meshes = dict(zip(self._meshes, g[len(hints):]))
+        n = len(hints) + len(self._meshes)
+        self._meshes = dict(zip(self._meshes, g[len(hints):n]))
+        self._final_forces = {k: W for k, W in zip(forces, g[n:]) if W is not None}
         return q2, v2, M2, Q2
 
     def _outputs(self, ns: Namespace) -> dict[str, sp.Expr]:
