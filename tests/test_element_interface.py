@@ -266,3 +266,99 @@ def test_inspect_lists_the_gear_mesh():
 
     m = gearsym.load_scene(ROOT / "scenes" / "yu_constant_backlash.toml").model
     assert inspect_structure(m)["meshes"] == ["mesh"]
+
+
+# ------------------------------------------------- the worked example of docs/contributing.md
+
+
+def _doc_module(package: str, marker: str):
+    """The python block of docs/contributing.md whose first line is ``# <marker>``, executed as a
+    module of ``package`` (so its relative imports work)."""
+    import re
+    import types
+
+    text = (ROOT / "docs" / "contributing.md").read_text(encoding="utf-8")
+    blocks = [b for b in re.findall(r"```python\n(.*?)```", text, re.S) if b.startswith(f"# {marker}\n")]
+    assert len(blocks) == 1, marker
+    mod = types.ModuleType(f"{package}.clutch")
+    mod.__package__ = package
+    exec(compile(blocks[0], marker, "exec"), mod.__dict__)  # noqa: S102 (our own documentation)
+    return mod
+
+
+@pytest.fixture
+def clutch_registered(monkeypatch):
+    """The clutch of docs/contributing.md, registered in both registries for one test."""
+    from gearsym.spec.elements import ELEMENT_TYPES
+    from gearsym.symbolic.elements import ASSEMBLERS
+
+    spec_side = _doc_module("gearsym.spec.elements", "gearsym/spec/elements/clutch.py").Clutch
+    symbolic_side = _doc_module("gearsym.symbolic.elements", "gearsym/symbolic/elements/clutch.py").Clutch
+    monkeypatch.setitem(ELEMENT_TYPES, "clutch", spec_side())
+    monkeypatch.setitem(ASSEMBLERS, "clutch", symbolic_side)
+
+
+def _pair(spline: dict) -> dict:
+    """Two rotations coupled by ``spline``: a driving torque on th1, th2 on a spring to the ground."""
+    return {
+        "model": {"name": "clutch_pair"},
+        "coordinates": {"th1": {"unit": "rad", "velocity": "w1"}, "th2": {"unit": "rad", "velocity": "w2"}},
+        "parameters": {"J1": {"value": 0.01, "unit": "kg*m^2"}, "J2": {"value": 0.03, "unit": "kg*m^2"},
+                       "k_s": {"value": 1e4, "unit": "N*m/rad"}, "b_s": {"value": 0.01, "unit": "rad"},
+                       "c_s": {"value": 0.5, "unit": "N*m*s/rad"}, "T0": {"value": 5.0, "unit": "N*m"},
+                       "k1": {"value": 2e3, "unit": "N*m/rad"}},
+        "elements": {"j1": {"type": "inertia", "coordinate": "th1", "value": "J1"},
+                     "j2": {"type": "inertia", "coordinate": "th2", "value": "J2"},
+                     "drive": {"type": "force", "coordinate": "th1", "value": "T0"},
+                     "ground": {"type": "spring", "deflection": "th2", "stiffness": "k1"},
+                     "spline": spline},
+    }
+
+
+def _symbolic(doc: dict, **overrides):
+    from gearsym.spec.model import parse_model
+    from gearsym.spec.scene import SceneSpec, resolve_scene
+    from gearsym.symbolic.model import SymbolicModel
+
+    spec = parse_model(doc, "<clutch_pair>")
+    scene = SceneSpec("<scene>", "c", "", "<clutch_pair>", {}, {}, {}, {})
+    return SymbolicModel(resolve_scene(scene, spec, overrides=overrides))
+
+
+def test_the_documented_clutch_is_one_module_each_side_and_equals_a_hand_written_mesh(clutch_registered):
+    """docs/contributing.md's worked example, registered as written: a clutch derives the same
+    equations, contact surfaces and per-mesh results as the ``mesh`` element on
+    ``deflection = "th1 - th2"`` that writes the same physics by hand."""
+    clutch = _symbolic(_pair({"type": "clutch", "input": "th1", "output": "th2", "stiffness": "k_s",
+                              "clearance": "b_s", "damping": "c_s"}))
+    mesh = _symbolic(_pair({"type": "mesh", "deflection": "th1 - th2", "stiffness": "k_s", "backlash": "b_s",
+                            "damping": "c_s"}))
+    assert clutch.state_names == mesh.state_names == ["th1", "th2", "w1", "w2"]
+    assert all(sp.simplify(a - b) == 0 for a, b in zip(clutch.rhs, mesh.rhs))
+    assert [(g.name, g.kind, g.contact_sign) for g in clutch.switching] == \
+        [(g.name, g.kind, g.contact_sign) for g in mesh.switching] == \
+        [("spline.drive", "drive", 1), ("spline.back", "back", -1)]
+    assert all(sp.simplify(a.expr - b.expr) == 0 for a, b in zip(clutch.switching, mesh.switching))
+    assert list(clutch.mesh_deflections) == list(clutch.mesh_forces) == ["spline"]
+    assert sp.simplify(clutch.mesh_deflections["spline"] - mesh.mesh_deflections["spline"]) == 0
+    assert sp.simplify(clutch.mesh_forces["spline"] - mesh.mesh_forces["spline"]) == 0
+    assert clutch.rigid_body_modes == mesh.rigid_body_modes == []
+
+
+def test_the_documented_clutch_gets_its_checks_from_its_schema(clutch_registered):
+    from gearsym.errors import SpecError
+
+    good = {"type": "clutch", "input": "th1", "output": "th2", "stiffness": "k_s", "clearance": "b_s"}
+    for change, field, message in [
+        ({"inputs": "th1"}, "elements.spline.inputs", "unknown field 'inputs'"),
+        ({"output": "th9"}, "elements.spline.output", "unknown coordinate 'th9'"),
+        ({"clearance": "b_s*k_s"}, "elements.spline.clearance", "unit mismatch"),
+        ({"coordinate": "th1"}, "elements.spline.coordinate", "names its coordinates in input, output"),
+    ]:
+        with pytest.raises(SpecError, match=message) as info:
+            _symbolic(_pair({**good, **change}))
+        assert info.value.field == field
+    with pytest.raises(SpecError, match="missing field 'output' of clutch element"):
+        _symbolic(_pair({k: v for k, v in good.items() if k != "output"}))
+    with pytest.raises(gearsym.errors.GearsymError, match=r"half clearance of clutch 'spline'.*must be >= 0"):
+        _symbolic(_pair(good), b_s=-0.1)
