@@ -5,11 +5,11 @@ derivation is done once in the constructor and every derived quantity is a named
 inspectable attribute (mass matrix, generalised forces, first-order right-hand
 side, switching functions, modes, schedules, Jacobian, dimensionless form).
 
-Derivation (virtual work): the kinetic energy ``T = 1/2 sum(m_i qdot_i^2)`` of the
-inertia elements gives the mass matrix; every element contributes the generalised
-force ``Q_i = -W * d(delta)/d(q_i)`` where ``delta`` is its deflection and ``W`` its
-force (``k*f(delta) + c*d(delta)/dt`` for a mesh with dead zone ``f``); forces and
-explicit equations add to ``Q`` directly.  Then ``M q'' = Q``.
+Derivation (virtual work): every element adds its mass-matrix entries and generalised
+forces through the hooks of its type (:mod:`gearsym.symbolic.elements`; e.g. a mesh
+contributes ``Q_i = -W * d(delta)/d(q_i)`` where ``delta`` is its deflection and ``W`` its
+force ``k*f(delta) + c*d(delta)/dt`` with dead zone ``f``); explicit equations add to
+``M`` and ``Q`` directly.  Then ``M q'' = Q``.
 """
 
 from __future__ import annotations
@@ -57,6 +57,12 @@ class SymbolicModel:
     parameters : list of sympy.Symbol
         The run-time parameters the compiled system takes, in model order.
     forcing_period : sympy.Expr or None
+    elements : dict
+        The symbolic side of every element of the scene (effect on), by name
+        (:class:`~gearsym.symbolic.elements.base.SymbolicElement`).
+    mesh_deflections, mesh_forces : dict
+        Per-mesh results: the dynamic deflection and the force along the line of action of
+        every element that reports them (``mesh``, ``gear_mesh``), in the final states.
     """
 
     def __init__(self, rs: ResolvedScene, structured: bool = False):
