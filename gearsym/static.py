@@ -12,8 +12,9 @@ over the cycle of every time-varying term (a product of two time functions, e.g.
 varying stiffness times a transmission error, contributes the mean of the product).
 A model without a forcing period is evaluated at ``t = 0``.
 
-**Contact state.**  ``sigma`` holds one contact state per backlash mesh (every ``mesh`` or
-``gear_mesh`` with a clearance, a clutch or spline clearance written as one), fixed over
+**Contact state.**  ``sigma`` holds one contact state per backlash mesh (every element whose
+contact surfaces are a ``NAME.drive`` / ``NAME.back`` pair -- a ``mesh`` or ``gear_mesh`` with a
+clearance, a clutch or spline clearance -- :mod:`gearsym.symbolic.elements.base`), fixed over
 the cycle: ``"drive"`` (drive-side contact), ``"back"`` (back-side contact) or
 ``"separated"``.  Other switching surfaces take the side the state is on.  The state
 must be *consistent* with the mean loads it produces, flank by flank:

@@ -296,6 +296,7 @@ def collect(scene, generated_dir: str | Path | None = None) -> ExportModel:
 def _mesh_units(scene, names: list[str]) -> dict[str, tuple[str, str]]:
     """SI units ``(deflection, force)`` of each mesh, from the dimensions of its expressions
     (``("", "")`` where they cannot be told)."""
+    from ..spec.expressions import BOUND_FUNCTIONS
     from ..symbolic.dims import DimensionError, Dimensions
 
     sm = scene.model
@@ -310,6 +311,8 @@ def _mesh_units(scene, names: list[str]) -> dict[str, tuple[str, str]]:
         table[sym] = dims(name)
     for sym in sm.ns.derived:
         table[sym] = dims(str(sym))
+    for sym, (fname, _) in sm.ns.bound.items():  # a bound function's value (e.g. a mean flank height)
+        table[sym] = tuple(Fraction(d) for d in BOUND_FUNCTIONS[fname][1])
     for sym in sm.states:
         table[sym] = dims(str(sym))
     table[sm.t] = tuple(Fraction(d) for d in spec.time_dims.dims)

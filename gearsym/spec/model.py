@@ -31,6 +31,7 @@ The spec layer knows nothing of sympy: expressions are checked with :mod:`ast`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,7 +39,7 @@ from typing import Any
 from ..errors import SpecError
 from . import expressions as ex
 from .constraints import Algebraic, Constraint, parse_algebraic, parse_constraints
-from .elements import ELEMENT_SCHEMAS
+from .elements import ELEMENT_TYPES, ElementType
 from .fields import (
     Ctx,
     Term,
@@ -134,7 +135,8 @@ class Schedule:
 
 @dataclass(frozen=True)
 class Element:
-    """A lumped element: ``inertia``, ``spring``, ``damper``, ``mesh`` or ``force``."""
+    """A lumped element of a model: its ``type`` names an element type of
+    :data:`gearsym.spec.elements.ELEMENT_TYPES`, which says what its fields mean."""
 
     name: str
     type: str
@@ -144,7 +146,8 @@ class Element:
     effect: str | None = None
     variant: str | None = None
     meaning: str = ""
-    #: coordinate fields of the schema types (:mod:`gearsym.spec.elements`): field -> names
+    #: the coordinate fields of its type (:attr:`~gearsym.spec.elements.ElementType.coordinates`):
+    #: field -> coordinate names
     coordinates: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
 
@@ -230,14 +233,7 @@ class ModelSpec:
 _TOP = {"model", "coordinates", "parameters", "derived", "effects", "schedules", "elements",
         "equations", "reduction", "forcing", "initial", "dimensionless", "outputs", "algebraic", "constraints"}
 _MODEL_KEYS = {"name", "description", "reference", "time_unit", "form", "notes"}
-_ELEMENT_FIELDS = {
-    "inertia": ({"value"}, set()),
-    "spring": ({"deflection", "stiffness"}, set()),
-    "damper": ({"deflection", "coefficient"}, set()),
-    "mesh": ({"deflection", "stiffness"}, {"error", "damping", "backlash"}),
-    "force": ({"value"}, set()),
-    **{k: (set(v.required), set(v.optional)) for k, v in ELEMENT_SCHEMAS.items()},
-}
+#: keys every element takes besides the fields of its type (gearsym/spec/elements/)
 _ELEMENT_META = {"type", "coordinate", "effect", "variant", "meaning", "drive_side"}
 
 
@@ -273,6 +269,71 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         if key not in _TOP:
             raise ctx.error(key, unknown_key(key, _TOP, "section"))
     meta = table(ctx, data, "model", required=True)
+    name, form, time_unit, time_dims = _model_meta(ctx, meta)
+    names = _Names(ctx)
+    declare = names.declare
+    coordinates = _coordinates(ctx, data, declare)
+    parameters: dict[str, Parameter] = {}
+    for pname, p in table(ctx, data, "parameters").items():
+        where = f"parameters.{pname}"
+        if isinstance(p, (int, float)) and not isinstance(p, bool):
+            p = {"value": p}
+        p = as_table(ctx, where, p)
+        only_keys(ctx, where, p, {"value", "unit", "meaning", "min", "max", "positive"})
+        declare(pname, where)
+        parameters[pname] = _parameter(ctx, where, pname, p)
+    effects = _effects(ctx, data)
+    schedules = _schedules(ctx, data, declare)
+    derived = _quantities(ctx, data, "derived", declare, schedules)
+    elements = {lname: _element(ctx, lname, el, coordinates, schedules)
+                for lname, el in table(ctx, data, "elements").items()}
+    equations = _equations(ctx, data, coordinates, schedules)
+    # algebraic variables and constraints (gearsym/spec/constraints.py)
+    algebraic = parse_algebraic(ctx, data, declare)
+    constraints = parse_constraints(ctx, data)
+    reduction = _reduction(ctx, data, declare, elements, coordinates, schedules)
+    forcing = table(ctx, data, "forcing")
+    only_keys(ctx, "forcing", forcing, {"period"})
+    period = expr_str(ctx, "forcing.period", forcing["period"]) if "period" in forcing else None
+    initial, static = read_initial(table(ctx, data, "initial"), ctx.error)
+    dimless = _dimensionless(ctx, data, declare) if "dimensionless" in data else None
+    # outputs: quantities evaluated along trajectories (e.g. the dynamic backlash B(t))
+    outputs = _quantities(ctx, data, "outputs", declare, schedules)
+    if dimless is not None and "tau" in names.where:
+        raise ctx.error(names.where["tau"], "'tau' is the time of the [dimensionless] form; choose another name")
+    spec = ModelSpec(
+        path=path, name=name, description=string(ctx, meta, "model.description") or "",
+        reference=string(ctx, meta, "model.reference") or "", form=form, time_unit=time_unit,
+        time_dims=time_dims, coordinates=coordinates, parameters=parameters, derived=derived,
+        effects=effects, schedules=schedules, elements=elements, equations=equations,
+        reduction=reduction, forcing_period=period, initial=initial, dimensionless=dimless,
+        notes=string(ctx, meta, "model.notes") or "", outputs=outputs, static=static,
+        algebraic=algebraic, constraints=constraints,
+    )
+    validate_model(ctx, spec)
+    return spec
+
+
+class _Names:
+    """The names a model declares (one namespace): ``declare`` refuses a bad or duplicate one."""
+
+    def __init__(self, ctx: Ctx):
+        self.ctx = ctx
+        #: name -> where declared
+        self.where: dict[str, str] = {}
+
+    def declare(self, n: str, where: str) -> None:
+        """Declare ``n`` at the field ``where``."""
+        problem = ex.check_identifier(n)
+        if problem:
+            raise self.ctx.error(where, problem)
+        if n in self.where:
+            raise self.ctx.error(where, f"duplicate name '{n}' (already declared at {self.where[n]})")
+        self.where[n] = where
+
+
+def _model_meta(ctx: Ctx, meta: dict[str, Any]) -> tuple[str, str, str, Unit]:
+    """The ``[model]`` table: name, form, time unit and its dimensions."""
     only_keys(ctx, "model", meta, _MODEL_KEYS)
     name = string(ctx, meta, "model.name", required=True)
     problem = check_label(name, "model name")
@@ -287,18 +348,11 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         raise ctx.error("model.time_unit", f"'{time_unit}' is not a unit of time")
     if time_dims.scale != 1.0:
         raise ctx.error("model.time_unit", "time must be in seconds ('s') or dimensionless ('1')")
+    return name, form, time_unit, time_dims  # type: ignore[return-value]
 
-    names: dict[str, str] = {}  # name -> where declared
 
-    def declare(n: str, where: str) -> None:
-        problem = ex.check_identifier(n)
-        if problem:
-            raise ctx.error(where, problem)
-        if n in names:
-            raise ctx.error(where, f"duplicate name '{n}' (already declared at {names[n]})")
-        names[n] = where
-
-    # coordinates
+def _coordinates(ctx: Ctx, data: dict[str, Any], declare: Callable[[str, str], None]) -> dict[str, Coordinate]:
+    """The ``[coordinates]`` tables."""
     coordinates: dict[str, Coordinate] = {}
     for cname, c in table(ctx, data, "coordinates", required=True).items():
         where = f"coordinates.{cname}"
@@ -315,19 +369,11 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
                                         string(ctx, c, f"{where}.effect"))
     if not coordinates:
         raise ctx.error("coordinates", "a model needs at least one coordinate")
+    return coordinates
 
-    # parameters
-    parameters: dict[str, Parameter] = {}
-    for pname, p in table(ctx, data, "parameters").items():
-        where = f"parameters.{pname}"
-        if isinstance(p, (int, float)) and not isinstance(p, bool):
-            p = {"value": p}
-        p = as_table(ctx, where, p)
-        only_keys(ctx, where, p, {"value", "unit", "meaning", "min", "max", "positive"})
-        declare(pname, where)
-        parameters[pname] = _parameter(ctx, where, pname, p)
 
-    # effects
+def _effects(ctx: Ctx, data: dict[str, Any]) -> dict[str, Effect]:
+    """The ``[effects]`` tables (variants, defaults, requirements)."""
     effects: dict[str, Effect] = {}
     for ename, e in table(ctx, data, "effects").items():
         where = f"effects.{ename}"
@@ -359,8 +405,11 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
                 raise ctx.error(f"effects.{e.name}.requires", f"effect '{r}' is not in the model")
             if r == e.name:
                 raise ctx.error(f"effects.{e.name}.requires", "an effect cannot require itself")
+    return effects
 
-    # schedules
+
+def _schedules(ctx: Ctx, data: dict[str, Any], declare: Callable[[str, str], None]) -> dict[str, Schedule]:
+    """The ``[schedules]`` tables (each declares ``NAME_phase`` and ``NAME_segment``)."""
     schedules: dict[str, Schedule] = {}
     for sname, s in table(ctx, data, "schedules").items():
         where = f"schedules.{sname}"
@@ -380,48 +429,47 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
                                     tuple(expr_str(ctx, f"{where}.breaks[{i}]", b)
                                           for i, b in enumerate(breaks)),
                                     string(ctx, s, f"{where}.meaning") or "")
+    return schedules
 
-    # derived
-    derived = _quantities(ctx, data, "derived", declare, schedules)
 
-    # elements
-    elements: dict[str, Element] = {}
-    for lname, el in table(ctx, data, "elements").items():
-        where = f"elements.{lname}"
-        problem = check_symbol_name(lname)
-        if problem:
-            raise ctx.error(where, problem)
-        el = as_table(ctx, where, el)
-        etype = string(ctx, el, f"{where}.type", required=True)
-        if etype not in _ELEMENT_FIELDS:
-            raise ctx.error(f"{where}.type", f"unknown element type '{etype}'{did_you_mean(etype, _ELEMENT_FIELDS)} "
-                                             f"(known: {', '.join(_ELEMENT_FIELDS)})")
-        required, optional = _ELEMENT_FIELDS[etype]
-        schema = ELEMENT_SCHEMAS.get(etype)
-        coord_fields = set(schema.coordinates) if schema else set()
-        only_keys(ctx, where, el, required | optional | _ELEMENT_META | coord_fields)
-        if schema is not None and "coordinate" in el:
-            raise ctx.error(f"{where}.coordinate", f"a {etype} element names its coordinates in "
-                                                   f"{', '.join(sorted(coord_fields))}")
-        coord_refs = _coordinate_fields(ctx, where, el, schema, coordinates) if schema else {}
-        for r in sorted(required):
-            if r not in el:
-                raise ctx.error(f"{where}.{r}", f"missing field '{r}' of {etype} element")
-        coord = None
-        if etype in ("inertia", "force"):
-            coord = string(ctx, el, f"{where}.coordinate", required=True)
-            if coord not in coordinates:
-                raise ctx.error(f"{where}.coordinate", f"unknown coordinate '{coord}'{did_you_mean(coord, coordinates)}")
-        drive = string(ctx, el, f"{where}.drive_side") or "positive"
-        if drive not in ("positive", "negative"):
-            raise ctx.error(f"{where}.drive_side", "must be 'positive' or 'negative'")
-        fields = {k: read_terms(ctx, f"{where}.{k}", el[k], schedules) for k in sorted(required | optional)
-                  if k in el}
-        elements[lname] = Element(lname, etype, fields, coord, drive,
-                                  string(ctx, el, f"{where}.effect"), string(ctx, el, f"{where}.variant"),
-                                  string(ctx, el, f"{where}.meaning") or "", coord_refs)
+def _element(ctx: Ctx, lname: str, el: Any, coordinates: dict[str, Coordinate],
+             schedules: dict[str, Schedule]) -> Element:
+    """One ``[elements.NAME]`` table, read with the schema of its type (gearsym/spec/elements/)."""
+    where = f"elements.{lname}"
+    problem = check_symbol_name(lname)
+    if problem:
+        raise ctx.error(where, problem)
+    el = as_table(ctx, where, el)
+    etype = string(ctx, el, f"{where}.type", required=True)
+    if etype not in ELEMENT_TYPES:
+        raise ctx.error(f"{where}.type", f"unknown element type '{etype}'{did_you_mean(etype, ELEMENT_TYPES)} "
+                                         f"(known: {', '.join(ELEMENT_TYPES)})")
+    kind = ELEMENT_TYPES[etype]
+    fields_ = set(kind.required) | set(kind.optional)
+    only_keys(ctx, where, el, fields_ | _ELEMENT_META | set(kind.coordinates))
+    if kind.coordinates and "coordinate" in el:
+        raise ctx.error(f"{where}.coordinate", f"a {etype} element names its coordinates in "
+                                               f"{', '.join(sorted(kind.coordinates))}")
+    coord_refs = _coordinate_fields(ctx, where, el, kind, coordinates) if kind.coordinates else {}
+    for r in sorted(kind.required):
+        if r not in el:
+            raise ctx.error(f"{where}.{r}", f"missing field '{r}' of {etype} element")
+    coord = None
+    if kind.takes_coordinate:
+        coord = string(ctx, el, f"{where}.coordinate", required=True)
+        if coord not in coordinates:
+            raise ctx.error(f"{where}.coordinate", f"unknown coordinate '{coord}'{did_you_mean(coord, coordinates)}")
+    drive = string(ctx, el, f"{where}.drive_side") or "positive"
+    if drive not in ("positive", "negative"):
+        raise ctx.error(f"{where}.drive_side", "must be 'positive' or 'negative'")
+    fields = {k: read_terms(ctx, f"{where}.{k}", el[k], schedules) for k in sorted(fields_) if k in el}
+    return Element(lname, etype, fields, coord, drive, string(ctx, el, f"{where}.effect"),
+                   string(ctx, el, f"{where}.variant"), string(ctx, el, f"{where}.meaning") or "", coord_refs)
 
-    # explicit equations
+
+def _equations(ctx: Ctx, data: dict[str, Any], coordinates: dict[str, Coordinate],
+               schedules: dict[str, Schedule]) -> dict[str, Equation]:
+    """The ``[equations.COORD]`` tables (explicit additions to ``M q'' = Q``)."""
     equations: dict[str, Equation] = {}
     for qname, eq in table(ctx, data, "equations").items():
         where = f"equations.{qname}"
@@ -434,66 +482,45 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
             read_terms(ctx, f"{where}.mass", eq["mass"], schedules) if "mass" in eq else (),
             read_terms(ctx, f"{where}.force", eq["force"], schedules) if "force" in eq else (),
         )
+    return equations
 
-    # algebraic variables and constraints (gearsym/spec/constraints.py)
-    algebraic = parse_algebraic(ctx, data, declare)
-    constraints = parse_constraints(ctx, data)
 
-    # reduction (gearsym/spec/reduction.py)
-    reduction = None
-    if "reduction" in data:
-        reduction = parse_reduction(
-            ctx, table(ctx, data, "reduction"), declare, elements,
-            lambda where, value: read_terms(ctx, where, value, schedules),
-            lambda tbl, where: string(ctx, tbl, where), lambda where, text: unit_of(ctx, where, text))
-        for i, k in enumerate(reduction.keep):
-            if k not in coordinates:
-                raise ctx.error(f"reduction.keep[{i}]", f"unknown coordinate '{k}'")
+def _reduction(ctx: Ctx, data: dict[str, Any], declare: Callable[[str, str], None], elements: dict[str, Element],
+               coordinates: dict[str, Coordinate], schedules: dict[str, Schedule]) -> Reduction | None:
+    """The ``[reduction]`` section (gearsym/spec/reduction.py), or ``None``."""
+    if "reduction" not in data:
+        return None
+    reduction = parse_reduction(
+        ctx, table(ctx, data, "reduction"), declare, elements,
+        lambda where, value: read_terms(ctx, where, value, schedules),
+        lambda tbl, where: string(ctx, tbl, where), lambda where, text: unit_of(ctx, where, text))
+    for i, k in enumerate(reduction.keep):
+        if k not in coordinates:
+            raise ctx.error(f"reduction.keep[{i}]", f"unknown coordinate '{k}'")
+    return reduction
 
-    forcing = table(ctx, data, "forcing")
-    only_keys(ctx, "forcing", forcing, {"period"})
-    period = expr_str(ctx, "forcing.period", forcing["period"]) if "period" in forcing else None
 
-    initial, static = read_initial(table(ctx, data, "initial"), ctx.error)
-
-    dimless = None
-    if "dimensionless" in data:
-        dl = table(ctx, data, "dimensionless")
-        only_keys(ctx, "dimensionless", dl, {"time", "length", "mass", "coordinates", "groups"})
-        groups = []
-        for gname, g in as_table(ctx, "dimensionless.groups", dl.get("groups", {})).items():
-            gw = f"dimensionless.groups.{gname}"
-            g = as_table(ctx, gw, g)
-            only_keys(ctx, gw, g, {"definition", "eliminates", "meaning"})
-            declare(gname, gw)
-            groups.append(Group(gname, expr_str(ctx, f"{gw}.definition", g.get("definition")),
-                                string(ctx, g, f"{gw}.eliminates", required=True),
-                                string(ctx, g, f"{gw}.meaning") or ""))
-        dimless = Dimensionless(
-            expr_str(ctx, "dimensionless.time", dl["time"]) if "time" in dl else None,
-            {k: expr_str(ctx, f"dimensionless.coordinates.{k}", v)
-             for k, v in as_table(ctx, "dimensionless.coordinates", dl.get("coordinates", {})).items()},
-            tuple(groups),
-            expr_str(ctx, "dimensionless.length", dl["length"]) if "length" in dl else None,
-            expr_str(ctx, "dimensionless.mass", dl["mass"]) if "mass" in dl else None,
-        )
-
-    # outputs: quantities evaluated along trajectories (e.g. the dynamic backlash B(t))
-    outputs = _quantities(ctx, data, "outputs", declare, schedules)
-    if dimless is not None and "tau" in names:
-        raise ctx.error(names["tau"], "'tau' is the time of the [dimensionless] form; choose another name")
-
-    spec = ModelSpec(
-        path=path, name=name, description=string(ctx, meta, "model.description") or "",
-        reference=string(ctx, meta, "model.reference") or "", form=form, time_unit=time_unit,
-        time_dims=time_dims, coordinates=coordinates, parameters=parameters, derived=derived,
-        effects=effects, schedules=schedules, elements=elements, equations=equations,
-        reduction=reduction, forcing_period=period, initial=initial, dimensionless=dimless,
-        notes=string(ctx, meta, "model.notes") or "", outputs=outputs, static=static,
-        algebraic=algebraic, constraints=constraints,
+def _dimensionless(ctx: Ctx, data: dict[str, Any], declare: Callable[[str, str], None]) -> Dimensionless:
+    """The ``[dimensionless]`` section: reference scales and named groups."""
+    dl = table(ctx, data, "dimensionless")
+    only_keys(ctx, "dimensionless", dl, {"time", "length", "mass", "coordinates", "groups"})
+    groups = []
+    for gname, g in as_table(ctx, "dimensionless.groups", dl.get("groups", {})).items():
+        gw = f"dimensionless.groups.{gname}"
+        g = as_table(ctx, gw, g)
+        only_keys(ctx, gw, g, {"definition", "eliminates", "meaning"})
+        declare(gname, gw)
+        groups.append(Group(gname, expr_str(ctx, f"{gw}.definition", g.get("definition")),
+                            string(ctx, g, f"{gw}.eliminates", required=True),
+                            string(ctx, g, f"{gw}.meaning") or ""))
+    return Dimensionless(
+        expr_str(ctx, "dimensionless.time", dl["time"]) if "time" in dl else None,
+        {k: expr_str(ctx, f"dimensionless.coordinates.{k}", v)
+         for k, v in as_table(ctx, "dimensionless.coordinates", dl.get("coordinates", {})).items()},
+        tuple(groups),
+        expr_str(ctx, "dimensionless.length", dl["length"]) if "length" in dl else None,
+        expr_str(ctx, "dimensionless.mass", dl["mass"]) if "mass" in dl else None,
     )
-    validate_model(ctx, spec)
-    return spec
 
 
 def _parameter(ctx: Ctx, where: str, name: str, p: dict[str, Any]) -> Parameter:
@@ -518,9 +545,9 @@ def _parameter(ctx: Ctx, where: str, name: str, p: dict[str, Any]) -> Parameter:
     return Parameter(name, value, unit, string(ctx, p, f"{where}.meaning") or "", dims.scale, dims, lo, hi, positive)
 
 
-def _coordinate_fields(ctx: Ctx, where: str, el: dict[str, Any], schema, coordinates: dict[str, Coordinate]
-                       ) -> dict[str, tuple[str, ...]]:
-    """The coordinate fields of a schema element (names checked against the coordinates)."""
+def _coordinate_fields(ctx: Ctx, where: str, el: dict[str, Any], schema: ElementType,
+                       coordinates: dict[str, Coordinate]) -> dict[str, tuple[str, ...]]:
+    """The coordinate fields of an element (names checked against the coordinates)."""
     out: dict[str, tuple[str, ...]] = {}
     for key, count in schema.coordinates.items():
         fw = f"{where}.{key}"

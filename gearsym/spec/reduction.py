@@ -33,7 +33,9 @@ Three forms are accepted:
   line of action, so its contact surfaces are ``x_NAME -/+ backlash``) or the spring's
   ``deflection``, in the unit of that deflection.  Dampers are assumed to act on the
   deflection of a spring or mesh (else name them in ``elements``).  An element switched
-  off by an effect takes its coordinate with it.
+  off by an effect takes its coordinate with it.  Which types get a coordinate, and
+  what it is, each element type says (:meth:`~gearsym.spec.elements.ElementType.deflection`,
+  ``deflection_default``).
 
 Every definition must be linear in the coordinates with constant coefficients (plus a
 function of time).  The symbolic layer eliminates as many coordinates as there are
@@ -46,24 +48,26 @@ are passed in (no import cycle).
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from .elements import ELEMENT_TYPES, element_type
 from .fields import only_keys
 
 if TYPE_CHECKING:  # pragma: no cover
     from .model import Element, Term
     from .units import Unit
 
-__all__ = ["DEFLECTION_ELEMENTS", "ReducedCoordinate", "Reduction", "deflection_coordinate_names",
-           "parse_reduction", "reduction_units"]
+__all__ = ["ReducedCoordinate", "Reduction", "deflection_coordinate_names", "deflection_types", "parse_reduction",
+           "reduction_units"]
 
-#: Element types that get a coordinate in ``mode = "deflections"`` by default.
-DEFLECTION_ELEMENTS = ("spring", "mesh")
-#: Element types that may be named in ``[reduction] elements``.
-_NAMEABLE = ("spring", "mesh", "damper")
+
+def deflection_types(default_only: bool = False) -> list[str]:
+    """The element types that have a coordinate in ``mode = "deflections"`` (those that may be
+    named in ``[reduction] elements``), or with ``default_only`` those that get one by default."""
+    return [n for n, t in ELEMENT_TYPES.items()
+            if t.deflection_default or (t.has_deflection and not default_only)]
 
 
 @dataclass(frozen=True)
@@ -244,24 +248,24 @@ def _parse_deflections(ctx: Any, r: dict[str, Any], declare: Callable[[str, str]
         for i, n in enumerate(names):
             if n not in elements:
                 raise ctx.error(f"reduction.elements[{i}]", f"unknown element '{n}'")
-            if elements[n].type not in _NAMEABLE:
+            if not element_type(elements[n].type).has_deflection:
                 raise ctx.error(f"reduction.elements[{i}]", f"element '{n}' is a {elements[n].type}: only "
-                                                            f"{', '.join(_NAMEABLE)} elements have a deflection")
+                                                            f"{', '.join(deflection_types())} elements have a "
+                                                            f"deflection")
     else:
-        names = [n for n, el in elements.items() if el.type in DEFLECTION_ELEMENTS]
+        names = [n for n, el in elements.items() if element_type(el.type).deflection_default]
         if not names:
-            raise ctx.error("reduction.mode", "mode = \"deflections\" needs spring or mesh elements")
+            raise ctx.error("reduction.mode", f"mode = \"deflections\" needs "
+                                              f"{' or '.join(deflection_types(default_only=True))} elements")
     out = []
     for n in names:
         el = elements[n]
         xn, vn = deflection_coordinate_names(n)
         declare(xn, f"elements.{n} (reduced coordinate of mode = \"deflections\")")
         declare(vn, f"elements.{n} (reduced velocity of mode = \"deflections\")")
-        definition = tuple(el.fields["deflection"])
-        if el.type == "mesh" and "error" in el.fields:  # the dynamic deflection: deflection - error
-            definition += tuple(dataclasses.replace(t, expr=f"-({t.expr})") for t in el.fields["error"])
-        what = "dynamic deflection (deflection - error)" if el.type == "mesh" else "deflection"
-        out.append(ReducedCoordinate(xn, vn, definition, None, f"{what} of {n}" + (
+        d = element_type(el.type).deflection(el)
+        assert d is not None
+        out.append(ReducedCoordinate(xn, vn, d.definition, None, f"{d.meaning} of {n}" + (
             f": {el.meaning}" if el.meaning else ""), None, n, el.effect, el.variant))
     return Reduction(tuple(out), "deflections")
 
@@ -283,9 +287,12 @@ def reduction_units(ctx: Any, reduction: Reduction, elements: dict[str, Element]
     out: dict[str, Unit] = {}
     for c in reduction.coordinates:
         if c.element is not None:
-            u = terms_unit(tuple(elements[c.element].fields["deflection"]))
+            el = elements[c.element]
+            d = element_type(el.type).deflection(el)
+            assert d is not None
+            u = terms_unit(d.geometric)
             if u is None:
-                raise ctx.error(f"elements.{c.element}.deflection", "no active term")
+                raise ctx.error(f"elements.{c.element}.{d.field}", "no active term")
             out[c.name] = u
             continue
         where = "reduction.definition" if len(reduction.coordinates) == 1 and reduction.mode == "explicit" \

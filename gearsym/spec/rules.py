@@ -3,7 +3,7 @@
 A value is checked where the physics demands it, derived from the element or section that
 uses it rather than from parameter names:
 
-* **elements** (:data:`~gearsym.spec.elements.FIELD_RANGES`): an inertia's ``value`` > 0; a
+* **elements** (the ``ranges`` of each type in :mod:`gearsym.spec.elements`): an inertia's ``value`` > 0; a
   mesh's ``backlash`` (half backlash), ``stiffness`` and ``damping`` >= 0; a damper's
   ``coefficient`` >= 0; a bearing's stiffnesses and dampings >= 0; ``equations.Q.mass`` > 0
   for a coordinate without an inertia element;
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from . import expressions as ex
-from .elements import FIELD_RANGES
+from .elements import element_type
 
 if TYPE_CHECKING:  # pragma: no cover
     from .model import ModelSpec
@@ -275,12 +275,11 @@ def _element_rules(rs: ResolvedScene, add) -> None:
             continue
         if el.coordinate is not None and not rs.coordinate_active(el.coordinate):
             continue
-        if el.type == "inertia" and el.coordinate is not None:
-            with_inertia.add(el.coordinate)
-        for key, (kind, what) in FIELD_RANGES.get(el.type, {}).items():
+        etype = element_type(el.type)
+        with_inertia.update(etype.mass_coordinates(el))
+        for key, (kind, what) in etype.ranges.items():
             terms = tuple((1.0, t.expr) for t in el.fields.get(key, ()) if rs.is_active(t, el.effect, el.variant))
-            name = f"{what} of {el.type} '{el.name}'" if el.type != "inertia" else what
-            add(terms, kind, name, f"elements.{el.name}.{key}")
+            add(terms, kind, etype.range_label(el, what), f"elements.{el.name}.{key}")
     for q, eq in model.equations.items():
         if q in with_inertia or not rs.coordinate_active(q):
             continue

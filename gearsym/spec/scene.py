@@ -36,6 +36,7 @@ from typing import Any
 
 from ..errors import OverrideError, SpecError
 from . import expressions as ex
+from .elements import element_type
 from .fields import did_you_mean, unknown_key
 from .files import read_toml
 from .initial import evaluate_initial, read_initial
@@ -437,15 +438,8 @@ def _check_rules(rules: ParameterRules, values: Mapping[str, float], model: Mode
 def _terms_with_owner(model: ModelSpec):
     for el in model.elements.values():
         owner, variant = el.effect, el.variant
-        if owner is None and el.coordinate is not None:
-            owner = model.coordinates[el.coordinate].effect  # element on a gated coordinate
-        elif owner is None and el.coordinates:  # schema element: all its coordinates gated alike
-            effs = {model.coordinates[n].effect for names in el.coordinates.values() for n in names}
-            if len(effs) == 1 and None not in effs:
-                owner = effs.pop()
-        elif owner is None:  # spring/damper/mesh whose deflection uses only gated coordinates
-            names = set().union(*(ex.names_in(t.expr) for t in el.fields.get("deflection", ())))
-            effs = {model.coordinates[n].effect for n in names if n in model.coordinates}
+        if owner is None:  # an element whose coordinates are all gated by one effect belongs to it
+            effs = {model.coordinates[n].effect for n in element_type(el.type).acts_on(el) if n in model.coordinates}
             if len(effs) == 1 and None not in effs:
                 owner = effs.pop()
         for terms in el.fields.values():

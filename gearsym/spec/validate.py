@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 from . import expressions as ex
 from .constraints import validate_constraints
-from .elements import ELEMENT_SCHEMAS, validate_element
+from .elements import UnitCheck, element_type
 from .fields import Ctx, Term, did_you_mean, unit_of
 from .reduction import reduction_units
 from .units import ONE, Unit
@@ -17,6 +17,72 @@ if TYPE_CHECKING:
 
 def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
     """Cross-field checks: symbols, effects, units, circular definitions."""
+    units = _base_units(spec)
+    _check_terms(ctx, spec)
+    _derived_units(ctx, spec, units)
+    _check_schedules(ctx, spec, units)
+    energy = _Energy(ctx)
+    check = UnitCheck(ctx, spec, lambda terms: _terms_unit(ctx, terms, units), energy.of)
+    for el in spec.elements.values():  # each element type's unit rules (gearsym/spec/elements/)
+        element_type(el.type).check_units(el, check)
+    tt = spec.time_dims
+    for eq in spec.equations.values():
+        c = spec.coordinates[eq.coordinate]
+        if eq.force:
+            u = _terms_unit(ctx, eq.force, units)
+            if u is not None:
+                energy.of(f"equations.{eq.coordinate}.force", u * c.dims)
+        if eq.mass:
+            u = _terms_unit(ctx, eq.mass, units)
+            if u is not None:
+                energy.of(f"equations.{eq.coordinate}.mass", u * (c.dims / tt) ** 2)
+    if spec.reduction is not None:
+        red_units = reduction_units(ctx, spec.reduction, spec.elements, lambda terms: _terms_unit(ctx, terms, units))
+        for rc in spec.reduction.coordinates:
+            units[rc.name] = Unit(1.0, red_units[rc.name].dims)
+            units[rc.velocity] = units[rc.name] / spec.time_dims
+    has_mass = {q for el in spec.elements.values() for q in element_type(el.type).mass_coordinates(el)}
+    has_mass |= {q for q, eq in spec.equations.items() if eq.mass}
+    for q in spec.coordinates:
+        if q not in has_mass:
+            raise ctx.error(f"coordinates.{q}", f"coordinate '{q}' has no inertia element and no "
+                                                f"equations.{q}.mass")
+    if spec.dimensionless is not None:
+        _check_dimensionless(ctx, spec, units)
+    for k in spec.initial:
+        if k not in spec.state_names():
+            raise ctx.error(f"initial.{k}", f"'{k}' is not a state{did_you_mean(k, spec.state_names())} "
+                                            f"(states: {', '.join(spec.state_names())})")
+    for o in spec.outputs.values():
+        u = _terms_unit(ctx, o.terms, units)
+        if o.unit is not None and u is not None:
+            declared = unit_of(ctx, f"outputs.{o.name}.unit", o.unit)
+            if not u.same_dimension(declared):
+                raise ctx.error(f"outputs.{o.name}.value", f"unit mismatch: value is [{u.si_string()}] "
+                                                           f"but unit says [{declared.si_string()}]")
+    validate_constraints(ctx, spec, units, energy.unit, [(t.field, t.expr) for _, t in _all_terms(spec)])
+    spec.units.update(units)
+
+
+class _Energy:
+    """The common energy unit of a model's terms: the first one seen defines it."""
+
+    def __init__(self, ctx: Ctx):
+        self.ctx = ctx
+        self.unit: Unit | None = None
+
+    def of(self, where: str, u: Unit) -> None:
+        """Declare that the term at ``where`` does work in the unit ``u``."""
+        if self.unit is None:
+            self.unit = Unit(1.0, u.dims)
+        elif not u.same_dimension(self.unit):
+            raise self.ctx.error(where, f"unit mismatch: this term does work in [{u.si_string()}] but "
+                                        f"other terms in [{self.unit.si_string()}]")
+
+
+def _base_units(spec: ModelSpec) -> dict[str, Unit]:
+    """Units of time, the coordinates, velocities, parameters, algebraic variables, schedule
+    symbols and declared reduced coordinates."""
     units: dict[str, Unit] = {"t": spec.time_dims}
     for c in spec.coordinates.values():
         units[c.name] = c.dims
@@ -33,8 +99,12 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
             if rc.dims is not None:
                 units[rc.name] = rc.dims
                 units[rc.velocity] = rc.dims / spec.time_dims
+    return units
 
-    # every term: effects exist, variants valid
+
+def _check_terms(ctx: Ctx, spec: ModelSpec) -> None:
+    """Every term: its effect exists and its variant is one of it; bound functions take
+    parameter names; every coordinate's effect exists."""
     for where, term in _all_terms(spec):
         if term.effect is not None:
             if term.effect not in spec.effects:
@@ -57,9 +127,10 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
             raise ctx.error(f"coordinates.{c.name}.effect", f"effect '{c.effect}' is not in the model "
                                                              f"(effects: {', '.join(spec.effects) or 'none'})")
 
-    # derived: order by dependency (detect cycles), infer units
-    order = _derived_order(ctx, spec)
-    for dname in order:
+
+def _derived_units(ctx: Ctx, spec: ModelSpec, units: dict[str, Unit]) -> None:
+    """Units of the derived quantities, in dependency order (a cycle is an error)."""
+    for dname in _derived_order(ctx, spec):
         d = spec.derived[dname]
         u = _terms_unit(ctx, d.terms, units)
         if d.unit is not None:
@@ -71,7 +142,10 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
             u = declared
         units[dname] = u if u is not None else ONE
 
-    # schedules
+
+def _check_schedules(ctx: Ctx, spec: ModelSpec, units: dict[str, Unit]) -> None:
+    """Schedule periods and the forcing period are times, breaks dimensionless, all functions of
+    the parameters only."""
     for s in spec.schedules.values():
         _expect(ctx, f"schedules.{s.name}.period", s.period, units, spec.time_dims, "a time")
         for i, b in enumerate(s.breaks):
@@ -90,106 +164,31 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
         if bad:
             raise ctx.error(where, f"must depend on parameters only, not on {', '.join(bad)}")
 
-    # elements: a common energy unit
-    energy: list[Unit | None] = [None]  # first one seen defines it
 
-    def energy_of(where: str, u: Unit) -> None:
-        if energy[0] is None:
-            energy[0] = Unit(1.0, u.dims)
-        elif not u.same_dimension(energy[0]):
-            raise ctx.error(where, f"unit mismatch: this term does work in [{u.si_string()}] but "
-                                   f"other terms in [{energy[0].si_string()}]")
-
-    tt = spec.time_dims
-    for el in spec.elements.values():
-        w = f"elements.{el.name}"
-        f = el.fields
-        if el.type == "inertia":
-            c = spec.coordinates[el.coordinate]  # type: ignore[index]
-            u = _terms_unit(ctx, f["value"], units)
-            if u is not None:
-                energy_of(f"{w}.value", u * (c.dims / tt) ** 2)
-        elif el.type == "force":
-            c = spec.coordinates[el.coordinate]  # type: ignore[index]
-            u = _terms_unit(ctx, f["value"], units)
-            if u is not None:
-                energy_of(f"{w}.value", u * c.dims)
-        elif el.type in ELEMENT_SCHEMAS:
-            validate_element(ctx, spec, el, lambda terms: _terms_unit(ctx, terms, units), energy_of)
-        else:
-            d = _terms_unit(ctx, f["deflection"], units)
-            if d is None:
-                raise ctx.error(f"{w}.deflection", "no active term")
-            for key in ("error", "backlash"):
-                if key in f:
-                    u = _terms_unit(ctx, f[key], units)
-                    if u is not None and not u.same_dimension(d):
-                        raise ctx.error(f"{w}.{key}", f"unit mismatch: [{u.si_string()}] but the "
-                                                      f"deflection is [{d.si_string()}]")
-            if "stiffness" in f:
-                u = _terms_unit(ctx, f["stiffness"], units)
-                if u is not None:
-                    energy_of(f"{w}.stiffness", u * d * d)
-            for key in ("coefficient", "damping"):
-                if key in f:
-                    u = _terms_unit(ctx, f[key], units)
-                    if u is not None:
-                        energy_of(f"{w}.{key}", u * d * d / tt)
-    for eq in spec.equations.values():
-        c = spec.coordinates[eq.coordinate]
-        if eq.force:
-            u = _terms_unit(ctx, eq.force, units)
-            if u is not None:
-                energy_of(f"equations.{eq.coordinate}.force", u * c.dims)
-        if eq.mass:
-            u = _terms_unit(ctx, eq.mass, units)
-            if u is not None:
-                energy_of(f"equations.{eq.coordinate}.mass", u * (c.dims / tt) ** 2)
-    if spec.reduction is not None:
-        red_units = reduction_units(ctx, spec.reduction, spec.elements, lambda terms: _terms_unit(ctx, terms, units))
-        for rc in spec.reduction.coordinates:
-            units[rc.name] = Unit(1.0, red_units[rc.name].dims)
-            units[rc.velocity] = units[rc.name] / spec.time_dims
-    has_mass = {el.coordinate for el in spec.elements.values() if el.type == "inertia"}
-    has_mass |= {q for q, eq in spec.equations.items() if eq.mass}
-    for q in spec.coordinates:
-        if q not in has_mass:
-            raise ctx.error(f"coordinates.{q}", f"coordinate '{q}' has no inertia element and no "
-                                                f"equations.{q}.mass")
-    if spec.dimensionless is not None:
-        for q in spec.dimensionless.coordinates:
-            if q not in spec.state_names()[: (len(spec.state_names()) - len(spec.algebraic)) // 2]:
-                raise ctx.error(f"dimensionless.coordinates.{q}", f"'{q}' is not a coordinate of the "
-                                                                  f"(reduced) model{did_you_mean(q, spec.state_names())}")
-        for g in spec.dimensionless.groups:
-            gw = f"dimensionless.groups.{g.name}"
-            if g.eliminates not in spec.parameters:
-                raise ctx.error(f"{gw}.eliminates", f"unknown parameter '{g.eliminates}'")
-            _expect(ctx, f"{gw}.definition", g.definition, units, ONE, "dimensionless")
-            if g.eliminates not in ex.names_in(g.definition):
-                raise ctx.error(f"{gw}.eliminates", f"'{g.eliminates}' does not appear in the definition")
-        dl = spec.dimensionless
-        if dl.time is not None:
-            _expect(ctx, "dimensionless.time", dl.time, units, spec.time_dims, "a time")
-        if dl.length is not None:
-            _expect(ctx, "dimensionless.length", dl.length, units, Unit(1.0, (0, 1, 0)), "a length")
-        if dl.mass is not None:
-            _expect(ctx, "dimensionless.mass", dl.mass, units, Unit(1.0, (1, 0, 0)), "a mass")
-        for q, text in dl.coordinates.items():
-            _expect(ctx, f"dimensionless.coordinates.{q}", text, units, units[q], "the coordinate's unit")
-    for k in spec.initial:
-        if k not in spec.state_names():
-            raise ctx.error(f"initial.{k}", f"'{k}' is not a state{did_you_mean(k, spec.state_names())} "
-                                            f"(states: {', '.join(spec.state_names())})")
-    for o in spec.outputs.values():
-        u = _terms_unit(ctx, o.terms, units)
-        if o.unit is not None and u is not None:
-            declared = unit_of(ctx, f"outputs.{o.name}.unit", o.unit)
-            if not u.same_dimension(declared):
-                raise ctx.error(f"outputs.{o.name}.value", f"unit mismatch: value is [{u.si_string()}] "
-                                                           f"but unit says [{declared.si_string()}]")
-    validate_constraints(ctx, spec, units, energy[0], [(t.field, t.expr) for _, t in _all_terms(spec)])
-    spec.units.update(units)
+def _check_dimensionless(ctx: Ctx, spec: ModelSpec, units: dict[str, Unit]) -> None:
+    """The ``[dimensionless]`` section: coordinates of the (reduced) model, groups that
+    eliminate a parameter they contain, scales in the right units."""
+    dl = spec.dimensionless
+    assert dl is not None
+    for q in dl.coordinates:
+        if q not in spec.state_names()[: (len(spec.state_names()) - len(spec.algebraic)) // 2]:
+            raise ctx.error(f"dimensionless.coordinates.{q}", f"'{q}' is not a coordinate of the "
+                                                              f"(reduced) model{did_you_mean(q, spec.state_names())}")
+    for g in dl.groups:
+        gw = f"dimensionless.groups.{g.name}"
+        if g.eliminates not in spec.parameters:
+            raise ctx.error(f"{gw}.eliminates", f"unknown parameter '{g.eliminates}'")
+        _expect(ctx, f"{gw}.definition", g.definition, units, ONE, "dimensionless")
+        if g.eliminates not in ex.names_in(g.definition):
+            raise ctx.error(f"{gw}.eliminates", f"'{g.eliminates}' does not appear in the definition")
+    if dl.time is not None:
+        _expect(ctx, "dimensionless.time", dl.time, units, spec.time_dims, "a time")
+    if dl.length is not None:
+        _expect(ctx, "dimensionless.length", dl.length, units, Unit(1.0, (0, 1, 0)), "a length")
+    if dl.mass is not None:
+        _expect(ctx, "dimensionless.mass", dl.mass, units, Unit(1.0, (1, 0, 0)), "a mass")
+    for q, text in dl.coordinates.items():
+        _expect(ctx, f"dimensionless.coordinates.{q}", text, units, units[q], "the coordinate's unit")
 
 
 def _all_terms(spec: ModelSpec):

@@ -5,11 +5,11 @@ derivation is done once in the constructor and every derived quantity is a named
 inspectable attribute (mass matrix, generalised forces, first-order right-hand
 side, switching functions, modes, schedules, Jacobian, dimensionless form).
 
-Derivation (virtual work): the kinetic energy ``T = 1/2 sum(m_i qdot_i^2)`` of the
-inertia elements gives the mass matrix; every element contributes the generalised
-force ``Q_i = -W * d(delta)/d(q_i)`` where ``delta`` is its deflection and ``W`` its
-force (``k*f(delta) + c*d(delta)/dt`` for a mesh with dead zone ``f``); forces and
-explicit equations add to ``Q`` directly.  Then ``M q'' = Q``.
+Derivation (virtual work): every element adds its mass-matrix entries and generalised
+forces through the hooks of its type (:mod:`gearsym.symbolic.elements`; e.g. a mesh
+contributes ``Q_i = -W * d(delta)/d(q_i)`` where ``delta`` is its deflection and ``W`` its
+force ``k*f(delta) + c*d(delta)/dt`` with dead zone ``f``); explicit equations add to
+``M`` and ``Q`` directly.  Then ``M q'' = Q``.
 """
 
 from __future__ import annotations
@@ -21,12 +21,12 @@ import sympy as sp
 from ..errors import SpecError
 from ..spec.scene import ResolvedScene
 from .budget import Budget, check_expression, checkpoint
-from .elements import ASSEMBLERS, Assembly
+from .elements import ASSEMBLERS, Assembly, SymbolicElement
 from .expand import _expand_in_states
 from .parsing import Namespace, internal_symbol
 from .reduction import reduce_model
 from .rigid import mode_dicts, rigid_body_modes, transform_modes
-from .switching import ModalForm, Mode, ScheduleInfo, SwitchingFunction, dead_zone, make_modal
+from .switching import ModalForm, Mode, ScheduleInfo, SwitchingFunction, make_modal
 
 
 class SymbolicModel:
@@ -57,6 +57,12 @@ class SymbolicModel:
     parameters : list of sympy.Symbol
         The run-time parameters the compiled system takes, in model order.
     forcing_period : sympy.Expr or None
+    elements : dict
+        The symbolic side of every element of the scene (effect on), by name
+        (:class:`~gearsym.symbolic.elements.base.SymbolicElement`).
+    mesh_deflections, mesh_forces : dict
+        Per-mesh results: the dynamic deflection and the force along the line of action of
+        every element that reports them (``mesh``, ``gear_mesh``), in the final states.
     """
 
     def __init__(self, rs: ResolvedScene, structured: bool = False):
@@ -79,6 +85,7 @@ class SymbolicModel:
         self._force_exprs: list[sp.Expr] = []    # other expressions that enter forces
         self._meshes: dict[str, sp.Expr] = {}    # mesh element -> dynamic deflection (deflection - error)
         self._mesh_forces: dict[str, sp.Expr] = {}  # mesh element -> mesh force k*f(delta) + c*delta'
+        self._mesh_fields: dict[str, str] = {}  # mesh element -> the field its deflection errors name
         M, Q = self._assemble(ns, q, v)
         dynamic = frozenset(q) | frozenset(v)
         for i, qi in enumerate(q):  # the sums of the elements' terms, before anything expands them
@@ -179,73 +186,36 @@ class SymbolicModel:
         return cs.coordinates, cs.velocities, cs.mass, cs.forces
 
     def _assemble(self, ns: Namespace, q: list[sp.Symbol], v: list[sp.Symbol]):
+        """``M`` and ``Q`` from the elements (each through the hooks of its type,
+        :mod:`gearsym.symbolic.elements`) and the explicit ``[equations]``."""
         spec = self.spec
         n = len(q)
         index = {s.name: i for i, s in enumerate(q)}
         M = sp.zeros(n, n)
         Q = sp.zeros(n, 1)
-
-        def ddt(expr: sp.Expr) -> sp.Expr:
-            free = expr.free_symbols
-            return sp.diff(expr, ns.t) + sum(sp.diff(expr, qi) * vi for qi, vi in zip(q, v) if qi in free)
-
+        a = Assembly(ns, q, v, M, Q)
+        #: the elements of this scene (effect on), by name: their symbolic side
+        self.elements: dict[str, SymbolicElement] = {}
         for el in spec.elements.values():
             if not self.resolved.effect_active(el.effect, el.variant):
                 continue
-            w = f"elements.{el.name}"
-            checkpoint(w)
-
-            def field(key: str, el=el) -> sp.Expr:
-                return ns.sum_terms(el.fields.get(key, ()), el.effect, el.variant)
-
-            if el.coordinate is not None and el.coordinate not in index:
-                continue  # element on a coordinate of a switched-off effect
-            if el.type == "inertia":
-                i = index[el.coordinate]  # type: ignore[index]
-                M[i, i] += field("value")
-            elif el.type == "force":
-                Q[index[el.coordinate], 0] += field("value")  # type: ignore[index]
-                self._force_exprs.append(field("value"))
-            elif el.type in ASSEMBLERS:  # element types with a module of their own
-                asm = Assembly(ns, q, v, M, Q)
-                ASSEMBLERS[el.type](asm, el)
-                self._surface_hints += asm.hints
-                self._force_exprs += asm.forces
-            else:
-                geom = field("deflection")
-                delta = geom - field("error") if el.type == "mesh" else geom
-                if not any(geom.has(qi) for qi in q):
-                    from ..spec.expressions import names_in
-
-                    gated = {c for c in spec.coordinates if c not in index}
-                    if any(names_in(t.expr) & gated for t in el.fields.get("deflection", ())):
-                        continue  # acts only on coordinates of switched-off effects
-                    raise SpecError("the deflection does not depend on any coordinate",
-                                    file=spec.path, field=f"{w}.deflection")
-                self._deflections.append(geom)
-                self._force_exprs += [field(k) for k in ("error", "stiffness", "damping", "backlash",
-                                                         "coefficient") if k in el.fields]
-                if el.type == "mesh":
-                    self._meshes[el.name] = delta
-                if el.type == "spring":
-                    W = field("stiffness") * delta
-                elif el.type == "damper":
-                    W = field("coefficient") * ddt(delta)
-                else:  # mesh
-                    k = field("stiffness")
-                    c = field("damping")
-                    b = field("backlash")
-                    f, surfaces = dead_zone(el.name, el.drive_side, delta, b)
-                    self._surface_hints += surfaces
-                    W = k * f + c * ddt(delta)
-                    self._mesh_forces[el.name] = W
-                gfree = geom.free_symbols
-                for i, qi in enumerate(q):
-                    if qi not in gfree:
-                        continue  # d(geom)/d(qi) = 0: skip the (costly) symbolic derivative
-                    dd = sp.diff(geom, qi)
-                    if dd != 0:
-                        Q[i, 0] -= W * dd
+            checkpoint(f"elements.{el.name}")
+            part = ASSEMBLERS[el.type](a, el)
+            self.elements[el.name] = part
+            if not part.present():
+                continue  # acts only on coordinates of switched-off effects
+            for c, value in part.mass():
+                a.add_mass(c, value)
+            applied = [value for c, value in part.forces() if a.add_force(c, value)]
+            self._surface_hints += part.surfaces()
+            mesh = part.mesh()
+            if mesh is not None:
+                self._meshes[el.name] = mesh.deflection
+                self._mesh_forces[el.name] = mesh.force
+                self._mesh_fields[el.name] = mesh.field
+            deflections, exprs = part.rigid_terms(applied)
+            self._deflections += deflections
+            self._force_exprs += exprs
         for eq in spec.equations.values():
             if eq.coordinate not in index:
                 continue  # coordinate of a switched-off effect
@@ -272,7 +242,7 @@ class SymbolicModel:
         rows = [(e, f"coordinates.{c}" if spec.reduction is None else "reduction")
                 for c, e in zip(self.coordinates, self.rhs[len(self.coordinates):])]
         checks = [*rows, *((h.expr, _surface_field(spec, h.name)) for h in self._surface_hints),
-                  *((d, f"elements.{k}.deflection") for k, d in self.mesh_deflections.items())]
+                  *((d, self._mesh_fields[k]) for k, d in self.mesh_deflections.items())]
         for expr, fld in checks:
             left = sorted(str(s) for s in expr.free_symbols & gone)
             if left:
@@ -286,12 +256,16 @@ class SymbolicModel:
         allowed = set(states) | {self.t}
         dynamic = set(self.ns.coords.values()) | set(self.ns.vels.values())
         out = {}
+        final = getattr(self, "_final_forces", {})  # rewritten with the reduction (keep)
         for name, W in self._mesh_forces.items():
-            if self.constraint_rows is not None:
-                W = W.xreplace(self._constraint_sub)
-            sub = getattr(self, "_reduction_sub", None)
-            if sub is not None:
-                W = _expand_in_states(W.subs(sub), states, self.t)
+            if name in final:
+                W = final[name]
+            else:
+                if self.constraint_rows is not None:
+                    W = W.xreplace(self._constraint_sub)
+                sub = getattr(self, "_reduction_sub", None)
+                if sub is not None:
+                    W = _expand_in_states(W.subs(sub), states, self.t)
             if not ((W.free_symbols & dynamic) - allowed):
                 out[name] = W
         return out
@@ -306,13 +280,19 @@ class SymbolicModel:
         from .reduction_keep import reduce_keeping
 
         hints = self._surface_hints
-        # the mesh deflections (per-mesh results) are rewritten in the new states with the surfaces
+        forces = self._mesh_forces
+        if self.constraint_rows is not None:
+            forces = {k: W.xreplace(self._constraint_sub) for k, W in forces.items()}
+        # the mesh deflections and forces (per-mesh results) are rewritten in the new states with the surfaces
         q2, v2, M2, Q2, sub, m_eq, g = reduce_keeping(self, ns, q, v, M, Q, [h.expr for h in hints], self._meshes,
-                                                      [h.origin or _surface_field(self.spec, h.name) for h in hints])
+                                                      [h.origin or _surface_field(self.spec, h.name) for h in hints]
+                                                      + [self._mesh_fields[k] for k in self._meshes], forces)
         self._reduction_sub = sub
         self.reduced_mass = m_eq if self.structured else sp.simplify(m_eq)
         self._surface_hints = [replace(h, expr=gh) for h, gh in zip(hints, g)]
-        self._meshes = dict(zip(self._meshes, g[len(hints):]))
+        n = len(hints) + len(self._meshes)
+        self._meshes = dict(zip(self._meshes, g[len(hints):n]))
+        self._final_forces = {k: W for k, W in zip(forces, g[n:]) if W is not None}
         return q2, v2, M2, Q2
 
     def _outputs(self, ns: Namespace) -> dict[str, sp.Expr]:

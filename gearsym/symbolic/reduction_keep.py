@@ -32,8 +32,9 @@ if TYPE_CHECKING:
 
 def reduce_keeping(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: list[sp.Symbol], M: sp.Matrix,
                    Q: sp.Matrix, surfaces: list[sp.Expr], meshes: Mapping[str, sp.Expr] | None = None,
-                   surface_fields: Sequence[str] | None = None) -> tuple[list[sp.Symbol], list[sp.Symbol], sp.Matrix, sp.Matrix, dict[sp.Symbol, sp.Expr],
-                              sp.Expr, list[sp.Expr]]:
+                   surface_fields: Sequence[str] | None = None, forces: Mapping[str, sp.Expr] | None = None
+                   ) -> tuple[list[sp.Symbol], list[sp.Symbol], sp.Matrix, sp.Matrix, dict[sp.Symbol, sp.Expr],
+                              sp.Expr, list[sp.Expr | None]]:
     """Reduce ``M q'' = Q`` as described in the module docstring.
 
     Parameters
@@ -41,17 +42,22 @@ def reduce_keeping(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: l
     surfaces
         Switching functions of the elements (contact surfaces), rewritten in the new states.
     surface_fields
-        The spec field each surface comes from (named by the errors; default ``reduction``).
+        The spec field each surface comes from, then (optionally) each mesh deflection's
+        (named by the errors; default ``reduction.keep`` and ``elements.NAME.deflection``).
     meshes
-        Dynamic deflection of every ``mesh`` element (by element name), rewritten in the
+        Dynamic deflection of every mesh element (by element name), rewritten in the
         new states like the surfaces.
+    forces
+        Force of every mesh element (by element name), rewritten likewise, the rate of the
+        definition replaced by the new velocity.
 
     Returns
     -------
     coordinates, velocities, mass matrix, forces, substitution, reduced mass, rewritten
         ``[x, q_K...]``, ``[x', v_K...]``, ``diag(m_eq, M_KK)``, ``[m_eq x'', Q_K]``, the
         substitution of the eliminated coordinate and velocity, ``m_eq``, the surfaces
-        followed by the mesh deflections (in the order given).
+        followed by the mesh deflections and the mesh forces (in the order given; ``None`` for
+        a force that still reads an eliminated coordinate).
 
     Raises
     ------
@@ -73,20 +79,7 @@ def reduce_keeping(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: l
     E = [i for i in range(len(q)) if i not in K]
     if not M.is_diagonal():
         raise SpecError("reduction needs a diagonal mass matrix", file=spec.path, field=where)
-    definition = ns.sum_terms(red.definition)
-    a = {i: sp.diff(definition, q[i]) for i in E}
-    if any(ai.has(*q, *v, t) for ai in a.values()):
-        raise SpecError("the reduced coordinate must be linear, with constant coefficients, in the "
-                        "coordinates it eliminates (those not in reduction.keep)", file=spec.path, field=where)
-    s = definition - sum(a[i] * q[i] for i in E)
-    if s.has(*[q[i] for i in E], *v):
-        raise SpecError("cannot separate the definition into eliminated and kept coordinates",
-                        file=spec.path, field=where)
-    nz = [i for i in E if a[i] != 0]
-    if not nz:
-        raise SpecError("the reduced coordinate does not depend on any eliminated coordinate",
-                        file=spec.path, field=where)
-    k = nz[0]
+    definition, a, s, k = _split_definition(spec, ns.sum_terms(red.definition), q, v, E, t)
     x = sp.Symbol(red.coordinate, real=True)
     xd = sp.Symbol(red.velocity, real=True)
     qK = [q[i] for i in K]
@@ -142,15 +135,52 @@ def reduce_keeping(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: l
     m_eq = 1 / sum(a[i] ** 2 / M[i, i] for i in E if a[i] != 0)
     Mr = sp.diag(m_eq, *[M[i, i] for i in K])
     Qr = sp.Matrix([m_eq * acc] + [accK[q[i]] * M[i, i] for i in K])
-    meshes = dict(meshes or {})
-    owners = list(surface_fields or ["reduction.keep"] * len(surfaces)) + \
-        [f"elements.{name}.deflection" for name in meshes]
-    rewritten = list(surfaces) + list(meshes.values())
-    if is_direct:
-        rewritten = [hide(g).subs(definition, x) for g in rewritten]
     eliminated = [q[i] for i in E] + [v[i] for i in E]
-    rewritten = [g if not g.has(*eliminated) else
-                 _expand_in_states(hide(g).subs(sub), states, t, blocks=True) for g in rewritten]
+
+    def in_new_states(g: sp.Expr, rate: bool = False) -> sp.Expr:
+        """``g`` in the new states: the definition (and with ``rate`` its rate) replaced directly
+        when the equations allow it, else the eliminated coordinates substituted and expanded."""
+        if is_direct:
+            g = hide(g).subs(definition, x)
+            g = g.subs(d_rate, xd) if rate else g
+        return g if not g.has(*eliminated) else _expand_in_states(hide(g).subs(sub), states, t, blocks=True)
+
+    rewritten = _rewrite(spec, red, surfaces, dict(meshes or {}), dict(forces or {}), surface_fields, in_new_states,
+                         eliminated)
+    shown = {d: e for e, d in hidden.items()}
+    return [x, *qK], [xd, *vK], Mr, Qr.xreplace(shown), sub, m_eq, [g if g is None else g.xreplace(shown)
+                                                                     for g in rewritten]
+
+
+def _split_definition(spec, definition: sp.Expr, q: list[sp.Symbol], v: list[sp.Symbol], E: list[int],
+                      t: sp.Symbol) -> tuple[sp.Expr, dict[int, sp.Expr], sp.Expr, int]:
+    """``(definition, a, s, k)``: ``definition = sum_E a_i q_i + s(q_K, t)`` with constant ``a_i``,
+    and ``k`` the first eliminated coordinate with ``a_k != 0`` (see :func:`reduce_keeping`)."""
+    where = "reduction.definition"
+    a = {i: sp.diff(definition, q[i]) for i in E}
+    if any(ai.has(*q, *v, t) for ai in a.values()):
+        raise SpecError("the reduced coordinate must be linear, with constant coefficients, in the "
+                        "coordinates it eliminates (those not in reduction.keep)", file=spec.path, field=where)
+    s = definition - sum(a[i] * q[i] for i in E)
+    if s.has(*[q[i] for i in E], *v):
+        raise SpecError("cannot separate the definition into eliminated and kept coordinates",
+                        file=spec.path, field=where)
+    nz = [i for i in E if a[i] != 0]
+    if not nz:
+        raise SpecError("the reduced coordinate does not depend on any eliminated coordinate",
+                        file=spec.path, field=where)
+    return definition, a, s, nz[0]
+
+
+def _rewrite(spec, red, surfaces: list[sp.Expr], meshes: dict[str, sp.Expr], forces: dict[str, sp.Expr],
+             surface_fields: Sequence[str] | None, in_new_states, eliminated: list[sp.Symbol]) -> list:
+    """The surfaces, mesh deflections and mesh forces in the new states (see :func:`reduce_keeping`).
+
+    A surface or deflection that still reads an eliminated coordinate is an error naming its
+    field; such a force is ``None`` (left out of the per-mesh results)."""
+    owners = list(surface_fields or ["reduction.keep"] * len(surfaces))
+    owners += [f"elements.{name}.deflection" for name in meshes][len(owners) - len(surfaces):]
+    rewritten = [in_new_states(g) for g in [*surfaces, *meshes.values()]]
     for g, owner in zip(rewritten, owners):
         left = sorted(str(o) for o in eliminated if g.has(o))
         if left:
@@ -158,8 +188,8 @@ def reduce_keeping(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: l
                             f"reduction this still depends on {', '.join(left)} (it sees a combination of the "
                             f"eliminated coordinates that the reduced coordinate does not describe)",
                             file=spec.path, field=owner)
-    shown = {d: e for e, d in hidden.items()}
-    return [x, *qK], [xd, *vK], Mr, Qr.xreplace(shown), sub, m_eq, [g.xreplace(shown) for g in rewritten]
+    out = [in_new_states(W, rate=True) for W in forces.values()]
+    return rewritten + [None if W.has(*eliminated) else W for W in out]
 
 
 def _second_derivative(model: SymbolicModel, ns: Namespace, red, E: list[int], q: list[sp.Symbol],

@@ -7,7 +7,8 @@ gear researcher makes by hand:
   switched off (its linear time-invariant core), ``omega_n^2 = -d(q1'')/d(q1)`` at the
   zero state for the first coordinate ``q1`` (for a gear pair ``k_m/m_e``);
 * **length**: the half backlash of the first mesh with one (at the zero state, e.g.
-  ``b_s`` for a dynamic backlash ``b_s + b_dy(x)``), else the static deflection
+  ``b_s`` for a dynamic backlash ``b_s + b_dy(x)``; each element type offers its candidate,
+  :meth:`~gearsym.symbolic.elements.base.SymbolicElement.length_scale`), else the static deflection
   ``(q1'' at the zero state)/omega_n^2`` of that core (mean load over stiffness), else
   1 m;
 * **mass**: the inertia of the first coordinate (the equivalent mass ``m_e`` of a
@@ -149,17 +150,14 @@ def choose_scales(model, dims: Dimensions, values: dict[sp.Symbol, float],
         L = parse(dl.length, "dimensionless.length")
         origin["length"] = "[dimensionless] length"
     if L is None:
-        for el in spec.elements.values():
-            if el.type != "mesh" or "backlash" not in el.fields or not model.resolved.effect_active(el.effect,
-                                                                                                     el.variant):
-                continue
-            b = ns.sum_terms(el.fields["backlash"], el.effect, el.variant)
-            if b == 0:
+        for name, part in model.elements.items():  # each element's candidate (a half backlash)
+            b = part.length_scale()
+            if b is None or b == 0:
                 continue
             b = _zero_state(model, b)
             if dims(b) == LENGTH and _positive_number(ns.inline(b), values):
                 L = b
-                origin["length"] = f"half backlash of {el.name}"
+                origin["length"] = f"half backlash of {name}"
                 break
     if L is None and k2 is not None and c0 is not None and c0 != 0 and core is not None:
         dq = dims(core.coordinates[0])

@@ -57,9 +57,11 @@ def test_model_description(yu, vs):
     # the bound function and its arguments are constants recorded at export
     assert v["D"].variability == "constant" and float(v["D"].start) == 1.4
     assert v["wm_mean_height_D_G_lam_L_c_l_a"].variability == "constant"
+    # the gear_mesh's deflection and force are per-mesh outputs (issue 26: before, a gear_mesh had none)
     assert {o.variable.name for o in md.outputs} == {"backlash_B", "mesh_force", "n_events", "sigma[db.0=1-kappa^2]",
-                                                      "sigma[mesh.drive]", "sigma[mesh.back]"}
-    assert v["mesh_force"].unit == "kg*m*s^-2"
+                                                      "sigma[mesh.drive]", "sigma[mesh.back]",
+                                                      "mesh_deflection[mesh]", "mesh_force[mesh]"}
+    assert v["mesh_force"].unit == v["mesh_force[mesh]"].unit == "kg*m*s^-2" and v["mesh_deflection[mesh]"].unit == "m"
     vmd = read_model_description(str(vs.fmu))
     assert vmd.numberOfEventIndicators == 0  # backlash off: the schedules are time events only
 

@@ -1,22 +1,29 @@
 """Element types derived by one module each (see :mod:`gearsym.spec.elements` for their fields).
 
-Each module defines ``assemble(a, el)``: it adds the element's kinetic energy to the mass
-matrix and its generalised forces to ``Q`` through the :class:`Assembly` ``a`` (and
-registers its contact surfaces).  A new element type is one module here, registered in
-:data:`ASSEMBLERS`, plus its schema in :mod:`gearsym.spec.elements`.
+Each module defines one :class:`~gearsym.symbolic.elements.base.SymbolicElement` subclass:
+its mass matrix entries, generalised forces, contact surfaces, per-mesh results, the terms
+the rigid-body-mode test sees and its candidate length scale (the hooks are listed in
+:mod:`gearsym.symbolic.elements.base`).  :class:`~gearsym.symbolic.model.SymbolicModel`
+assembles whatever :data:`ASSEMBLERS` holds and asks no element its type.  A new element
+type is one module here and one in :mod:`gearsym.spec.elements`, one line in each registry,
+and its documentation (``docs/contributing.md``, "Adding an element type").
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from .base import Assembly, MeshResult, SymbolicElement
+from .bearing import Bearing
+from .damper import Damper
+from .force import Force
+from .gear_mesh import GearMesh
+from .inertia import Inertia
+from .mesh import Mesh
+from .spring import Spring
 
-from . import bearing, gear_mesh
-from .base import Assembly
+#: element type -> the class of its symbolic side (the keys are those of
+#: :data:`gearsym.spec.elements.ELEMENT_TYPES`)
+ASSEMBLERS: dict[str, type[SymbolicElement]] = {cls.type_name: cls for cls in (
+    Inertia, Spring, Damper, Mesh, Force, Bearing, GearMesh,
+)}
 
-#: element type -> assemble(assembly, element)
-ASSEMBLERS: dict[str, Callable[[Assembly, object], None]] = {
-    "bearing": bearing.assemble,
-    "gear_mesh": gear_mesh.assemble,
-}
-
-__all__ = ["ASSEMBLERS", "Assembly"]
+__all__ = ["ASSEMBLERS", "Assembly", "MeshResult", "SymbolicElement"]

@@ -7,27 +7,25 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import sympy as sp
 
-if TYPE_CHECKING:
-    from ...spec.model import Element
-    from .base import Assembly
+from .base import SymbolicElement
 
 
-def assemble(a: Assembly, el: Element) -> None:
-    """Add the bearing forces to ``a.Q``."""
-    for axis in ("x", "y"):
-        names = el.coordinates.get(axis)
-        if not names:
-            continue
-        c = a.coordinate(names[0])
-        if c == 0:
-            continue
-        k = a.field(el, f"stiffness_{axis}")
-        if k == 0 and axis == "y" and "stiffness_y" not in el.fields:
-            k = a.field(el, "stiffness_x")
-        damping = a.field(el, f"damping_{axis}")
-        a.add_force(c, -k * c - damping * a.ddt(c) if damping != 0 else -k * c)
-    _ = sp
+class Bearing(SymbolicElement):
+    """Symbolic side of ``bearing`` (see the module docstring)."""
+
+    type_name = "bearing"
+
+    def forces(self) -> list[tuple[sp.Expr, sp.Expr]]:
+        out = []
+        for axis in ("x", "y"):
+            c = self.coordinate(axis)
+            if c == 0:
+                continue
+            k = self.field(f"stiffness_{axis}")
+            if k == 0 and axis == "y" and "stiffness_y" not in self.el.fields:
+                k = self.field("stiffness_x")
+            damping = self.field(f"damping_{axis}")
+            out.append((c, -k * c - damping * self.a.ddt(c) if damping != 0 else -k * c))
+        return out

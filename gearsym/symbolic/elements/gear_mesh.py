@@ -15,37 +15,51 @@ with ``alpha`` the ``pressure_angle`` field (it may depend on the centre coordin
 
 i.e. the virtual work ``-W*d(delta)`` with the direction of the line of action frozen: the
 turning of the line of action with the centres does no work (Yu et al. 2021, eq. 12).  A
-centre that is not given (or whose coordinates are switched off) is fixed.
+centre that is not given (or whose coordinates are switched off) is fixed.  With a backlash:
+the contact surfaces ``NAME.drive`` / ``NAME.back`` as for ``mesh``, and the half backlash is
+a candidate length scale.  Per-mesh results: ``delta`` and ``W``.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from functools import cached_property
 
 import sympy as sp
 
-from .base import dead_zone
-
-if TYPE_CHECKING:
-    from ...spec.model import Element
-    from .base import Assembly
+from .base import MeshResult, SymbolicElement, dead_zone
 
 
-def assemble(a: Assembly, el: Element) -> None:
-    """Add the mesh forces to ``a.Q`` and its contact surfaces to ``a.hints``."""
-    th_p = a.coordinate(el.coordinates["pinion"][0])
-    th_g = a.coordinate(el.coordinates["gear"][0])
-    xp, yp = (a.coordinate(n) for n in el.coordinates.get("pinion_centre", ("", ""))) \
-        if "pinion_centre" in el.coordinates else (sp.Integer(0), sp.Integer(0))
-    xg, yg = (a.coordinate(n) for n in el.coordinates.get("gear_centre", ("", ""))) \
-        if "gear_centre" in el.coordinates else (sp.Integer(0), sp.Integer(0))
-    rb_p = a.field(el, "pinion_base_radius")
-    rb_g = a.field(el, "gear_base_radius")
-    alpha = a.field(el, "pressure_angle")
-    s, c = sp.sin(alpha), sp.cos(alpha)
-    delta = rb_p * th_p - rb_g * th_g + (xp - xg) * s + (yp - yg) * c - a.field(el, "error")
-    f = dead_zone(a, el, delta, a.field(el, "backlash"))
-    damping = a.field(el, "damping")
-    W = a.field(el, "stiffness") * f + (damping * a.ddt(delta) if damping != 0 else 0)
-    for coord, arm in ((th_p, -rb_p), (th_g, rb_g), (xp, -s), (yp, -c), (xg, s), (yg, c)):
-        a.add_force(coord, arm * W)
+class GearMesh(SymbolicElement):
+    """Symbolic side of ``gear_mesh`` (see the module docstring)."""
+
+    type_name = "gear_mesh"
+
+    @cached_property
+    def _law(self) -> dict[str, object]:
+        """Coordinates, arms, ``delta``, the dead zone's surfaces and ``W``, computed once."""
+        th_p, th_g = self.coordinate("pinion"), self.coordinate("gear")
+        xp, yp = self.coordinate("pinion_centre", 0), self.coordinate("pinion_centre", 1)
+        xg, yg = self.coordinate("gear_centre", 0), self.coordinate("gear_centre", 1)
+        rb_p = self.field("pinion_base_radius")
+        rb_g = self.field("gear_base_radius")
+        alpha = self.field("pressure_angle")
+        s, c = sp.sin(alpha), sp.cos(alpha)
+        delta = rb_p * th_p - rb_g * th_g + (xp - xg) * s + (yp - yg) * c - self.field("error")
+        f, surfaces = dead_zone(self.el, delta, self.field("backlash"))
+        damping = self.field("damping")
+        W = self.field("stiffness") * f + (damping * self.a.ddt(delta) if damping != 0 else 0)
+        arms = ((th_p, -rb_p), (th_g, rb_g), (xp, -s), (yp, -c), (xg, s), (yg, c))
+        return {"delta": delta, "W": W, "surfaces": surfaces, "arms": arms}
+
+    def forces(self) -> list[tuple[sp.Expr, sp.Expr]]:
+        W = self._law["W"]
+        return [(coord, arm * W) for coord, arm in self._law["arms"]]  # type: ignore[attr-defined]
+
+    def surfaces(self) -> list:
+        return list(self._law["surfaces"])  # type: ignore[call-overload]
+
+    def mesh(self) -> MeshResult:
+        return MeshResult(self._law["delta"], self._law["W"], f"elements.{self.el.name}")  # type: ignore[arg-type]
+
+    def length_scale(self) -> sp.Expr | None:
+        return self.field("backlash") if "backlash" in self.el.fields else None
