@@ -23,14 +23,14 @@ TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (type che
 
 #: public name -> module that defines it
 _EXPORTS: dict[str, str] = {
-    "Bifurcation": ".analysis.branch",
-    "Branch": ".analysis.branch",
-    "BranchPoint": ".analysis.branch",
+    "Bifurcation": ".analysis.continuation",
+    "Branch": ".analysis.continuation",
+    "BranchPoint": ".analysis.continuation",
     "continuation": ".analysis.continuation",
-    "switch_period_doubling": ".analysis.branch_switching",
-    "ContinuationOptions": ".analysis.options",
-    "ShootingOptions": ".analysis.options",
-    "PeriodicOrbit": ".analysis.orbit",
+    "switch_period_doubling": ".analysis.continuation",
+    "ContinuationOptions": ".analysis.continuation",
+    "ShootingOptions": ".analysis.periodic",
+    "PeriodicOrbit": ".analysis.periodic",
     "LyapunovOptions": ".analysis.lyapunov",
     "LyapunovResult": ".analysis.lyapunov",
     "lyapunov_exponents": ".analysis.lyapunov",
@@ -44,7 +44,7 @@ _EXPORTS: dict[str, str] = {
     "load_scene": ".facade",
     "Event": ".results",
     "Trajectory": ".results",
-    "System": ".system",
+    "System": ".facade",
 }
 
 __all__ = [
@@ -55,12 +55,16 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .analysis.branch import Bifurcation, Branch, BranchPoint
-    from .analysis.branch_switching import switch_period_doubling
-    from .analysis.continuation import continuation
+    from .analysis.continuation import (
+        Bifurcation,
+        Branch,
+        BranchPoint,
+        ContinuationOptions,
+        continuation,
+        switch_period_doubling,
+    )
     from .analysis.lyapunov import LyapunovOptions, LyapunovResult, lyapunov_exponents
-    from .analysis.options import ContinuationOptions, ShootingOptions
-    from .analysis.orbit import PeriodicOrbit
+    from .analysis.periodic import PeriodicOrbit, ShootingOptions
     from .errors import (
         CompileError,
         ConvergenceError,
@@ -69,9 +73,8 @@ if TYPE_CHECKING:  # pragma: no cover
         SimulationError,
         SpecError,
     )
-    from .facade import Scene, load_scene
+    from .facade import Scene, System, load_scene
     from .results import Event, Trajectory
-    from .system import System
 
 
 def __getattr__(name: str) -> object:

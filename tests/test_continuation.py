@@ -392,7 +392,7 @@ def test_neimark_sacker_on_two_dof_model(tmp_path):
 
 # ------------------------------------------------------------------ harmonic balance, CLI
 def test_hbm_branch_agrees_with_shooting(ks_system):
-    from gearsym.analysis.shooting import shoot
+    from gearsym.analysis.periodic import shoot
 
     hb = gearsym.continuation(ks_system, "Omega", 0.6, 0.8, progress=False, ds_max=0.05, method="hbm",
                               harmonics=12)
@@ -432,8 +432,8 @@ def test_parameter_derivative_of_the_residual_at_loose_tolerances(ks_system, rto
     step); the exact one to 1e-4."""
     import contextlib
 
-    from gearsym.analysis.continuation import ShootingResidual, _fd_step
-    from gearsym.analysis.parameter_derivative import finite_difference_f_lambda
+    from gearsym.analysis.continuation._api import ShootingResidual, _fd_step
+    from gearsym.analysis.periodic._parameter_derivative import finite_difference_f_lambda
 
     orb = ks_system.periodic_orbit(params={"Omega": 1.2}, rtol=1e-12, atol=1e-14, tol=1e-11)
     x = orb.x0

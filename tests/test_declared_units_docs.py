@@ -14,20 +14,18 @@ import pytest
 from numpydoc.docscrape import NumpyDocString
 
 import gearsym
-from gearsym.analysis import (
-    branch,
-    continuation,
-    floquet,
-    hbm,
-    modes,
-    orbit,
-    periodic,
-    points,
-    problems,
-    shooting,
-)
+from gearsym.analysis.continuation import _api as continuation
+from gearsym.analysis.continuation import _branch as branch
+from gearsym.analysis.continuation import _points as points
+from gearsym.analysis.linear import _modes as modes
+from gearsym.analysis.periodic import _floquet as floquet
+from gearsym.analysis.periodic import _hbm as hbm
+from gearsym.analysis.periodic import _orbit as orbit
+from gearsym.analysis.periodic import _problems as problems
+from gearsym.analysis.periodic import _shooting as shooting
+from gearsym.analysis.periodic import _solve as periodic
+from gearsym.facade import System
 from gearsym.results import Trajectory
-from gearsym.system import System
 
 ROOT = Path(__file__).resolve().parents[1]
 SPUR_SCENE = ROOT / "scenes" / "spur_pair_torsional.toml"
