@@ -14,16 +14,15 @@ import pytest
 from numpydoc.docscrape import NumpyDocString
 
 import gearsym
-from gearsym.analysis.continuation import _api as continuation
-from gearsym.analysis.continuation import _branch as branch
-from gearsym.analysis.continuation import _points as points
-from gearsym.analysis.linear import _modes as modes
-from gearsym.analysis.periodic import _floquet as floquet
-from gearsym.analysis.periodic import _hbm as hbm
-from gearsym.analysis.periodic import _orbit as orbit
-from gearsym.analysis.periodic import _problems as problems
-from gearsym.analysis.periodic import _shooting as shooting
-from gearsym.analysis.periodic import _solve as periodic
+from gearsym.analysis import continuation, periodic
+from gearsym.analysis import continuation as branch
+from gearsym.analysis import continuation as points
+from gearsym.analysis import linear as modes
+from gearsym.analysis import periodic as floquet
+from gearsym.analysis import periodic as hbm
+from gearsym.analysis import periodic as orbit
+from gearsym.analysis import periodic as problems
+from gearsym.analysis import periodic as shooting
 from gearsym.facade import System
 from gearsym.results import Trajectory
 

@@ -1,81 +1,86 @@
 """The options objects of the analyses: frozen dataclasses, resolved once.
 
 Every analysis takes its options object (``options=``, a frozen dataclass whose docstring
-documents each setting and its default) and, for compatibility, the same settings as
-keywords; :func:`resolve_options` merges the two.
+documents each setting and its default, once) and, for compatibility, the same settings as
+keywords; :func:`resolve_options` merges the two and names a keyword that is no setting
+(with the closest one).  :func:`check_tolerances` is the one check of a tolerance.
 """
 
 from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Mapping
 from dataclasses import fields, replace
 from typing import Any, TypeVar
 
-import numpy as np
-
 from ..errors import ParameterError
+from ..spec.fields import did_you_mean
 
 __all__ = ["check_tolerances", "resolve_options"]
 
 T = TypeVar("T")
 
 
-def _same(a: Any, b: Any) -> bool:
-    if a is b:
-        return True
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return False
-    try:
-        return bool(a == b) and type(a) is type(b)
-    except (TypeError, ValueError):
-        return False
+def resolve_options(options: T | None, cls: type[T], keywords: Mapping[str, Any], caller: str) -> T:
+    """The options in effect for one call: ``options`` (default ``cls()``) with the keywords the
+    caller gave replacing its fields.
 
-
-def resolve_options(options: T | None, cls: type[T], **keywords: Any) -> T:
-    """The options in effect: ``options`` (default ``cls()``) with every keyword that is not
-    at its default overriding it.
+    The keywords are the settings passed one by one (``shoot(system, rtol=1e-9)``, kept for
+    compatibility); each must be a field of ``cls``.  A keyword given always wins over the
+    options object (``shoot(system, options=o, rtol=1e-9)`` runs at ``rtol=1e-9``).  Each
+    options class checks its values when it is made (bounded work, :mod:`gearsym.budget`), so
+    the merged options are checked too.
 
     Parameters
     ----------
     options
-        An options object, or ``None``.
+        An options object of class ``cls``, or ``None``.
     cls
-        Its class.
-    **keywords
-        The keyword arguments of the call (one per field).
+        The options class (a frozen dataclass).
+    keywords
+        The settings given as keywords.
+    caller
+        The function's name, for the error messages.
 
     Returns
     -------
-    ShootingOptions or ContinuationOptions
+    object
+        An instance of ``cls``.
+
+    Raises
+    ------
+    ParameterError
+        ``options`` of another class, or a keyword that is not a field of ``cls`` (naming it
+        and the closest field).
     """
     if options is not None and not isinstance(options, cls):
         raise ParameterError(f"options must be a {cls.__name__}, got {type(options).__name__}")
-    if options is None:  # the same keywords give the same (frozen) options: kept for reuse
-        try:
-            key = (cls, *((k, type(v), v) for k, v in keywords.items()))
-            hit = _RESOLVED.get(key)
-        except TypeError:  # an unhashable value (an array)
-            key = hit = None
-        if hit is not None:
-            return hit
-        out = _resolve(None, cls, keywords)
-        if key is not None:
-            if len(_RESOLVED) >= 256:
-                _RESOLVED.clear()
-            _RESOLVED[key] = out
-        return out
-    return _resolve(options, cls, keywords)
+    default, names = _defaults(cls)
+    for k in keywords:
+        if k not in names:
+            raise ParameterError(f"{caller}() got an unknown keyword '{k}'{did_you_mean(k, names)} (the settings "
+                                 f"of {cls.__name__}: {', '.join(f.name for f in fields(cls))})")
+    if not keywords:
+        return options if options is not None else default
+    if options is not None:
+        return replace(options, **keywords)
+    try:  # the same keywords give the same (frozen) options: kept for reuse (a map solves many orbits)
+        key = (cls, *((k, type(v), v) for k, v in keywords.items()))
+        hit = _RESOLVED.get(key)
+    except TypeError:  # an unhashable value (an array, a list of harmonics)
+        key = hit = None
+    if hit is not None:
+        return hit
+    out = replace(default, **keywords)
+    if key is not None:
+        if len(_RESOLVED) >= 256:
+            _RESOLVED.clear()
+        _RESOLVED[key] = out
+    return out
 
 
 _RESOLVED: dict[tuple, Any] = {}
-
-
-def _resolve(options: T | None, cls: type[T], keywords: dict[str, Any]) -> T:
-    default, names = _defaults(cls)
-    base = options if options is not None else default
-    changes = {k: v for k, v in keywords.items() if k in names and not _same(v, getattr(default, k))}
-    return replace(base, **changes) if changes else base
 
 
 @functools.cache

@@ -62,12 +62,12 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...budget import check_branch, check_harmonics, check_shooting
+from ...budget import check_branch, check_shooting
 from ...errors import GearsymError, ParameterError
 from ...spec.settings import resolve_settings
 from .._inputs import SceneLike, as_system
@@ -83,12 +83,12 @@ from ..periodic import (
     shoot,
     whole_periods,
 )
-from ._arclength import formatter, run
+from ._arclength import Leg, formatter, run
 from ._branch import Branch
 from ._branch_switching import switch_all, switch_period_doubling
 from ._corrector import Continuer
 from ._detection import detect_types
-from ._options import ContinuationOptions
+from ._options import SCENE_DEFAULTS, ContinuationOptions
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
@@ -98,16 +98,8 @@ __all__ = ["ContinuationOptions", "continuation", "switch_period_doubling", "HBR
 
 def continuation(system: CompiledSystem | SceneLike, param: str, start: float, stop: float, *,
                  x0: Sequence[float] | None = None, orbit: PeriodicOrbit | None = None,
-                 periods: float | None = None, method: str | None = None,
-                 params: Mapping[str, float] | None = None, segments: int | None = None,
-                 harmonics: int | None = None, t0: float = 0.0, ds: float = 0.005, ds_min: float = 1e-7,
-                 ds_max: float | None = None, max_angle: float = 0.3, max_points: int | None = None,
-                 tol: float | None = None, rtol: float | None = None, atol: float | None = None, max_newton: int = 7,
-                 detect: Sequence[str] | bool = True, locate: bool = True, state: int | str = 0,
-                 n_dense: int | None = None, switch: int | None = None, progress: bool | None = None,
-                 transient: float | None = None, state_weight: float = 1.0, stall_points: int = 50,
-                 stall_tol: float = 1e-5, display: tuple[float, str] | None = None,
-                 options: ContinuationOptions | None = None, defect_tol: float = 1e-5) -> Branch:
+                 params: Mapping[str, float] | None = None, options: ContinuationOptions | None = None,
+                 **keywords: Any) -> Branch:
     """Continue a periodic orbit in one parameter from ``start`` to ``stop``.
 
     Parameters
@@ -127,90 +119,19 @@ def continuation(system: CompiledSystem | SceneLike, param: str, start: float, s
         (default: the scene's initial state after a transient).
     orbit
         A periodic orbit at ``param = start`` to start from (instead of solving).
-    periods
-        Forcing periods per orbit (``k`` for period-``k`` orbits): a positive whole number.
-    method
-        ``"shooting"`` (single / multiple shooting, ``segments``) or ``"hbm"``
-        (harmonic balance with ``harmonics`` harmonics).
-
-        ``periods``, ``method``, ``segments``, ``harmonics``, ``switch``, ``ds_max``,
-        ``max_points``, ``tol``, ``rtol`` and ``atol`` not given take the values of the
-        scene's ``[continue]`` table, else the defaults below (one resolution with
-        ``gearsym continue``: :func:`gearsym.spec.settings.resolve_settings`); ``periods``
-        1, ``method`` ``"shooting"``, ``segments`` 1.
     params
         Other parameter overrides, in their declared units (as ``--set``).
-    segments
-        Shooting segments.
-    harmonics
-        Harmonics of the harmonic-balance residual.  Default: those with which the
-        starting harmonic balance meets ``defect_tol`` (its harmonics grown until one
-        period integrated from the balanced state closes to ``defect_tol`` of the orbit's
-        size): a margin for the orbit's growth along the branch.
-    t0
-        Phase of ``x0`` (a multiple of the forcing period).
-    ds, ds_min, ds_max
-        Initial, smallest and largest arclength step in scaled variables (the
-        parameter scaled by ``|stop - start|``, every state by its magnitude on
-        the branch): ``ds_max = 0.02`` gives at least 50 points over the range.
-    max_angle
-        Largest angle (rad) between consecutive tangents before a step is refused.
-    max_points
-        Limit on the number of points.
-    tol
-        Corrector tolerance on the residual scaled by the state magnitudes.
-    rtol, atol
-        Integrator tolerances.  ``atol`` default: ``rtol * 1e-2 *`` the smallest state
-        magnitude on the first orbit; a state that is identically zero there (the
-        trivial orbit ``x = 0``) takes its magnitude from the scene instead: the
-        largest entry of its initial state, else the magnitude its ``[simulate]``
-        tolerances imply (``atol / (1e-2 * rtol)``), else 1.  When some states vanish
-        on the orbit while others do not (at most 1e-9 of the largest magnitude:
-        round-off, e.g. the centre translations of a planetary set with equally spaced
-        planets), the scene's ``[simulate]`` ``atol`` is the default, and without one
-        :class:`~gearsym.errors.ParameterError` asks for ``atol``.
-    max_newton
-        Newton steps per correction.
-    detect
-        Bifurcation types to detect (``True``: all of ``fold``,
-        ``period_doubling``, ``neimark_sacker``, ``grazing``, ``branch_point``;
-        ``False``: none).
-    locate
-        Locate detected points (else only flag the point after the change).
-    state
-        The observed state for ``max``, ``min``, ``rms`` (index or name).
-    n_dense
-        Samples per forcing period for extrema, RMS and grazing tests (default:
-        ``max(1024, 8 * points_per_period of the scene)``).
-    switch
-        Depth of automatic branch switching at period doublings (0: none; 1: the
-        doubled branches; 2: also their doublings, ...).
-    progress
-        Show a progress bar on stderr (default: when stderr is a terminal).
-    state_weight
-        Weight of the states against the parameter in the arclength (1: a step
-        of one state magnitude counts as much as a step of the whole parameter
-        range).  Smaller values take larger parameter steps where the orbit
-        changes quickly (rattling orbits with many impacts).
-    transient
-        Forcing periods integrated before the first Newton solve when no ``x0``
-        or ``orbit`` is given.
-    stall_points, stall_tol
-        The branch does not advance (``complete = False``) when the parameter stays
-        within ``stall_tol * |stop - start|`` over ``stall_points`` consecutive points.
-        Measured on a forced linear oscillator: with damping ratios down to 1e-4 the
-        smallest spread over 50 points through the resonance peak is 1.9e-4 of the range;
-        undamped, the parameter converges to the resonance and the branch stalls.
-    display
-        ``(value of one display unit, unit name)`` for the parameter values in
-        ``stop_reason``; default: the parameter's declared unit (the unit of ``start``,
-        ``stop`` and every value of the branch, as for ``params``).
     options
-        A :class:`~gearsym.analysis.periodic._options.ContinuationOptions` with the numerical settings
-        above (``ds`` .. ``display``); a keyword not at its default overrides it.
-    defect_tol
-        Time-domain defect of the starting harmonic balance (``method="hbm"``, see
-        ``harmonics``).
+        The settings (:class:`~gearsym.analysis.continuation.ContinuationOptions`:
+        ``periods``, ``method``, ``segments``, ``harmonics``, ``t0``, ``ds``, ``ds_min``,
+        ``ds_max``, ``max_angle``, ``max_points``, ``tol``, ``rtol``, ``atol``, ``max_newton``,
+        ``detect``, ``locate``, ``state``, ``n_dense``, ``switch``, ``progress``,
+        ``transient``, ``state_weight``, ``stall_points``, ``stall_tol``, ``display``,
+        ``defect_tol``, ``f_lambda``; each documented there with its default, and which of
+        them the scene's ``[continue]`` table sets).
+    **keywords
+        Any of those settings one by one (``continuation(system, "Omega", 0.6, 1.4,
+        ds_max=0.01)``); a keyword wins over ``options``.
 
     Returns
     -------
@@ -219,7 +140,8 @@ def continuation(system: CompiledSystem | SceneLike, param: str, start: float, s
     Raises
     ------
     ParameterError
-        Unknown parameter, empty range, bad options.
+        Unknown parameter, empty range, bad options, a keyword that is no setting of
+        :class:`~gearsym.analysis.continuation.ContinuationOptions`.
     ConvergenceError
         No periodic orbit at ``start``.
 
@@ -229,108 +151,134 @@ def continuation(system: CompiledSystem | SceneLike, param: str, start: float, s
     """
     system = as_system(system, "continuation")
     wall = time.perf_counter()
-    # the scene's [continue] table under the caller's keywords: one resolution with `gearsym continue`
-    st = resolve_settings("continue", getattr(system, "settings", {}).get("continue"), periods=periods,
-                          method=method, segments=segments, harmonics=harmonics, switch=switch, ds_max=ds_max,
-                          max_points=max_points, rtol=rtol, atol=atol, tol=tol)
-    d = ContinuationOptions()
-    periods, method, segments, harmonics = st["periods"], st["method"], st["segments"] or 1, st["harmonics"]
-    ds_max, max_points, tol, rtol, switch = (getattr(d, k) if st[k] is None else st[k]
-                                             for k in ("ds_max", "max_points", "tol", "rtol", "switch"))
-    atol = st["atol"]
-    if ds == d.ds and ds > ds_max:  # a first step at its default follows a smaller ds_max
-        ds = ds_max
-        ds_min = min(ds_min, ds)
-    o = resolve_options(options, ContinuationOptions, ds=ds, ds_min=ds_min, ds_max=ds_max, max_angle=max_angle,
-                        max_points=max_points, tol=tol, rtol=rtol, atol=atol, max_newton=max_newton, detect=detect,
-                        locate=locate, state=state, n_dense=n_dense, switch=switch, progress=progress,
-                        transient=transient, state_weight=state_weight, stall_points=stall_points,
-                        stall_tol=stall_tol, display=display)
-    ds, ds_min, ds_max, max_angle, max_points, tol = o.ds, o.ds_min, o.ds_max, o.max_angle, o.max_points, o.tol
-    rtol, atol, max_newton, detect, locate, state = o.rtol, o.atol, o.max_newton, o.detect, o.locate, o.state
-    n_dense, switch, progress, transient, state_weight = o.n_dense, o.switch, o.progress, o.transient, o.state_weight
-    stall_points, stall_tol, display = o.stall_points, o.stall_tol, o.display
-    check_branch(max_points, system.generated.nx)  # bounded memory and work (gearsym.budget)
-    check_shooting(segments, system.generated.nx)
-    check_harmonics("harmonics", harmonics)
+    o = _with_scene_settings(system, resolve_options(options, ContinuationOptions, keywords, "continuation"))
+    task = _Task.make(system, param, start, stop, params, x0, orbit)
+    o, types, state_idx = _check(task, o)
+    fmt = formatter(o.display or (1.0, system.units.unit(param)))  # values in the declared unit
+    n_dense = o.n_dense if o.n_dense is not None else max(1024, 8 * int(system.defaults.get("points_per_period", 64)))
+    res, u0, state_scale = _first_point(task, o)
+    info = {"rtol": res.rtol, "atol": res.atol, "tol": o.tol, "segments": o.segments if o.method == "shooting" else None,
+            "harmonics": getattr(res, "H", None), "start": task.start, "stop": task.stop,
+            "params": {k: float(v) for k, v in res.params(task.start).items() if k != param}, "t0": o.t0}
+    branch = run(res, u0, Leg(task.start, task.stop, o, types, state_idx, n_dense, o.method, state_scale, fmt,
+                              info=info))
+    extra = {}
+    if o.switch > 0:
+        failures = switch_all(branch, o.switch, replace(o, n_dense=n_dense), types, fmt, stop=task.stop)
+        if failures:
+            extra["switch_failures"] = failures
+    extra["wall_s"] = time.perf_counter() - wall
+    return replace(branch, info={**branch.info, **extra})
+
+
+def _with_scene_settings(system: CompiledSystem, o: ContinuationOptions) -> ContinuationOptions:
+    """The options with the settings left at ``None`` taken from the scene's ``[continue]`` table,
+    else :data:`~gearsym.analysis.continuation._options.SCENE_DEFAULTS` (one resolution with
+    ``gearsym continue``); a first step at its default follows a smaller ``ds_max``."""
+    st = resolve_settings("continue", getattr(system, "settings", {}).get("continue"),
+                          **{k: getattr(o, k) for k in SCENE_DEFAULTS})
+    resolved = {k: SCENE_DEFAULTS[k] if st[k] is None else st[k] for k in SCENE_DEFAULTS}
+    ds, ds_min = o.ds, o.ds_min
+    if ds == ContinuationOptions.ds and ds > resolved["ds_max"]:  # type: ignore[operator]
+        ds = resolved["ds_max"]
+        ds_min = min(ds_min, ds)  # type: ignore[type-var]
+    return replace(o, ds=ds, ds_min=ds_min, **resolved)
+
+
+@dataclass(frozen=True)
+class _Task:
+    """What is continued: the system, the parameter and its range, the other parameters, the start."""
+
+    system: CompiledSystem
+    param: str
+    start: float
+    stop: float
+    base: dict[str, float]
+    x0: Sequence[float] | None
+    orbit: PeriodicOrbit | None
+
+    @classmethod
+    def make(cls, system: CompiledSystem, param: str, start: float, stop: float,
+             params: Mapping[str, float] | None, x0: Sequence[float] | None, orbit: PeriodicOrbit | None) -> _Task:
+        base = dict(params or {})
+        base.pop(param, None)
+        return cls(system, param, float(start), float(stop), base, x0, orbit)
+
+    @property
+    def p_start(self) -> dict[str, float]:
+        """The parameters at ``param = start``."""
+        return {**self.base, self.param: self.start}
+
+
+def _check(task: _Task, o: ContinuationOptions) -> tuple[ContinuationOptions, tuple[str, ...], int]:
+    """Refuse bad settings before any work; the options (``periods`` a whole number), the
+    bifurcation types to detect and the observed state."""
+    system, param = task.system, task.param
+    check_branch(o.max_points, system.generated.nx)  # bounded memory and work (gearsym.budget)
+    check_shooting(o.segments, system.generated.nx)
     if param not in system.params:
         raise ParameterError(f"'{param}' is not a run-time parameter of this system (have: "
                              f"{', '.join(system.params) or 'none'})")
-    start, stop = float(start), float(stop)
+    start, stop = task.start, task.stop
     if not (math.isfinite(start) and math.isfinite(stop)) or start == stop:
         raise ParameterError(f"the parameter range must be two different finite values, got {start} .. {stop}")
-    if method not in ORBIT_METHODS:
-        raise ParameterError(f"method must be one of {', '.join(ORBIT_METHODS)}, got '{method}'")
+    if o.method not in ORBIT_METHODS:
+        raise ParameterError(f"method must be one of {', '.join(ORBIT_METHODS)}, got '{o.method}'")
     if system.generated.implicit:
         raise ParameterError("continuation needs an explicit model (variational equations for the monodromy)")
-    periods = whole_periods(periods)  # an orbit of a forced system: a whole number of forcing periods
-    types = detect_types(detect)
-    if method == "hbm" and detect is True:
+    o = replace(o, periods=whole_periods(o.periods))  # a whole number of forcing periods
+    types = detect_types(o.detect)
+    if o.method == "hbm" and o.detect is True:
         # the multipliers of a harmonic-balance point come from integrating its truncated
         # orbit, so +1 is crossed slightly away from the balance's own fold: no branch points
         types = tuple(t for t in types if t != "branch_point")
+    state_idx = _state_index(system, o.state)
+    if not (0 < o.ds_min <= o.ds <= o.ds_max) or o.max_points < 2 or o.tol <= 0 or o.periods <= 0 \
+            or o.switch < 0 or not 0 < o.state_weight or not 0 < o.max_angle or o.stall_points < 2 \
+            or not 0 <= o.stall_tol < 1:
+        raise ParameterError("need 0 < ds_min <= ds <= ds_max, max_points >= 2, tol > 0, periods > 0, "
+                             "switch >= 0, state_weight > 0, max_angle > 0, stall_points >= 2, "
+                             "0 <= stall_tol < 1")
+    check_tolerances(tol=o.tol, rtol=o.rtol, **({"atol": o.atol} if o.atol is not None else {}))
+    system.require_period(task.p_start, "continuation of periodic orbits")
+    system.param_vector({**task.base, param: stop})  # the physical range (gearsym.spec.rules) at the other end too
+    return o, types, state_idx
+
+
+def _state_index(system: CompiledSystem, state: int | str) -> int:
+    """The index of the observed state (a name or an index)."""
     if isinstance(state, str):
         if state not in system.state_names:
             raise ParameterError(f"state '{state}' is not a state of this system (have: "
                                  f"{', '.join(system.state_names)})")
-        state_idx = system.state_names.index(state)
-    else:
-        state_idx = int(state)
-        if not 0 <= state_idx < system.generated.nx:
-            raise ParameterError(f"state index {state} out of range (0..{system.generated.nx - 1})")
-    if not (0 < ds_min <= ds <= ds_max) or max_points < 2 or tol <= 0 or periods <= 0 or switch < 0 \
-            or not 0 < state_weight or not 0 < max_angle or stall_points < 2 or not 0 <= stall_tol < 1:
-        raise ParameterError("need 0 < ds_min <= ds <= ds_max, max_points >= 2, tol > 0, periods > 0, "
-                             "switch >= 0, state_weight > 0, max_angle > 0, stall_points >= 2, "
-                             "0 <= stall_tol < 1")
-    check_tolerances(tol=tol, rtol=rtol, **({"atol": atol} if atol is not None else {}))
-    base = dict(params or {})
-    base.pop(param, None)
-    p_start = dict(base)
-    p_start[param] = start
-    system.require_period(p_start, "continuation of periodic orbits")
-    system.param_vector({**base, param: stop})  # the physical range (gearsym.spec.rules) at the other end too
-    fmt = formatter(display or (1.0, system.units.unit(param)))  # values in the declared unit
+        return system.state_names.index(state)
+    state_idx = int(state)
+    if not 0 <= state_idx < system.generated.nx:
+        raise ParameterError(f"state index {state} out of range (0..{system.generated.nx - 1})")
+    return state_idx
 
-    # ------------------------------------------------------------- first orbit
-    if n_dense is None:
-        n_dense = max(1024, 8 * int(system.defaults.get("points_per_period", 64)))
-    if method == "shooting":
-        x_start, state_scale = _first_orbit_shooting(system, param, start, p_start, base, periods, x0, orbit,
-                                                     segments, t0, rtol, atol, tol, transient)
-        if atol is None:
-            atol = _default_atol(rtol, state_scale, system)
-        res: PeriodicOrbitProblem = ShootingResidual(system, param, periods, base, segments, t0, rtol, atol,
-                                          fd_step=_fd_step(start, stop, rtol))
-        u0 = res.u_from_orbit(x_start, start)  # type: ignore[attr-defined]
-    else:
-        if orbit is None:
-            orbit = harmonic_balance(system, periods=periods, x0=x0, params=p_start, t0=t0, harmonics=harmonics,
-                                     rtol=rtol, atol=atol or 1e-12, defect_tol=defect_tol)
-        state_scale = _state_scale(system, orbit.x0, t0, float(orbit.period), p_start, rtol, atol or 1e-12)
-        if atol is None:
-            atol = _default_atol(rtol, state_scale, system)
-        H = int(harmonics or orbit.harmonics or 16)
-        res = HBResidual(system, param, H, periods, base, t0, rtol=rtol, atol=atol, fd_step=_fd_step(start, stop, rtol))
-        u0 = res.u_from_orbit(orbit, start)  # type: ignore[attr-defined]
-    info = {"rtol": rtol, "atol": atol, "tol": tol, "segments": segments if method == "shooting" else None,
-            "harmonics": getattr(res, "H", None), "start": start, "stop": stop,
-            "params": {k: float(v) for k, v in res.params(start).items() if k != param}, "t0": t0}
-    branch = run(res, u0, start, stop, state_scale=state_scale, ds=ds, ds_min=ds_min, ds_max=ds_max,
-                 max_angle=max_angle, max_points=max_points, tol=tol, max_newton=max_newton, types=types,
-                 locate=locate, state=state_idx, n_dense=n_dense, progress=progress, method=method,
-                 state_weight=state_weight, stall_points=stall_points, stall_tol=stall_tol, fmt=fmt, info=info)
-    extra = {}
-    if switch > 0:
-        failures = switch_all(branch, switch, stop=stop, start=start, ds=ds, ds_min=ds_min, ds_max=ds_max,
-                              max_angle=max_angle, max_points=max_points, tol=tol, max_newton=max_newton,
-                              types=types, locate=locate, n_dense=n_dense, progress=progress,
-                              stall_points=stall_points, stall_tol=stall_tol, fmt=fmt)
-        if failures:
-            extra["switch_failures"] = failures
-    extra["wall_s"] = time.perf_counter() - wall
-    branch = replace(branch, info={**branch.info, **extra})
-    return branch
+
+def _first_point(task: _Task, o: ContinuationOptions) -> tuple[PeriodicOrbitProblem, np.ndarray, np.ndarray]:
+    """The periodic-orbit problem of the branch, the unknowns of its first orbit (at
+    ``param = start``) and the state scales (the problem's ``atol`` is the default one where
+    the options leave it open)."""
+    system, param, start, stop = task.system, task.param, task.start, task.stop
+    fd_step = _fd_step(start, stop, o.rtol)
+    if o.method == "shooting":
+        x_start, state_scale = _first_orbit_shooting(task, o)
+        atol = o.atol if o.atol is not None else _default_atol(o.rtol, state_scale, system)
+        res: PeriodicOrbitProblem = ShootingResidual(system, param, o.periods, task.base, o.segments, o.t0, o.rtol,
+                                                     atol, fd_step=fd_step, f_lambda=o.f_lambda)
+        return res, res.u_from_orbit(x_start, start), state_scale  # type: ignore[attr-defined]
+    orbit = task.orbit
+    if orbit is None:
+        orbit = harmonic_balance(system, periods=o.periods, x0=task.x0, params=task.p_start, t0=o.t0,
+                                 harmonics=o.harmonics, rtol=o.rtol, atol=o.atol or 1e-12, defect_tol=o.defect_tol)
+    state_scale = _state_scale(system, orbit.x0, o.t0, float(orbit.period), task.p_start, o.rtol, o.atol or 1e-12)
+    atol = o.atol if o.atol is not None else _default_atol(o.rtol, state_scale, system)
+    H = int(o.harmonics or orbit.harmonics or 16)
+    res = HBResidual(system, param, H, o.periods, task.base, o.t0, rtol=o.rtol, atol=atol, fd_step=fd_step)
+    return res, res.u_from_orbit(orbit, start), state_scale  # type: ignore[attr-defined]
 
 
 def _state_scale(system: CompiledSystem, x0: np.ndarray, t0: float, period: float, params: Mapping[str, float],
@@ -395,27 +343,24 @@ def _default_atol(rtol: float, state_scale: np.ndarray, system: CompiledSystem) 
         f"atol of the scene) or declare one in [simulate]")
 
 
-def _first_orbit_shooting(system: CompiledSystem, param: str, start: float, p_start: dict[str, float],
-                          base: dict[str, float], periods: float, x0: Sequence[float] | None,
-                          orbit: PeriodicOrbit | None, segments: int, t0: float, rtol: float,
-                          atol: float | None, tol: float, transient: float | None
-                          ) -> tuple[np.ndarray, np.ndarray]:
+def _first_orbit_shooting(task: _Task, o: ContinuationOptions) -> tuple[np.ndarray, np.ndarray]:
     """The state at ``t0`` of a periodic orbit at ``param = start`` and the state scales.
 
     A transient from the guess, then Newton at fixed parameter (the continuation's
     own corrector); if that fails, :func:`gearsym.analysis.periodic.shoot` with its
     relaxation by integration.
     """
-    P = float(periods) * float(system.period(p_start))
-    if orbit is not None:
-        guess = np.asarray(orbit.x0, float)
+    system, start, p_start, t0, rtol, atol = task.system, task.start, task.p_start, o.t0, o.rtol, o.atol
+    P = float(o.periods) * float(system.period(p_start))
+    if task.orbit is not None:
+        guess = np.asarray(task.orbit.x0, float)
     else:
-        guess = np.asarray(system.x0 if x0 is None else x0, float)
+        guess = np.asarray(system.x0 if task.x0 is None else task.x0, float)
         if guess.shape != (system.generated.nx,):
             raise ParameterError(f"x0 must have {system.generated.nx} entries "
                                  f"({', '.join(system.state_names)}), got shape {guess.shape}")
-        n_tr = transient if transient is not None else (
-            0 if x0 is not None else float(system.defaults.get("transient_periods", 20)))
+        n_tr = o.transient if o.transient is not None else (
+            0 if task.x0 is not None else float(system.defaults.get("transient_periods", 20)))
         if n_tr and n_tr > 0:
             T = float(system.period(p_start))
             n = max(1, int(math.ceil(n_tr)))
@@ -423,8 +368,9 @@ def _first_orbit_shooting(system: CompiledSystem, param: str, start: float, p_st
                                     atol=max(atol or 1e-12, 1e-14), n_out=2, params=p_start).x_final
     scale = _state_scale(system, guess, t0, P, p_start, max(rtol, 1e-9), atol or 1e-12)
     a_tol = atol if atol is not None else _default_atol(rtol, scale, system)
-    res = ShootingResidual(system, param, periods, base, segments, t0, rtol, a_tol, fd_step=1e-6)
-    C = Continuer(res, lam_scale=1.0, tol=tol, max_newton=25, state=0, n_dense=64, detect=())
+    res = ShootingResidual(system, task.param, o.periods, task.base, o.segments, t0, rtol, a_tol, fd_step=1e-6,
+                           f_lambda=o.f_lambda)
+    C = Continuer(res, lam_scale=1.0, tol=o.tol, max_newton=25, state=0, n_dense=64, detect=())
     C.set_state_scale(scale)
     row = np.zeros(res.n + 1)
     row[-1] = 1.0
@@ -432,9 +378,9 @@ def _first_orbit_shooting(system: CompiledSystem, param: str, start: float, p_st
         z, _, _ = C.correct(np.concatenate([res.u_from_orbit(guess, start), [start]]), row, start)
         x_start = res.x0_of(z[:-1])
     except GearsymError:
-        o = shoot(system, periods=periods, x0=guess, params=p_start, segments=segments, t0=t0, transient=0,
-                  rtol=rtol, atol=a_tol, tol=min(tol, 1e-9))
-        x_start = np.asarray(o.x0, float)
+        orbit = shoot(system, periods=o.periods, x0=guess, params=p_start, segments=o.segments, t0=t0, transient=0,
+                      rtol=rtol, atol=a_tol, tol=min(o.tol, 1e-9))
+        x_start = np.asarray(orbit.x0, float)
     return x_start, _state_scale(system, x_start, t0, P, p_start, rtol, a_tol)
 
 

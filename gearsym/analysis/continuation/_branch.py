@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ...files import save_figure, write_json
 from ._points import BIFURCATION_TYPES, Bifurcation, BranchPoint, ContinuationSetup, _jsonable
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -313,8 +314,6 @@ class Branch:
         Path
             The file written.
         """
-        from ...files import write_json
-
         return write_json(path, self.to_dict())
 
     # ------------------------------------------------------------- plots
@@ -515,8 +514,6 @@ class Branch:
             a1.set_title(title)
         fig.tight_layout()
         if path is not None:
-            from ...files import save_figure
-
             save_figure(fig, path, dpi=110)
             plt.close(fig)
         return fig

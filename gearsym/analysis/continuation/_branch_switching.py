@@ -12,22 +12,26 @@ period-``k`` branch).  What the parent was computed with comes from its
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
-from ...budget import check_counts
 from ...errors import ConvergenceError, GearsymError, ParameterError
+from .._options import resolve_options
 from ..periodic import ShootingResidual
-from ._arclength import period_defect, run
+from ._arclength import Leg, formatter, period_defect, run
 from ._branch import Bifurcation, Branch
 from ._detection import detect_types
+from ._options import ContinuationOptions
 
 __all__ = ["switch_all", "switch_period_doubling"]
 
 
 def switch_period_doubling(branch: Branch, bifurcation: Bifurcation | int | None = None, *,
-                           stop: float | None = None, amplitude: float = 2e-3, **options: Any) -> Branch:
+                           stop: float | None = None, amplitude: float = 2e-3,
+                           options: ContinuationOptions | None = None, **keywords: Any) -> Branch:
     """Continue the period-doubled branch born at a located period doubling.
 
     Parameters
@@ -43,15 +47,27 @@ def switch_period_doubling(branch: Branch, bifurcation: Bifurcation | int | None
     amplitude
         Distance (scaled arclength) from the period-doubling point along the
         critical eigenvector at which the first doubled orbit is sought.
-    **options
-        ``ds``, ``ds_max``, ``tol``, ... as for :func:`continuation`.
+    options
+        The step settings of the new branch (:class:`~gearsym.analysis.continuation.ContinuationOptions`:
+        ``ds``, ``ds_min``, ``ds_max``, ``max_angle``, ``max_points``, ``tol``, ``max_newton``,
+        ``detect``, ``locate``, ``n_dense``, ``progress``, ``stall_points``, ``stall_tol``,
+        ``f_lambda``); the problem (periods, segments, tolerances of the integrator, state
+        weight) is the parent's.  ``tol`` and ``n_dense`` default to the parent's.
+    **keywords
+        Any of those settings one by one; a keyword wins over ``options``.
 
     Returns
     -------
     Branch
         With ``periods`` twice the parent's; appended to ``branch.children``.
     """
-    check_counts(**{k: v for k, v in options.items() if k in ("max_points", "max_newton", "n_dense", "stall_points")})
+    o = resolve_options(options, ContinuationOptions, keywords, "switch_period_doubling")
+    return _switch(branch, bifurcation, stop, amplitude, o, detect_types(o.detect), formatter(o.display))
+
+
+def _switch(branch: Branch, bifurcation: Bifurcation | int | None, stop: float | None, amplitude: float,
+            o: ContinuationOptions, types: tuple[str, ...], fmt: Callable[[float], str]) -> Branch:
+    """:func:`switch_period_doubling` with the options resolved."""
     if bifurcation is None:
         pds = branch.of_type("period_doubling")
         if not pds:
@@ -77,52 +93,66 @@ def switch_period_doubling(branch: Branch, bifurcation: Bifurcation | int | None
     v = np.real(V[:, k])
     v = v / np.linalg.norm(v)
     res = ShootingResidual(system, setup.param, 2 * setup.periods, setup.params, setup.segments * (
-        2 if setup.segments > 1 else 1), setup.t0, setup.rtol, setup.atol, setup.fd_step, setup.integrator)
+        2 if setup.segments > 1 else 1), setup.t0, setup.rtol, setup.atol, setup.fd_step, setup.integrator,
+        f_lambda=o.f_lambda)
     # state scale of the parent (at this point), the tangent (v, 0) in scaled variables
     nx = res.nx
     state_scale = np.array(setup.state_scale, float)
     x_star = pt.x0
     vs = v / state_scale
     vs = vs / np.linalg.norm(vs)
-    step = amplitude
-    x_guess = x_star + step * vs * state_scale * math.sqrt(nx)
+    x_guess = x_star + amplitude * vs * state_scale * math.sqrt(nx)
     u_guess = res.u_from_orbit(x_guess, lam)
     u_star = res.u_from_orbit(x_star, lam)
     S = np.concatenate([res.unknown_scale(state_scale) / setup.state_weight, [abs(stop - start)]])
     t_dir = np.concatenate([(u_guess - u_star), [0.0]]) / S
     t_dir = t_dir / np.linalg.norm(t_dir)
     z_first = np.concatenate([u_guess, [lam]])
-    opts = {k: options[k] for k in ("ds", "ds_min", "ds_max", "max_angle", "max_points", "tol", "max_newton",
-                                    "locate", "n_dense", "progress", "stall_points", "stall_tol", "fmt")
-            if k in options}
-    types = detect_types(options.get("detect", True))
-    kw = dict(ds=opts.get("ds", 0.005), ds_min=opts.get("ds_min", 1e-7), ds_max=opts.get("ds_max", 0.02),
-              max_angle=opts.get("max_angle", 0.3), max_points=opts.get("max_points", 5000),
-              tol=opts.get("tol", float(branch.info.get("tol", 1e-9))), max_newton=opts.get("max_newton", 7),
-              types=types, locate=opts.get("locate", True), state=setup.state,
-              n_dense=opts.get("n_dense", setup.n_dense), progress=opts.get("progress"),
-              stall_points=opts.get("stall_points", 50), stall_tol=opts.get("stall_tol", 1e-5), fmt=opts.get("fmt"))
+    tol = o.tol if o.tol is not None else float(branch.info.get("tol", 1e-9))
+    # the parent's problem, the caller's steps (ds_max and max_points at their own defaults)
+    o = replace(o, tol=tol, ds_max=0.02 if o.ds_max is None else o.ds_max,
+                max_points=5000 if o.max_points is None else o.max_points, state_weight=setup.state_weight)
     # direction: towards the side where the doubled orbit exists is found by the corrector; the
     # continuation range keeps the parent's orientation
     lo, hi = min(start, stop), max(start, stop)
-    child = run(res, u_guess, lo if stop >= start else hi, hi if stop >= start else lo, state_scale=state_scale,
-                method="shooting", first=(z_first, t_dir), parent=bifurcation, stop_on_merge=True,
-                state_weight=setup.state_weight, **kw,
-                info={"start": lo, "stop": hi, "rtol": res.rtol, "atol": res.atol, "tol": kw["tol"],
-                      "params": dict(branch.info.get("params", {})), "t0": res.t0, "switched_at": lam})
+    child = run(res, u_guess, Leg(
+        lo if stop >= start else hi, hi if stop >= start else lo, o, types, setup.state,
+        o.n_dense if o.n_dense is not None else setup.n_dense, "shooting", state_scale, fmt,
+        first=(z_first, t_dir), parent=bifurcation, stop_on_merge=True,
+        info={"start": lo, "stop": hi, "rtol": res.rtol, "atol": res.atol, "tol": tol,
+              "params": dict(branch.info.get("params", {})), "t0": res.t0, "switched_at": lam}))
     # the corrector on the hyperplane orthogonal to (v, 0) lands on the doubled branch; check it
     p0 = child.points[0]
-    if abs(p0.value - lam) > 0.5 * abs(hi - lo) or period_defect(res, p0.value, p0.x0) < 1e2 * kw["tol"]:
+    if abs(p0.value - lam) > 0.5 * abs(hi - lo) or period_defect(res, p0.value, p0.x0) < 1e2 * tol:
         raise ConvergenceError(f"branch switching at the period doubling at {setup.param} = {lam:.8g} fell back "
                                f"onto the period-{setup.periods:g} orbit; try a larger amplitude=")
     branch.children.append(child)
     return child
 
 
-def switch_all(branch: Branch, depth: int, **kw: Any) -> list[dict[str, Any]]:
+def switch_all(branch: Branch, depth: int, options: ContinuationOptions, types: tuple[str, ...],
+               fmt: Callable[[float], str], stop: float | None = None) -> list[dict[str, Any]]:
     """Switch at every period doubling of ``branch``, recursively to ``depth`` levels.
 
-    Returns the failures (``value``, ``periods`` of the parent branch, ``error``).
+    Parameters
+    ----------
+    branch
+        The branch.
+    depth
+        Levels of switching.
+    options
+        The continuation's resolved options (the steps of every new branch).
+    types
+        The special points to detect.
+    fmt
+        Formats a parameter value for messages.
+    stop
+        End of the range of the new branches (default: the parent's).
+
+    Returns
+    -------
+    list of dict
+        The failures (``value``, ``periods`` of the parent branch, ``error``).
     """
     failures: list[dict[str, Any]] = []
     for b in list(branch.of_type("period_doubling")):
@@ -133,12 +163,10 @@ def switch_all(branch: Branch, depth: int, **kw: Any) -> list[dict[str, Any]]:
                                       f"({b.info.get('reason', '')}): no branch switching from it"})
             continue
         try:
-            child = switch_period_doubling(branch, b, stop=kw.get("stop"),
-                                           **{k: v for k, v in kw.items() if k not in ("stop", "start", "types")},
-                                           detect=kw.get("types", True))
+            child = _switch(branch, b, stop, 2e-3, options, types, fmt)
         except GearsymError as exc:
             failures.append({"value": b.value, "periods": branch.periods, "error": str(exc)})
             continue
         if depth > 1:
-            failures += switch_all(child, depth - 1, **kw)
+            failures += switch_all(child, depth - 1, options, types, fmt, stop)
     return failures

@@ -16,15 +16,20 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ...engine.driver import METHODS
+from ...engine.shoot import MAX_STATES, Corrector
 from ...errors import ConvergenceError, GearsymError
+from ...sensitivity import directions
 from ..periodic import (
     Evaluation,
     NewtonPolicy,
     PeriodicOrbitProblem,
     damped_newton,
     floquet,
+    log_events,
     mesh_point,
     mesh_rattle_states,
+    segment_jacobian,
     verdict,
 )
 from ._bifurcation import tau_branch_point, tau_neimark_sacker, tau_period_doubling
@@ -210,10 +215,6 @@ class Continuer:
         return out
 
     def _make_c_setup(self, lam: float) -> dict | None:
-        from ...engine.driver import METHODS
-        from ...engine.shoot import MAX_STATES
-        from ...sensitivity import directions
-
         res = self.res
         system = getattr(res, "system", None)
         if getattr(res, "segments", None) != 1 or system is None or system.generated.implicit or \
@@ -252,9 +253,6 @@ class Continuer:
                       ) -> tuple[np.ndarray, Evaluation, int] | None:
         """:meth:`correct` in one C call where it applies (see :meth:`_c_setup`); ``None`` where it
         does not or where the C iteration gave up (the Python iteration then starts from ``z``)."""
-        from ...engine.shoot import Corrector
-        from ..periodic import log_events, segment_jacobian
-
         setup = self._c_setup(float(z[-1]))
         if setup is None:
             return None

@@ -26,13 +26,14 @@ from __future__ import annotations
 
 from ._floquet import NotPiecewiseConstantError, PiecewiseLTV, exact_multipliers, monodromy_product
 from ._hb_problem import HBResidual
-from ._hbm import HarmonicBalance, harmonic_balance
+from ._hbm import HarmonicBalance
+from ._hbm_driver import harmonic_balance
 from ._isolation import Isolation, isolation, monodromy_error
 from ._meshes import mesh_deflections, mesh_flanks, mesh_names, mesh_point, mesh_report, trajectory_meshes
 from ._newton import NewtonOutcome, NewtonPolicy, damped_newton
-from ._options import ShootingOptions
+from ._options import HarmonicBalanceOptions, ShootingOptions
 from ._orbit import VANISHING, PeriodicOrbit
-from ._parameter_derivative import exact_f_lambda
+from ._parameter_derivative import F_LAMBDA, exact_f_lambda
 from ._problems import Evaluation, PeriodicOrbitProblem, ShootingResidual, log_events, segment_jacobian
 from ._rattle import (
     RATTLE_STATES,
@@ -57,8 +58,8 @@ from ._stability import (
 from ._verification import orbit_period, whole_periods
 
 __all__ = [
-    "ORBIT_METHODS", "RATTLE_STATES", "STABILITY", "VANISHING",
-    "Evaluation", "FloquetResult", "HBResidual", "HarmonicBalance", "Isolation", "NewtonOutcome", "NewtonPolicy",
+    "F_LAMBDA", "ORBIT_METHODS", "RATTLE_STATES", "STABILITY", "VANISHING",
+    "Evaluation", "FloquetResult", "HBResidual", "HarmonicBalance", "HarmonicBalanceOptions", "Isolation", "NewtonOutcome", "NewtonPolicy",
     "NotPiecewiseConstantError", "PeriodicOrbit", "PeriodicOrbitProblem", "PiecewiseLTV", "RattleSummary",
     "ShootingOptions", "ShootingResidual",
     "complex_sides", "damped_newton", "exact_f_lambda", "exact_multipliers", "floquet", "harmonic_balance",

@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...errors import GearsymError
+from ._hbm import HarmonicBalance
+from ._hbm_driver import FIXED_HARMONICS_DEFECT, state_sizes
 from ._orbit import PeriodicOrbit
 from ._problems import Evaluation as _Eval
 from ._problems import PeriodicOrbitProblem as _Residual
@@ -59,9 +61,7 @@ class HBResidual(_Residual):
         self.n_evals = 0
         self.n_integrations = 0
 
-    def _hb(self, lam: float):
-        from ._hbm import HarmonicBalance
-
+    def _hb(self, lam: float) -> HarmonicBalance:
         hb = self._cache.get(lam)
         if hb is None:
             if len(self._cache) > 8:
@@ -128,8 +128,6 @@ class HBResidual(_Residual):
         :data:`~gearsym.analysis.periodic._hbm_driver.FIXED_HARMONICS_DEFECT` of every state's peak-to-peak
         on the series (at least ``atol / FIXED_HARMONICS_DEFECT``), as an orbit of harmonic
         balance with fixed harmonics must."""
-        from ._hbm_driver import FIXED_HARMONICS_DEFECT, state_sizes
-
         how = "integration over one period from the balance's x(t0) (time-domain defect)"
         if ev.x_end is None:
             return Closure(math.inf, math.inf, False, how=how, error="the integration from the balance's x(t0) failed")

@@ -48,14 +48,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...budget import MAX_MATRIX_VALUES, check_amount, check_counts, check_harmonics
+from ...budget import MAX_MATRIX_VALUES
 from ...errors import ParameterError
-from ._orbit import PeriodicOrbit
+from ._floquet import segment_breaks
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
 
-__all__ = ["HarmonicBalance", "harmonic_balance"]
+__all__ = ["HarmonicBalance"]
 
 #: Largest harmonic-balance Jacobian (entries): the matrix budget of :mod:`gearsym.budget`.
 MAX_JACOBIAN_VALUES = MAX_MATRIX_VALUES
@@ -119,8 +119,6 @@ class HarmonicBalance:
         self.p = system.param_vector(params)
         breaks = None
         if system.generated.schedules:
-            from ._floquet import segment_breaks
-
             breaks = segment_breaks(system, self.P, params, self.t0)
         if breaks is not None and len(breaks) > 2:
             # coefficients that jump at scheduled times: the uniform DFT of a
@@ -403,126 +401,3 @@ class HarmonicBalance:
             if float(np.max(np.abs(R))) <= tol * max(1.0, float(np.max(np.abs(z)))):
                 break
         return z, R, k, history
-
-
-def harmonic_balance(system: CompiledSystem, period: float | None = None, periods: float = 1,
-                     x0: Sequence[float] | None = None, params: Mapping[str, float] | None = None, *,
-                     harmonics: int | Sequence[int] | None = None, max_harmonics: int = 512,
-                     harmonics_tol: float | None = None,
-                     samples: int | None = None, t0: float = 0.0, tol: float = 1e-10, max_iter: int = 100,
-                     guess: np.ndarray | PeriodicOrbit | None = None, monodromy: bool = True,
-                     rtol: float = 1e-11, atol: float = 1e-13, raise_on_failure: bool = True,
-                     initial_guess: str = "auto", transient: float = 50, floor_tol: float = 1e-5,
-                     trivial: np.ndarray | None = None, defect_tol: float = 2e-3, aft_tol: float = 1e-4,
-                     max_samples: int = 1 << 16, floor_rel: float = 1e-3) -> PeriodicOrbit:
-    """Find a periodic orbit by harmonic balance (AFT + quasi-Newton).
-
-    Parameters
-    ----------
-    system
-        An explicit compiled system.
-    period, periods
-        Orbit period (default ``periods`` forcing periods; a positive whole number for a forced
-        system, and ``period`` a whole number of forcing periods).
-    x0
-        A state used as the constant term of the first guess (default: the
-        scene's initial state).
-    params
-        Parameter overrides (declared units, as ``--set``).
-    harmonics
-        Fixed harmonics: a number ``H`` (``1..H``) or the harmonic numbers to keep (a
-        set, e.g. bands around the mesh harmonic); ``None``: grow through the sets of
-        :func:`gearsym.analysis.periodic._hbm_sets.growth_sets` (bands around the carriers found in
-        the model's excitation spectrum, else ``1, 2, 4, ...``) up to ``max_harmonics``
-        until the time-domain defect is below ``defect_tol`` (and, if ``harmonics_tol``
-        is given, the series changed by less than it relative to each state's
-        peak-to-peak).
-    max_harmonics
-        Highest harmonic of the automatic growth.
-    harmonics_tol
-        See ``harmonics`` (default ``None``: the defect alone decides).
-    samples
-        AFT samples per period, fixed.  Default: a power of two >= 4(2H+1) (H the highest
-        harmonic of the set or of the excitation), >= 64, doubled (up to 8 times, at most
-        ``max_samples``) until the residual on a grid twice as fine implies a Newton
-        correction below ``aft_tol`` of every state's size.
-    aft_tol, max_samples
-        See ``samples``.
-    defect_tol
-        One period integrated from the balanced ``x(t0)`` must close to ``defect_tol`` of
-        every state's peak-to-peak (``info["defect_relative"]``; a state that vanishes on the
-        orbit, below 1e-9 of the largest, counts as 1e-9 of the largest, and every state as at
-        least ``atol / defect_tol``, so a defect below ``atol`` always passes, as in shooting):
-        the automatic growth
-        stops there, and a balance grown automatically that does not reach it has not
-        converged.  With fixed ``harmonics`` the series is an approximation: it converges if
-        the defect is at most ``max(defect_tol, 0.1)``
-        (:data:`~gearsym.analysis.periodic._hbm_driver.FIXED_HARMONICS_DEFECT`): one that does not
-        close to a tenth of the orbit's size is not the series of an orbit.
-    floor_rel
-        Accept a residual floor (see ``floor_tol``) whose residual relative to the
-        derivative it balances is below ``floor_rel`` (the kinked residual of a contact).
-    t0
-        Time origin (the orbit's ``x0`` is ``x(t0)``).
-    tol
-        Residual tolerance of the algebraic system (relative to max(1, max|C|)).
-    max_iter
-        Quasi-Newton iterations per solve.
-    guess
-        Initial coefficients (shape (2H+1, nx)) or an orbit (e.g. from shooting)
-        to start from instead of the harmonic continuation.
-    monodromy
-        Integrate the variational equations once from ``x(t0)`` for the Floquet
-        multipliers, the events and the rattle state.
-    rtol, atol
-        Tolerances of that integration.
-    raise_on_failure
-        Raise :class:`ConvergenceError` if a solve fails.
-    initial_guess
-        ``"constant"``: continuation in the number of harmonics from the constant
-        state ``x0``; ``"simulation"``: the harmonics of the last of ``transient``
-        forcing periods simulated from ``x0`` (an initial guess only: the solution
-        is the harmonic balance's); ``"auto"``: the first, then the second if a
-        solve stalls (the constant start may sit in the basin of a local minimum of
-        the residual, e.g. below an impacting orbit).
-    transient
-        Forcing periods simulated for the ``"simulation"`` guess.
-    floor_tol
-        Accept a residual that no damped step can reduce if it is below
-        ``floor_tol * max(1, max|C|)``: with a vector field that jumps across a
-        switching surface (mesh damping only in contact) the AFT residual jumps
-        whenever a sample changes side and has a floor of order jump/samples.
-        Recorded as ``"residual floor"`` in the history.
-    trivial
-        Known trivial directions of the state space (nx x k), e.g. a rigid-body mode: a
-        multiplier +1 with its eigenvector in their span does not make the orbit
-        non-isolated.  Default: none.
-
-    Returns
-    -------
-    PeriodicOrbit
-        With ``harmonics`` (the highest), ``coefficients`` (full layout, zeros outside
-        the set), ``info["harmonic_set"]``, ``info["harmonic_growth"]`` (per set:
-        harmonics, samples and their checks, iterations, residual, change, defect),
-        ``info["defect"] = max |phi(t0 + P, x0) - x0|`` and ``info["defect_relative"]``
-        (per state relative to its peak-to-peak).  The rattle state comes from the
-        harmonic series (``info["rattle_states_integration"]``: that of the integration).
-
-    Raises
-    ------
-    ConvergenceError
-        The balance did not converge, or it converged only relative to coefficients
-        blown up along a direction of a multiplier at +1 (no isolated orbit).
-    """
-    from ._hbm_driver import run
-
-    check_harmonics("harmonics", harmonics)  # bounded work (gearsym.budget), before any allocation
-    check_counts({"samples": "aft_samples", "max_samples": "aft_samples"}, max_harmonics=max_harmonics,
-                 samples=samples, max_samples=max_samples, max_iter=max_iter)
-    check_amount("transient", transient)
-    return run(HarmonicBalance, system, period, periods, x0, params, harmonics=harmonics,
-               max_harmonics=max_harmonics, harmonics_tol=harmonics_tol, samples=samples, t0=t0, tol=tol,
-               max_iter=max_iter, guess=guess, monodromy=monodromy, rtol=rtol, atol=atol,
-               raise_on_failure=raise_on_failure, initial_guess=initial_guess, transient=transient,
-               floor_tol=floor_tol, trivial=trivial, defect_tol=defect_tol, aft_tol=aft_tol,
-               max_samples=max_samples, floor_rel=floor_rel)

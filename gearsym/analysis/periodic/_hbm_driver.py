@@ -1,5 +1,6 @@
-"""The driver of :func:`gearsym.analysis.periodic.harmonic_balance`: guesses, harmonic growth,
-adaptive AFT sampling and the time-domain verification of every orbit.
+"""Harmonic balance, the solver: :func:`harmonic_balance` drives the AFT residual of
+:class:`~gearsym.analysis.periodic.HarmonicBalance` through guesses, harmonic growth, adaptive
+AFT sampling and the time-domain verification of every orbit.
 
 Per harmonic set of the growth (:mod:`gearsym.analysis.periodic._hbm_sets`):
 
@@ -33,20 +34,25 @@ import dataclasses
 import math
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ...errors import ConvergenceError, GearsymError, ParameterError
-from .._options import check_tolerances
+from .._options import check_tolerances, resolve_options
+from ._hbm import HarmonicBalance
 from ._hbm_sets import carriers_of, excitation_harmonics, growth_sets
 from ._isolation import isolation
-from ._orbit import VANISHING, PeriodicOrbit, finish_orbit
+from ._options import HarmonicBalanceOptions
+from ._orbit import VANISHING, PeriodicOrbit, SolvedOrbit, finish_orbit
 from ._rattle import mesh_rattle_states as rattle_states
 from ._verification import orbit_period
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
+
+__all__ = ["FIXED_HARMONICS_DEFECT", "harmonic_balance", "state_sizes", "time_defect"]
 
 #: Largest Jacobian (entries) that the automatic growth goes to: 2**26 doubles = 512 MiB.
 GROWTH_JACOBIAN_VALUES = 2 ** 26
@@ -116,260 +122,380 @@ def time_defect(system: CompiledSystem, x_start: np.ndarray, t0: float, period: 
     return float(np.max(d / sizes)), float(np.max(d)), tr
 
 
-def run(hb_cls, system: CompiledSystem, period: float | None, periods: float, x0: Sequence[float] | None,
-        params: Mapping[str, float] | None, *, harmonics: int | Sequence[int] | None, max_harmonics: int,
-        harmonics_tol: float | None, samples: int | None, t0: float, tol: float, max_iter: int,
-        guess: np.ndarray | PeriodicOrbit | None, monodromy: bool, rtol: float, atol: float,
-        raise_on_failure: bool, initial_guess: str, transient: float, floor_tol: float,
-        trivial: np.ndarray | None, defect_tol: float, aft_tol: float, max_samples: int,
-        floor_rel: float) -> PeriodicOrbit:
-    """The body of :func:`gearsym.analysis.periodic.harmonic_balance` (see there)."""
-    wall = time.perf_counter()
-    check_tolerances(tol=tol, rtol=rtol, atol=atol, defect_tol=defect_tol, aft_tol=aft_tol)
-    floor = atol / defect_tol  # the absolute floor of every state's size (see state_sizes)
-    if system.generated.implicit:
-        raise ParameterError("harmonic balance needs an explicit model (x' = f(t, x)); this one is in implicit "
-                             "(residual) form, a DAE: use shooting (method='shooting')")
-    period, periods = orbit_period(system, params, period, periods)  # a whole number of forcing periods
-    T = system.period(params)
-    nx = system.generated.nx
-    base = system.x0 if x0 is None else np.asarray(x0, float)
-    if base.shape != (nx,):
-        raise ParameterError(f"x0 must have {nx} entries, got shape {base.shape}")
-    if max_harmonics < 1:
-        raise ParameterError(f"max_harmonics must be >= 1, got {max_harmonics}")
+def harmonic_balance(system: CompiledSystem, period: float | None = None, periods: float = 1,
+                     x0: Sequence[float] | None = None, params: Mapping[str, float] | None = None, *,
+                     guess: np.ndarray | PeriodicOrbit | None = None, options: HarmonicBalanceOptions | None = None,
+                     **keywords: Any) -> PeriodicOrbit:
+    """Find a periodic orbit by harmonic balance (AFT + quasi-Newton).
 
-    # ---------------------------------------------------------- harmonic sets
-    carriers: list[int] = []
-    if harmonics is not None:
-        sets = [np.arange(1, int(harmonics) + 1) if isinstance(harmonics, (int, np.integer))
-                else np.asarray(list(harmonics), int)]
-        excitation: dict[int, float] = {}
-    else:
-        excitation = excitation_harmonics(system, period, base, params, t0)
-        carriers = [c for c in carriers_of(excitation) if c <= max_harmonics]
-        sets = growth_sets(carriers, max_harmonics)
+    Parameters
+    ----------
+    system
+        An explicit compiled system.
+    period, periods
+        Orbit period (default ``periods`` forcing periods; a positive whole number for a forced
+        system, and ``period`` a whole number of forcing periods).
+    x0
+        A state used as the constant term of the first guess (default: the
+        scene's initial state).
+    params
+        Parameter overrides (declared units, as ``--set``).
+    guess
+        Initial coefficients (shape (2H+1, nx)) or an orbit (e.g. from shooting)
+        to start from instead of the harmonic continuation.
+    options
+        The settings (:class:`~gearsym.analysis.periodic.HarmonicBalanceOptions`:
+        ``harmonics``, ``max_harmonics``, ``harmonics_tol``, ``samples``, ``t0``, ``tol``,
+        ``max_iter``, ``monodromy``, ``rtol``, ``atol``, ``raise_on_failure``,
+        ``initial_guess``, ``transient``, ``floor_tol``, ``trivial``, ``defect_tol``,
+        ``aft_tol``, ``max_samples``, ``floor_rel``; each documented there with its default).
+    **keywords
+        Any of those settings one by one (``harmonic_balance(system, harmonics=8)``); a
+        keyword wins over ``options``.
+
+    Returns
+    -------
+    PeriodicOrbit
+        With ``harmonics`` (the highest), ``coefficients`` (full layout, zeros outside
+        the set), ``info["harmonic_set"]``, ``info["harmonic_growth"]`` (per set:
+        harmonics, samples and their checks, iterations, residual, change, defect),
+        ``info["defect"] = max |phi(t0 + P, x0) - x0|`` and ``info["defect_relative"]``
+        (per state relative to its peak-to-peak).  The rattle state comes from the
+        harmonic series (``info["rattle_states_integration"]``: that of the integration).
+
+    Raises
+    ------
+    ParameterError
+        An implicit model, bad options, a keyword that is no setting of
+        :class:`~gearsym.analysis.periodic.HarmonicBalanceOptions`.
+    ConvergenceError
+        The balance did not converge, or it converged only relative to coefficients
+        blown up along a direction of a multiplier at +1 (no isolated orbit).
+    """
+    o = resolve_options(options, HarmonicBalanceOptions, keywords, "harmonic_balance")
+    return _Balance(system, params, o).run(period, periods, x0, guess)
+
+
+@dataclass
+class _Grown:
+    """The outcome of the harmonic growth from one initial guess (:meth:`_Balance.grow`)."""
+
+    hb: HarmonicBalance
+    C: np.ndarray
+    residual: float
+    converged: bool
+    failure: str
+    growth: list[dict[str, Any]]
+    iterations: int
+    history: list[dict[str, Any]]
+    verified: tuple[float, float, np.ndarray] | None  # (relative defect, absolute defect, state sizes)
+
+
+@dataclass
+class _Balance:
+    """One :func:`harmonic_balance` call: its harmonic sets, initial guesses, the solve of one set
+    with adaptive AFT samples, the growth through the sets and the assembled orbit."""
+
+    system: CompiledSystem
+    params: Mapping[str, float] | None
+    o: HarmonicBalanceOptions
+    excitation: dict[int, float] = field(default_factory=dict, init=False)
+    carriers: list[int] = field(default_factory=list, init=False)
+
+    def run(self, period: float | None, periods: float, x0: Sequence[float] | None,
+            guess: np.ndarray | PeriodicOrbit | None) -> PeriodicOrbit:
+        """The orbit (see :func:`harmonic_balance`)."""
+        wall = time.perf_counter()
+        o, system = self.o, self.system
+        check_tolerances(tol=o.tol, rtol=o.rtol, atol=o.atol, defect_tol=o.defect_tol, aft_tol=o.aft_tol)
+        self.floor = o.atol / o.defect_tol  # the absolute floor of every state's size (see state_sizes)
+        if system.generated.implicit:
+            raise ParameterError("harmonic balance needs an explicit model (x' = f(t, x)); this one is in implicit "
+                                 "(residual) form, a DAE: use shooting (method='shooting')")
+        self.period, self.periods = orbit_period(system, self.params, period, periods)  # whole forcing periods
+        self.T = system.period(self.params)
+        nx = system.generated.nx
+        self.base = system.x0 if x0 is None else np.asarray(x0, float)
+        if self.base.shape != (nx,):
+            raise ParameterError(f"x0 must have {nx} entries, got shape {self.base.shape}")
+        if o.max_harmonics < 1:
+            raise ParameterError(f"max_harmonics must be >= 1, got {o.max_harmonics}")
+        self.sets = self._harmonic_sets()
+        # no aliasing of the excitation onto the kept harmonics: samples above twice the highest one
+        self.M_exc = (default_samples(min(max(self.excitation), 4 * o.max_harmonics))
+                      if self.excitation and o.samples is None else None)
+        g, used, guess_scale, total_it, history, growth = self._solve_from(self._attempts(guess))
+        if not g.converged and o.raise_on_failure:
+            hist_txt = ", ".join(f"{h['residual']:.3g}" for h in history[-10:])
+            raise ConvergenceError(
+                f"harmonic balance did not converge ({len(g.hb.ks)} harmonics up to {g.hb.H}, initial guess "
+                f"'{used}'): {g.failure}; residual history [{hist_txt}]. Try a guess (guess=<orbit from "
+                f"shooting>), a different x0, more harmonics, or method='shooting'.")
+        return self._orbit(g, used, guess_scale, total_it, history, growth, wall)
+
+    # ---------------------------------------------------------- sets and guesses
+    def _harmonic_sets(self) -> list[np.ndarray]:
+        o, nx = self.o, self.system.generated.nx
+        if o.harmonics is not None:
+            return [np.arange(1, int(o.harmonics) + 1) if isinstance(o.harmonics, (int, np.integer))
+                    else np.asarray(list(o.harmonics), int)]
+        self.excitation = excitation_harmonics(self.system, self.period, self.base, self.params, o.t0)
+        self.carriers = [c for c in carriers_of(self.excitation) if c <= o.max_harmonics]
+        sets = growth_sets(self.carriers, o.max_harmonics)
         budget = [s for s in sets if float(nx * (2 * len(s) + 1)) ** 2 <= GROWTH_JACOBIAN_VALUES]
-        sets = budget or sets[:1]
+        return budget or sets[:1]
 
-    def first_set_H(C: np.ndarray) -> int:
-        return max(1, (C.shape[0] - 1) // 2)
-
-    H_sim = int(max(sets[0].max() if len(sets[0]) else 1, 16))
-    attempts: list[tuple[str, Any]] = []
-    if isinstance(guess, PeriodicOrbit):
-        Hg = int(max(s.max() if len(s) else 1 for s in sets))
-        attempts.append(("orbit", series_from_samples(guess.trajectory(n_out=max(64, 8 * Hg) + 1).y[:-1], Hg)))
-    elif guess is not None:
-        attempts.append(("coefficients", np.asarray(guess, float)))
-    else:
-        C_const = np.zeros((3, nx))
-        C_const[0] = base
+    def _attempts(self, guess: np.ndarray | PeriodicOrbit | None) -> list[tuple[str, Any]]:
+        """The initial guesses to try, in order: ``(name, coefficients or None)`` (``None``: a
+        simulated period, made when its turn comes)."""
+        attempts: list[tuple[str, Any]] = []
+        if isinstance(guess, PeriodicOrbit):
+            Hg = int(max(s.max() if len(s) else 1 for s in self.sets))
+            attempts.append(("orbit", series_from_samples(guess.trajectory(n_out=max(64, 8 * Hg) + 1).y[:-1], Hg)))
+            return attempts
+        if guess is not None:
+            return [("coefficients", np.asarray(guess, float))]
+        C_const = np.zeros((3, self.system.generated.nx))
+        C_const[0] = self.base
         attempts.append(("constant", C_const))
+        initial_guess = self.o.initial_guess
         if initial_guess == "auto":
             # with contact surfaces the constant state may sit in the gap (no stiffness): start
             # from a simulated period there, from the constant state (cheaper) otherwise
-            attempts.insert(0 if system.generated.nsw else 1, ("simulation", None))
+            attempts.insert(0 if self.system.generated.nsw else 1, ("simulation", None))
         elif initial_guess == "simulation":
             attempts = [("simulation", None)]
         elif initial_guess != "constant":
             raise ParameterError(f"initial_guess must be 'auto', 'constant' or 'simulation', got "
                                  f"'{initial_guess}'")
+        return attempts
 
-    def simulation_guess() -> np.ndarray:
-        Tt = T if T else period
-        n_tr = max(1, int(math.ceil(transient)))
-        Hs = int(max(s.max() if len(s) else 1 for s in sets))
-        tr = system.simulate(t_end=t0, t0=t0 - n_tr * Tt, x0=base, rtol=1e-8, atol=1e-10, n_out=2,
-                             params=params)
-        tr = system.simulate(t_end=t0 + period, t0=t0, x0=tr.x_final, rtol=1e-8, atol=1e-10,
-                             n_out=max(64, 8 * Hs, 8 * H_sim) + 1, params=params)
+    def _simulation_guess(self) -> np.ndarray:
+        """The harmonics of the last of ``transient`` forcing periods simulated from ``x0``."""
+        o, system, period = self.o, self.system, self.period
+        H_sim = int(max(self.sets[0].max() if len(self.sets[0]) else 1, 16))
+        Tt = self.T if self.T else period
+        n_tr = max(1, int(math.ceil(o.transient)))
+        Hs = int(max(s.max() if len(s) else 1 for s in self.sets))
+        tr = system.simulate(t_end=o.t0, t0=o.t0 - n_tr * Tt, x0=self.base, rtol=1e-8, atol=1e-10, n_out=2,
+                             params=self.params)
+        tr = system.simulate(t_end=o.t0 + period, t0=o.t0, x0=tr.x_final, rtol=1e-8, atol=1e-10,
+                             n_out=max(64, 8 * Hs, 8 * H_sim) + 1, params=self.params)
         return series_from_samples(tr.y[:-1], Hs)
 
-    # no aliasing of the excitation onto the kept harmonics: samples above twice the highest one
-    M_exc = default_samples(min(max(excitation), 4 * max_harmonics)) if excitation and samples is None else None
-
-    def solve_set(ks: np.ndarray, C_full: np.ndarray, M: int | None):
+    # ---------------------------------------------------------- one set
+    def _solve_set(self, ks: np.ndarray, C_full: np.ndarray, M: int | None):
         """Solve on one set; with ``samples=None`` double the samples until the residual on a
         grid twice as fine agrees: the Newton correction it implies moves no state by more than
         ``aft_tol`` of its size.  Returns (hb, C_full, solve outputs, aft checks)."""
+        o, system, period, params = self.o, self.system, self.period, self.params
         checks: list[dict[str, Any]] = []
-        if samples is None:
-            M = max(M or 0, M_exc or 0, default_samples(int(ks.max()) if len(ks) else 0))
+        if o.samples is None:
+            M = max(M or 0, self.M_exc or 0, default_samples(int(ks.max()) if len(ks) else 0))
         while True:
-            hb = hb_cls(system, period, ks, params, t0, M)
-            C, it, r, conv, hist, failure = hb.solve(hb.restrict(C_full), tol=tol, max_iter=max_iter,
-                                                     floor_tol=floor_tol, floor_rel=floor_rel, lm=True)
+            hb = HarmonicBalance(system, period, ks, params, o.t0, M)
+            C, it, r, conv, hist, failure = hb.solve(hb.restrict(C_full), tol=o.tol, max_iter=o.max_iter,
+                                                     floor_tol=o.floor_tol, floor_rel=o.floor_rel, lm=True)
             C_full = hb.full_coefficients(C)
-            if samples is not None or not hb.uniform or not conv or hb.floor or len(checks) >= 3 \
-                    or 2 * hb.M > max_samples:
+            if o.samples is not None or not hb.uniform or not conv or hb.floor or len(checks) >= 3 \
+                    or 2 * hb.M > o.max_samples:
                 # (a residual floor of a kinked residual is no sampling question; at most 8x)
                 return hb, C_full, (it, r, conv, hist, failure), checks
-            fine = hb_cls(system, period, ks, params, t0, 2 * hb.M)
+            fine = HarmonicBalance(system, period, ks, params, o.t0, 2 * hb.M)
             Rf = hb._flat(fine.residual(C))
             try:
                 dz = np.linalg.solve(hb.jacobian(C), -Rf)
             except np.linalg.LinAlgError:
                 return hb, C_full, (it, r, conv, hist, failure), checks
-            sizes = state_sizes(dense_series(C_full, max(1024, 4 * hb.H)), floor)
+            sizes = state_sizes(dense_series(C_full, max(1024, 4 * hb.H)), self.floor)
             move = float(np.max(np.sum(np.abs(hb._unflat(dz)), axis=0) / sizes))
             checks.append({"samples": hb.M, "correction": move})
-            if move <= aft_tol:
+            if move <= o.aft_tol:
                 return hb, C_full, (it, r, conv, hist, failure), checks
             M = 2 * hb.M
 
-    def grow(C: np.ndarray, stop_on_stall: bool):
-        growth: list[dict[str, Any]] = []
+    # ---------------------------------------------------------- the growth
+    def _grow(self, C: np.ndarray, stop_on_stall: bool) -> _Grown:
+        """Solve set after set (each from the previous solution) until the time-domain defect is
+        below ``defect_tol``, the defect blows up, or a solve fails (``stop_on_stall``)."""
+        o = self.o
+        g = _Grown(hb=None, C=C, residual=math.inf, converged=False, failure="", growth=[],  # type: ignore[arg-type]
+                   iterations=0, history=[], verified=None)
         prev_dense: np.ndarray | None = None
-        total_it = 0
-        history: list[dict[str, Any]] = []
-        hb = None
-        r, conv, failure = math.inf, False, ""
-        verified = None
-        M = samples
+        M = o.samples
         C_guess = C
         best: tuple[float, int] | None = None  # (smallest defect, its number of harmonics)
-        for j, ks in enumerate(sets):
-            hb, C, (it, r, conv, hist, failure), checks = solve_set(ks, C, M)
-            if not conv:
+        for j, ks in enumerate(self.sets):
+            g.hb, C, (it, g.residual, g.converged, hist, g.failure), checks = self._solve_set(ks, C, M)
+            if not g.converged:
                 C = C_guess  # the next set starts from the guess, not from a failed solve
-            if samples is None and len(checks) > 1:
-                M = hb.M  # the contact needed more samples: keep them for the next set
-            total_it += it
-            history += [dict(h, harmonics=len(ks)) for h in hist]
-            entry: dict[str, Any] = {"harmonics": len(ks), "max_harmonic": int(hb.H), "samples": hb.M,
-                                     "iterations": it, "residual": r, "relative_residual": hb.rel_residual}
+            if o.samples is None and len(checks) > 1:
+                M = g.hb.M  # the contact needed more samples: keep them for the next set
+            g.C = C
+            g.iterations += it
+            g.history += [dict(h, harmonics=len(ks)) for h in hist]
+            entry: dict[str, Any] = {"harmonics": len(ks), "max_harmonic": int(g.hb.H), "samples": g.hb.M,
+                                     "iterations": it, "residual": g.residual,
+                                     "relative_residual": g.hb.rel_residual}
             if checks:
                 entry["aft_checks"] = checks
-            if not conv:
-                growth.append(dict(entry, change=math.nan, peak_to_peak=math.nan, defect=math.nan,
-                                   note=f"not converged ({failure})"))
-                if stop_on_stall or j == len(sets) - 1:
+            if not g.converged:
+                g.growth.append(dict(entry, change=math.nan, peak_to_peak=math.nan, defect=math.nan,
+                                     note=f"not converged ({g.failure})"))
+                if stop_on_stall or j == len(self.sets) - 1:
                     break
                 prev_dense = None
                 continue
-            dense = dense_series(C, max(4096, 8 * hb.H))
-            sizes = state_sizes(dense, floor)
-            x_start = hb.x_at_t0(hb.restrict(C))
-            try:
-                d_rel, d_abs, _ = time_defect(system, x_start, t0, period, params, sizes, rtol, atol)
-            except GearsymError as exc:
-                d_rel, d_abs = math.inf, math.inf
-                failure = f"the integration from the balanced state failed: {exc}"
-            change = math.nan
-            if prev_dense is not None and prev_dense.shape == dense.shape:
-                change = float(np.max(np.max(np.abs(dense - prev_dense), axis=0) / sizes))
-            entry.update(change=change, peak_to_peak=float(np.ptp(dense[:, 0])), defect=d_rel,
-                         defect_abs=d_abs)
-            growth.append(entry)
+            dense, d_rel = self._verify_set(g, entry, prev_dense)
             prev_dense = dense
-            verified = (d_rel, d_abs, sizes)
-            if harmonics is not None:
+            if o.harmonics is not None:
                 break
-            if best is not None and not d_rel <= max(DEFECT_BLOWUP * best[0], defect_tol):
-                failure = (f"adding harmonics moved the balance away from the orbit: its time-domain defect "
-                           f"went from {best[0]:.3g} ({best[1]} harmonics) to {d_rel:.3g} ({len(ks)} harmonics)"
-                           + (" with the Newton iteration stopped on a residual floor" if hb.floor else "")
-                           + "; a nonsmooth orbit (contact loss) may need method='shooting'")
+            if best is not None and not d_rel <= max(DEFECT_BLOWUP * best[0], o.defect_tol):
+                g.failure = (f"adding harmonics moved the balance away from the orbit: its time-domain defect "
+                             f"went from {best[0]:.3g} ({best[1]} harmonics) to {d_rel:.3g} ({len(ks)} harmonics)"
+                             + (" with the Newton iteration stopped on a residual floor" if g.hb.floor else "")
+                             + "; a nonsmooth orbit (contact loss) may need method='shooting'")
                 entry["note"] = "growth stopped: the defect grew"
                 break
             if math.isfinite(d_rel) and (best is None or d_rel < best[0]):
                 best = (d_rel, len(ks))
-            if d_rel <= defect_tol and (harmonics_tol is None or (math.isfinite(change) and change < harmonics_tol)):
+            if d_rel <= o.defect_tol and (o.harmonics_tol is None or (math.isfinite(entry["change"])
+                                                                        and entry["change"] < o.harmonics_tol)):
                 break
-        return hb, C, r, conv, failure, growth, total_it, history, verified
+        return g
 
-    total_it = 0
-    history: list[dict[str, Any]] = []
-    growth: list[dict[str, Any]] = []
-    used = ""
-    guess_scale = 1.0
-    verified = None
-    hb = C = None
-    conv = False
-    failure = ""
-    for k, (name, C0) in enumerate(attempts):
-        if C0 is None:
-            C0 = simulation_guess()
-        guess_scale = max(1.0, float(np.max(np.abs(C0))) if np.size(C0) else 1.0)
-        last = k == len(attempts) - 1
-        hb, C, r, conv, failure, g, it, hist, verified = grow(C0, stop_on_stall=name == "constant" and not last)
-        total_it += it
-        history += [dict(h, initial_guess=name) for h in hist]
-        growth += [dict(x, initial_guess=name) for x in g]
-        used = name
-        if conv and harmonics is None and verified is not None and verified[0] > defect_tol:
-            conv = False
-            failure = failure or (
-                f"the time-domain defect of the balanced orbit is {verified[0]:.3g} of its size (above "
-                f"defect_tol={defect_tol:g}) with {len(hb.ks)} harmonics up to {hb.H}: more harmonics "
-                f"(max_harmonics={max_harmonics}) or method='shooting'")
-        if conv and harmonics is not None and verified is not None and \
-                not verified[0] <= max(defect_tol, FIXED_HARMONICS_DEFECT):
-            conv = False
-            failure = failure or (
-                f"one period integrated from the balanced state does not return to it: the time-domain defect is "
-                f"{verified[0]:.3g} of the orbit's size with the {len(hb.ks)} harmonics given (a balance with fixed "
-                f"harmonics counts as an orbit up to {max(defect_tol, FIXED_HARMONICS_DEFECT):g}): more harmonics, "
-                f"harmonics=None (grown until the defect is below defect_tol) or method='shooting'")
-        if conv:
-            break
-    assert hb is not None and C is not None
-    if not conv and raise_on_failure:
-        hist_txt = ", ".join(f"{h['residual']:.3g}" for h in history[-10:])
-        raise ConvergenceError(
-            f"harmonic balance did not converge ({len(hb.ks)} harmonics up to {hb.H}, initial guess '{used}'): "
-            f"{failure}; residual history [{hist_txt}]. Try a guess (guess=<orbit from shooting>), a different "
-            f"x0, more harmonics, or method='shooting'.")
-    x_start = hb.x_at_t0(hb.restrict(C))
-    mono = None
-    events: list = []
-    iso = None
-    rss_integration = None
-    mono_failure = None
-    d_rel, d_abs = (verified[0], verified[1]) if verified is not None else (math.nan, math.nan)
-    if monodromy and conv:
+    def _verify_set(self, g: _Grown, entry: dict[str, Any], prev_dense: np.ndarray | None
+                    ) -> tuple[np.ndarray, float]:
+        """The time-domain defect of a converged set (recorded in ``entry`` and ``g.verified``)."""
+        o = self.o
+        dense = dense_series(g.C, max(4096, 8 * g.hb.H))
+        sizes = state_sizes(dense, self.floor)
+        x_start = g.hb.x_at_t0(g.hb.restrict(g.C))
         try:
-            sizes = verified[2] if verified is not None else state_sizes(dense_series(C), floor)
-            d_rel, d_abs, tr = time_defect(system, x_start, t0, period, params, sizes, rtol, atol, monodromy=True)
-            mono = tr.monodromy
-            events = list(tr.events)
-            amp = np.max(np.abs(tr.y), axis=0)
-            iso = isolation(mono, np.maximum(amp, max(1e-9 * float(np.max(amp)), atol / tol)), rtol, trivial)
-            rss_integration = rattle_states(system, x_start, t0, events, params)
+            d_rel, d_abs, _ = time_defect(self.system, x_start, o.t0, self.period, self.params, sizes, o.rtol,
+                                          o.atol)
         except GearsymError as exc:
-            mono = None  # no multipliers ("unknown" stability), and why
-            mono_failure = f"the variational integration from the balanced state failed: {exc}"
-        if iso is not None and not iso.isolated and r > max(tol, floor_tol if hb.floor else tol) * guess_scale:
-            conv = False
-            failure = (f"{iso.reason()}: the balance's residual {r:.3g} is small only relative to coefficients "
-                       f"of size {float(np.max(np.abs(C))):.3g} (initial guess {guess_scale:.3g})")
-            if raise_on_failure:
-                raise ConvergenceError(f"harmonic balance: {failure}. Add damping, move the forcing off the "
-                                       f"resonance, or tighten rtol (now {rtol:g}) if the system is lightly "
+            d_rel, d_abs = math.inf, math.inf
+            g.failure = f"the integration from the balanced state failed: {exc}"
+        change = math.nan
+        if prev_dense is not None and prev_dense.shape == dense.shape:
+            change = float(np.max(np.max(np.abs(dense - prev_dense), axis=0) / sizes))
+        entry.update(change=change, peak_to_peak=float(np.ptp(dense[:, 0])), defect=d_rel, defect_abs=d_abs)
+        g.growth.append(entry)
+        g.verified = (d_rel, d_abs, sizes)
+        return dense, d_rel
+
+    def _solve_from(self, attempts: list[tuple[str, Any]]):
+        """Grow from each initial guess in turn until one converges (and closes in the time domain)."""
+        total_it = 0
+        history: list[dict[str, Any]] = []
+        growth: list[dict[str, Any]] = []
+        used = ""
+        guess_scale = 1.0
+        g: _Grown | None = None
+        for k, (name, C0) in enumerate(attempts):
+            if C0 is None:
+                C0 = self._simulation_guess()
+            guess_scale = max(1.0, float(np.max(np.abs(C0))) if np.size(C0) else 1.0)
+            last = k == len(attempts) - 1
+            g = self._grow(C0, stop_on_stall=name == "constant" and not last)
+            total_it += g.iterations
+            history += [dict(h, initial_guess=name) for h in g.history]
+            growth += [dict(x, initial_guess=name) for x in g.growth]
+            used = name
+            self._check_defect(g)
+            if g.converged:
+                break
+        assert g is not None and g.hb is not None
+        return g, used, guess_scale, total_it, history, growth
+
+    def _check_defect(self, g: _Grown) -> None:
+        """A converged balance is an orbit only if one period integrated from it closes."""
+        o = self.o
+        if not (g.converged and g.verified is not None):
+            return
+        if o.harmonics is None and g.verified[0] > o.defect_tol:
+            g.converged = False
+            g.failure = g.failure or (
+                f"the time-domain defect of the balanced orbit is {g.verified[0]:.3g} of its size (above "
+                f"defect_tol={o.defect_tol:g}) with {len(g.hb.ks)} harmonics up to {g.hb.H}: more harmonics "
+                f"(max_harmonics={o.max_harmonics}) or method='shooting'")
+        if o.harmonics is not None and not g.verified[0] <= max(o.defect_tol, FIXED_HARMONICS_DEFECT):
+            g.converged = False
+            g.failure = g.failure or (
+                f"one period integrated from the balanced state does not return to it: the time-domain defect is "
+                f"{g.verified[0]:.3g} of the orbit's size with the {len(g.hb.ks)} harmonics given (a balance with "
+                f"fixed harmonics counts as an orbit up to {max(o.defect_tol, FIXED_HARMONICS_DEFECT):g}): more "
+                f"harmonics, harmonics=None (grown until the defect is below defect_tol) or method='shooting'")
+
+    # ---------------------------------------------------------- the orbit
+    def _multipliers(self, g: _Grown, x_start: np.ndarray, guess_scale: float) -> dict[str, Any]:
+        """One variational integration from the balance's ``x(t0)``: the monodromy, the events,
+        the isolation and the rattle states of the integration; a balance that is small only
+        relative to coefficients blown up along a multiplier at +1 is no orbit."""
+        o, system = self.o, self.system
+        out: dict[str, Any] = {"mono": None, "events": [], "iso": None, "rss": None, "failure": None}
+        d_rel, d_abs = (g.verified[0], g.verified[1]) if g.verified is not None else (math.nan, math.nan)
+        if not (o.monodromy and g.converged):
+            out.update(d_rel=d_rel, d_abs=d_abs)
+            return out
+        try:
+            sizes = g.verified[2] if g.verified is not None else state_sizes(dense_series(g.C), self.floor)
+            d_rel, d_abs, tr = time_defect(system, x_start, o.t0, self.period, self.params, sizes, o.rtol, o.atol,
+                                           monodromy=True)
+            out["mono"] = tr.monodromy
+            out["events"] = list(tr.events)
+            amp = np.max(np.abs(tr.y), axis=0)
+            out["iso"] = isolation(tr.monodromy, np.maximum(amp, max(1e-9 * float(np.max(amp)), o.atol / o.tol)),
+                                   o.rtol, o.trivial)
+            out["rss"] = rattle_states(system, x_start, o.t0, out["events"], self.params)
+        except GearsymError as exc:
+            out["mono"] = None  # no multipliers ("unknown" stability), and why
+            out["failure"] = f"the variational integration from the balanced state failed: {exc}"
+        out.update(d_rel=d_rel, d_abs=d_abs)
+        iso = out["iso"]
+        if iso is not None and not iso.isolated and \
+                g.residual > max(o.tol, o.floor_tol if g.hb.floor else o.tol) * guess_scale:
+            g.converged = False
+            g.failure = (f"{iso.reason()}: the balance's residual {g.residual:.3g} is small only relative to "
+                         f"coefficients of size {float(np.max(np.abs(g.C))):.3g} (initial guess {guess_scale:.3g})")
+            if o.raise_on_failure:
+                raise ConvergenceError(f"harmonic balance: {g.failure}. Add damping, move the forcing off the "
+                                       f"resonance, or tighten rtol (now {o.rtol:g}) if the system is lightly "
                                        f"damped.")
-    bound = defect_tol if harmonics is None else max(defect_tol, FIXED_HARMONICS_DEFECT)
-    p = system.param_vector(params)
-    n_s = max(8192, 16 * hb.H)
-    series = (t0 + period * np.arange(n_s) / n_s, dense_series(C, n_s))
-    orbit = finish_orbit(
-        system, x0=x_start, period=period, periods=periods, t0=t0, monodromy=mono, iterations=total_it,
-        residual=r, converged=conv, method="hbm",
-        params={k: v for k, v in system.param_dict(p).items() if k in system.params},
-        events=events, samples=series, harmonics=hb.H, coefficients=C, history=history,
-        info={"harmonic_growth": growth, "harmonics_converged": bool(conv and d_rel <= defect_tol),
-              "verification": {"residual": d_abs, "relative": d_rel, "tolerance": bound, "ok": bool(d_rel <= bound),
-                               "how": "plain integration over one period from the balance's x(t0) (time-domain "
-                                      "defect relative to each state's peak-to-peak)"},
-              "defect": d_abs, "defect_relative": d_rel, "defect_tol": defect_tol,
-              "harmonic_set": [int(k) for k in hb.ks], "n_harmonics": len(hb.ks),
-              "excitation_harmonics": sorted(excitation), "carriers": carriers,
-              "initial_guess": used, "quadrature": hb.quadrature, "failure": failure or None,
-              "isolation": iso.to_dict() if iso is not None else None, "monodromy_failure": mono_failure,
-              "samples": hb.M, "tol": tol, "rtol": rtol, "atol": atol,
-              "relative_residual": hb.rel_residual, "residual_floor": bool(hb.floor),
-              "rattle_state_source": "harmonic series", "rattle_states_integration": rss_integration,
-              "wall_s": time.perf_counter() - wall})
-    # the rattle state of the balance is that of its own series, not of the integration
-    rss = rattle_states(system, x_start, t0, [], params, samples=series)
-    return dataclasses.replace(orbit, rattle_states=rss, rattle_state=max(rss.values()) if rss else None)
+        return out
+
+    def _orbit(self, g: _Grown, used: str, guess_scale: float, total_it: int, history: list[dict[str, Any]],
+               growth: list[dict[str, Any]], wall: float) -> PeriodicOrbit:
+        o, system, hb, C = self.o, self.system, g.hb, g.C
+        x_start = hb.x_at_t0(hb.restrict(C))
+        m = self._multipliers(g, x_start, guess_scale)
+        d_rel, d_abs = m["d_rel"], m["d_abs"]
+        bound = o.defect_tol if o.harmonics is None else max(o.defect_tol, FIXED_HARMONICS_DEFECT)
+        p = system.param_vector(self.params)
+        n_s = max(8192, 16 * hb.H)
+        series = (o.t0 + self.period * np.arange(n_s) / n_s, dense_series(C, n_s))
+        iso = m["iso"]
+        orbit = finish_orbit(system, SolvedOrbit(
+            x0=x_start, period=self.period, periods=self.periods, t0=o.t0, monodromy=m["mono"],
+            iterations=total_it, residual=g.residual, converged=g.converged, method="hbm",
+            params={k: v for k, v in system.param_dict(p).items() if k in system.params},
+            events=m["events"], samples=series),
+            harmonics=hb.H, coefficients=C, history=history,
+            info={"harmonic_growth": growth, "harmonics_converged": bool(g.converged and d_rel <= o.defect_tol),
+                  "verification": {"residual": d_abs, "relative": d_rel, "tolerance": bound,
+                                   "ok": bool(d_rel <= bound),
+                                   "how": "plain integration over one period from the balance's x(t0) (time-domain "
+                                          "defect relative to each state's peak-to-peak)"},
+                  "defect": d_abs, "defect_relative": d_rel, "defect_tol": o.defect_tol,
+                  "harmonic_set": [int(k) for k in hb.ks], "n_harmonics": len(hb.ks),
+                  "excitation_harmonics": sorted(self.excitation), "carriers": self.carriers,
+                  "initial_guess": used, "quadrature": hb.quadrature, "failure": g.failure or None,
+                  "isolation": iso.to_dict() if iso is not None else None, "monodromy_failure": m["failure"],
+                  "samples": hb.M, "tol": o.tol, "rtol": o.rtol, "atol": o.atol,
+                  "relative_residual": hb.rel_residual, "residual_floor": bool(hb.floor),
+                  "rattle_state_source": "harmonic series", "rattle_states_integration": m["rss"],
+                  "wall_s": time.perf_counter() - wall})
+        # the rattle state of the balance is that of its own series, not of the integration
+        rss = rattle_states(system, x_start, o.t0, [], self.params, samples=series)
+        return dataclasses.replace(orbit, rattle_states=rss, rattle_state=max(rss.values()) if rss else None)

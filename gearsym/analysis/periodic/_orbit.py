@@ -17,7 +17,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...errors import ParameterError
+from ...files import save_figure
 from ._fourier import synthesize
+from ._meshes import mesh_names, mesh_report
 from ._rattle import RATTLE_STATES, mesh_rattle_states
 from ._stability import floquet, rigid_state_basis, verdict
 
@@ -25,7 +27,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ...results import Event, Trajectory
     from ...system import CompiledSystem
 
-__all__ = ["VANISHING", "PeriodicOrbit", "finish_orbit"]
+__all__ = ["VANISHING", "PeriodicOrbit", "SolvedOrbit", "finish_orbit"]
 
 #: A state whose magnitude over an orbit is at most this fraction of the largest state's
 #: vanishes on it: it is round-off (e.g. the centre translations of a planetary set with
@@ -231,8 +233,6 @@ class PeriodicOrbit:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ...files import save_figure
-
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         files = []
@@ -309,8 +309,6 @@ class PeriodicOrbit:
         """
         if self.system is None:
             return {}
-        from ._meshes import mesh_names, mesh_report
-
         if not mesh_names(self.system):
             return {}
         if self.method == "hbm" and self.coefficients is not None:
@@ -387,25 +385,70 @@ def _refined_min(y: np.ndarray) -> float:
     return -_refined_max(-np.asarray(y))
 
 
-def finish_orbit(system: CompiledSystem, *, x0: np.ndarray, period: float, periods: float, t0: float,
-                 monodromy: np.ndarray | None, iterations: int, residual: float, converged: bool,
-                 method: str, params: Mapping[str, float], events: Sequence[Event],
-                 samples: tuple[np.ndarray, np.ndarray] | None = None,
-                 multipliers: tuple[np.ndarray, np.ndarray, float] | None = None,
-                 g0: np.ndarray | None = None, **extra: Any) -> PeriodicOrbit:
+@dataclass(frozen=True)
+class SolvedOrbit:
+    """What a periodic-orbit solver found, before the verdict: the input of :func:`finish_orbit`.
+
+    Attributes
+    ----------
+    x0 : ndarray
+        The state at ``t0``.
+    period, periods, t0 : float
+        The orbit period, its forcing periods and the phase of ``x0``.
+    monodromy : ndarray or None
+        The monodromy (``None``: no multipliers, "unknown" stability).
+    iterations : int
+        Newton (or quasi-Newton) iterations.
+    residual : float
+        The solver's final residual.
+    converged : bool
+        The solver's answer.
+    method : str
+        ``"shooting"`` or ``"hbm"``.
+    params : mapping
+        The run-time parameter values (declared units).
+    events : sequence of Event
+        The events over one period.
+    samples : tuple of ndarray or None
+        ``(t, x)`` of a dense series of the orbit (harmonic balance), for the rattle states.
+    multipliers : tuple or None
+        ``(mu, tolerances, delta)`` of the whole monodromy as
+        :func:`~gearsym.analysis.periodic.multiplier_tolerances` gives them, already computed (by
+        the driver); used for a model without rigid-body modes or algebraic states.
+    g0 : ndarray or None
+        The switching functions at ``(t0, x0)``, already evaluated (by the driver).
+    """
+
+    x0: np.ndarray
+    period: float
+    periods: float
+    t0: float
+    monodromy: np.ndarray | None
+    iterations: int
+    residual: float
+    converged: bool
+    method: str
+    params: Mapping[str, float]
+    events: Sequence[Event]
+    samples: tuple[np.ndarray, np.ndarray] | None = None
+    multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
+    g0: np.ndarray | None = None
+
+
+def finish_orbit(system: CompiledSystem, solved: SolvedOrbit, **extra: Any) -> PeriodicOrbit:
     """Assemble a :class:`PeriodicOrbit` (multipliers, verdict, rattle state).
 
     The multipliers are judged by :func:`gearsym.analysis.periodic.floquet` with the
     integration tolerance ``extra["info"]["monodromy_rtol"]`` (else ``["rtol"]``) and the
-    model's rigid-body subspace.  ``multipliers``: ``(mu, tolerances, delta)`` of the whole
-    monodromy as :func:`~gearsym.analysis.periodic.multiplier_tolerances` gives them, already
-    computed (by the driver); used for a model without rigid-body modes or algebraic states.
-    ``g0``: the switching functions at ``(t0, x0)``, already evaluated (by the driver).
+    model's rigid-body subspace; the driver's ``solved.multipliers`` are taken as they are
+    where they apply.  ``extra``: further fields of the orbit (``info``, ``history``,
+    ``segments``, ``harmonics``, ...).
     """
     info = extra.get("info") or {}
     rtol = float(info.get("monodromy_rtol", info.get("rtol", 1e-10)))
     nd = getattr(system, "differential_states", None)  # DAE: the multipliers of the differential states
-    basis = rigid_state_basis(system, params)
+    monodromy, multipliers = solved.monodromy, solved.multipliers
+    basis = rigid_state_basis(system, solved.params)
     if multipliers is not None and basis is None and monodromy is not None and \
             nd in (None, np.shape(monodromy)[0]) and len(multipliers[0]) == np.shape(monodromy)[0]:
         fq = verdict(*multipliers)
@@ -413,11 +456,13 @@ def finish_orbit(system: CompiledSystem, *, x0: np.ndarray, period: float, perio
         fq = floquet(None if monodromy is None else np.asarray(monodromy)[:nd, :nd], rtol, basis)
     info.update({"monodromy_error": fq.monodromy_error, "rigid_split": fq.info.get("rigid_split"),
                  "invariance_defect": fq.invariance_defect})
-    rss = mesh_rattle_states(system, x0, t0, events, params, samples=samples, g0=g0)
-    return PeriodicOrbit(x0=np.asarray(x0, float), period=float(period), periods=float(periods),
-                         t0=float(t0), monodromy=monodromy, multipliers=fq.multipliers, stable=fq.stable,
-                         iterations=int(iterations), residual=float(residual), converged=bool(converged),
-                         method=method, state_names=system.state_names, params=dict(params),
-                         rattle_state=max(rss.values()) if rss else None, events=list(events), system=system,
-                         stability=fq.stability, trivial_multipliers=fq.trivial,
+    rss = mesh_rattle_states(system, solved.x0, solved.t0, solved.events, solved.params, samples=solved.samples,
+                             g0=solved.g0)
+    return PeriodicOrbit(x0=np.asarray(solved.x0, float), period=float(solved.period),
+                         periods=float(solved.periods), t0=float(solved.t0), monodromy=monodromy,
+                         multipliers=fq.multipliers, stable=fq.stable, iterations=int(solved.iterations),
+                         residual=float(solved.residual), converged=bool(solved.converged), method=solved.method,
+                         state_names=system.state_names, params=dict(solved.params),
+                         rattle_state=max(rss.values()) if rss else None, events=list(solved.events),
+                         system=system, stability=fq.stability, trivial_multipliers=fq.trivial,
                          multiplier_tolerances=fq.tolerances, rattle_states=rss, **extra)

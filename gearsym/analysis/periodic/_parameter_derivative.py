@@ -17,33 +17,24 @@ the continuation keeps its finite difference: the harmonic-balance residual, imp
 (IDA) models, systems whose build with the parameter derivatives cannot be made (the
 first exact ``F_lambda`` makes it: :meth:`gearsym.system.System.derivative_engine`), and
 integrations that fail for the sensitivities only (a grazing event, where the event-time
-derivative is infinite).  :func:`finite_difference_f_lambda` forces the finite difference (benchmarks).
+derivative is infinite).  A residual made with ``f_lambda="finite_difference"`` (the
+continuation's option of that name) uses the finite difference throughout (comparisons,
+benchmarks): a setting of the problem, not a switch of the process.
 """
 
 from __future__ import annotations
 
-import contextlib
-from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
 from ...errors import CompileError, GearsymError
 
-__all__ = ["exact_f_lambda", "finite_difference_f_lambda", "sensitivity_setup"]
+__all__ = ["F_LAMBDA", "exact_f_lambda", "sensitivity_setup"]
 
-_FORCE_FD = [False]
-
-
-@contextlib.contextmanager
-def finite_difference_f_lambda() -> Iterator[None]:
-    """Within this block continuation uses the finite-difference ``F_lambda`` (for comparisons)."""
-    old = _FORCE_FD[0]
-    _FORCE_FD[0] = True
-    try:
-        yield
-    finally:
-        _FORCE_FD[0] = old
+#: How a continuation residual gets ``F_lambda``: from the engine's parameter sensitivities where
+#: they are available (else the finite difference), or always by the finite difference.
+F_LAMBDA = ("exact", "finite_difference")
 
 
 def sensitivity_setup(res: Any, lam: float) -> tuple[dict[str, float], np.ndarray, float] | None:
@@ -51,12 +42,12 @@ def sensitivity_setup(res: Any, lam: float) -> tuple[dict[str, float], np.ndarra
 
     Returns ``(inputs, p, dP)``: the parameter overrides, the parameter vector and
     ``d P / d lambda`` of the orbit period ``P = periods * T``.  Cached per ``lambda`` on
-    the residual (the corrector asks at a few values many times).  ``None``: finite
-    differences forced (:func:`finite_difference_f_lambda`), not a shooting residual, no
-    derivative build (or its compilation failed: not retried).
+    the residual (the corrector asks at a few values many times).  ``None``: the residual's
+    ``f_lambda`` is ``"finite_difference"``, not a shooting residual, no derivative build (or
+    its compilation failed: not retried).
     """
     system = res.system
-    if _FORCE_FD[0] or not system.has_derivatives or not hasattr(res, "segments") or not hasattr(res, "times"):
+    if getattr(res, "f_lambda", "exact") != "exact" or not system.has_derivatives or not hasattr(res, "segments") or not hasattr(res, "times"):
         return None
     cache = res.__dict__.setdefault("_sens_setup_cache", {})
     key = float(lam)

@@ -18,7 +18,7 @@ import numpy as np
 from ...errors import GearsymError, ParameterError
 from ...results import Event, Flow
 from ._floquet import monodromy_product
-from ._parameter_derivative import exact_f_lambda, sensitivity_setup
+from ._parameter_derivative import F_LAMBDA, exact_f_lambda, sensitivity_setup
 from ._stability import rigid_state_basis
 from ._verification import Closure, closure
 
@@ -217,11 +217,15 @@ class ShootingResidual(PeriodicOrbitProblem):
         Step of the central difference ``F_lambda``.
     method
         Integrator.
+    f_lambda
+        ``"exact"`` (default): ``F_lambda`` from the engine's parameter sensitivities where
+        they are available, else the finite difference; ``"finite_difference"``: always the
+        finite difference (:mod:`gearsym.analysis.periodic._parameter_derivative`).
     """
 
     def __init__(self, system: CompiledSystem, param: str, periods: float = 1, params: Mapping[str, float] | None = None,
                  segments: int = 1, t0: float = 0.0, rtol: float = 1e-10, atol: float = 1e-12,
-                 fd_step: float = 1e-6, method: str | None = None):
+                 fd_step: float = 1e-6, method: str | None = None, f_lambda: str = "exact"):
         self.system = system
         self.param = param
         self.periods = float(periods)
@@ -233,6 +237,9 @@ class ShootingResidual(PeriodicOrbitProblem):
         self.rtol, self.atol = float(rtol), float(atol)
         self.fd_step = float(fd_step)
         self.method = method
+        if f_lambda not in F_LAMBDA:
+            raise ParameterError(f"f_lambda must be one of {', '.join(F_LAMBDA)}, got '{f_lambda}'")
+        self.f_lambda = f_lambda
         self.nx = system.generated.nx
         self.n = self.segments * self.nx
         self.n_evals = 0

@@ -38,6 +38,7 @@ import functools
 import math
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -51,7 +52,7 @@ from ._floquet import monodromy_product
 from ._isolation import Isolation, isolation, monodromy_error, truncated_solve
 from ._newton import NewtonPolicy, damped_newton
 from ._options import ShootingOptions
-from ._orbit import PeriodicOrbit, finish_orbit
+from ._orbit import PeriodicOrbit, SolvedOrbit, finish_orbit
 from ._problems import flow_events, log_events, segment_jacobian, segment_times
 from ._stability import rigid_state_basis
 from ._verification import orbit_period, segment_closure
@@ -59,50 +60,12 @@ from ._verification import orbit_period, segment_closure
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
 
-__all__ = ["flow", "shoot"]
-
-
-def flow(system: CompiledSystem, x: Sequence[float], t0: float, t1: float, params: Mapping[str, float] | np.ndarray | None,
-         rtol: float, atol: float, jacobian: bool = True, fd_step: float = 1e-6,
-         method: str | None = None, n_out: int = 2, with_amplitude: bool = False, max_step: float | None = None
-         ) -> tuple[Any, ...]:
-    """The flow map ``phi(t1, t0, x)``, its Jacobian and the events on the way.
-
-    One call of :meth:`gearsym.system.System.flow` (the engine's cheap path: no output
-    grid, no trajectory object).  The Jacobian is the engine's variational monodromy, or for an
-    implicit model without one, central finite differences with step ``fd_step * max(1, |x_j|)``.  ``params`` may be the parameter vector itself.  With
-    ``with_amplitude`` also ``max |x_i(t)|`` over ``n_out`` evenly spaced points.  ``max_step``
-    as for :meth:`~gearsym.system.System.flow` (default an eighth of the forcing period).
-    """
-    x = np.asarray(x, float)
-    pv = params if isinstance(params, np.ndarray) else system.param_vector(params)
-    implicit = system.generated.implicit
-    fl = system.flow(x, t0, t1, pv, rtol=rtol, atol=atol, monodromy=bool(jacobian),
-                     method=method, n_samples=n_out, max_step=max_step)
-    M = fl.monodromy  # the engine's variational equations, where it has them
-    if jacobian and implicit and M is None:
-        n = len(x)
-        M = np.empty((n, n))
-        for j in range(n):
-            h = fd_step * max(1.0, abs(x[j]))
-            e = np.zeros(n)
-            e[j] = h
-            xp = system.flow(x + e, t0, t1, pv, rtol=rtol, atol=atol, monodromy=False, method=method).x_final
-            xm = system.flow(x - e, t0, t1, pv, rtol=rtol, atol=atol, monodromy=False, method=method).x_final
-            M[:, j] = (xp - xm) / (2 * h)
-    events = flow_events(system, fl)
-    if with_amplitude:
-        return np.asarray(fl.x_final, float), M, events, fl.amplitude
-    return np.asarray(fl.x_final, float), M, events
+__all__ = ["shoot"]
 
 
 def shoot(system: CompiledSystem, period: float | None = None, periods: float = 1,
           x0: Sequence[float] | None = None, params: Mapping[str, float] | None = None, *,
-          segments: int = 1, t0: float = 0.0, transient: float | None = None, tol: float = 1e-10,
-          rtol: float = 1e-11, atol: float = 1e-13, max_iter: int = 50, min_step: float = 2.0 ** -12,
-          raise_on_failure: bool = True, method: str | None = None,
-          relax_periods: float = 200, trivial: np.ndarray | None = None,
-          options: ShootingOptions | None = None) -> PeriodicOrbit:
+          options: ShootingOptions | None = None, **keywords: Any) -> PeriodicOrbit:
     """Find a periodic orbit by (multiple) shooting with damped Newton.
 
     Parameters
@@ -120,43 +83,14 @@ def shoot(system: CompiledSystem, period: float | None = None, periods: float = 
         after ``transient`` periods.
     params
         Parameter overrides (declared units, as ``--set``).
-    segments
-        Number of shooting segments (1: single shooting).
-    t0
-        Phase of the orbit's reference state (a multiple of the forcing period).
-    transient
-        Number of forcing periods to integrate before Newton (default: 0 when
-        ``x0`` is given, else the scene's ``transient_periods`` or 20), ending at a
-        time congruent to ``t0``.
-    tol
-        Convergence: ``max_i |residual_i| / s_i <= tol`` with ``s_i`` the largest
-        ``|x_i|`` along the trajectory, at least ``atol / tol`` (a relative tolerance per
-        state, so states in different units are treated alike, and a residual below
-        ``atol`` always converges); also accepted: a full Newton step below ``tol``
-        (relative) with the residual within ``100 tol`` (integration noise).
-    rtol, atol
-        Integrator tolerances (the variational equations use them too).
-    max_iter
-        Newton iteration limit.
-    min_step
-        Smallest damping factor tried before giving up.
-    raise_on_failure
-        Raise :class:`ConvergenceError` if Newton fails (else return the last
-        iterate with ``converged=False``).
-    method
-        Integrator (``"bdf"``, ``"adams"``; ``"ida"`` for implicit models).
-    relax_periods
-        When the damped Newton step cannot reduce the residual, integrate blocks
-        of forcing periods from the current iterate (this converges towards an
-        attracting orbit) and resume Newton, up to this many periods in all
-        (0: never; unstable orbits need a good ``x0`` instead).
-    trivial
-        Known trivial directions of the state space (nx x k), e.g. the rigid-body mode
-        of a semi-definite model: a multiplier +1 whose eigenvector lies in their span
-        does not count against the orbit's isolation.  Default: none.
     options
-        A :class:`~gearsym.analysis.periodic.ShootingOptions` with all of the settings above
-        (``segments`` .. ``trivial``); a keyword not at its default overrides it.
+        The settings (:class:`~gearsym.analysis.periodic.ShootingOptions`: ``segments``,
+        ``t0``, ``transient``, ``tol``, ``rtol``, ``atol``, ``max_iter``, ``min_step``,
+        ``raise_on_failure``, ``method``, ``relax_periods``, ``trivial``; each documented
+        there with its default).
+    **keywords
+        Any of those settings one by one (``shoot(system, rtol=1e-9)``); a keyword wins over
+        ``options``.
 
     Returns
     -------
@@ -169,7 +103,8 @@ def shoot(system: CompiledSystem, period: float | None = None, periods: float = 
     ------
     ParameterError
         ``periods`` not a positive whole number (or ``period`` not a whole number of forcing
-        periods), bad options.
+        periods), bad options, a keyword that is no setting of
+        :class:`~gearsym.analysis.periodic.ShootingOptions`.
     ConvergenceError
         Newton did not converge (message: residual history, last iterate, advice), the
         converged state failed its verification, or there is no isolated orbit (a multiplier at +1 to working precision and a
@@ -178,54 +113,209 @@ def shoot(system: CompiledSystem, period: float | None = None, periods: float = 
         The first integration already fails.
     """
     wall = time.perf_counter()
-    o = resolve_options(options, ShootingOptions, segments=segments, t0=t0, transient=transient, tol=tol,
-                        rtol=rtol, atol=atol, max_iter=max_iter, min_step=min_step,
-                        raise_on_failure=raise_on_failure, method=method, relax_periods=relax_periods,
-                        trivial=trivial)
-    segments, t0, transient, tol, rtol, atol = o.segments, o.t0, o.transient, o.tol, o.rtol, o.atol
-    max_iter, min_step, raise_on_failure, method = o.max_iter, o.min_step, o.raise_on_failure, o.method
-    relax_periods, trivial = o.relax_periods, o.trivial
-    check_tolerances(tol=tol, rtol=rtol, atol=atol)
+    o = resolve_options(options, ShootingOptions, keywords, "shoot")
+    check_tolerances(tol=o.tol, rtol=o.rtol, atol=o.atol)
     period, periods = orbit_period(system, params, period, periods)  # a whole number of forcing periods
-    T = system.period(params)
-    segments = int(segments)
-    if segments < 1:
-        raise ParameterError(f"segments must be >= 1, got {segments}")
-    nx = system.generated.nx
-    check_shooting(segments, nx)  # the (segments nx)^2 Jacobian within the budget (gearsym.budget)
+    problem = ShootingProblem(system, params, o, period, periods)
+    X = problem.initial_states(x0)
+    newton = problem.solve(X)
+    verdict = problem.judge(newton)
+    if not verdict.converged and o.raise_on_failure:
+        raise problem.failure_error(newton, verdict)
+    wall = time.perf_counter() - wall
+    orbit = finish_orbit(system, SolvedOrbit(
+        x0=newton.X[0].copy(), period=period, periods=periods, t0=o.t0, monodromy=verdict.monodromy,
+        iterations=newton.iterations, residual=newton.residual, converged=verdict.converged, method="shooting",
+        params=system.run_params(params), events=newton.events,
+        multipliers=newton.fast.multipliers if newton.fast is not None else None,
+        g0=newton.fast.g0 if newton.fast is not None else None),
+        segments=problem.segments, segment_states=newton.X.copy(),
+        segment_monodromies=[np.asarray(M) for M in newton.monodromies if M is not None], history=problem.history,
+        info={"rtol": o.rtol, "atol": o.atol, "tol": o.tol, "wall_s": wall, "failure": verdict.failure or None,
+              "monodromy_rtol": max(o.rtol / 1e-6, 1e-12) if system.generated.implicit else o.rtol,
+              "rigid_anchor": problem.anchor is not None,
+              "relative_residual": newton.relative_residual, "state_scales": problem.scale.tolist(),
+              "isolation": verdict.isolation.to_dict() if verdict.isolation is not None else None})
+    return _verified(orbit, problem.s, problem.pvec, method=o.method, max_step=problem.max_step,
+                     raise_on_failure=o.raise_on_failure)
 
-    # ---------------------------------------------------------------- initial guess
-    guess = system.x0 if x0 is None else np.asarray(x0, float)
-    if guess.shape != (nx,):
-        raise ParameterError(f"x0 must have {nx} entries ({', '.join(system.state_names)}), got {guess.shape}")
-    if transient is None:
-        transient = 0 if x0 is not None else float(system.defaults.get("transient_periods", 20))
-    Tt = T if T else period
-    if transient and transient > 0:
-        n_tr = max(1, int(math.ceil(transient)))
-        tr = system.simulate(t_end=t0, t0=t0 - n_tr * Tt, x0=guess, rtol=max(rtol, 1e-9),
-                             atol=max(atol, 1e-11), n_out=2, params=params, method=method)
-        guess = tr.x_final
-    s = segment_times(t0, period, segments)
-    if segments == 1:
-        X = guess[None, :].copy()
-    else:
-        tr = system.simulate(t_end=s[-1], t0=s[0], x0=guess, rtol=max(rtol, 1e-9), atol=max(atol, 1e-11),
-                             t_out=s, params=params, method=method)
-        X = np.array(tr.y[:-1], float)
 
-    # ---------------------------------------------------------------- residual
-    n_amp = max(3, int(math.ceil(16 / segments)) + 1)
-    pvec = system.param_vector(params)
-    max_step = T / 8 if T else 0.0  # System.flow's default, computed once
-    scale_box = [np.ones(nx)]  # the scales of the last evaluation (see scales())
+@dataclass
+class NewtonRun:
+    """Where the shooting Newton iteration ended (:meth:`ShootingProblem.solve`).
 
-    def evaluate(X: np.ndarray, jac: bool = True):
+    Attributes
+    ----------
+    X : ndarray
+        The segment start states, shape ``(segments, nx)``.
+    monodromies : list of ndarray or None
+        The segment monodromies at ``X``.
+    events : list of Event
+        The events of the last integration.
+    iterations : int
+        Newton steps (C and Python).
+    converged : bool
+        Whether the residual met the tolerance.
+    residual, relative_residual : float
+        ``max |R|`` and ``max |R_i| / s_i``.
+    failure : str
+        Why not (empty when converged).
+    fast : ShootOutcome or None
+        The C iteration's outcome where it converged (its multipliers, isolation, ``g0``).
+    """
+
+    X: np.ndarray
+    monodromies: list[np.ndarray | None]
+    events: list[Any]
+    iterations: int
+    converged: bool
+    residual: float
+    relative_residual: float
+    failure: str = ""
+    fast: Any = None
+
+
+@dataclass
+class ShootingVerdict:
+    """The orbit's judgement after Newton (:meth:`ShootingProblem.judge`).
+
+    Attributes
+    ----------
+    monodromy : ndarray or None
+        The product of the segment monodromies.
+    isolation : Isolation or None
+        Whether the monodromy pins the orbit down.
+    converged : bool
+        Newton's answer, withdrawn where the orbit is not isolated.
+    spurious : bool
+        Newton converged, but along a direction the monodromy does not determine.
+    failure : str
+        Why the orbit is not reported as converged.
+    """
+
+    monodromy: np.ndarray | None
+    isolation: Isolation | None
+    converged: bool
+    spurious: bool
+    failure: str
+
+
+@dataclass(eq=False)
+class ShootingProblem:
+    """The (multiple) shooting problem of one :func:`shoot` call (in the style of
+    BifurcationKit's ``ShootingProblem``): one object called for the residual and its Jacobian
+    (:meth:`evaluate`), the Newton step (:meth:`direction`), the convergence test
+    (:meth:`converged`) and the relaxation by integration where Newton stalls (:meth:`stalled`);
+    :meth:`solve` runs the damped Newton iteration (the C iteration first where it applies),
+    :meth:`judge` decides what the monodromy says about the result.
+
+    Parameters
+    ----------
+    system
+        The compiled system.
+    params
+        Parameter overrides (declared units).
+    options
+        The resolved settings.
+    period, periods
+        The orbit period and its number of forcing periods.
+    """
+
+    system: CompiledSystem
+    params: Mapping[str, float] | None
+    options: ShootingOptions
+    period: float
+    periods: float
+    history: list[dict[str, Any]] = field(default_factory=list, init=False)
+
+    def __post_init__(self) -> None:
+        system, o = self.system, self.options
+        T = system.period(self.params)
+        self.segments = segments = int(o.segments)
+        if segments < 1:
+            raise ParameterError(f"segments must be >= 1, got {segments}")
+        self.nx = nx = system.generated.nx
+        check_shooting(segments, nx)  # the (segments nx)^2 Jacobian within the budget (gearsym.budget)
+        self.forcing_period = T if T else self.period
+        self.s = segment_times(o.t0, self.period, segments)
+        self.n_amp = max(3, int(math.ceil(16 / segments)) + 1)
+        self.pvec = system.param_vector(self.params)
+        self.max_step = T / 8 if T else 0.0  # System.flow's default, computed once
+        self.scale = np.ones(nx)  # the per-state scales of the last evaluation
+        self.anchor = _anchor_rows(system, self.params, segments)
+        self.relaxed = 0  # forcing periods of relaxation by integration so far
+        self.relax_block = max(1, int(math.ceil(10 * max(1.0, float(self.periods)))))
+        self.it_offset = 0  # Newton steps the C iteration took before the Python one resumed
+
+    # ------------------------------------------------------------ states
+    def initial_states(self, x0: Sequence[float] | None) -> np.ndarray:
+        """The segment start states of the first Newton iterate: ``x0`` (default the scene's
+        initial state) after the transient, integrated to the segment times."""
+        system, o = self.system, self.options
+        guess = system.x0 if x0 is None else np.asarray(x0, float)
+        if guess.shape != (self.nx,):
+            raise ParameterError(f"x0 must have {self.nx} entries ({', '.join(system.state_names)}), "
+                                 f"got {guess.shape}")
+        transient = o.transient
+        if transient is None:
+            transient = 0 if x0 is not None else float(system.defaults.get("transient_periods", 20))
+        if transient and transient > 0:
+            guess = self._integrate_periods(guess, max(1, int(math.ceil(transient))))
+        return self._spread(guess)
+
+    def _integrate_periods(self, x: np.ndarray, n_periods: int) -> np.ndarray:
+        """The state at ``t0`` after ``n_periods`` forcing periods from ``x``."""
+        o = self.options
+        tr = self.system.simulate(t_end=self.s[0], t0=self.s[0] - n_periods * self.forcing_period, x0=x,
+                                  rtol=max(o.rtol, 1e-9), atol=max(o.atol, 1e-11), n_out=2, params=self.params,
+                                  method=o.method)
+        return tr.x_final
+
+    def _spread(self, x: np.ndarray) -> np.ndarray:
+        """The segment start states of the trajectory from ``x`` at ``t0``."""
+        if self.segments == 1:
+            return x[None, :].copy()
+        o = self.options
+        tr = self.system.simulate(t_end=self.s[-1], t0=self.s[0], x0=x, rtol=max(o.rtol, 1e-9),
+                                  atol=max(o.atol, 1e-11), t_out=self.s, params=self.params, method=o.method)
+        return np.array(tr.y[:-1], float)
+
+    # ------------------------------------------------------------ residual
+    def segment_flow(self, i: int, x: np.ndarray, jac: bool) -> tuple[np.ndarray, np.ndarray | None, list, np.ndarray]:
+        """``phi(s_{i+1}, s_i, x)``, its Jacobian, the events on the way and ``max |x_j(t)|``.
+
+        One call of :meth:`gearsym.system.CompiledSystem.flow` (the engine's cheap path: no
+        output grid, no trajectory object).  The Jacobian is the engine's variational
+        monodromy, or for an implicit model without one, central finite differences with step
+        ``1e-6 max(1, |x_j|)``; the amplitude over ``n_amp`` evenly spaced points.
+        """
+        system, o = self.system, self.options
+        t0, t1 = self.s[i], self.s[i + 1]
+        fl = system.flow(x, t0, t1, self.pvec, rtol=o.rtol, atol=o.atol, monodromy=bool(jac),
+                         method=o.method, n_samples=self.n_amp, max_step=self.max_step)
+        M = fl.monodromy  # the engine's variational equations, where it has them
+        if jac and system.generated.implicit and M is None:
+            n = len(x)
+            M = np.empty((n, n))
+            for j in range(n):
+                h = 1e-6 * max(1.0, abs(x[j]))
+                e = np.zeros(n)
+                e[j] = h
+                xp = system.flow(x + e, t0, t1, self.pvec, rtol=o.rtol, atol=o.atol, monodromy=False,
+                                 method=o.method).x_final
+                xm = system.flow(x - e, t0, t1, self.pvec, rtol=o.rtol, atol=o.atol, monodromy=False,
+                                 method=o.method).x_final
+                M[:, j] = (xp - xm) / (2 * h)
+        return np.asarray(fl.x_final, float), M, flow_events(system, fl), fl.amplitude
+
+    def evaluate(self, X: np.ndarray, jac: bool = True) -> tuple[np.ndarray, list, list]:
+        """The residual ``R_i = phi(s_{i+1}, s_i, X_i) - X_{i+1}`` (shape ``(segments, nx)``), the
+        segment monodromies (``jac``) and the events; updates the per-state scales."""
+        segments, nx, o = self.segments, self.nx, self.options
         xs, Ms, evs = [], [], []
         a = np.zeros(nx)
         for i in range(segments):
-            xe, M, ev, ai = flow(system, X[i], s[i], s[i + 1], pvec, rtol, atol, jacobian=jac,
-                                 method=method, n_out=n_amp, with_amplitude=True, max_step=max_step)
+            xe, M, ev, ai = self.segment_flow(i, np.asarray(X[i], float), jac)
             xs.append(xe)
             Ms.append(M)
             evs.extend(ev)
@@ -235,37 +325,25 @@ def shoot(system: CompiledSystem, period: float | None = None, periods: float = 
         # (floor atol/tol: a residual below the integrator's atol always counts as
         # converged, e.g. for the trivial orbit x = 0 of a homogeneous linear system)
         top = float(a.max()) if a.size else 0.0
-        scale_box[0] = np.maximum(a, max(1e-9 * top, atol / tol)) if math.isfinite(top) else np.ones(nx)
+        self.scale = np.maximum(a, max(1e-9 * top, o.atol / o.tol)) if math.isfinite(top) else np.ones(nx)
         R = xs[0] - X[1 % segments] if segments == 1 else np.array(
             [xs[i] - X[(i + 1) % segments] for i in range(segments)])
         return R.reshape(segments, nx), Ms, evs
 
-    def scales() -> np.ndarray:
-        return scale_box[0]
+    def rel(self, A: np.ndarray) -> float:
+        """``max |A_i| / s_i`` with the per-state scales of the last evaluation."""
+        return float((np.abs(A) / self.scale).max())
 
-    def rel(A: np.ndarray) -> float:
-        return float((np.abs(A) / scale_box[0]).max())
-
-    def _relax(X: np.ndarray, n_periods: int) -> np.ndarray:
-        tr = system.simulate(t_end=s[0], t0=s[0] - n_periods * Tt, x0=X[0], rtol=max(rtol, 1e-9),
-                             atol=max(atol, 1e-11), n_out=2, params=params, method=method)
-        x = tr.x_final
-        if segments == 1:
-            return x[None, :].copy()
-        tr = system.simulate(t_end=s[-1], t0=s[0], x0=x, rtol=max(rtol, 1e-9), atol=max(atol, 1e-11),
-                             t_out=s, params=params, method=method)
-        return np.array(tr.y[:-1], float)
-
-    anchor = _anchor_rows(system, params, segments)
-    relaxed = 0
-    relax_block = max(1, int(math.ceil(10 * max(1.0, float(periods)))))
-    history: list[dict[str, Any]] = []
-
+    @staticmethod
     def norm(ev: tuple) -> float:
+        """``max |R|`` of an evaluation."""
         return float(np.max(np.abs(ev[0])))
 
-    def is_converged(ev: tuple, size: float, damping: float) -> str | None:
-        r = rel(ev[0])
+    # ------------------------------------------------------------ Newton
+    def converged(self, ev: tuple, size: float, damping: float) -> str | None:
+        """The convergence note (``""``: within tolerance), or ``None`` while not converged."""
+        tol = self.options.tol
+        r = self.rel(ev[0])
         if r <= tol:
             return ""
         if damping == 1.0 and size <= tol and r <= 100 * tol:
@@ -277,149 +355,165 @@ def shoot(system: CompiledSystem, period: float | None = None, periods: float = 
             return "Newton step below 10 tol applied without another integration"
         return None
 
-    def direction(X: np.ndarray, ev: tuple) -> tuple[np.ndarray, float, dict[str, Any]]:
+    def direction(self, X: np.ndarray, ev: tuple) -> tuple[np.ndarray, float, dict[str, Any]]:
+        """The Newton step, its scaled size and notes (the directions dropped)."""
         R, Ms, _ = ev
         J = segment_jacobian(Ms)
         rhs = -R.ravel()
-        if anchor is not None:
+        if self.anchor is not None:
             # a rigid-body mode makes J singular (a Jordan block of M at +1): keep the rigid
             # coordinates of the first segment where they are (anchor rows), least squares
-            dz = np.linalg.lstsq(np.vstack([J, anchor]), np.concatenate([rhs, np.zeros(len(anchor))]),
+            dz = np.linalg.lstsq(np.vstack([J, self.anchor]), np.concatenate([rhs, np.zeros(len(self.anchor))]),
                                  rcond=None)[0]
             n_drop = 0
         else:
             # minimum-norm step without the directions the monodromy cannot resolve: never move
             # the state by noise divided by noise (a multiplier at +1 to working precision)
-            dz, n_drop = truncated_solve(J, rhs, np.tile(scales(), segments), rtol)
-        dX = dz.reshape(segments, nx)
-        return dX, rel(dX) if np.all(np.isfinite(dX)) else math.inf, (
+            dz, n_drop = truncated_solve(J, rhs, np.tile(self.scale, self.segments), self.options.rtol)
+        dX = dz.reshape(self.segments, self.nx)
+        return dX, self.rel(dX) if np.all(np.isfinite(dX)) else math.inf, (
             {"dropped_directions": n_drop} if n_drop else {})
 
-    it_offset = [0]  # Newton steps the C iteration took before the Python one resumed
+    def on_step(self, it: int, ev: tuple, damping: float, notes: dict[str, Any]) -> None:
+        """Record an accepted Newton step."""
+        self.history.append({"iteration": it + self.it_offset, "residual": self.norm(ev), "relative": self.rel(ev[0]),
+                             "step": damping, **notes})
 
-    def on_step(it: int, ev: tuple, damping: float, notes: dict[str, Any]) -> None:
-        history.append({"iteration": it + it_offset[0], "residual": norm(ev), "relative": rel(ev[0]),
-                        "step": damping, **notes})
-
-    def stalled(X: np.ndarray, ev: tuple, dX: np.ndarray, last_err: str) -> tuple[str, Any]:
-        nonlocal relaxed
+    def stalled(self, X: np.ndarray, ev: tuple, dX: np.ndarray, last_err: str) -> tuple[str, Any]:
+        """No damped step reduces the residual: the noise floor (converged), relaxation by
+        integration (restart from there) or failure."""
+        o = self.options
         # at the integration noise floor a tiny Newton step cannot reduce the residual any more
-        if rel(dX) <= 10 * tol and rel(ev[0]) <= 100 * tol:
-            history.append({"iteration": len(history), "residual": norm(ev), "step": 0.0,
-                            "note": "noise floor: Newton step below tolerance"})
+        if self.rel(dX) <= 10 * o.tol and self.rel(ev[0]) <= 100 * o.tol:
+            self.history.append({"iteration": len(self.history), "residual": self.norm(ev), "step": 0.0,
+                                 "note": "noise floor: Newton step below tolerance"})
             return "converged", "noise floor"
-        if relaxed < relax_periods:
+        if self.relaxed < o.relax_periods:
             # Newton is stuck in a local minimum of the residual (the flow map of a
             # nonsmooth system is far from linear over large distances): integrate
             # a block of forcing periods (contracts towards an attracting orbit),
             # then resume Newton from there
-            n_blk = int(min(relax_block, relax_periods - relaxed))
+            n_blk = int(min(self.relax_block, o.relax_periods - self.relaxed))
             try:
-                Xr = _relax(X, n_blk)
-                evr = evaluate(Xr)
+                Xr = self._spread(self._integrate_periods(X[0], n_blk))
+                evr = self.evaluate(Xr)
             except GearsymError as exc:
                 return "fail", f"relaxation by integration failed: {exc}"
-            relaxed += n_blk
-            history.append({"iteration": len(history), "residual": norm(evr), "relative": rel(evr[0]), "step": None,
-                            "note": f"Newton stalled: integrated {n_blk} forcing periods"})
+            self.relaxed += n_blk
+            self.history.append({"iteration": len(self.history), "residual": self.norm(evr),
+                                 "relative": self.rel(evr[0]), "step": None,
+                                 "note": f"Newton stalled: integrated {n_blk} forcing periods"})
             return "restart", (Xr, evr)
         return "fail", ("the damped Newton step does not reduce the residual (tried down to a factor "
-                        f"{min_step:g}, after {relaxed} forcing periods of relaxation by integration)"
+                        f"{o.min_step:g}, after {self.relaxed} forcing periods of relaxation by integration)"
                         + (f"; last integration error: {last_err}" if last_err else ""))
 
-    fast = None
-    if segments == 1 and anchor is None:
-        # the full-step Newton iteration in one C call; where it gives up (damping, a nearly
-        # singular step, ...) the Python iteration below resumes from its last accepted
-        # iterate (the steps before are the ones it would have taken itself)
-        fast = _newton_in_c(system, X[0], s[0], s[1], pvec, rtol=rtol, atol=atol, tol=tol, max_iter=max_iter,
-                            method=method, max_step=max_step, n_amp=n_amp)
-    if fast is not None and not fast.converged:
-        if fast.code in (1, 2, 3, 4) and fast.iterations >= 1:
-            X = fast.x[None, :].copy()
-            history.extend({"iteration": i, "residual": float(fast.history_abs[i]),
-                            "relative": float(fast.history_rel[i]), "step": None if i == 0 else 1.0, "engine": "C"}
-                           for i in range(fast.iterations + 1))
-            it_offset[0] = fast.iterations
+    def solve(self, X: np.ndarray) -> NewtonRun:
+        """Damped Newton from ``X``: the full-step iteration in one C call where it applies
+        (single shooting without rigid-body anchors); where it gives up (damping, a nearly
+        singular step, ...) the Python iteration resumes from its last accepted iterate (the
+        steps before are the ones it would have taken itself)."""
         fast = None
-    if fast is not None:
+        if self.segments == 1 and self.anchor is None:
+            o = self.options
+            fast = _newton_in_c(self.system, X[0], self.s[0], self.s[1], self.pvec, rtol=o.rtol, atol=o.atol,
+                                tol=o.tol, max_iter=o.max_iter, method=o.method, max_step=self.max_step,
+                                n_amp=self.n_amp)
+        if fast is not None and not fast.converged:
+            if fast.code in (1, 2, 3, 4) and fast.iterations >= 1:
+                X = fast.x[None, :].copy()
+                self._c_history(fast, fast.iterations + 1, engine_each=True)
+                self.it_offset = fast.iterations
+            fast = None
+        if fast is not None:
+            return self._converged_in_c(fast)
+        return self._python_newton(X)
+
+    def _c_history(self, fast: Any, n: int, engine_each: bool) -> None:
+        self.history.extend({"iteration": i, "residual": float(fast.history_abs[i]),
+                             "relative": float(fast.history_rel[i]), "step": None if i == 0 else 1.0,
+                             **({"engine": "C"} if engine_each else {})} for i in range(n))
+
+    def _converged_in_c(self, fast: Any) -> NewtonRun:
         ev_log = fast.events
-        evs = log_events(system, ev_log.t, ev_log.surface, ev_log.direction)
-        X, Ms, it, converged = fast.x[None, :].copy(), [fast.monodromy], fast.iterations, True
+        evs = log_events(self.system, ev_log.t, ev_log.surface, ev_log.direction)
         note = _C_NOTES[fast.note]
-        scale_box[0] = fast.scale
-        history.extend({"iteration": i, "residual": float(fast.history_abs[i]), "relative": float(fast.history_rel[i]),
-                        "step": None if i == 0 else 1.0} for i in range(len(fast.history_abs)))
+        self.scale = fast.scale
+        self._c_history(fast, len(fast.history_abs), engine_each=False)
         if note:
-            history[-1]["note"] = note
-        history[-1]["engine"] = "C"
-        rnorm, rel_res = float(fast.history_abs[-1]), float(fast.history_rel[-1])
-        failure = ""
-    else:
-        ev0 = evaluate(X)
-        if not it_offset[0]:
-            history.append({"iteration": 0, "residual": norm(ev0), "relative": rel(ev0[0]), "step": None})
-        out = damped_newton(X, ev0, evaluate=evaluate, norm=norm, direction=direction, converged=is_converged,
-                            policy=NewtonPolicy(max_iter=max_iter - it_offset[0], min_damping=min_step,
+            self.history[-1]["note"] = note
+        self.history[-1]["engine"] = "C"
+        return NewtonRun(fast.x[None, :].copy(), [fast.monodromy], evs, fast.iterations, True,
+                         float(fast.history_abs[-1]), float(fast.history_rel[-1]), fast=fast)
+
+    def _python_newton(self, X: np.ndarray) -> NewtonRun:
+        o = self.options
+        ev0 = self.evaluate(X)
+        if not self.it_offset:
+            self.history.append({"iteration": 0, "residual": self.norm(ev0), "relative": self.rel(ev0[0]),
+                                 "step": None})
+        out = damped_newton(X, ev0, evaluate=self.evaluate, norm=self.norm, direction=self.direction,
+                            converged=self.converged,
+                            policy=NewtonPolicy(max_iter=o.max_iter - self.it_offset, min_damping=o.min_step,
                                                 apply_final_step=True),
-                            stalled=stalled,
-                            on_step=on_step)
-        X, (R, Ms, evs), it, converged = out.x, out.ev, out.iterations + it_offset[0], out.converged
-        rnorm, rel_res = norm(out.ev), rel(R)
+                            stalled=self.stalled, on_step=self.on_step)
+        R, Ms, evs = out.ev
         failure = ""
-        if converged and out.note and history[-1].get("note") is None and out.note != "noise floor":
-            history[-1]["note"] = out.note
-        if not converged:
-            failure = (f"no convergence in max_iter={max_iter} Newton iterations" if out.failure == "max_iter"
+        if out.converged and out.note and self.history[-1].get("note") is None and out.note != "noise floor":
+            self.history[-1]["note"] = out.note
+        if not out.converged:
+            failure = (f"no convergence in max_iter={o.max_iter} Newton iterations" if out.failure == "max_iter"
                        else out.failure)
-    mono = monodromy_product(Ms) if all(M is not None for M in Ms) else None
-    iso: Isolation | None = None
-    if trivial is None:  # the model's rigid-body subspace, found by the symbolic layer
-        trivial = rigid_state_basis(system, params)
-    if mono is not None and trivial is None and fast is not None and fast.isolation is not None:
-        # computed by the driver, in the same scales (it also found the monodromy finite)
-        sigma, norm_s, direction = fast.isolation
-        threshold = monodromy_error(norm_s, rtol)
-        iso = Isolation(sigma, threshold, sigma > threshold, direction, 0)
-    elif mono is not None and np.isfinite(mono).all():
-        iso = isolation(mono, scales(), rtol, trivial)
-    wall = time.perf_counter() - wall
-    spurious = converged and iso is not None and not iso.isolated
-    if spurious:
-        # a residual below tol is no orbit where the monodromy cannot pin the state down: at an
-        # undamped resonance Newton can "converge" at a huge amplitude, on the periodic orbit of
-        # the integrator's own numerical damping
-        converged = False
-        failure = (f"the residual fell below tol at max |x0| = {float(np.max(np.abs(X[0]))):.3g}, but along a "
-                   f"direction the monodromy does not determine")
-    if not converged and raise_on_failure:
-        hist = ", ".join(f"{h['residual']:.3g}" for h in history[-12:])
+        return NewtonRun(out.x, Ms, evs, out.iterations + self.it_offset, out.converged, self.norm(out.ev),
+                         self.rel(R), failure)
+
+    # ------------------------------------------------------------ the result
+    def judge(self, run: NewtonRun) -> ShootingVerdict:
+        """The monodromy of the result and whether it pins the orbit down: a residual below tol
+        is no orbit where the monodromy cannot (at an undamped resonance Newton can "converge"
+        at a huge amplitude, on the periodic orbit of the integrator's own numerical damping)."""
+        Ms, fast, rtol = run.monodromies, run.fast, self.options.rtol
+        mono = monodromy_product(Ms) if all(M is not None for M in Ms) else None
+        iso: Isolation | None = None
+        trivial = self.options.trivial
+        if trivial is None:  # the model's rigid-body subspace, found by the symbolic layer
+            trivial = rigid_state_basis(self.system, self.params)
+        if mono is not None and trivial is None and fast is not None and fast.isolation is not None:
+            # computed by the driver, in the same scales (it also found the monodromy finite)
+            sigma, norm_s, direction = fast.isolation
+            threshold = monodromy_error(norm_s, rtol)
+            iso = Isolation(sigma, threshold, sigma > threshold, direction, 0)
+        elif mono is not None and np.isfinite(mono).all():
+            iso = isolation(mono, self.scale, rtol, trivial)
+        converged, failure = run.converged, run.failure
+        spurious = converged and iso is not None and not iso.isolated
+        if spurious:
+            converged = False
+            failure = (f"the residual fell below tol at max |x0| = {float(np.max(np.abs(run.X[0]))):.3g}, but "
+                       f"along a direction the monodromy does not determine")
+        verdict = ShootingVerdict(mono, iso, converged, spurious, failure)
+        if not converged and not self.options.raise_on_failure and iso is not None and not iso.isolated:
+            verdict.failure = f"{iso.reason()}; {failure}"
+        return verdict
+
+    def failure_error(self, run: NewtonRun, verdict: ShootingVerdict) -> ConvergenceError:
+        """The error of a shooting that did not converge (residual history, advice)."""
+        hist = ", ".join(f"{h['residual']:.3g}" for h in self.history[-12:])
+        iso, failure = verdict.isolation, verdict.failure
+        period, periods, rtol = self.period, self.periods, self.options.rtol
         if iso is not None and not iso.isolated:
-            what = "the state shooting reached is not an orbit" if spurious else "shooting cannot remove the residual"
-            raise ConvergenceError(
+            what = ("the state shooting reached is not an orbit" if verdict.spurious
+                    else "shooting cannot remove the residual")
+            return ConvergenceError(
                 f"{iso.reason()}: {what} of period {period:.6g} ({periods:g} forcing period(s)): {failure}. "
                 f"Residual history (max |phi(T,x0)-x0|): [{hist}]. Add damping, move the forcing off the "
                 f"resonance, or tighten rtol (now {rtol:g}) if the system is lightly damped.")
-        raise ConvergenceError(
+        return ConvergenceError(
             f"shooting did not converge for the orbit of period {period:.6g} ({periods:g} forcing "
-            f"period(s), {segments} segment(s)): {failure}. Residual history (max |phi(T,x0)-x0|): "
-            f"[{hist}]; last x0 = {np.array2string(X[0], precision=8)}. Try a better initial guess "
+            f"period(s), {self.segments} segment(s)): {failure}. Residual history (max |phi(T,x0)-x0|): "
+            f"[{hist}]; last x0 = {np.array2string(run.X[0], precision=8)}. Try a better initial guess "
             f"(x0=..., or transient=<more periods>), more segments (segments=N) for long or unstable "
             f"orbits, or method='hbm'.")
-    if not converged and iso is not None and not iso.isolated:
-        failure = f"{iso.reason()}; {failure}"
-    orbit = finish_orbit(
-        system, x0=X[0].copy(), period=period, periods=periods, t0=t0, monodromy=mono, iterations=it,
-        residual=rnorm, converged=converged, method="shooting", params=system.run_params(params),
-        events=evs, segments=segments, segment_states=X.copy(),
-        multipliers=fast.multipliers if fast is not None else None, g0=fast.g0 if fast is not None else None,
-        segment_monodromies=[np.asarray(M) for M in Ms if M is not None], history=history,
-        info={"rtol": rtol, "atol": atol, "tol": tol, "wall_s": wall, "failure": failure or None,
-              "monodromy_rtol": max(rtol / 1e-6, 1e-12) if system.generated.implicit else rtol,
-              "rigid_anchor": anchor is not None,
-              "relative_residual": rel_res, "state_scales": scales().tolist(),
-              "isolation": iso.to_dict() if iso is not None else None})
-    return _verified(orbit, s, pvec, method=method, max_step=max_step, raise_on_failure=raise_on_failure)
 
 
 def _verified(orbit: PeriodicOrbit, times: np.ndarray, p: np.ndarray, *, method: str | None, max_step: float,

@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ...errors import ParameterError
-from ._hbm import harmonic_balance
+from ._hbm_driver import harmonic_balance
 from ._orbit import PeriodicOrbit
 from ._shooting import shoot
 

@@ -30,10 +30,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...errors import GearsymError
+from ..periodic import (
+    NotPiecewiseConstantError,
+    PeriodicOrbit,
+    PiecewiseLTV,
+    floquet,
+    periodic_orbit,
+    rigid_state_basis,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
-    from ..periodic import PeriodicOrbit
 
 __all__ = ["EXACT_RTOL", "RESPONSE", "SEARCH", "SEARCH_PERIODS", "map_point"]
 
@@ -97,8 +104,6 @@ def map_point(system: CompiledSystem, params: dict[str, float], method: str, per
     """
     out = empty_point(method)
     if method in ("auto", "exact"):
-        from ..periodic import NotPiecewiseConstantError
-
         try:
             return _exact_point(system, params, periods, want_ptp, out)
         except NotPiecewiseConstantError as exc:
@@ -137,8 +142,6 @@ def map_point(system: CompiledSystem, params: dict[str, float], method: str, per
 def _exact_point(system: CompiledSystem, params: dict[str, float], periods: float, want_ptp: bool,
                  out: dict[str, Any]) -> dict[str, Any]:
     """The exact (matrix-exponential) path: one orbit, unique; unstable means no periodic response."""
-    from ..periodic import PiecewiseLTV, floquet, rigid_state_basis
-
     ltv = PiecewiseLTV.from_system(system, params, periods=periods)
     fq = floquet(ltv.monodromy(), max(ltv.rounding_error(), EXACT_RTOL), rigid_state_basis(system, params))
     unstable = fq.stability == "unstable"
@@ -161,8 +164,6 @@ def _solve(system: CompiledSystem, params: dict[str, float], method: str, period
            options: Mapping[str, Any]) -> tuple[PeriodicOrbit | None, str]:
     """The orbit from ``guess`` (then, if that fails, from the scene's initial state after a
     transient): ``(orbit, "")`` or ``(None, error)``."""
-    from ..periodic import periodic_orbit
-
     opts = dict(options)
     if method == "shooting":
         opts.setdefault("transient", 0 if guess is not None else None)

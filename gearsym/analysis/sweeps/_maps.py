@@ -47,6 +47,7 @@ import math
 import os
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -54,9 +55,18 @@ import numpy as np
 
 from ...budget import LIMITS, check_count, check_counts, check_orbit_options
 from ...errors import ParameterError
+from ...files import atomic_path, save_figure
 from ...spec.settings import resolve_settings
 from .._inputs import SceneLike, is_scene
-from ..periodic import ORBIT_METHODS, whole_periods
+from ..periodic import (
+    ORBIT_METHODS,
+    NotPiecewiseConstantError,
+    exact_multipliers,
+    floquet,
+    rigid_state_basis,
+    whole_periods,
+)
+from . import _workers
 from ._map_points import EXACT_RTOL, RESPONSE, SEARCH, empty_point, map_point
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -110,12 +120,10 @@ def _run_tasks(system: CompiledSystem, tasks: list[dict[str, Any]], dask: Any,
                n_workers: int) -> tuple[list[dict[str, Any]], str]:
     """Run the row tasks serially, on local worker processes or on Dask
     (:func:`gearsym.analysis.sweeps.run_tasks`); the points of a task whose worker died fail."""
-    from ._workers import TaskFailure, run_tasks
-
-    chunks, runner = run_tasks(_run_chunk, system, tasks, workers=n_workers, dask=dask)
+    chunks, runner = _workers.run_tasks(_run_chunk, system, tasks, workers=n_workers, dask=dask)
     flat: list[dict[str, Any]] = []
     for task, chunk in zip(tasks, chunks, strict=True):
-        flat += _failed_chunk(task, chunk.message) if isinstance(chunk, TaskFailure) else chunk
+        flat += _failed_chunk(task, chunk.message) if isinstance(chunk, _workers.TaskFailure) else chunk
     return flat, runner
 
 
@@ -193,30 +201,89 @@ def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Seque
     """
     check_counts(workers=workers, rows_per_task=rows_per_task)  # bounded work (gearsym.budget)
     wall = time.perf_counter()
-    xname, xs = _axis(x, "x")
-    yname, ys = _axis(y, "y")
-    if len(xs) * len(ys) > MAX_POINTS:
-        raise ParameterError(f"a map of {len(xs)} x {len(ys)} = {len(xs) * len(ys):.3g} points is above the limit "
-                             f"of {MAX_POINTS:,} points (about 1 kB of memory each); use coarser axes or "
-                             f"several maps")
-    if xname == yname:
-        raise ParameterError("the two axes must be different parameters")
+    grid = _Grid.of(x, y)
     scene: Any = target if is_scene(target) else None
     # the scene's [map] table under the caller's values: one resolution with `gearsym map`
     table = (scene.spec.extra if scene is not None else getattr(target, "settings", {})).get("map")
+    quantity, method, periods, orbit_options = _settings(table, quantity, method, periods, orbit_options)
+    system = scene.compile() if scene is not None else target
+    base = _check_parameters(system, scene, grid, params)
+    if x0 is not None and np.shape(x0) != (system.generated.nx,):
+        raise ParameterError(f"x0 must have {system.generated.nx} entries ({', '.join(system.state_names)}), got "
+                             f"shape {np.shape(x0)}")
+    want_ptp = quantity == "peak_to_peak"
+    n_workers = int(workers or os.cpu_count() or 1)
+    flat: list[dict[str, Any]] | None = None
+    runner = ""
+    if method in ("auto", "exact") and not want_ptp:
+        flat = _exact_points(system, [dict(base, **{grid.xname: float(xv), grid.yname: float(yv)})
+                                      for yv in grid.ys for xv in grid.xs], periods, required=method == "exact")
+        runner = "vectorised (exact)"
+    if flat is None:
+        tasks = _row_tasks(grid, rows_per_task, n_workers, {
+            "xname": grid.xname, "yname": grid.yname, "method": method, "periods": periods, "want_ptp": want_ptp,
+            "options": dict(orbit_options or {}), "params": base, "x0": None if x0 is None else [float(v) for v in x0]})
+        flat, runner = _run_tasks(system, tasks, dask, n_workers)
+    ds = _dataset(system, flat, grid.xname, grid.xs, grid.yname, grid.ys, want_ptp)
+    ds.attrs.update({
+        "title": f"{QUANTITIES[quantity]} over {grid.xname} x {grid.yname}",
+        "quantity": quantity,
+        "scene": system.name,
+        "method": method,
+        "periods": float(periods),
+        "params_json": json.dumps(base, sort_keys=True),
+        "runner": runner,
+        "wall_s": time.perf_counter() - wall,
+        "source": "gearsym.analysis.sweeps.stability_map",
+        "stability_rule": "gearsym.analysis.periodic.floquet (neutral band from the monodromy error)",
+    })
+    return ds
+
+
+@dataclass(frozen=True)
+class _Grid:
+    """The two axes of a map: parameter names and grid values (declared units)."""
+
+    xname: str
+    xs: np.ndarray
+    yname: str
+    ys: np.ndarray
+
+    @classmethod
+    def of(cls, x: Sequence[Any], y: Sequence[Any]) -> _Grid:
+        xname, xs = _axis(x, "x")
+        yname, ys = _axis(y, "y")
+        if len(xs) * len(ys) > MAX_POINTS:
+            raise ParameterError(f"a map of {len(xs)} x {len(ys)} = {len(xs) * len(ys):.3g} points is above the "
+                                 f"limit of {MAX_POINTS:,} points (about 1 kB of memory each); use coarser axes or "
+                                 f"several maps")
+        if xname == yname:
+            raise ParameterError("the two axes must be different parameters")
+        return cls(xname, xs, yname, ys)
+
+
+def _settings(table: Mapping[str, Any] | None, quantity: str | None, method: str | None, periods: float | None,
+              orbit_options: Mapping[str, Any] | None) -> tuple[str, str, int, dict[str, Any]]:
+    """The map's quantity, method, periods and orbit options: the caller's, else the scene's
+    ``[map]`` table, else the defaults; checked once (not as a failure at every point)."""
     given = dict(orbit_options or {})
     st = resolve_settings("map", table, quantity=quantity, method=method, periods=periods,
                           harmonics=given.pop("harmonics", None), rtol=given.pop("rtol", None))
     quantity, method, periods = st["quantity"], st["method"], st["periods"]
-    orbit_options = {**given, **{k: st[k] for k in ("harmonics", "rtol") if st[k] is not None}}
-    check_orbit_options(orbit_options)  # once here, not as a failure at every point
+    options = {**given, **{k: st[k] for k in ("harmonics", "rtol") if st[k] is not None}}
+    check_orbit_options(options)  # once here, not as a failure at every point
     if quantity not in QUANTITIES:
         raise ParameterError(f"quantity must be one of {', '.join(QUANTITIES)}, got '{quantity}'")
     if method not in MAP_METHODS:
         raise ParameterError(f"method must be {', '.join(MAP_METHODS)}, got '{method}'")
-    periods = whole_periods(periods)  # an orbit of a forced system: a whole number of forcing periods
-    system = scene.compile() if scene is not None else target
-    for nm in (xname, yname):
+    return quantity, method, whole_periods(periods), options  # a whole number of forcing periods
+
+
+def _check_parameters(system: CompiledSystem, scene: Any, grid: _Grid, params: Mapping[str, float] | None
+                      ) -> dict[str, float]:
+    """The parameters of every point (the system's, with ``params`` over them), after the axes
+    are checked to be run-time parameters and the corners of the grid to be in range."""
+    for nm in (grid.xname, grid.yname):
         if scene is not None and nm not in scene.model_spec.parameters:
             raise ParameterError(f"'{nm}' is not a parameter of model {scene.model_spec.name} "
                                  f"(have: {', '.join(scene.model_spec.parameters)})")
@@ -227,46 +294,22 @@ def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Seque
     base = dict(system.params)
     base.update({k: float(v) for k, v in (params or {}).items()})
     system.param_vector(base)  # validates
-    for xv in (xs[0], xs[-1]):  # the physical ranges of the values (gearsym.spec.rules) at the corners: exit 2
-        for yv in (ys[0], ys[-1]):
-            system.param_vector({**base, xname: float(xv), yname: float(yv)})
-    if x0 is not None and np.shape(x0) != (system.generated.nx,):
-        raise ParameterError(f"x0 must have {system.generated.nx} entries ({', '.join(system.state_names)}), got "
-                             f"shape {np.shape(x0)}")
-    want_ptp = quantity == "peak_to_peak"
-    ny = len(ys)
-    n_workers = int(workers or os.cpu_count() or 1)
+    for xv in (grid.xs[0], grid.xs[-1]):  # the physical ranges of the values (gearsym.spec.rules) at the corners: exit 2
+        for yv in (grid.ys[0], grid.ys[-1]):
+            system.param_vector({**base, grid.xname: float(xv), grid.yname: float(yv)})
+    return base
+
+
+def _row_tasks(grid: _Grid, rows_per_task: int | None, n_workers: int, common: dict[str, Any]) -> list[dict[str, Any]]:
+    """The grid cut into tasks of whole rows (each a sweep in ``x``), enough for 4 per worker."""
+    ny = len(grid.ys)
     if rows_per_task is None:
         rows_per_task = max(1, int(math.ceil(ny / max(1, 4 * n_workers))))
     tasks = []
     for j0 in range(0, ny, rows_per_task):
-        pts = [(float(xv), float(ys[j])) for j in range(j0, min(ny, j0 + rows_per_task)) for xv in xs]
-        tasks.append({"points": pts, "xname": xname, "yname": yname, "method": method, "periods": periods,
-                      "want_ptp": want_ptp, "options": dict(orbit_options or {}), "params": base,
-                      "x0": None if x0 is None else [float(v) for v in x0]})
-
-    flat: list[dict[str, Any]] | None = None
-    runner = ""
-    if method in ("auto", "exact") and not want_ptp:
-        flat = _exact_points(system, [dict(base, **{xname: float(xv), yname: float(yv)}) for yv in ys for xv in xs],
-                             periods, required=method == "exact")
-        runner = "vectorised (exact)"
-    if flat is None:
-        flat, runner = _run_tasks(system, tasks, dask, n_workers)
-    ds = _dataset(system, flat, xname, xs, yname, ys, want_ptp)
-    ds.attrs.update({
-        "title": f"{QUANTITIES[quantity]} over {xname} x {yname}",
-        "quantity": quantity,
-        "scene": system.name,
-        "method": method,
-        "periods": float(periods),
-        "params_json": json.dumps(base, sort_keys=True),
-        "runner": runner,
-        "wall_s": time.perf_counter() - wall,
-        "source": "gearsym.analysis.sweeps.stability_map",
-        "stability_rule": "gearsym.analysis.periodic._stability (neutral band from the monodromy error)",
-    })
-    return ds
+        pts = [(float(xv), float(grid.ys[j])) for j in range(j0, min(ny, j0 + rows_per_task)) for xv in grid.xs]
+        tasks.append({"points": pts, **common, "options": dict(common["options"])})
+    return tasks
 
 
 def _exact_points(system: CompiledSystem, pts: list[dict[str, float]], periods: int,
@@ -274,8 +317,6 @@ def _exact_points(system: CompiledSystem, pts: list[dict[str, float]], periods: 
     """The fast path of a linear system with piecewise-constant coefficients: every point at once
     (one mapped Jacobian call, batched expm); ``None`` where it does not apply (raised when
     ``required``)."""
-    from ..periodic import NotPiecewiseConstantError, exact_multipliers, floquet, rigid_state_basis
-
     try:
         _, monos, errs = exact_multipliers(system, pts, periods=periods, monodromies=True)
     except NotPiecewiseConstantError:
@@ -407,8 +448,6 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.colors import TwoSlopeNorm
-
-    from ...files import atomic_path, save_figure
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
