@@ -41,8 +41,8 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 import gearsym  # noqa: E402
-from gearsym.analysis.continuation._api import ShootingResidual, _fd_step  # noqa: E402
-from gearsym.analysis.periodic import exact_f_lambda  # noqa: E402
+from gearsym.analysis.continuation._api import _fd_step  # noqa: E402
+from gearsym.analysis.periodic import ShootingResidual, exact_f_lambda  # noqa: E402
 
 KS = ROOT / "scenes" / "kahraman_singh.toml"
 SPUR = ROOT / "scenes" / "spur_pair_torsional.toml"

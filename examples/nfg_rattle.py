@@ -12,7 +12,7 @@ change the rattle state (Liu's rsv): the drive flank starts separating
 (unilateral -> bilateral rattle, where the peak-to-peak value ppv shoots up).
 
 Brute-force steady states (integrate from the previous speed's state, then
-classify the last periods with ``gearsym.analysis.periodic._rattle``) are overlaid, as in
+classify the last periods with ``gearsym.analysis.periodic.rattle_state``) are overlaid, as in
 the paper's Fig. 11a (rsv) and 11b (ppv).
 
 Writes ``OUT/nfg_rattle.png`` and ``OUT/nfg_rattle.json``.

@@ -213,3 +213,17 @@ def test_the_spec_layer_never_imports_sympy(mod):
     names = [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
     names += [n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
     assert not [n for n in names if n.split(".")[0] == "sympy"]
+
+
+def test_one_kind_of_analysis_does_not_load_the_others():
+    """The package face imports the kinds on first use: the periodic-orbit and the linear
+    analysis load neither continuation nor the sweeps (nor their process pool), and the facade
+    loads no analysis until an analysis is asked for (``gearsym simulate`` does not pay for it)."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nimport gearsym.facade\nprint(sorted(m for m in sys.modules if m.startswith('gearsym.analysis')))\n"
+            "import gearsym.analysis.periodic, gearsym.analysis.linear\n"
+            "print(sorted({m.split('.')[2] for m in sys.modules if m.startswith('gearsym.analysis.')}))")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert res.stdout.splitlines() == ["[]", "['_options', 'linear', 'periodic']"]

@@ -75,7 +75,7 @@ def _positive(flag: str, v: float | None, name: str | None = None) -> None:
 
 
 def _whole_periods(flag: str, v: float | None) -> None:
-    """Forcing periods of an orbit: a positive whole number (gearsym.analysis.periodic._verification)."""
+    """Forcing periods of an orbit: a positive whole number (gearsym.analysis.periodic.whole_periods)."""
     if v is not None and not (math.isfinite(v) and v >= 1 and v == math.floor(v)):
         raise ParameterError(f"{flag} must be a positive whole number of forcing periods (1, 2, 3, ...), got {v:g}: "
                              f"a periodic orbit of a forced system returns after a whole number of forcing periods")
