@@ -31,9 +31,9 @@ _EXPORTS: dict[str, str] = {
     "ContinuationOptions": ".analysis.continuation",
     "ShootingOptions": ".analysis.periodic",
     "PeriodicOrbit": ".analysis.periodic",
-    "LyapunovOptions": ".analysis.lyapunov",
-    "LyapunovResult": ".analysis.lyapunov",
-    "lyapunov_exponents": ".analysis.lyapunov",
+    "LyapunovOptions": ".analysis.sweeps",
+    "LyapunovResult": ".analysis.sweeps",
+    "lyapunov_exponents": ".analysis.sweeps",
     "CompileError": ".errors",
     "ConvergenceError": ".errors",
     "GearsymError": ".errors",
@@ -63,8 +63,8 @@ if TYPE_CHECKING:  # pragma: no cover
         continuation,
         switch_period_doubling,
     )
-    from .analysis.lyapunov import LyapunovOptions, LyapunovResult, lyapunov_exponents
     from .analysis.periodic import PeriodicOrbit, ShootingOptions
+    from .analysis.sweeps import LyapunovOptions, LyapunovResult, lyapunov_exponents
     from .errors import (
         CompileError,
         ConvergenceError,

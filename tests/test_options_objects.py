@@ -34,14 +34,14 @@ def ks():
     (lambda s: gearsym.continuation(s, "Omega", 0.8, 0.9, ds_mx=0.01), "ds_mx", "ds_max"),
 ])
 def test_an_unknown_keyword_is_named_with_the_closest_setting(ks, call, wrong, right):
-    with pytest.raises(gearsym.ParameterError, match=rf"unknown keyword '{wrong}'; did you mean '{right}'\?"):
+    with pytest.raises(gearsym.ParameterError, match=rf"unknown option '{wrong}'; did you mean '{right}'\?"):
         call(ks)
 
 
 def test_branch_switching_refuses_an_unknown_keyword(ks):
     """The old ``**options`` of branch switching dropped every key it did not know."""
     br = gearsym.continuation(ks, "Omega", 1.3, 1.35, params=KS, progress=False, detect=False)
-    with pytest.raises(gearsym.ParameterError, match=r"unknown keyword 'ds_maxx'; did you mean 'ds_max'\?"):
+    with pytest.raises(gearsym.ParameterError, match=r"unknown option 'ds_maxx'; did you mean 'ds_max'\?"):
         gearsym.switch_period_doubling(br, ds_maxx=0.05)
 
 

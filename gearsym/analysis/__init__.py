@@ -8,8 +8,8 @@
                                   of special points, branch switching, branches
 :mod:`gearsym.analysis.linear`    linear analysis: modes about the static equilibrium, the
                                   structure of planetary modes
-:mod:`gearsym.analysis.sweeps`    sweeps and global dynamics: stability / response maps, the
-                                  process pool they run on
+:mod:`gearsym.analysis.sweeps`    sweeps and global dynamics: stability / response maps, Lyapunov
+                                  exponents, the process pool they run on
 ================================ ===============================================================
 
 The kinds import one another in one direction only (``tests/test_import_graph.py`` checks it):
@@ -37,14 +37,15 @@ _EXPORTS: dict[str, str] = {
     "ContinuationOptions": "continuation", "Branch": "continuation", "BranchPoint": "continuation",
     "Bifurcation": "continuation", "switch_period_doubling": "continuation",
     "modal_analysis": "linear", "classify_planetary": "linear",
-    "stability_map": "sweeps", "save_map": "sweeps",
+    "stability_map": "sweeps", "save_map": "sweeps", "lyapunov_exponents": "sweeps",
 }
 #: the kinds of analysis (subpackages)
 KINDS = ("periodic", "continuation", "linear", "sweeps")
 
 __all__ = [
     "KINDS", "Bifurcation", "Branch", "BranchPoint", "ContinuationOptions", "PeriodicOrbit", "ShootingOptions",
-    "classify_planetary", "harmonic_balance", "modal_analysis", "periodic_orbit", "save_map", "shoot",
+    "classify_planetary", "harmonic_balance", "lyapunov_exponents", "modal_analysis", "periodic_orbit", "save_map",
+    "shoot",
     "stability_map", "switch_period_doubling",
 ]
 
@@ -52,7 +53,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .continuation import Bifurcation, Branch, BranchPoint, ContinuationOptions, switch_period_doubling
     from .linear import classify_planetary, modal_analysis
     from .periodic import PeriodicOrbit, ShootingOptions, harmonic_balance, periodic_orbit, shoot
-    from .sweeps import save_map, stability_map
+    from .sweeps import lyapunov_exponents, save_map, stability_map
 
 
 def __getattr__(name: str) -> object:

@@ -59,7 +59,7 @@ def resolve_options(options: T | None, cls: type[T], keywords: Mapping[str, Any]
     default, names = _defaults(cls)
     for k in keywords:
         if k not in names:
-            raise ParameterError(f"{caller}() got an unknown keyword '{k}'{did_you_mean(k, names)} (the settings "
+            raise ParameterError(f"{caller}() got an unknown option '{k}'{did_you_mean(k, names)} (the settings "
                                  f"of {cls.__name__}: {', '.join(f.name for f in fields(cls))})")
     if not keywords:
         return options if options is not None else default

@@ -46,6 +46,7 @@ from ._rattle import (
 from ._shooting import shoot
 from ._solve import ORBIT_METHODS, periodic_orbit
 from ._stability import (
+    ERROR_FACTOR,
     STABILITY,
     FloquetResult,
     complex_sides,
@@ -58,7 +59,7 @@ from ._stability import (
 from ._verification import orbit_period, whole_periods
 
 __all__ = [
-    "F_LAMBDA", "ORBIT_METHODS", "RATTLE_STATES", "STABILITY", "VANISHING",
+    "ERROR_FACTOR", "F_LAMBDA", "ORBIT_METHODS", "RATTLE_STATES", "STABILITY", "VANISHING",
     "Evaluation", "FloquetResult", "HBResidual", "HarmonicBalance", "HarmonicBalanceOptions", "Isolation", "NewtonOutcome", "NewtonPolicy",
     "NotPiecewiseConstantError", "PeriodicOrbit", "PeriodicOrbitProblem", "PiecewiseLTV", "RattleSummary",
     "ShootingOptions", "ShootingResidual",

@@ -1,7 +1,7 @@
 """Lyapunov exponents of the hybrid system: variational equations with saltation, QR blocks.
 
 :func:`lyapunov_exponents` runs the Benettin / Shimada-Nagashima algorithm on a compiled
-:class:`~gearsym.system.System`:
+:class:`~gearsym.System`:
 
 1. **Transient.**  The state is integrated ``transient`` forcing periods from ``x0`` (calls of
    at most 10,000 periods, no variational equations) and the result is discarded, except for the
@@ -63,7 +63,7 @@ Conventions
   counts ``periods``, ``transient`` and ``align`` are in blocks, and the flow direction of a
   non-stationary attractor gives one exponent zero among the ``n`` (it is not removed).
 * **Rigid-body modes** (free gear trains): their subspace ``V`` (two directions per mode,
-  :func:`~gearsym.analysis.stability.rigid_state_basis`) is invariant, and on it the tangent
+  :func:`~gearsym.analysis.periodic.floquet.rigid_state_basis`) is invariant, and on it the tangent
   map is the Jordan block ``[[1, h], [0, 1]]``: its exponents are exactly zero (the growth is
   linear in time).  They are reported apart (:attr:`LyapunovResult.trivial`) and the
   exponents are those of the quotient by ``V`` (the relative motion).
@@ -88,11 +88,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import ParameterError, SimulationError
-from .stability import ERROR_FACTOR, rigid_state_basis
+from ...errors import ParameterError, SimulationError
+from .._options import resolve_options
+from ..periodic import ERROR_FACTOR, rigid_state_basis
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..system import System
+    from ...system import CompiledSystem
 
 __all__ = ["GROWTH_LIMIT", "LyapunovOptions", "LyapunovResult", "batch_errors", "format_estimate", "kaplan_yorke",
            "lyapunov_exponents", "weighted_average", "window"]
@@ -496,7 +497,7 @@ def kaplan_yorke(exponents: Sequence[float], complete: bool = True) -> float:
 class _Run:
     """The moving parts of one run: state, time, surface sides, tangent basis, counters."""
 
-    system: System
+    system: CompiledSystem
     p: np.ndarray
     kw: dict[str, Any]
     x: np.ndarray
@@ -569,7 +570,7 @@ def _qr_step(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return Q, np.log(np.abs(np.diagonal(R)))
 
 
-def lyapunov_exponents(system: System, params: Mapping[str, float] | None = None,
+def lyapunov_exponents(system: CompiledSystem, params: Mapping[str, float] | None = None,
                        options: LyapunovOptions | None = None, *, x0: Sequence[float] | None = None,
                        progress: bool | None = False, **overrides: Any) -> LyapunovResult:
     """Lyapunov exponents of a compiled system at a parameter point (module docstring).
@@ -602,16 +603,7 @@ def lyapunov_exponents(system: System, params: Mapping[str, float] | None = None
     SimulationError
         The integration failed (event storm, too much work, non-finite state).
     """
-    from dataclasses import fields, replace
-
-    opts = options or LyapunovOptions()
-    if overrides:
-        known = {f.name for f in fields(LyapunovOptions)}
-        unknown = sorted(set(overrides) - known)
-        if unknown:
-            raise ParameterError(f"unknown option(s) {', '.join(unknown)} of the Lyapunov exponents (have: "
-                                 f"{', '.join(sorted(known))})")
-        opts = replace(opts, **overrides)
+    opts = resolve_options(options, LyapunovOptions, overrides, "lyapunov_exponents")
     wall = time.perf_counter()
     p = system.param_vector(params)
     unit, forced = _time_unit(system, params, opts)
@@ -666,7 +658,7 @@ def _progress_bar(enabled: bool | None, total: int) -> Any:
     return tqdm(total=total, desc="Lyapunov blocks", file=sys.stderr, leave=False)
 
 
-def _time_unit(system: System, params: Mapping[str, float] | None, opts: LyapunovOptions) -> tuple[float, bool]:
+def _time_unit(system: CompiledSystem, params: Mapping[str, float] | None, opts: LyapunovOptions) -> tuple[float, bool]:
     """The length of one "period" of the counts: the forcing period, or ``block_time``."""
     T = system.period(params)
     if T is not None:
@@ -682,7 +674,7 @@ def _time_unit(system: System, params: Mapping[str, float] | None, opts: Lyapuno
     return float(opts.block_time), False
 
 
-def _setup(system: System, p: np.ndarray, params: Mapping[str, float] | None, opts: LyapunovOptions,
+def _setup(system: CompiledSystem, p: np.ndarray, params: Mapping[str, float] | None, opts: LyapunovOptions,
            x0: Sequence[float] | None, unit: float) -> _Run:
     """The transient, the state scales, the tolerances and the rigid-body split."""
     nx = system.generated.nx
@@ -744,7 +736,7 @@ def _align(run: _Run, Q: np.ndarray, b: float, unit: float, opts: LyapunovOption
     return Q, b, growth
 
 
-def _result(system: System, params: Mapping[str, float] | None, opts: LyapunovOptions, run: _Run,
+def _result(system: CompiledSystem, params: Mapping[str, float] | None, opts: LyapunovOptions, run: _Run,
             L: np.ndarray, b: float, unit: float, forced: bool, k: int, m: int, growth: float, wall: float,
             rate: float) -> LyapunovResult:
     """The estimates, the convergence verdict and the bookkeeping of a finished run."""
