@@ -29,12 +29,12 @@ from .engine.driver import Engine, load_engine
 from .errors import ParameterError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .system import CompiledSystem
+    from .system import CompiledSystem as System
 
 __all__ = ["SensitivityMethods", "directions", "period_gradient", "sensitivity_atol"]
 
 
-def directions(system: CompiledSystem, names: Sequence[str], p: np.ndarray,
+def directions(system: System, names: Sequence[str], p: np.ndarray,
                inputs: Mapping[str, float] | None = None) -> np.ndarray:
     """Directions ``d p / d name`` in the generated parameter vector, one column per name.
 
@@ -95,7 +95,7 @@ def directions(system: CompiledSystem, names: Sequence[str], p: np.ndarray,
     return D
 
 
-def period_gradient(system: CompiledSystem, p: np.ndarray, D: np.ndarray) -> np.ndarray:
+def period_gradient(system: System, p: np.ndarray, D: np.ndarray) -> np.ndarray:
     """``d T / d lambda_s`` of the forcing period along the directions ``D`` (``gs_periodp``).
 
     Parameters

@@ -75,7 +75,7 @@ from .codegen.artifact import generated_map
 from .errors import ConvergenceError, GearsymError, SpecError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .system import CompiledSystem
+    from .system import CompiledSystem as System
 
 __all__ = ["PeriodAverage", "StaticEquilibrium", "equal_nodes", "period_nodes", "static_equilibrium",
            "static_state"]
@@ -104,7 +104,7 @@ _ENUMERATE = 243
 _MAX_STATES = 300
 
 
-def period_nodes(system: CompiledSystem, p: np.ndarray, pieces: int = _MIN_PIECES) -> tuple[np.ndarray, np.ndarray]:
+def period_nodes(system: System, p: np.ndarray, pieces: int = _MIN_PIECES) -> tuple[np.ndarray, np.ndarray]:
     """Quadrature nodes and weights for the average over one forcing period: Gauss-Legendre
     on at least ``pieces`` equal sub-intervals, split at every scheduled breakpoint.
 
@@ -146,7 +146,7 @@ def period_nodes(system: CompiledSystem, p: np.ndarray, pieces: int = _MIN_PIECE
     return t, w
 
 
-def equal_nodes(system: CompiledSystem, p: np.ndarray, samples: int, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def equal_nodes(system: System, p: np.ndarray, samples: int, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """``samples`` equally spaced nodes on ``[t0, t0 + T)`` with equal weights (exact for
     trigonometric polynomials of degree below ``samples``); ``[t0]`` without a forcing period.
 
@@ -210,7 +210,7 @@ class PeriodAverage:
         The nodes and weights.
     """
 
-    def __init__(self, system: CompiledSystem, params: Mapping[str, float] | None = None,
+    def __init__(self, system: System, params: Mapping[str, float] | None = None,
                  nodes: tuple[np.ndarray, np.ndarray] | None = None, probe: Sequence[float] | None = None):
         gen = system.generated
         self.system = system
@@ -735,7 +735,7 @@ def _direction(prob: _Problem, free: np.ndarray | None) -> str:
     return "the coordinates " + ", ".join(n for n, b in zip(names, big) if b)
 
 
-def static_equilibrium(system: CompiledSystem, params: Mapping[str, float] | None = None, *,
+def static_equilibrium(system: System, params: Mapping[str, float] | None = None, *,
                        guess: Sequence[float] | None = None,
                        states: tuple[Sequence[str], Sequence[str]] | None = None,
                        nodes: tuple[np.ndarray, np.ndarray] | None = None, rigid: str = "refuse",
@@ -801,7 +801,7 @@ def static_equilibrium(system: CompiledSystem, params: Mapping[str, float] | Non
         info={"iterations": search.iterations, "states_tried": search.solves, "residual": sol.residual})
 
 
-def static_state(system: CompiledSystem, coordinates: Sequence[str] | None = None, velocities: Sequence[str] | None = None,
+def static_state(system: System, coordinates: Sequence[str] | None = None, velocities: Sequence[str] | None = None,
                  guess: Sequence[float] | None = None, params: Mapping[str, float] | None = None,
                  where: tuple[str | None, str | None] = (None, "initial.static")) -> np.ndarray:
     """The full state at the static equilibrium (:func:`static_equilibrium`, rigid-body modes

@@ -227,3 +227,13 @@ def test_one_kind_of_analysis_does_not_load_the_others():
             "print(sorted({m.split('.')[2] for m in sys.modules if m.startswith('gearsym.analysis.')}))")
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert res.stdout.splitlines() == ["[]", "['_options', 'linear', 'periodic']"]
+
+
+@pytest.mark.parametrize("face", ["gearsym.analysis", *(f"gearsym.analysis.{k}" for k in ANALYSIS_KINDS)])
+def test_every_name_of_an_analysis_face_resolves(face):
+    import importlib
+
+    mod = importlib.import_module(face)
+    assert [n for n in mod.__all__ if not hasattr(mod, n)] == []
+    # the face's __all__ names what it defines or re-exports (no private name, no module)
+    assert [n for n in mod.__all__ if n.startswith("_") or type(getattr(mod, n)).__name__ == "module"] == []

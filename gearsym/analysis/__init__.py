@@ -1,23 +1,22 @@
 """The analysis layer, by kind: each kind is a subpackage with a small public face.
 
-================================ ===============================================================
-:mod:`gearsym.analysis.periodic`  periodic-orbit problems and solvers (shooting, harmonic
-                                  balance), Floquet multipliers and the stability rule, rattle
-                                  states and mesh deflections of an orbit
-``gearsym.analysis.continuation`` continuation in one parameter: predictor, corrector, detection
-                                  of special points, branch switching, branches
-:mod:`gearsym.analysis.linear`    linear analysis: modes about the static equilibrium, the
-                                  structure of planetary modes
-:mod:`gearsym.analysis.sweeps`    sweeps and global dynamics: stability / response maps, Lyapunov
-                                  exponents, the process pool they run on
-================================ ===============================================================
+* :mod:`gearsym.analysis.periodic`: periodic-orbit problems and solvers (shooting, harmonic
+  balance), Floquet multipliers and the stability rule, rattle states and mesh deflections of
+  an orbit;
+* ``gearsym.analysis.continuation``: continuation in one parameter (predictor, corrector,
+  detection of special points, branch switching, branches);
+* :mod:`gearsym.analysis.linear`: linear analysis (modes about the static equilibrium, the
+  structure of planetary modes);
+* :mod:`gearsym.analysis.sweeps`: sweeps and global dynamics (stability / response maps,
+  Lyapunov exponents, the process pool they run on).
 
 The kinds import one another in one direction only (``tests/test_import_graph.py`` checks it):
 continuation may import the periodic-orbit analysis; sweeps may import the periodic-orbit and
 the linear analysis; the periodic-orbit and the linear analysis import neither.  Across kinds,
 and from outside the analysis, only a kind's public face is imported, never its private
-modules.  Settings shared by every kind (:mod:`gearsym.analysis._options`, the options objects'
-resolution) sit beside them and import none of them.
+modules.  What every kind shares (``gearsym.analysis._options``: the resolution of the options
+objects and the tolerance check; ``gearsym.analysis._inputs``: a scene or a compiled system as
+input) sits beside them and imports none of them.
 
 The main entry points are importable from here, on first use (so that importing one kind does
 not import the others); :func:`gearsym.continuation` is the entry of continuation (here it
@@ -33,7 +32,7 @@ TYPE_CHECKING = False
 #: public name -> the kind (subpackage) that defines it
 _EXPORTS: dict[str, str] = {
     "periodic_orbit": "periodic", "shoot": "periodic", "harmonic_balance": "periodic",
-    "PeriodicOrbit": "periodic", "ShootingOptions": "periodic",
+    "PeriodicOrbit": "periodic", "ShootingOptions": "periodic", "HarmonicBalanceOptions": "periodic",
     "ContinuationOptions": "continuation", "Branch": "continuation", "BranchPoint": "continuation",
     "Bifurcation": "continuation", "switch_period_doubling": "continuation",
     "modal_analysis": "linear", "classify_planetary": "linear",
@@ -43,7 +42,8 @@ _EXPORTS: dict[str, str] = {
 KINDS = ("periodic", "continuation", "linear", "sweeps")
 
 __all__ = [
-    "KINDS", "Bifurcation", "Branch", "BranchPoint", "ContinuationOptions", "PeriodicOrbit", "ShootingOptions",
+    "KINDS", "Bifurcation", "Branch", "BranchPoint", "ContinuationOptions", "HarmonicBalanceOptions", "PeriodicOrbit",
+    "ShootingOptions",
     "classify_planetary", "harmonic_balance", "lyapunov_exponents", "modal_analysis", "periodic_orbit", "save_map",
     "shoot",
     "stability_map", "switch_period_doubling",
@@ -52,7 +52,14 @@ __all__ = [
 if TYPE_CHECKING:  # pragma: no cover
     from .continuation import Bifurcation, Branch, BranchPoint, ContinuationOptions, switch_period_doubling
     from .linear import classify_planetary, modal_analysis
-    from .periodic import PeriodicOrbit, ShootingOptions, harmonic_balance, periodic_orbit, shoot
+    from .periodic import (
+        HarmonicBalanceOptions,
+        PeriodicOrbit,
+        ShootingOptions,
+        harmonic_balance,
+        periodic_orbit,
+        shoot,
+    )
     from .sweeps import lyapunov_exponents, save_map, stability_map
 
 

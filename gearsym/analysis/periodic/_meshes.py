@@ -17,18 +17,18 @@ import numpy as np
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...results import Trajectory
-    from ...system import CompiledSystem
+    from ...system import CompiledSystem as System
 
 __all__ = ["mesh_deflections", "mesh_extrema", "mesh_flanks", "mesh_names", "mesh_point", "mesh_report",
            "trajectory_meshes"]
 
 
-def mesh_names(system: CompiledSystem) -> list[str]:
+def mesh_names(system: System) -> list[str]:
     """Names of the model's mesh elements (in model order)."""
     return list(getattr(system.generated, "meshes", []) or [])
 
 
-def mesh_deflections(system: CompiledSystem, t: Sequence[float], Y: np.ndarray,
+def mesh_deflections(system: System, t: Sequence[float], Y: np.ndarray,
                      params: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
     """Dynamic deflection of every mesh at the states ``Y[k]`` at times ``t[k]`` (SI).
 
@@ -78,7 +78,7 @@ def mesh_extrema(deflections: Mapping[str, np.ndarray]) -> dict[str, dict[str, f
     return out
 
 
-def mesh_report(system: CompiledSystem, t: np.ndarray, Y: np.ndarray, params: Mapping[str, float] | None,
+def mesh_report(system: System, t: np.ndarray, Y: np.ndarray, params: Mapping[str, float] | None,
                 rattle: Mapping[str, int | None]) -> dict[str, dict[str, Any]]:
     """Per-mesh summary of one orbit: rattle state and deflection extrema, JSON-ready."""
     from ._rattle import RATTLE_STATES
@@ -94,7 +94,7 @@ def mesh_report(system: CompiledSystem, t: np.ndarray, Y: np.ndarray, params: Ma
     return out
 
 
-def trajectory_meshes(system: CompiledSystem, traj: Trajectory, steady_fraction: float = 0.5) -> dict[str, dict[str, Any]]:
+def trajectory_meshes(system: System, traj: Trajectory, steady_fraction: float = 0.5) -> dict[str, dict[str, Any]]:
     """Per-mesh summary of the steady part of a simulation (``simulate --json``).
 
     The rattle state of each mesh comes from its located contact events in the steady
@@ -128,7 +128,7 @@ def trajectory_meshes(system: CompiledSystem, traj: Trajectory, steady_fraction:
     return out
 
 
-def mesh_flanks(system: CompiledSystem, t: Sequence[float], Y: np.ndarray, deflections: Mapping[str, np.ndarray],
+def mesh_flanks(system: System, t: Sequence[float], Y: np.ndarray, deflections: Mapping[str, np.ndarray],
                 params: Mapping[str, float] | None = None) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Contact flank positions ``(lower, upper)`` of every backlash mesh at the samples.
 
@@ -154,7 +154,7 @@ def mesh_flanks(system: CompiledSystem, t: Sequence[float], Y: np.ndarray, defle
     return out
 
 
-def mesh_point(system: CompiledSystem, t: np.ndarray, Y: np.ndarray, params: Mapping[str, float],
+def mesh_point(system: System, t: np.ndarray, Y: np.ndarray, params: Mapping[str, float],
                rattle: Mapping[str, int], deflections: np.ndarray | None = None,
                extrema_at: tuple[Sequence[int], Sequence[int]] | None = None) -> dict[str, dict[str, Any]]:
     """Per mesh: rattle state and extrema of the dynamic deflection over one period sampled at ``t``
