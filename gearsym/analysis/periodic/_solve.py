@@ -1,9 +1,9 @@
 """The entry point of periodic-orbit solves: :func:`periodic_orbit`.
 
-:meth:`gearsym.system.System.periodic_orbit` delegates here; the function dispatches
-to :mod:`gearsym.analysis.periodic._shooting` (single / multiple shooting with the engine's
-variational equations) or :mod:`gearsym.analysis.periodic._hbm` (harmonic balance with
-alternating frequency/time), both of which return a
+:meth:`gearsym.System.periodic_orbit` delegates here; the function dispatches
+to :func:`~gearsym.analysis.periodic.shoot` (single / multiple shooting with the engine's
+variational equations) or :func:`~gearsym.analysis.periodic.harmonic_balance` (harmonic balance
+with alternating frequency/time), both of which return a
 :class:`~gearsym.analysis.periodic.PeriodicOrbit`.
 """
 
@@ -56,7 +56,9 @@ def periodic_orbit(system: CompiledSystem, period: float | None = None, periods:
         declares ``unit = "um"``).
     **options
         Passed on to :func:`gearsym.analysis.periodic.shoot` or
-        :func:`gearsym.analysis.periodic.harmonic_balance`.
+        :func:`gearsym.analysis.periodic.harmonic_balance`: their settings one by one, or
+        ``options=`` a :class:`~gearsym.analysis.periodic.ShootingOptions` /
+        :class:`~gearsym.analysis.periodic.HarmonicBalanceOptions`.
 
     Returns
     -------
