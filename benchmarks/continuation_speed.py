@@ -47,7 +47,7 @@ from c_reference import CTimer, bare_c_loop, interleaved  # noqa: E402
 from peers import python_rhs  # noqa: E402
 
 import gearsym  # noqa: E402
-from gearsym.analysis.shooting import shoot  # noqa: E402
+from gearsym.analysis.periodic import shoot  # noqa: E402
 
 SCENE = ROOT / "scenes" / "kahraman_singh.toml"
 RANGE = (0.6, 1.4)
@@ -245,7 +245,7 @@ def main() -> None:
                     label="scipy sweep up")
             a1.plot(sw["down"][:, 0], sw["down"][:, 1] - sw["down"][:, 2], "<", ms=3, mfc="none", color="C2",
                     label="scipy sweep down")
-        from gearsym.analysis.branch import add_legend
+        from gearsym.analysis.continuation import add_legend
 
         add_legend(a1, loc="upper right")
         a1.set_ylabel("peak-to-peak of x")

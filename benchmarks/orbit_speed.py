@@ -54,8 +54,8 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 import gearsym  # noqa: E402
-from gearsym.analysis.hbm import harmonic_balance  # noqa: E402
-from gearsym.analysis.maps import stability_map  # noqa: E402
+from gearsym.analysis.periodic import harmonic_balance  # noqa: E402
+from gearsym.analysis.sweeps import stability_map  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from c_reference import CTimer, bare_c_loop, interleaved  # noqa: E402

@@ -210,7 +210,7 @@ def child_run(case: str, work: Path, solver: str, dense_max: int, orbit_max: int
 
     import gearsym
     from gearsym.analysis.continuation import continuation
-    from gearsym.system import System
+    from gearsym.facade import System
 
     family, scene_path = case_scene(case, work)
     fam = FAMILY[family]

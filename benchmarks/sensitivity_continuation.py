@@ -41,8 +41,8 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 import gearsym  # noqa: E402
-from gearsym.analysis.continuation import ShootingResidual, _fd_step  # noqa: E402
-from gearsym.analysis.parameter_derivative import exact_f_lambda, finite_difference_f_lambda  # noqa: E402
+from gearsym.analysis.continuation._api import _fd_step  # noqa: E402
+from gearsym.analysis.periodic import ShootingResidual, exact_f_lambda  # noqa: E402
 
 KS = ROOT / "scenes" / "kahraman_singh.toml"
 SPUR = ROOT / "scenes" / "spur_pair_torsional.toml"
@@ -64,16 +64,15 @@ def f_lambda_accuracy(system, param: str, value: float, span: tuple[float, float
     ref = _richardson(lambda v: tight.evaluate(x, v, jac=False).R, value, 1e-4 * abs(value))
     rows = []
     for rtol in rtols:
-        res = ShootingResidual(system, param, rtol=rtol, atol=float(rtol * 1e-2 * np.min(scale)),
-                               fd_step=_fd_step(*span, rtol))
+        res, res_fd = (ShootingResidual(system, param, rtol=rtol, atol=float(rtol * 1e-2 * np.min(scale)),
+                                        fd_step=_fd_step(*span, rtol), f_lambda=f) for f in ("exact", "finite_difference"))
         R = res.evaluate(x, value, jac=False).R
         row = {"rtol": rtol}
         for kind in ("exact", "fd"):
-            def one(kind=kind, res=res, R=R):
+            def one(kind=kind, res=res, res_fd=res_fd, R=R):
                 if kind == "exact":
                     return exact_f_lambda(res, x, value)
-                with finite_difference_f_lambda():
-                    return res._fd_lambda(x, value, R)
+                return res_fd._fd_lambda(x, value, R)
             got = one()
             t0 = time.perf_counter()
             for _ in range(repeats):
@@ -87,13 +86,9 @@ def f_lambda_accuracy(system, param: str, value: float, span: tuple[float, float
 
 
 def run_branch(system, rtol: float, fd: bool) -> dict:
-    kw = dict(progress=False, rtol=rtol)
+    kw = dict(progress=False, rtol=rtol, f_lambda="finite_difference" if fd else "exact")
     c0, t0 = time.process_time(), time.perf_counter()
-    if fd:
-        with finite_difference_f_lambda():
-            br = gearsym.continuation(system, "Omega", 0.6, 1.4, **kw)
-    else:
-        br = gearsym.continuation(system, "Omega", 0.6, 1.4, **kw)
+    br = gearsym.continuation(system, "Omega", 0.6, 1.4, **kw)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     return {"folds": sorted(b.value for b in br.of_type("fold")),
             "grazings": sorted(b.value for b in br.of_type("grazing")),

@@ -12,7 +12,7 @@ change the rattle state (Liu's rsv): the drive flank starts separating
 (unilateral -> bilateral rattle, where the peak-to-peak value ppv shoots up).
 
 Brute-force steady states (integrate from the previous speed's state, then
-classify the last periods with ``gearsym.analysis.rattle``) are overlaid, as in
+classify the last periods with ``gearsym.analysis.periodic.rattle_state``) are overlaid, as in
 the paper's Fig. 11a (rsv) and 11b (ppv).
 
 Writes ``OUT/nfg_rattle.png`` and ``OUT/nfg_rattle.json``.
@@ -35,8 +35,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import gearsym  # noqa: E402
-from gearsym.analysis.branch import add_legend  # noqa: E402
-from gearsym.analysis.rattle import peak_to_peak, rattle_state  # noqa: E402
+from gearsym.analysis.continuation import add_legend  # noqa: E402
+from gearsym.analysis.periodic import peak_to_peak, rattle_state  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "scenes" / "liu_nfg_160.toml"

@@ -29,7 +29,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import gearsym  # noqa: E402
-from gearsym.analysis.branch import add_legend  # noqa: E402
+from gearsym.analysis.continuation import add_legend  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 FA = 0.4

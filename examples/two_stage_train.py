@@ -44,7 +44,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import gearsym  # noqa: E402
-from gearsym.analysis.meshes import mesh_deflections  # noqa: E402
+from gearsym.analysis.periodic import mesh_deflections  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 FREE = ROOT / "scenes" / "two_stage_train.toml"
@@ -52,7 +52,7 @@ REDUCED = ROOT / "scenes" / "two_stage_train_deflections.toml"
 RANGE = (2000.0, 6500.0)  # rpm
 
 
-def free_state(free: gearsym.system.System, x: np.ndarray) -> np.ndarray:
+def free_state(free: gearsym.System, x: np.ndarray) -> np.ndarray:
     """A state of the free train with the deflections ``x`` of the reduced one at t = 0 (th4 = 0)."""
     p = free.units.to_si(free.params)  # SI: the kinematics below are written in SI
     rb = [p["m_n"] * p[z] * np.cos(p["alpha"]) / 2 for z in ("z1", "z2", "z3", "z4")]

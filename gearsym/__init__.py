@@ -23,17 +23,17 @@ TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (type che
 
 #: public name -> module that defines it
 _EXPORTS: dict[str, str] = {
-    "Bifurcation": ".analysis.branch",
-    "Branch": ".analysis.branch",
-    "BranchPoint": ".analysis.branch",
+    "Bifurcation": ".analysis.continuation",
+    "Branch": ".analysis.continuation",
+    "BranchPoint": ".analysis.continuation",
     "continuation": ".analysis.continuation",
-    "switch_period_doubling": ".analysis.branch_switching",
-    "ContinuationOptions": ".analysis.options",
-    "ShootingOptions": ".analysis.options",
-    "PeriodicOrbit": ".analysis.orbit",
-    "LyapunovOptions": ".analysis.lyapunov",
-    "LyapunovResult": ".analysis.lyapunov",
-    "lyapunov_exponents": ".analysis.lyapunov",
+    "switch_period_doubling": ".analysis.continuation",
+    "ContinuationOptions": ".analysis.continuation",
+    "ShootingOptions": ".analysis.periodic",
+    "PeriodicOrbit": ".analysis.periodic",
+    "LyapunovOptions": ".analysis.sweeps",
+    "LyapunovResult": ".analysis.sweeps",
+    "lyapunov_exponents": ".analysis.sweeps",
     "CompileError": ".errors",
     "ConvergenceError": ".errors",
     "GearsymError": ".errors",
@@ -44,7 +44,7 @@ _EXPORTS: dict[str, str] = {
     "load_scene": ".facade",
     "Event": ".results",
     "Trajectory": ".results",
-    "System": ".system",
+    "System": ".facade",
     "SimulateOptions": ".simulation_options",
 }
 
@@ -56,12 +56,16 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .analysis.branch import Bifurcation, Branch, BranchPoint
-    from .analysis.branch_switching import switch_period_doubling
-    from .analysis.continuation import continuation
-    from .analysis.lyapunov import LyapunovOptions, LyapunovResult, lyapunov_exponents
-    from .analysis.options import ContinuationOptions, ShootingOptions
-    from .analysis.orbit import PeriodicOrbit
+    from .analysis.continuation import (
+        Bifurcation,
+        Branch,
+        BranchPoint,
+        ContinuationOptions,
+        continuation,
+        switch_period_doubling,
+    )
+    from .analysis.periodic import PeriodicOrbit, ShootingOptions
+    from .analysis.sweeps import LyapunovOptions, LyapunovResult, lyapunov_exponents
     from .errors import (
         CompileError,
         ConvergenceError,
@@ -70,10 +74,9 @@ if TYPE_CHECKING:  # pragma: no cover
         SimulationError,
         SpecError,
     )
-    from .facade import Scene, load_scene
+    from .facade import Scene, System, load_scene
     from .results import Event, Trajectory
     from .simulation_options import SimulateOptions
-    from .system import System
 
 
 def __getattr__(name: str) -> object:

@@ -5,7 +5,7 @@ must be refused before any work, with a :class:`~gearsym.errors.ParameterError` 
 naming the option and the limit, not end in a ``MemoryError`` after minutes or in an
 hour of computing.  The command line (:mod:`gearsym.cli.checks`, before the scene is
 loaded) and the library (:meth:`gearsym.system.System.simulate`, the orbit solvers,
-:func:`gearsym.continuation`, the maps, :func:`gearsym.analysis.modes.modal_analysis`,
+:func:`gearsym.continuation`, the maps, :func:`gearsym.analysis.linear.modal_analysis`,
 the options objects and the engine's Newton matrices) take their rules from here:
 
 * :data:`LIMITS`: the range of each count, by the name of its keyword argument;

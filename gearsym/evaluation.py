@@ -1,5 +1,5 @@
 """Evaluations of a compiled system's generated functions at given points (part of
-:class:`gearsym.system.System`): right-hand side, Jacobian, switching functions, outputs,
+:class:`gearsym.system.CompiledSystem`): right-hand side, Jacobian, switching functions, outputs,
 modes, mesh deflections and schedules, all by the engine in C (no CasADi call on the
 analyses' path), plus a cached CasADi map for what only CasADi has.
 """
@@ -23,7 +23,7 @@ __all__ = ["Evaluations"]
 
 
 class Evaluations:
-    """Point evaluations of the generated functions (mixed into :class:`~gearsym.system.System`)."""
+    """Point evaluations of the generated functions (mixed into :class:`~gearsym.system.CompiledSystem`)."""
 
     generated: GeneratedModel
     engine: Engine

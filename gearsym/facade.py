@@ -3,14 +3,30 @@
 It ties the layers together (spec -> symbolic -> codegen -> engine) without
 letting them leak into each other: the spec layer never sees sympy, the engine
 never sees sympy, and a cached compile does not even derive the equations.
+
+**The facade sits above the analysis.**  The compiled system has two levels:
+
+* :class:`gearsym.system.CompiledSystem` (the system layer) is the engine-level object:
+  simulate, the flow map, point evaluations, parameters, units, sensitivities.  The
+  analysis layer (:mod:`gearsym.analysis`) works on it and imports nothing above it;
+* :class:`System` (here) is what :meth:`Scene.compile` returns: the compiled system plus
+  the analysis conveniences of DESIGN.md's public surface (:meth:`System.periodic_orbit`),
+  which call down into the analysis.
+
+So every import points downwards (spec, symbolic, codegen, engine -> system -> analysis ->
+facade -> presentation, CLI), with no exception: the analysis never sees the facade (it
+takes a compiled system, or duck-types a scene by its ``compile()``), and the system layer
+never sees the analysis.  A :class:`System` pickles as its base does (the copy reloads its
+build from the build cache by key).
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from functools import cached_property
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from .catalog import find_scene
 from .codegen.cache import BuildCache, build_key
@@ -19,7 +35,17 @@ from .engine.trust import user_cache_dir
 from .errors import GearsymError, SpecError
 from .spec.model import ModelSpec, load_model
 from .spec.scene import ResolvedScene, SceneSpec, load_scene_spec, resolve_scene
+from .spec.settings import resolve_settings
+from .spec.units import ParameterUnits
+from .static import static_state
 from .symbolic.model import SymbolicModel
+from .system import CompiledSystem
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .analysis.periodic import PeriodicOrbit
+
+#: The settings of :meth:`System.periodic_orbit` that the scene's ``[orbit]`` table may set.
+_ORBIT_KEYS = ("segments", "transient", "harmonics", "tol", "rtol", "atol")
 
 
 def default_generated_dir(scene_path: str | Path | None = None) -> Path:
@@ -106,7 +132,7 @@ class Scene:
         return bool(self.spec.simulate.get("dimensionless", False))
 
     def compile(self, generated_dir: str | Path | None = None, force: bool = False,
-                dimensionless: bool | None = None, *, derivatives: bool = False) -> System:  # noqa: F821
+                dimensionless: bool | None = None, *, derivatives: bool = False) -> System:
         """Generate C, compile it (or reuse the cached build) and bind it to the engine.
 
         Parameters
@@ -129,9 +155,6 @@ class Scene:
             The compiled system; its ``x0`` is the scene's initial state, or the static
             equilibrium with ``[initial] static = true`` (:mod:`gearsym.static`).
         """
-        from .spec.units import ParameterUnits
-        from .system import System
-
         if self.resolved.static and self.model_spec.algebraic:
             raise SpecError("the static start does not handle algebraic variables ([constraints]): give "
                             "the initial state", file=self.spec.path, field="initial.static")
@@ -142,8 +165,6 @@ class Scene:
                         {k: v for k, v in self.spec.extra.items() if k in ("orbit", "continue", "map")})
         system.derivative_build = _DerivativeBuild(self, generated_dir, gen.dimensionless)
         if self.resolved.static:  # [initial] static = true: start from the static equilibrium
-            from .static import static_state
-
             system.x0 = static_state(system, *self.resolved.coordinate_states(),
                                      where=(self.spec.path, "initial.static"))
         return system
@@ -234,6 +255,87 @@ class Scene:
         gen.compile_seconds = 0.0
         gen.scene = self.name  # builds are shared by scenes whose names map to one folder
         return gen
+
+
+class System(CompiledSystem):
+    """A compiled scene: simulate it, find its periodic orbits.
+
+    Obtained from :meth:`Scene.compile`; not constructed directly.  Everything of
+    :class:`gearsym.system.CompiledSystem` (:meth:`simulate`, :meth:`flow`, the parameters
+    and their units, the evaluations and sensitivities), plus the analysis conveniences
+    (:meth:`periodic_orbit`); :func:`gearsym.continuation` and the maps take it too.
+
+    Parameters
+    ----------
+    generated
+        The compiled model (:meth:`Scene.generate`).
+    params
+        Values of the run-time parameters (SI units: what the spec layer resolved).
+    x0
+        The initial state.
+    defaults
+        The scene's ``[simulate]`` table (``periods``, ``rtol``, ``method``, ...).
+    scene_name
+        The scene's name (default: the build's).
+    units
+        The declared units of the parameters (default: every parameter SI).
+    rules
+        The physical ranges of the parameter values (:mod:`gearsym.spec.rules`).
+    settings
+        The scene's other settings tables (``orbit``, ``continue``, ``map``), the defaults of
+        :meth:`periodic_orbit`, :func:`gearsym.continuation` and the maps.
+    """
+
+    def periodic_orbit(self, period: float | None = None, periods: float | None = None,
+                       x0: Sequence[float] | None = None, method: str | None = None,
+                       params: Mapping[str, float] | None = None, **options: Any) -> PeriodicOrbit:
+        """Find a periodic orbit and its Floquet multipliers.
+
+        Delegates to :func:`gearsym.analysis.periodic.periodic_orbit`: ``method="shooting"``
+        (Newton on ``phi(T, x0) - x0`` with the engine's variational equations and
+        saltation matrices; ``segments=N`` for multiple shooting) or ``"hbm"``
+        (harmonic balance with alternating frequency/time; ``harmonics=H`` or grown).
+
+        Parameters
+        ----------
+        period
+            Orbit period (default ``periods`` forcing periods).
+        periods
+            Number of forcing periods of the orbit, a positive whole number (default: the scene's
+            ``[orbit]`` ``periods``, else 1).
+        x0
+            Initial guess of the state at ``t = 0``.
+        method
+            ``"shooting"`` or ``"hbm"`` (default: the scene's ``[orbit]`` ``method``, else
+            shooting).
+        params
+            Parameter overrides (declared units).
+        **options
+            Solver options (``tol``, ``rtol``, ``atol``, ``segments``, ``transient``,
+            ``harmonics``, ..., or ``options=`` a :class:`~gearsym.analysis.periodic.ShootingOptions`
+            / :class:`~gearsym.analysis.periodic.HarmonicBalanceOptions`); those the scene's
+            ``[orbit]`` table sets default to its values (one resolution with ``gearsym orbit``:
+            :func:`gearsym.spec.settings.resolve_settings`).
+
+        Returns
+        -------
+        gearsym.PeriodicOrbit
+            ``.x0``, ``.period``, ``.monodromy``, ``.multipliers``, ``.stable``,
+            ``.iterations``, ``.residual``, ``.rattle_state``, ...
+
+        Raises
+        ------
+        ConvergenceError
+            The solver did not converge (with its residual history).
+        """
+        # imported when called: `gearsym simulate` and `gearsym inspect` do not load the solvers
+        from .analysis.periodic import periodic_orbit
+
+        s = resolve_settings("orbit", self.settings.get("orbit"), periods=periods, method=method,
+                             **{k: options.pop(k) for k in _ORBIT_KEYS if k in options})
+        options.update({k: s[k] for k in _ORBIT_KEYS if s[k] is not None})
+        return periodic_orbit(self, period=period, periods=s["periods"], x0=x0, method=s["method"], params=params,
+                              **options)
 
 
 class _DerivativeBuild:

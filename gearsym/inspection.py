@@ -74,7 +74,7 @@ def print_structure(info: dict[str, Any]) -> None:
 
 def mesh_figure(system, traj, out: Path, title: str, info: dict[str, Any]) -> Path | None:
     """``mesh_deflections.png`` of a simulation (every mesh, with its contact flanks)."""
-    from .analysis.meshes import mesh_deflections, mesh_flanks
+    from .analysis.periodic import mesh_deflections, mesh_flanks
     from .plots import plot_mesh_deflections
 
     params = {k: v for k, v in traj.params.items() if k in system.params}

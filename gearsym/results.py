@@ -48,7 +48,7 @@ class Trajectory:
         The forcing period of the scene at these parameters.
     params : dict
         Parameter values used, in the model's declared units (bound parameters: SI), as
-        :attr:`gearsym.system.System.params`.
+        :attr:`gearsym.system.CompiledSystem.params`.
     x_final : ndarray
         State at ``t_end``.
     monodromy : ndarray or None
@@ -142,7 +142,7 @@ class Trajectory:
 class Flow:
     """One integration of the flow map ``phi(t1, t0, x0)``, as the periodic-orbit solvers use it.
 
-    Returned by :meth:`gearsym.system.System.flow` (no output grid, no event objects: the
+    Returned by :meth:`gearsym.system.CompiledSystem.flow` (no output grid, no event objects: the
     cheap path of shooting and continuation).
 
     Attributes

@@ -29,7 +29,7 @@ from .engine.driver import Engine, load_engine
 from .errors import ParameterError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .system import System
+    from .system import CompiledSystem as System
 
 __all__ = ["SensitivityMethods", "directions", "period_gradient", "sensitivity_atol"]
 
@@ -191,8 +191,6 @@ class SensitivityMethods:
                           inputs: Mapping[str, float] | None = None) -> dict:
         """Engine arguments of the sensitivities ``names``: directions and a tolerance vector
         (state, monodromy as :meth:`flow` sets it, then ``atol_i / |p|`` per sensitivity)."""
-        from .sensitivity import directions, sensitivity_atol
-
         if self.generated.implicit:
             raise ParameterError("parameter sensitivities need an explicit model (CVODE); this one is in "
                                  "implicit (residual) form")
@@ -226,8 +224,6 @@ class SensitivityMethods:
         ndarray, shape (len(sensitivities),)
             Zero for parameters the period does not depend on.
         """
-        from .sensitivity import directions, period_gradient
-
         pv = self.param_vector() if p is None else p
         return period_gradient(self, pv, directions(self, list(sensitivities), pv, inputs))
 

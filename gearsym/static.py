@@ -76,7 +76,7 @@ from .codegen.artifact import generated_map
 from .errors import ConvergenceError, GearsymError, SpecError
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .system import System
+    from .system import CompiledSystem as System
 
 __all__ = ["PeriodAverage", "StaticEquilibrium", "equal_nodes", "period_nodes", "static_equilibrium",
            "static_state"]

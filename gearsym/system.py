@@ -31,10 +31,12 @@ from .spec.units import ParameterUnits
 # the largest output grid (points x (states + 1)) and the step budget: gearsym.budget
 
 
-class System(Evaluations, SensitivityMethods):
-    """A compiled scene: simulate it, find its periodic orbits.
+class CompiledSystem(Evaluations, SensitivityMethods):
+    """A compiled scene at the engine level: simulate it, its flow map, point evaluations.
 
-    Obtained from :meth:`gearsym.Scene.compile`; not constructed directly.
+    The base of :class:`gearsym.System`, which :meth:`gearsym.Scene.compile` returns and
+    which adds the analysis conveniences (:meth:`gearsym.System.periodic_orbit`); the
+    analysis layer works on this class and never imports the facade (:mod:`gearsym.facade`).
 
     **Units.** Every parameter *mapping* a System takes or gives (``params=`` of every
     method, :attr:`params`, the ``params`` of its trajectories and orbits) is in the units
@@ -66,8 +68,8 @@ class System(Evaluations, SensitivityMethods):
         for every override in :meth:`param_vector` (default: none).
     settings
         The scene's other settings tables: ``{"orbit": {...}, "continue": {...}, "map": {...}}``
-        (:mod:`gearsym.spec.settings`), the defaults of :meth:`periodic_orbit`,
-        :func:`gearsym.continuation` and :func:`gearsym.analysis.maps.stability_map`.
+        (:mod:`gearsym.spec.settings`), the defaults of :meth:`gearsym.System.periodic_orbit`,
+        :func:`gearsym.continuation` and :func:`gearsym.analysis.sweeps.stability_map`.
 
     Attributes
     ----------
@@ -653,55 +655,6 @@ class System(Evaluations, SensitivityMethods):
         else:
             atol_vec = np.array(ax)
         return float(np.min(ax)), atol_vec
-
-    def periodic_orbit(self, period: float | None = None, periods: float | None = None,
-                       x0: Sequence[float] | None = None, method: str | None = None,
-                       params: Mapping[str, float] | None = None, **options):
-        """Find a periodic orbit and its Floquet multipliers.
-
-        Delegates to :func:`gearsym.analysis.periodic.periodic_orbit`: ``method="shooting"``
-        (Newton on ``phi(T, x0) - x0`` with the engine's variational equations and
-        saltation matrices; ``segments=N`` for multiple shooting) or ``"hbm"``
-        (harmonic balance with alternating frequency/time; ``harmonics=H`` or grown).
-
-        Parameters
-        ----------
-        period
-            Orbit period (default ``periods`` forcing periods).
-        periods
-            Number of forcing periods of the orbit, a positive whole number (default: the scene's
-            ``[orbit]`` ``periods``, else 1).
-        x0
-            Initial guess of the state at ``t = 0``.
-        method
-            ``"shooting"`` or ``"hbm"`` (default: the scene's ``[orbit]`` ``method``, else
-            shooting).
-        params
-            Parameter overrides (declared units).
-        **options
-            Solver options (``tol``, ``rtol``, ``atol``, ``segments``, ``transient``,
-            ``harmonics``, ...); those the scene's ``[orbit]`` table sets default to its values
-            (one resolution with ``gearsym orbit``: :func:`gearsym.spec.settings.resolve_settings`).
-
-        Returns
-        -------
-        gearsym.analysis.orbit.PeriodicOrbit
-            ``.x0``, ``.period``, ``.monodromy``, ``.multipliers``, ``.stable``,
-            ``.iterations``, ``.residual``, ``.rattle_state``, ...
-
-        Raises
-        ------
-        ConvergenceError
-            The solver did not converge (with its residual history).
-        """
-        from .analysis.periodic import periodic_orbit
-
-        keys = ("segments", "transient", "harmonics", "tol", "rtol", "atol")
-        s = resolve_settings("orbit", self.settings.get("orbit"), periods=periods, method=method,
-                             **{k: options.pop(k) for k in keys if k in options})
-        options.update({k: s[k] for k in keys if s[k] is not None})
-        return periodic_orbit(self, period=period, periods=s["periods"], x0=x0, method=s["method"], params=params,
-                              **options)
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,7 @@ the switch that sends every step to the Python corrector (to compare the two pat
 
 from __future__ import annotations
 
-import gearsym.analysis.corrector as corrector_mod
+import gearsym.analysis.continuation._corrector as corrector_mod
 
 
 def spy_on_c_corrector(monkeypatch) -> list[bool]:

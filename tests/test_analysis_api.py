@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import gearsym
-from gearsym.analysis.shooting import shoot
+from gearsym.analysis.periodic import shoot
 
 ROOT = Path(__file__).resolve().parents[1]
 KS = {"zeta": 0.05, "Fm": 0.1, "Fa": 0.05, "eps": 0.2, "b": 1.0, "Omega": 0.9}
@@ -73,7 +73,7 @@ def test_branch_results_are_immutable_and_carry_no_solver_state(ks_system):
 
 
 def test_fourier_series_against_the_written_out_sum():
-    from gearsym.analysis.fourier import coefficients, synthesize
+    from gearsym.analysis.periodic._fourier import coefficients, synthesize
 
     rng = np.random.default_rng(3)
     c = rng.standard_normal(5)
@@ -91,7 +91,7 @@ def test_multiplier_tolerances_match_scipy_left_right_eigenvectors(n):
     eigenvectors: the same eigenvalue condition numbers, hence the same tolerances."""
     import scipy.linalg
 
-    from gearsym.analysis.stability import multiplier_tolerances
+    from gearsym.analysis.periodic import multiplier_tolerances
 
     rng = np.random.default_rng(n)
     M = rng.standard_normal((n, n)) * 10.0 ** rng.uniform(-3, 3, (n, 1))

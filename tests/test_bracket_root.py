@@ -1,4 +1,4 @@
-"""The root finder of the continuation's detection (:func:`gearsym.analysis.bifurcation.bracket_root`).
+"""The root finder of the continuation's detection (:func:`gearsym.analysis.continuation._bifurcation.bracket_root`).
 
 References: exact roots of smooth functions, and a jump (a discontinuous test function,
 which must be told from a root by its final bracket)."""
@@ -9,7 +9,7 @@ import math
 
 import pytest
 
-from gearsym.analysis.bifurcation import bracket_root
+from gearsym.analysis.continuation._bifurcation import bracket_root
 
 
 @pytest.mark.parametrize("root", [1e-4, 0.3, 0.77, 0.99999])

@@ -72,7 +72,7 @@ def ks_system():
 
 
 def test_modal_analysis_samples(ks_system):
-    from gearsym.analysis.modes import modal_analysis, static_equilibrium
+    from gearsym.analysis.linear import modal_analysis, static_equilibrium
 
     for fn in (modal_analysis, static_equilibrium):
         with pytest.raises(ParameterError, match=r"^samples must be an integer in \[1, 100,000\], got 10{12}"):
@@ -85,7 +85,7 @@ def test_flow_samples(ks_system):
 
 
 def test_harmonic_balance_counts(ks_system):
-    from gearsym.analysis.hbm import harmonic_balance
+    from gearsym.analysis.periodic import harmonic_balance
 
     with pytest.raises(ParameterError, match=r"^harmonics must be an integer in \[0, 4,096\], got 10{12}"):
         harmonic_balance(ks_system, harmonics=10 ** 12)
@@ -111,7 +111,7 @@ def test_options_objects_are_bounded(cls, kw, needle):
 
 
 def test_shooting_and_continuation_keywords(ks_system):
-    from gearsym.analysis.shooting import shoot
+    from gearsym.analysis.periodic import shoot
 
     with pytest.raises(ParameterError, match=r"^segments must be an integer in \[1, 10,000\], got 1000000"):
         shoot(ks_system, segments=10 ** 6)
@@ -122,7 +122,7 @@ def test_shooting_and_continuation_keywords(ks_system):
 
 
 def test_map_axes_and_workers():
-    from gearsym.analysis.maps import stability_map
+    from gearsym.analysis.sweeps import stability_map
 
     scene = gearsym.load_scene(KS_SCENE)  # refused before it is compiled
     with pytest.raises(ParameterError, match=r"^x N must be an integer in \[1, 1,000,000\], got 10{12}"):

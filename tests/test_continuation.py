@@ -392,7 +392,7 @@ def test_neimark_sacker_on_two_dof_model(tmp_path):
 
 # ------------------------------------------------------------------ harmonic balance, CLI
 def test_hbm_branch_agrees_with_shooting(ks_system):
-    from gearsym.analysis.shooting import shoot
+    from gearsym.analysis.periodic import shoot
 
     hb = gearsym.continuation(ks_system, "Omega", 0.6, 0.8, progress=False, ds_max=0.05, method="hbm",
                               harmonics=12)
@@ -430,17 +430,14 @@ def test_parameter_derivative_of_the_residual_at_loose_tolerances(ks_system, rto
     1e-13 to 2 % (with the old fixed 1e-6 step the difference was off by 34x at rtol 1e-5:
     the integration noise (~ rtol) over the step, and the corrector rejected step after
     step); the exact one to 1e-4."""
-    import contextlib
-
-    from gearsym.analysis.continuation import ShootingResidual, _fd_step
-    from gearsym.analysis.parameter_derivative import finite_difference_f_lambda
+    from gearsym.analysis.continuation._api import ShootingResidual, _fd_step
 
     orb = ks_system.periodic_orbit(params={"Omega": 1.2}, rtol=1e-12, atol=1e-14, tol=1e-11)
     x = orb.x0
     tight = ShootingResidual(ks_system, "Omega", rtol=1e-13, atol=1e-15)
     h = 1e-4
     ref = (tight.evaluate(x, 1.2 + h, jac=False).R - tight.evaluate(x, 1.2 - h, jac=False).R) / (2 * h)
-    loose = ShootingResidual(ks_system, "Omega", rtol=rtol, atol=rtol * 1e-2, fd_step=_fd_step(0.6, 1.4, rtol))
-    with finite_difference_f_lambda() if kind == "fd" else contextlib.nullcontext():
-        got = loose.evaluate(x, 1.2, jac=True, dlam=True).Flam
+    loose = ShootingResidual(ks_system, "Omega", rtol=rtol, atol=rtol * 1e-2, fd_step=_fd_step(0.6, 1.4, rtol),
+                             f_lambda="finite_difference" if kind == "fd" else "exact")
+    got = loose.evaluate(x, 1.2, jac=True, dlam=True).Flam
     assert np.max(np.abs(got - ref)) < (2e-2 if kind == "fd" else 1e-4) * np.max(np.abs(ref))

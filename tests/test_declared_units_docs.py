@@ -14,20 +14,17 @@ import pytest
 from numpydoc.docscrape import NumpyDocString
 
 import gearsym
-from gearsym.analysis import (
-    branch,
-    continuation,
-    floquet,
-    hbm,
-    modes,
-    orbit,
-    periodic,
-    points,
-    problems,
-    shooting,
-)
+from gearsym.analysis import continuation, periodic
+from gearsym.analysis import continuation as branch
+from gearsym.analysis import continuation as points
+from gearsym.analysis import linear as modes
+from gearsym.analysis import periodic as floquet
+from gearsym.analysis import periodic as hbm
+from gearsym.analysis import periodic as orbit
+from gearsym.analysis import periodic as problems
+from gearsym.analysis import periodic as shooting
+from gearsym.facade import System
 from gearsym.results import Trajectory
-from gearsym.system import System
 
 ROOT = Path(__file__).resolve().parents[1]
 SPUR_SCENE = ROOT / "scenes" / "spur_pair_torsional.toml"

@@ -1,6 +1,7 @@
 """Every public name has a numpydoc docstring with Parameters and Returns where they apply.
 
-Public names are ``gearsym.__all__`` and the public methods and properties of its classes.
+Public names are ``gearsym.__all__`` and the public methods and properties of its classes
+(their own and those they inherit from gearsym classes).
 Functions and methods are checked with numpydoc's own validator (``numpydoc.validate``):
 no docstring (GL08), parameters not documented (PR01) or documented but absent (PR02),
 a function that returns something without a Returns section (RT01).  A class must describe
@@ -37,11 +38,16 @@ def _problems(name: str) -> list[str]:
         for p in (sig.parameters.values() if sig else []):
             if p.name.lstrip("_") not in documented and p.name not in documented:
                 out.append(f"{name}: constructor argument '{p.name}' is in neither Parameters nor Attributes")
-        for attr, value in vars(obj).items():
+        # the class's own members and those it inherits from gearsym classes (gearsym.System is
+        # the facade's class over gearsym.system.CompiledSystem and its mixins)
+        members = {}
+        for klass in reversed([k for k in obj.__mro__ if k.__module__.split(".")[0] == "gearsym"]):
+            members.update({attr: (klass, value) for attr, value in vars(klass).items()})
+        for attr, (klass, value) in members.items():
             if attr.startswith("_"):
                 continue
             if isinstance(value, (property, staticmethod, classmethod)) or inspect.isfunction(value):
-                qual = f"{obj.__module__}.{obj.__qualname__}.{attr}"
+                qual = f"{klass.__module__}.{klass.__qualname__}.{attr}"
                 if isinstance(value, property):
                     if not (value.__doc__ or "").strip():
                         out.append(f"{qual}: property without a docstring")

@@ -16,7 +16,7 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 import gearsym
-from gearsym.analysis.floquet import (
+from gearsym.analysis.periodic._floquet import (
     NotPiecewiseConstantError,
     PiecewiseLTV,
     exact_multipliers,

@@ -16,7 +16,7 @@ import pytest
 from scipy.linalg import expm
 
 import gearsym
-from gearsym.analysis.hbm import HarmonicBalance, harmonic_balance
+from gearsym.analysis.periodic import HarmonicBalance, harmonic_balance
 
 ROOT = Path(__file__).resolve().parent.parent
 KS = ROOT / "scenes" / "kahraman_singh.toml"
@@ -227,7 +227,7 @@ def liu140():
 def test_excitation_harmonics_and_sets_contain_the_mesh_harmonic(liu140):
     """The NFG's time dependence: the instantaneous-centre harmonics and the mesh
     harmonic Z2 = 64 with its sidebands; every set of the growth contains 64."""
-    from gearsym.analysis.hbm_sets import carriers_of, excitation_harmonics, growth_sets
+    from gearsym.analysis.periodic._hbm_sets import carriers_of, excitation_harmonics, growth_sets
 
     ex = excitation_harmonics(liu140, liu140.period(), liu140.x0)
     assert 1 in ex and 64 in ex and not any(20 < k < 50 for k in ex)
@@ -241,7 +241,7 @@ def test_aft_jacobian_on_a_harmonic_set_matches_finite_differences(liu140):
     """Exact AFT Jacobian (assembled from the FFT of df/dx) on a sparse set around the
     mesh harmonic, on a contact-loss state: central differences agree in norm to 1e-6
     (the residual is only piecewise smooth where a sample changes contact side)."""
-    from gearsym.analysis.hbm import HarmonicBalance
+    from gearsym.analysis.periodic import HarmonicBalance
 
     hb = HarmonicBalance(liu140, liu140.period(), [1, 2, 3, 62, 63, 64, 65, 66], samples=512)
     rng = np.random.default_rng(5)
@@ -302,7 +302,7 @@ def test_growth_gives_up_when_the_defect_blows_up(ks, monkeypatch):
     DEFECT_BLOWUP times the smallest one before it (a balance that moved away from the orbit:
     the free two-stage train's 128-harmonic set, 0.067 -> 41, then minutes more for the next
     set); a growth whose defects only fall is not stopped (the same call unpatched converges)."""
-    from gearsym.analysis import hbm_driver
+    from gearsym.analysis.periodic import _hbm_driver as hbm_driver
 
     ok = harmonic_balance(ks, initial_guess="simulation", max_harmonics=64)
     seen = [g["harmonics"] for g in ok.info["harmonic_growth"]]

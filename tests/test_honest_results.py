@@ -23,7 +23,7 @@ from scipy.linalg import expm
 from scipy.special import mathieu_a, mathieu_b
 
 import gearsym
-from gearsym.analysis.isolation import isolation
+from gearsym.analysis.periodic import isolation
 from gearsym.errors import ConvergenceError
 
 OSC = """
@@ -420,7 +420,7 @@ def test_continue_prints_values_in_the_declared_unit(work):
 def test_monodromy_error_is_below_the_isolation_threshold(osc, rtol):
     # references: the undamped oscillator over one period at Omega = 1 has M = I exactly; the damped
     # Meissner equation has the exact product of matrix exponentials (Vaishya & Singh eqs. 25-31)
-    from gearsym.analysis.isolation import ERROR_FACTOR, RTOL_FLOOR
+    from gearsym.analysis.periodic._isolation import ERROR_FACTOR, RTOL_FLOOR
 
     root = Path(__file__).resolve().parents[1]
     meissner = gearsym.load_scene(root / "scenes" / "meissner.toml").compile()

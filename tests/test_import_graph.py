@@ -26,9 +26,11 @@ ROOT = Path(__file__).resolve().parents[1] / "gearsym"
 #: * engine: the generic C driver over SUNDIALS and its build; it knows no model, so it sits
 #:   *below* codegen, which generates a model's C and links it against the driver;
 #: * codegen: sympy -> CasADi -> C, the build cache, the GeneratedModel artefact;
-#: * system: the compiled System, the user facade (Scene, load_scene), result objects,
-#:   the static equilibrium;
-#: * analysis: periodic orbits, Floquet, continuation, maps, modes;
+#: * system: the engine-level compiled system (gearsym.system.CompiledSystem), result objects,
+#:   the static equilibrium, evaluations and sensitivities;
+#: * analysis: periodic orbits, Floquet, continuation, maps, modes (by kind: ANALYSIS_KINDS);
+#: * facade: Scene, load_scene and the user-facing System with its analysis conveniences
+#:   (System.periodic_orbit): above the analysis it calls;
 #: * presentation: plots, inspection, export (C project, FMU);
 #: * top: the CLI, the benchmark harness and the package root (its lazy public namespace).
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
@@ -39,19 +41,27 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("symbolic", ("gearsym.symbolic",)),
     ("engine", ("gearsym.engine",)),
     ("codegen", ("gearsym.codegen",)),
-    ("system", ("gearsym.system", "gearsym.facade", "gearsym.results", "gearsym.static", "gearsym.evaluation",
-                "gearsym.sensitivity", "gearsym.simulation_options")),
+    ("system", ("gearsym.system", "gearsym.results", "gearsym.static", "gearsym.evaluation", "gearsym.sensitivity",
+                "gearsym.simulation_options")),
     ("analysis", ("gearsym.analysis",)),
+    ("facade", ("gearsym.facade",)),
     ("presentation", ("gearsym.plots", "gearsym.inspection", "gearsym.export")),
     ("top", ("gearsym.cli", "gearsym.cli_cache", "gearsym.cli_catalog", "gearsym.cli_checks", "gearsym.bench",
              "gearsym.__main__", "gearsym")),
 ]
 
-#: The one upward import: ``System.periodic_orbit`` (the public convenience method of
-#: DESIGN.md's surface) is a thin delegate to :func:`gearsym.analysis.periodic.periodic_orbit`,
-#: imported when called.  It closes no cycle (the test below checks the whole graph, this
-#: edge included).  (importer, function, imported).
-ALLOWED_UPWARD = {("gearsym.system", "periodic_orbit", "gearsym.analysis.periodic")}
+#: The kinds of analysis (subpackages of gearsym.analysis) and the other kinds each may import.
+#: Continuation drives the periodic-orbit problems; sweeps run periodic-orbit solves and linear
+#: analyses over grids; the periodic-orbit and the linear analysis import no other kind.
+ANALYSIS_KINDS: dict[str, frozenset[str]] = {
+    "periodic": frozenset(),
+    "linear": frozenset(),
+    "continuation": frozenset({"periodic"}),
+    "sweeps": frozenset({"periodic", "linear"}),
+}
+#: Modules of gearsym.analysis outside the kinds: the package's face (its __init__, which imports
+#: the kinds lazily) and what every kind shares (the options objects, the inputs), which imports no kind.
+ANALYSIS_COMMON = ("gearsym.analysis", "gearsym.analysis._inputs", "gearsym.analysis._options")
 
 
 def _modules() -> dict[str, Path]:
@@ -129,9 +139,51 @@ def test_no_upward_imports():
     bad = []
     for mod, deps in GRAPH.items():
         for dep, func in deps:
-            if _layer(dep) > _layer(mod) and (mod, func, dep) not in ALLOWED_UPWARD:
+            if _layer(dep) > _layer(mod):
                 bad.append(f"{mod} ({LAYERS[_layer(mod)][0]}) imports {dep} ({LAYERS[_layer(dep)][0]})"
                            + (f" in {func}()" if func else ""))
+    assert bad == []
+
+
+def _kind(mod: str) -> str | None:
+    """The kind of analysis of a module (``None``: not in a kind)."""
+    parts = mod.split(".")
+    if parts[:2] != ["gearsym", "analysis"] or len(parts) < 3:
+        return None
+    return parts[2] if parts[2] in ANALYSIS_KINDS else None
+
+
+def test_every_analysis_module_belongs_to_a_kind():
+    analysis = [m for m in MODULES if m == "gearsym.analysis" or m.startswith("gearsym.analysis.")]
+    assert sorted(m for m in analysis if _kind(m) is None and m not in ANALYSIS_COMMON) == []
+    assert {k for k in ANALYSIS_KINDS if f"gearsym.analysis.{k}" in MODULES} == set(ANALYSIS_KINDS)
+
+
+def test_analysis_kinds_import_only_the_kinds_they_may():
+    bad = []
+    for mod, deps in GRAPH.items():
+        src = _kind(mod)
+        for dep, func in deps:
+            dst = _kind(dep)
+            if dst is None or dst == src:
+                continue
+            if src is None and mod in ANALYSIS_COMMON and mod != "gearsym.analysis":
+                bad.append(f"{mod} (shared by every kind) imports {dep} (kind '{dst}')")
+            elif src is not None and dst not in ANALYSIS_KINDS[src]:
+                bad.append(f"{mod} (kind '{src}') imports {dep} (kind '{dst}', not in "
+                           f"{sorted(ANALYSIS_KINDS[src]) or 'none'})" + (f" in {func}()" if func else ""))
+    assert bad == []
+
+
+def test_private_modules_of_a_kind_are_imported_only_within_it():
+    # across kinds, and from outside the analysis, only a kind's public face (its __init__)
+    bad = []
+    for mod, deps in GRAPH.items():
+        for dep, func in deps:
+            dst = _kind(dep)
+            if dst is None or dep == f"gearsym.analysis.{dst}" or _kind(mod) == dst:
+                continue
+            bad.append(f"{mod} imports the private module {dep}" + (f" in {func}()" if func else ""))
     assert bad == []
 
 
@@ -164,3 +216,27 @@ def test_the_spec_layer_never_imports_sympy(mod):
     names = [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
     names += [n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
     assert not [n for n in names if n.split(".")[0] == "sympy"]
+
+
+def test_one_kind_of_analysis_does_not_load_the_others():
+    """The package face imports the kinds on first use: the periodic-orbit and the linear
+    analysis load neither continuation nor the sweeps (nor their process pool), and the facade
+    loads no analysis until an analysis is asked for (``gearsym simulate`` does not pay for it)."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nimport gearsym.facade\nprint(sorted(m for m in sys.modules if m.startswith('gearsym.analysis')))\n"
+            "import gearsym.analysis.periodic, gearsym.analysis.linear\n"
+            "print(sorted({m.split('.')[2] for m in sys.modules if m.startswith('gearsym.analysis.')}))")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert res.stdout.splitlines() == ["[]", "['_options', 'linear', 'periodic']"]
+
+
+@pytest.mark.parametrize("face", ["gearsym.analysis", *(f"gearsym.analysis.{k}" for k in ANALYSIS_KINDS)])
+def test_every_name_of_an_analysis_face_resolves(face):
+    import importlib
+
+    mod = importlib.import_module(face)
+    assert [n for n in mod.__all__ if not hasattr(mod, n)] == []
+    # the face's __all__ names what it defines or re-exports (no private name, no module)
+    assert [n for n in mod.__all__ if n.startswith("_") or type(getattr(mod, n)).__name__ == "module"] == []

@@ -28,7 +28,7 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 import gearsym
-from gearsym.analysis.rattle import BILATERAL, NO_RATTLE, UNILATERAL, peak_to_peak, rattle_summary
+from gearsym.analysis.periodic._rattle import BILATERAL, NO_RATTLE, UNILATERAL, peak_to_peak, rattle_summary
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = {w: ROOT / "scenes" / f"liu_nfg_{w}.toml" for w in (140, 160, 180)}

@@ -1,4 +1,4 @@
-"""Lyapunov exponents of the hybrid system (gearsym.analysis.lyapunov, ``gearsym lyapunov``).
+"""Lyapunov exponents of the hybrid system (gearsym.analysis.sweeps.lyapunov_exponents, ``gearsym lyapunov``).
 
 Independent references, none of them gearsym code:
 
@@ -26,7 +26,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import gearsym
-from gearsym.analysis.lyapunov import (
+from gearsym.analysis.sweeps import (
     LyapunovOptions,
     batch_errors,
     format_estimate,

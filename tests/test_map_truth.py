@@ -24,8 +24,8 @@ import pytest
 from _ks_loader import ks as ks_reference
 
 import gearsym
-from gearsym.analysis import maps
-from gearsym.analysis.maps import save_map, stability_map
+from gearsym.analysis.sweeps import _maps as maps
+from gearsym.analysis.sweeps import save_map, stability_map
 from gearsym.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -14,7 +14,7 @@ import pytest
 from scipy.linalg import expm
 
 import gearsym
-from gearsym.analysis.maps import save_map, stability_map
+from gearsym.analysis.sweeps import save_map, stability_map
 from gearsym.errors import ParameterError
 
 ROOT = Path(__file__).resolve().parent.parent

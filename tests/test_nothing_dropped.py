@@ -18,7 +18,10 @@ import numpy as np
 import pytest
 
 import gearsym
-from gearsym.analysis import arclength, corrector, detection, meshes
+from gearsym.analysis.continuation import _arclength as arclength
+from gearsym.analysis.continuation import _corrector as corrector
+from gearsym.analysis.continuation import _detection as detection
+from gearsym.analysis.periodic import _meshes as meshes
 from gearsym.cli import main
 from gearsym.errors import ConvergenceError, GearsymError
 

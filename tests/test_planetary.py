@@ -26,8 +26,7 @@ import pytest
 
 import gearsym
 from gearsym.analysis.continuation import continuation
-from gearsym.analysis.modes import diagonal_mass, modal_analysis
-from gearsym.analysis.planetary import classify_planetary, planetary_layout
+from gearsym.analysis.linear import classify_planetary, diagonal_mass, modal_analysis, planetary_layout
 from gearsym.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -222,8 +221,8 @@ def test_harmonic_balance_defect_ignores_vanishing_states(system4):
     on the orbit (1e-19 m): measured against their own size, the defect of the exact orbit
     (an independent shooting solve) was ~1, and `gearsym orbit --method hbm` failed after
     64 harmonics.  Their size is now 1e-9 of the largest state's."""
-    from gearsym.analysis.hbm_driver import state_sizes, time_defect
-    from gearsym.analysis.orbit import VANISHING
+    from gearsym.analysis.periodic import VANISHING
+    from gearsym.analysis.periodic._hbm_driver import state_sizes, time_defect
 
     orb = system4.periodic_orbit()
     Y = orb.trajectory().y

@@ -1,4 +1,4 @@
-"""The rattle-state classifier and the peak-to-peak value (gearsym.analysis.rattle).
+"""The rattle-state classifier and the peak-to-peak value (gearsym.analysis.periodic._rattle).
 
 * synthetic signals with a known answer (sinusoids against fixed and time-varying
   flanks, both drive-side conventions, transients excluded by the steady window);
@@ -18,7 +18,7 @@ import pytest
 from _ks_loader import ks
 
 import gearsym
-from gearsym.analysis.rattle import (
+from gearsym.analysis.periodic._rattle import (
     BILATERAL,
     NO_RATTLE,
     UNILATERAL,

@@ -16,7 +16,7 @@ import pytest
 
 import gearsym
 from gearsym.analysis.continuation import continuation
-from gearsym.analysis.maps import stability_map
+from gearsym.analysis.sweeps import stability_map
 from gearsym.errors import ParameterError
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -153,8 +153,8 @@ def test_unknown_sensitivity_parameter(meissner):
 def test_exact_f_lambda_of_the_multiple_shooting_residual():
     """The exact F_lambda of a 2-segment shooting residual in the forcing frequency (the
     segment times move with the period) against a central difference at rtol 1e-13."""
-    from gearsym.analysis.continuation import ShootingResidual
-    from gearsym.analysis.parameter_derivative import exact_f_lambda
+    from gearsym.analysis.continuation._api import ShootingResidual
+    from gearsym.analysis.periodic import exact_f_lambda
 
     ks = gearsym.load_scene(ROOT / "scenes" / "kahraman_singh.toml").compile()
     orb = ks.periodic_orbit(params={"Omega": 1.2}, rtol=1e-12, atol=1e-14, tol=1e-11)
@@ -170,13 +170,11 @@ def test_fold_location_unchanged_against_finite_difference_f_lambda():
     """A fold of the shipped benchmark scene located with the exact F_lambda agrees with the
     one located with the finite difference (the location itself only depends on F = 0 and
     the fold test function; F_lambda changes the path of the corrector)."""
-    from gearsym.analysis.parameter_derivative import finite_difference_f_lambda
-
     ks = gearsym.load_scene(ROOT / "scenes" / "kahraman_singh.toml").compile()
     kw = dict(progress=False, detect=["fold"])
     exact = [b.value for b in gearsym.continuation(ks, "Omega", 0.8, 0.95, **kw).of_type("fold")]
-    with finite_difference_f_lambda():
-        fd = [b.value for b in gearsym.continuation(ks, "Omega", 0.8, 0.95, **kw).of_type("fold")]
+    fd = [b.value for b in gearsym.continuation(ks, "Omega", 0.8, 0.95, f_lambda="finite_difference",
+                                                **kw).of_type("fold")]
     assert len(exact) == 2 and len(fd) == 2
     np.testing.assert_allclose(exact, fd, atol=1e-5)
 

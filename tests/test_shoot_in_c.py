@@ -2,7 +2,7 @@
 
 References: the hand-written scipy DOP853 flow of the backlash oscillator with contact
 events and saltation (``tests/test_shooting.py``, rtol 1e-13) for the orbit and its
-monodromy, and the Python Newton iteration of :func:`gearsym.analysis.shooting.shoot`
+monodromy, and the Python Newton iteration of :func:`gearsym.analysis.periodic.shoot`
 (the C iteration switched off) for everything else the result carries.  Where the C
 iteration gives up (a step that must be damped, a singular Newton matrix) the Python
 iteration must take over from the same guess and give the answer it always gave.
@@ -17,7 +17,7 @@ from _corrector_spy import python_corrector_only, spy_on_c_corrector
 from test_shooting import P0, ROOT, SCENE, ref_flow
 
 import gearsym
-import gearsym.analysis.shooting as shooting_mod
+import gearsym.analysis.periodic._shooting as shooting_mod
 from gearsym.engine.driver import METHODS
 from gearsym.engine.shoot import shoot_in_c
 from gearsym.errors import ConvergenceError
@@ -110,7 +110,7 @@ def test_corrector_in_c_matches_python_corrector(ks, monkeypatch):
     """The benchmark's frequency response with the corrector in C and in Python: the same special
     points (to 1e-8) and the same orbits; F_lambda and the residual at a corrected point equal
     the Python path's (System.flow with the parameter sensitivity)."""
-    from gearsym.analysis.parameter_derivative import exact_f_lambda
+    from gearsym.analysis.periodic import exact_f_lambda
 
     calls = spy_on_c_corrector(monkeypatch)
     br_c = gearsym.continuation(ks, "Omega", 0.8, 1.0, progress=False)
@@ -129,7 +129,7 @@ def test_corrector_in_c_matches_python_corrector(ks, monkeypatch):
         assert abs(o.peak_to_peak() - p.peak_to_peak) < 1e-5
     # the C corrector's F_lambda, residual and monodromy at a branch point against System.flow's
     # (the state, monodromy and parameter sensitivity integrated by the Python path)
-    from gearsym.analysis.problems import ShootingResidual
+    from gearsym.analysis.periodic import ShootingResidual
     from gearsym.engine.shoot import correct_in_c
     from gearsym.sensitivity import directions
 
@@ -209,8 +209,8 @@ def test_corrector_tangent_in_c_is_the_python_tangent(ks):
     """The tangent the corrector in C solves for at the converged point is the one
     Continuer.tangent computes from the same point's Jacobian (numpy's solve of the bordered
     system), for a tangent reference along the parameter and a skew one, with unequal scales."""
-    from gearsym.analysis.corrector import Continuer
-    from gearsym.analysis.problems import Evaluation, segment_jacobian
+    from gearsym.analysis.continuation._corrector import Continuer
+    from gearsym.analysis.periodic import Evaluation, segment_jacobian
     from gearsym.engine.shoot import correct_in_c
     from gearsym.sensitivity import directions
 
@@ -245,7 +245,7 @@ def test_corrector_tangent_in_c_is_the_python_tangent(ks):
 def test_branch_points_from_c_samples_equal_the_python_points(ks, monkeypatch):
     """A branch point built from the corrector's C samples carries what the Python path gives
     (extrema, surface extrema, mesh deflection extrema, rattle state) for the same orbit."""
-    import gearsym.analysis.corrector as corrector_mod
+    import gearsym.analysis.continuation._corrector as corrector_mod
 
     br_c = gearsym.continuation(ks, "Omega", 0.85, 0.95, progress=False)
     orig = corrector_mod.Continuer._correct_in_c
@@ -350,7 +350,7 @@ def test_corrector_multipliers_in_c_are_the_stability_rule_s(scene, param):
     """The multipliers and tolerances the corrector computes in C (scipy's LAPACK through
     cython_lapack) are multiplier_tolerances' for the same monodromy: the 2-state benchmark
     and the 10-state six-degree-of-freedom pair (complex pairs, unequal state units)."""
-    from gearsym.analysis.stability import floquet, multiplier_tolerances, verdict
+    from gearsym.analysis.periodic import floquet, multiplier_tolerances, verdict
     from gearsym.engine.shoot import correct_in_c, lapack_pointers
     from gearsym.sensitivity import directions
 
@@ -379,7 +379,7 @@ def test_shooting_multipliers_in_c_are_the_stability_rule_s(scene, monkeypatch):
     """The orbit solve's multipliers come from its C call (scipy's LAPACK): the same numbers as
     multiplier_tolerances of the orbit's monodromy, and the orbit's verdict is floquet's; on the
     benchmark and the 10-state pair."""
-    from gearsym.analysis.stability import floquet, multiplier_tolerances
+    from gearsym.analysis.periodic import floquet, multiplier_tolerances
 
     s = gearsym.load_scene(ROOT / "scenes" / f"{scene}.toml").compile()
     seen = []
@@ -401,7 +401,7 @@ def test_shooting_multipliers_in_c_are_the_stability_rule_s(scene, monkeypatch):
     assert np.allclose(o.multiplier_tolerances, ref.tolerances, rtol=1e-12, atol=0)
     # the isolation verdict comes from the same call: isolation()'s numbers for the orbit's
     # monodromy in the orbit's scales (numpy's svd)
-    from gearsym.analysis.isolation import isolation
+    from gearsym.analysis.periodic import isolation
 
     assert seen[-1].isolation is not None
     iso = isolation(o.monodromy, np.array(o.info["state_scales"]), o.info["rtol"])

@@ -219,8 +219,8 @@ def test_period_two_orbit_and_rattle_states(ks):
     lo, hi = both.extrema()
     assert lo < -1 < 1 < hi  # beyond both flanks (b = 1)
     # the orbit's classification (initial sides + events of one period) agrees with the
-    # trajectory classifier of gearsym.analysis.rattle on the integrated period
-    from gearsym.analysis import rattle
+    # trajectory classifier of gearsym.analysis.periodic._rattle on the integrated period
+    from gearsym.analysis.periodic import _rattle as rattle
 
     for o in (one, both):
         assert rattle.rattle_state(o.trajectory(), system=ks, t_start=o.t0) == o.rattle_state

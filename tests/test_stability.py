@@ -1,4 +1,4 @@
-"""The stability rule (gearsym.analysis.stability): trivial multipliers, the neutral band,
+"""The stability rule (gearsym.analysis.periodic._stability): trivial multipliers, the neutral band,
 verdicts, and bifurcation detection along a conservative branch.
 
 Independent references: scipy.special.mathieu_a / mathieu_b (the characteristic values
@@ -16,7 +16,7 @@ import pytest
 import scipy.special as ss
 
 import gearsym
-from gearsym.analysis.stability import floquet, multiplier_tolerances
+from gearsym.analysis.periodic import floquet, multiplier_tolerances
 
 ROOT = Path(__file__).resolve().parents[1]
 MATHIEU = ROOT / "scenes" / "mathieu.toml"
@@ -75,7 +75,7 @@ def test_eigenvalue_condition_numbers_match_the_left_right_vector_definition():
     eigenvalues and complex pairs, n = 1 .. 40; and a Jordan block's tolerance is the cap."""
     import scipy.linalg
 
-    from gearsym.analysis.stability import ERROR_FACTOR, _eig_kappa
+    from gearsym.analysis.periodic._stability import ERROR_FACTOR, _eig_kappa
 
     rng = np.random.default_rng(7)
     n_pairs = 0
@@ -150,7 +150,7 @@ def test_mathieu_continuation_locates_every_characteristic_value(mathieu, q, lo,
 
 
 def test_mathieu_map_uses_the_same_rule(mathieu):
-    from gearsym.analysis.maps import stability_map
+    from gearsym.analysis.sweeps import stability_map
 
     ds = stability_map(mathieu, ("a", -1.0, 9.0, 11), ("q", 0.5, 4.5, 3), method="shooting", workers=1,
                        orbit_options={"atol": 1e-14})

@@ -31,7 +31,7 @@ from scipy.optimize import root
 
 import gearsym
 from gearsym import static
-from gearsym.analysis.modes import modal_analysis
+from gearsym.analysis.linear import modal_analysis
 from gearsym.cli import main
 from gearsym.cli.catalog import init_files
 from gearsym.errors import SpecError

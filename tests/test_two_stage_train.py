@@ -22,8 +22,7 @@ import sympy as sp
 from _corrector_spy import python_corrector_only, spy_on_c_corrector
 
 import gearsym
-from gearsym.analysis.meshes import mesh_deflections
-from gearsym.analysis.stability import rigid_state_basis
+from gearsym.analysis.periodic import mesh_deflections, rigid_state_basis
 
 ROOT = Path(__file__).resolve().parents[1]
 FREE = ROOT / "scenes" / "two_stage_train.toml"

@@ -72,7 +72,7 @@ def test_load_scene_simulate_orbit_continuation_map_and_cli_agree(systems, capsy
     assert [p["value"] for p in cli["points"]] == [p["value"] for p in data["points"]]
 
     # a map over b_m: grid in um, SI alongside, the point at 60 um is the orbit above
-    from gearsym.analysis.maps import stability_map
+    from gearsym.analysis.sweeps import stability_map
 
     ds = stability_map(base, ("b_m", 50.0, B, 2), ("e_a", 2.5, 2.5, 1), method="shooting", workers=1)
     assert list(ds["b_m"].values) == [50.0, B] and ds["b_m"].attrs["units"] == "um"

@@ -22,11 +22,11 @@ import pytest
 from _ks_loader import ks as ks_reference
 
 import gearsym
-from gearsym.analysis import shooting
 from gearsym.analysis.continuation import continuation
-from gearsym.analysis.corrector import Continuer
-from gearsym.analysis.hbm import harmonic_balance
-from gearsym.analysis.maps import stability_map
+from gearsym.analysis.continuation._corrector import Continuer
+from gearsym.analysis.periodic import _shooting as shooting
+from gearsym.analysis.periodic import harmonic_balance
+from gearsym.analysis.sweeps import stability_map
 from gearsym.cli import main
 from gearsym.errors import ConvergenceError, ParameterError
 

@@ -181,7 +181,7 @@ def _refuse():
 
 
 def test_a_crashing_worker_fails_its_task_only():
-    from gearsym.analysis.workers import TaskFailure, run_tasks
+    from gearsym.analysis.sweeps import TaskFailure, run_tasks
 
     results, runner = run_tasks(crash_on, 3, list(range(7)), workers=2)
     assert runner == "processes(2)"
@@ -193,7 +193,8 @@ def test_a_crashing_worker_fails_its_task_only():
 
 
 def test_a_map_reports_the_points_of_a_crashed_task(monkeypatch):
-    from gearsym.analysis import maps, workers
+    from gearsym.analysis.sweeps import _maps as maps
+    from gearsym.analysis.sweeps import _workers as workers
 
     tasks = [{"points": [(1.0, 0.1), (2.0, 0.1)], "method": "shooting"},
              {"points": [(1.0, 0.2), (2.0, 0.2)], "method": "shooting"}]
@@ -210,7 +211,7 @@ def test_a_map_reports_the_points_of_a_crashed_task(monkeypatch):
 
 
 def test_an_exception_in_a_task_is_raised_in_the_parent_and_stops_the_workers():
-    from gearsym.analysis.workers import run_tasks
+    from gearsym.analysis.sweeps import run_tasks
 
     with pytest.raises(ValueError, match="task 2 is bad") as info:
         run_tasks(raise_on, 2, list(range(6)), workers=2)
@@ -219,14 +220,14 @@ def test_an_exception_in_a_task_is_raised_in_the_parent_and_stops_the_workers():
 
 
 def test_an_unpicklable_exception_is_raised_as_its_text():
-    from gearsym.analysis.workers import run_tasks
+    from gearsym.analysis.sweeps import run_tasks
 
     with pytest.raises(RuntimeError, match="ValueError: task 0 failed with an unpicklable detail"):
         run_tasks(raise_unpicklable, 0, [0, 1], workers=2)
 
 
 def test_a_worker_that_cannot_load_the_shared_object_raises_its_error():
-    from gearsym.analysis.workers import run_tasks
+    from gearsym.analysis.sweeps import run_tasks
 
     with pytest.raises(GearsymError, match="cannot load the build in the worker"):
         run_tasks(raise_on, Unloadable(), list(range(4)), workers=2)
@@ -234,6 +235,6 @@ def test_a_worker_that_cannot_load_the_shared_object_raises_its_error():
 
 
 def test_serial_run_needs_no_process():
-    from gearsym.analysis.workers import run_tasks
+    from gearsym.analysis.sweeps import run_tasks
 
     assert run_tasks(raise_on, -1, [1, 2, 3], workers=1) == ([2, 4, 6], "serial")

@@ -18,7 +18,7 @@ uniform output grid:
 
 References (:func:`make_reference`): the exact solution when the scene is a
 piecewise-constant linear time-varying system (matrix exponentials,
-:class:`gearsym.analysis.floquet.PiecewiseLTV`), else the event-located DOP853
+:class:`gearsym.analysis.periodic.PiecewiseLTV`), else the event-located DOP853
 integration at ``rtol = 1e-13``; a caller may pass its own (e.g. the closed form of
 the benchmark oscillator with ``eps = 0``).  A second reference at a 10x looser
 tolerance estimates the reference's own error (the *floor*); where the two drift

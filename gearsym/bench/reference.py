@@ -51,7 +51,7 @@ def make_reference(system, pm: PythonModel | None, x0: np.ndarray, grid: np.ndar
                    params: Mapping[str, float] | None = None, rtol: float = 1e-13,
                    atol_scale: np.ndarray | None = None) -> Reference:
     """The best available reference for a compiled scene (see the module docstring)."""
-    from ..analysis.floquet import NotPiecewiseConstantError, PiecewiseLTV
+    from ..analysis.periodic import NotPiecewiseConstantError, PiecewiseLTV
 
     t = time.perf_counter()
     T = system.period(params)
@@ -94,7 +94,7 @@ def make_reference(system, pm: PythonModel | None, x0: np.ndarray, grid: np.ndar
 
 def _propagate_ltv(ltv, x0: np.ndarray, grid: np.ndarray, T: float, scale: np.ndarray | None = None) -> np.ndarray:
     """Propagate period by period in the scaled states ``x / scale`` (well-conditioned exponentials)."""
-    from ..analysis.floquet import PiecewiseLTV
+    from ..analysis.periodic import PiecewiseLTV
 
     S = np.ones(len(x0)) if scale is None else np.asarray(scale, float)
     ltv = PiecewiseLTV(times=ltv.times, A=[(A * S[None, :]) / S[:, None] for A in ltv.A],

@@ -14,7 +14,7 @@ turning into a late ``MemoryError`` or an hour of computing:
 Limits that need the compiled model (the output grid of ``simulate``, the step budget
 of a horizon, the size of the harmonic-balance Jacobian) are checked by the library
 before its work starts (:meth:`gearsym.system.System.simulate`,
-:class:`gearsym.analysis.hbm.HarmonicBalance`).
+:class:`gearsym.analysis.periodic.HarmonicBalance`).
 """
 
 from __future__ import annotations
@@ -75,7 +75,7 @@ def _positive(flag: str, v: float | None, name: str | None = None) -> None:
 
 
 def _whole_periods(flag: str, v: float | None) -> None:
-    """Forcing periods of an orbit: a positive whole number (gearsym.analysis.verification)."""
+    """Forcing periods of an orbit: a positive whole number (gearsym.analysis.periodic.whole_periods)."""
     if v is not None and not (math.isfinite(v) and v >= 1 and v == math.floor(v)):
         raise ParameterError(f"{flag} must be a positive whole number of forcing periods (1, 2, 3, ...), got {v:g}: "
                              f"a periodic orbit of a forced system returns after a whole number of forcing periods")

@@ -20,7 +20,7 @@ TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym
 if TYPE_CHECKING:  # pragma: no cover
     from typing import Any
 
-    from ..analysis.lyapunov import LyapunovOptions, LyapunovResult
+    from ..analysis.sweeps import LyapunovOptions, LyapunovResult
 
 __all__ = ["add_lyapunov_parser", "cmd_lyapunov"]
 
@@ -64,9 +64,9 @@ def add_lyapunov_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def options_from(args: argparse.Namespace) -> LyapunovOptions:
-    """The :class:`~gearsym.analysis.lyapunov.LyapunovOptions` of a command line, checked (exit 2
+    """The :class:`~gearsym.analysis.sweeps.LyapunovOptions` of a command line, checked (exit 2
     naming the option)."""
-    from ..analysis.lyapunov import LyapunovOptions
+    from ..analysis.sweeps import LyapunovOptions
 
     given = {name: getattr(args, name) for name in _FLAGS if getattr(args, name, None) is not None}
     try:
@@ -86,7 +86,7 @@ def flagged(exc: ParameterError) -> ParameterError:
 
 def cmd_lyapunov(args: argparse.Namespace) -> int:
     """Lyapunov exponents of a scene; exit 1 when they have not converged."""
-    from ..analysis.lyapunov import lyapunov_exponents
+    from ..analysis.sweeps import lyapunov_exponents
 
     opts = options_from(args)  # before any work: bad options and a bad --out are bad input
     x0 = float_list(args.x0, "--x0") if args.x0 else None
@@ -137,7 +137,7 @@ def write_outputs(res: LyapunovResult, out: Path, name: str, info: dict[str, Any
 
 
 def _print(name: str, res: LyapunovResult, files: list[str]) -> None:
-    from ..analysis.lyapunov import format_estimate
+    from ..analysis.sweeps import format_estimate
 
     st = res.stats
     what = "forcing periods" if res.info.get("forced") else f"blocks of {res.block_time:g}"

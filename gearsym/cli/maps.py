@@ -19,7 +19,7 @@ def cmd_map(args: argparse.Namespace) -> int:
     """Two-parameter stability / response map (netCDF + heat-map PNG)."""
     import numpy as np
 
-    from ..analysis.maps import save_map, stability_map
+    from ..analysis.sweeps import save_map, stability_map
 
     xa, ya = checks.check_map(args)
     scene = load(args)

@@ -16,8 +16,7 @@ __all__ = ["cmd_modes"]
 
 def cmd_modes(args: argparse.Namespace) -> int:
     """Natural frequencies and mode shapes about the static equilibrium (mean mesh stiffness)."""
-    from ..analysis.modes import modal_analysis
-    from ..analysis.planetary import classify_planetary
+    from ..analysis.linear import classify_planetary, modal_analysis
 
     if args.samples is not None:
         check_count("--samples", args.samples)  # before any work (memory and time grow with it)

@@ -81,7 +81,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         "atol": traj.settings["atol"],
         "method": traj.settings["method"],
     }
-    from ..analysis.meshes import trajectory_meshes
+    from ..analysis.periodic import trajectory_meshes
 
     meshes = trajectory_meshes(system, traj)
     if meshes:

@@ -3,7 +3,7 @@
 :func:`shoot_in_c` runs the full-step Newton iteration of single shooting inside the
 driver: one integration with the monodromy per iterate, the step from an LU solve of
 ``M - I`` in the variables scaled by the orbit's state magnitudes, the convergence tests
-of :func:`gearsym.analysis.shooting.shoot`.  Where that function would do more than a
+of :func:`gearsym.analysis.periodic.shoot`.  Where that function would do more than a
 full step (damping, a truncated solve of a nearly singular matrix, a failed trial run,
 the iteration budget) the C iteration gives up and says why; the caller then runs its
 own iteration from its own start, so the outcome never differs from the Python path's
@@ -82,11 +82,11 @@ class ShootOutcome:
         accepted full steps, ``x`` is the last accepted iterate.
     multipliers : tuple or None
         ``(mu, tolerances, delta)`` of ``run.monodromy`` when converged, as
-        :func:`gearsym.analysis.stability.multiplier_tolerances` returns them (computed in the
+        :func:`gearsym.analysis.periodic.multiplier_tolerances` returns them (computed in the
         driver with scipy's LAPACK; ``None`` where that was not possible).
     isolation : tuple or None
         ``(sigma, norm, direction)`` of the converged orbit in the scales ``scale``, as
-        :func:`gearsym.analysis.isolation.isolation` computes them without trivial
+        :func:`gearsym.analysis.periodic.isolation` computes them without trivial
         directions (``norm``: the 2-norm of the scaled monodromy, from which the caller
         takes the error level); ``None`` where the driver could not compute them.
     g0 : ndarray or None
@@ -342,7 +342,7 @@ class CorrectOutcome:
         The event log of the run at ``z`` when converged (also ``run.events``).
     multipliers : tuple or None
         ``(mu, tolerances, delta)`` of the monodromy at ``z``, unsorted, as
-        :func:`gearsym.analysis.stability.multiplier_tolerances` returns them (computed in the
+        :func:`gearsym.analysis.periodic.multiplier_tolerances` returns them (computed in the
         driver with scipy's LAPACK; ``None`` where that was not possible).
     """
 
@@ -423,7 +423,7 @@ def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, 
 
     ``F(x, lambda) = phi(t0 + P(lambda); t0, x, p(lambda)) - x`` with ``p(lambda) = p0 +
     (lambda - lam0) D`` and ``P = periods * T(p)``, plus ``row . (z / S) = target``; see
-    ``gs_correct_args`` in gs_driver.h and :meth:`gearsym.analysis.corrector.Continuer.correct`,
+    ``gs_correct_args`` in gs_driver.h and :meth:`gearsym.analysis.continuation._corrector.Continuer.correct`,
     whose iteration it mirrors.  ``engine`` must be a build with the parameter derivatives.
     With ``n_samples >= 2`` the converged orbit is also sampled (:class:`OrbitSamples`) in the
     same call; ``samples`` is ``None`` when that run failed.  With ``t_ref`` (``nx + 1``

@@ -16,7 +16,7 @@ reduced model are the columns of ``A R``.
 
 The state-space rigid-body subspace of the first-order system ``x = [q; v]`` is
 ``span{[R; 0], [0; R]}``: invariant under the monodromy (a Jordan block of multipliers
-at +1 per mode), which :mod:`gearsym.analysis.stability` uses to split off the trivial
+at +1 per mode), which :func:`gearsym.analysis.periodic.floquet` uses to split off the trivial
 multipliers.
 """
 

@@ -8,7 +8,7 @@ dynamic deflection and its force as outputs.
 
 Checked with an independent FMI client (fmpy: ``validate_fmu``, ``simulate_fmu`` with
 ``fmi_type="CoSimulation"``) against ``System.simulate`` on the same output grid, the mesh
-deflections against :func:`gearsym.analysis.meshes.mesh_deflections` of the reference
+deflections against :func:`gearsym.analysis.periodic.mesh_deflections` of the reference
 trajectory, and the mesh force of the benchmark oscillator against its formula written here.
 """
 
@@ -24,7 +24,7 @@ import sys
 import numpy as np
 import pytest
 
-from gearsym.analysis.meshes import mesh_deflections
+from gearsym.analysis.periodic import mesh_deflections
 
 fmpy = pytest.importorskip("fmpy")
 from fmpy import extract, read_model_description, simulate_fmu  # noqa: E402
