@@ -50,7 +50,8 @@ _ORBIT_KEYS = ("segments", "transient", "harmonics", "tol", "rtol", "atol")
 
 def default_generated_dir(scene_path: str | Path | None = None) -> Path:
     """Where compiled scenes go: ``$GEARSYM_GENERATED`` if set, else the user cache
-    (``$XDG_CACHE_HOME/gearsym``, else ``~/.cache/gearsym``).
+    (:func:`gearsym.engine.trust.user_cache_dir`: platformdirs' user cache, on Linux
+    ``$XDG_CACHE_HOME/gearsym``, else ``~/.cache/gearsym``).
 
     Never a folder found next to or above the scene: a folder that came from elsewhere
     (a paper's supplement, a colleague's zip, a shared temporary folder) could hold

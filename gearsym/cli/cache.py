@@ -25,7 +25,7 @@ def add_cache_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "cache", help="where compiled builds go; list or remove them",
         description="Builds go to $GEARSYM_GENERATED if set, else to the user cache "
-                    "($XDG_CACHE_HOME/gearsym, else ~/.cache/gearsym); never to a generated/ folder "
+                    "(platformdirs' user cache: $XDG_CACHE_HOME/gearsym, else ~/.cache/gearsym); never to a generated/ folder "
                     "that happens to lie next to or above a scene (name a project's folder on purpose: "
                     "GEARSYM_GENERATED=generated).  A build is loaded only if this user's gearsym signed "
                     "it; 'clear' removes only such builds, never another folder.")

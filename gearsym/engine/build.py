@@ -319,8 +319,9 @@ def model_cflags(source_bytes: int) -> list[str]:
 
 
 def driver_cache_dir(fallback: str | os.PathLike[str]) -> Path:
-    """Where driver objects are kept: ``$GEARSYM_DRIVER_CACHE``, else
-    ``$XDG_CACHE_HOME/gearsym/driver`` (``~/.cache/gearsym/driver``), shared by every build
+    """Where driver objects are kept: ``$GEARSYM_DRIVER_CACHE``, else ``driver/`` in the
+    user cache (:func:`gearsym.engine.trust.user_cache_dir`: on Linux
+    ``$XDG_CACHE_HOME/gearsym/driver``, else ``~/.cache/gearsym/driver``), shared by every build
     root of the user (objects are named by content hash); ``fallback`` if that folder
     cannot be created.  :func:`driver_object` checks the folder (no other user can change
     it) and verifies what it finds there."""
