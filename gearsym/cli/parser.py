@@ -117,8 +117,9 @@ def _add_bench(sub: Any) -> None:
     p = sub.add_parser("bench", help="work-precision benchmark: error vs wall time, gearsym vs peer integrators",
                        epilog=examples(
                            ("gearsym bench kahraman_singh --rtols 1e-4,1e-6 --periods 5 --methods 'gearsym,scipy "
-                            "LSODA' --rounds 1 --no-compile-times --no-analyses", "a quick comparison of two "
-                            "integrators at two tolerances (the full benchmark drops the limiting options)")))
+                            "LSODA' --rounds 0 --no-compile-times --no-analyses", "a quick look: two integrators at "
+                            "two tolerances, each timed by one run (the full benchmark: gearsym bench kahraman_singh "
+                            "--out bench)")))
     scene_args(p)
     p.add_argument("--out", help="folder for work_precision_<scene>.json and .png (written at the end)")
     p.add_argument("--rtols", help="comma-separated relative tolerances (default 1e-3 .. 1e-10, and 1e-11, "
