@@ -33,7 +33,8 @@ def add_cache_parser(sub: argparse._SubParsersAction) -> None:
         epilog=examples(
             ("gearsym cache path kahraman_singh", "the folder of the scene's build"),
             ("gearsym cache list kahraman_singh --json", "its builds: size, date, key, whether this user's gearsym "
-             "signed them (gearsym cache clear --older-than 30 removes builds older than 30 days)")))
+             "signed them"),
+            note="gearsym cache clear --older-than 30 removes the builds older than 30 days."))
     p.add_argument("action", choices=["path", "list", "clear"],
                    help="path: print the build folder; list: the builds; clear: remove builds")
     p.add_argument("scene", nargs="?",

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import textwrap
 
 __all__ = ["HEADING", "HelpFormatter", "examples"]
 
@@ -32,7 +33,8 @@ def examples(*pairs: tuple[str, str], note: str = "") -> str:
     Parameters
     ----------
     *pairs
-        One to three ``(command, description)``; the command starts with ``gearsym``.
+        One to three ``(command, description)``; the command starts with ``gearsym`` and
+        stays on one line (to be copied), the description is wrapped at 90 columns.
     note
         A paragraph after the examples (optional).
 
@@ -48,7 +50,7 @@ def examples(*pairs: tuple[str, str], note: str = "") -> str:
     for command, what in pairs:
         if not command.startswith("gearsym "):
             raise ValueError(f"an example command starts with 'gearsym ': {command!r}")
-        lines += [f"  {command}", f"      {what}"]
+        lines += [f"  {command}", textwrap.fill(what, 90, initial_indent=" " * 6, subsequent_indent=" " * 6)]
     return "\n".join(lines) + (f"\n\n{note}" if note else "") + "\n"
 
 
