@@ -14,6 +14,7 @@ from setuptools import find_packages, setup
 SHIPPED = {"gearsym.data.models": "models", "gearsym.data.scenes": "scenes"}
 #: package -> its data files
 DATA = {
+    "gearsym": ["py.typed"],  # PEP 561: the package's type hints are for type checkers too
     "gearsym.engine": ["*.c", "*.h"],
     "gearsym.templates": ["*.toml"],
     "gearsym.export.templates": ["*.c", "*.h", "*.sh", "*.in"],

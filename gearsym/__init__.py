@@ -10,13 +10,23 @@ event-exact simulation through SUNDIALS.
 
 The public names are imported on first use (PEP 562), so ``import gearsym`` and
 ``gearsym --version`` do not pay for sympy, CasADi or the analysis layer.
+
+Diagnostics go to the standard :mod:`logging` hierarchy under the ``gearsym`` logger (one
+logger per module, ``logging.getLogger(__name__)``): build cache hits, misses and rebuilds
+with their reason, compile times, the shared driver object, the static equilibrium's
+contact state, why a continuation stopped.  The library installs no handler (only a
+:class:`logging.NullHandler` on ``gearsym``); an application shows them with, e.g.,
+``logging.basicConfig(level=logging.INFO)``, the CLI with ``-v`` / ``-vv``.
 """
 
 from __future__ import annotations
 
 import importlib
+import logging
 
 from ._version import __version__
+
+logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (type checkers read it as True)
 

@@ -22,7 +22,9 @@ build from the build cache by key).
 
 from __future__ import annotations
 
+import logging
 import os
+import time
 from collections.abc import Mapping, Sequence
 from functools import cached_property
 from pathlib import Path
@@ -47,10 +49,13 @@ if TYPE_CHECKING:  # pragma: no cover
 #: The settings of :meth:`System.periodic_orbit` that the scene's ``[orbit]`` table may set.
 _ORBIT_KEYS = ("segments", "transient", "harmonics", "tol", "rtol", "atol")
 
+_log = logging.getLogger(__name__)
+
 
 def default_generated_dir(scene_path: str | Path | None = None) -> Path:
     """Where compiled scenes go: ``$GEARSYM_GENERATED`` if set, else the user cache
-    (``$XDG_CACHE_HOME/gearsym``, else ``~/.cache/gearsym``).
+    (:func:`gearsym.engine.trust.user_cache_dir`: platformdirs' user cache, on Linux
+    ``$XDG_CACHE_HOME/gearsym``, else ``~/.cache/gearsym``).
 
     Never a folder found next to or above the scene: a folder that came from elsewhere
     (a paper's supplement, a colleague's zip, a shared temporary folder) could hold
@@ -213,9 +218,13 @@ class Scene:
         cache = BuildCache(root)
         entry = cache.entry(self.name, key)
         if not force:
-            gen = cache.lookup(entry, key)
+            gen, why = cache.check(entry, key)
             if gen is not None:
+                _log.info("scene %s: build cache hit, %s", self.name, why)
                 return self._reused(gen)
+            _log.info("scene %s: build cache miss (%s): building", self.name, why)
+        else:
+            _log.info("scene %s: rebuilding (force=True) in %s", self.name, entry.directory)
         created = root.absolute()  # the outermost folder this call creates, removed again on failure
         while not created.parent.exists():
             created = created.parent
@@ -225,17 +234,24 @@ class Scene:
                 if not force:  # another process may have built it while we waited
                     gen = cache.lookup(entry, key)
                     if gen is not None:
+                        _log.info("scene %s: built by another process meanwhile, reusing %s", self.name,
+                                  entry.directory)
                         return self._reused(gen)
                 if force:  # --force also rebuilds the shared driver object (damaged or not)
                     from .engine import build as engine_build
 
                     engine_build.driver_object(engine_build.driver_cache_dir(root / ".driver"), force=True)
+                t0 = time.perf_counter()
                 model = self.model.dimensionless_system() if dimensionless else self.model
                 fns = build_functions(model, derivatives=derivatives)
+                t_symbolic = time.perf_counter() - t0
                 with cache.staging(entry) as staging:
                     gen = write_and_compile(model, fns, staging, entry.directory, self.name, key,
                                             self.resolved.effects, parts)
                     cache.install(staging, entry)
+                _log.info("scene %s: built in %.2f s (equations and CasADi functions %.2f s, C sources and compiler %.2f s) "
+                          "-> %s", self.name, time.perf_counter() - t0, t_symbolic, gen.compile_seconds,
+                          entry.directory)
                 return gen
         except BaseException:
             if created_root is not None:  # a failed first build leaves no empty folder behind

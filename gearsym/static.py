@@ -65,6 +65,7 @@ load does).  :class:`~gearsym.errors.ConvergenceError`: Newton did not converge.
 from __future__ import annotations
 
 import itertools
+import logging
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -74,6 +75,8 @@ import numpy as np
 
 from .codegen.artifact import generated_map
 from .errors import ConvergenceError, GearsymError, SpecError
+
+_log = logging.getLogger(__name__)
 
 if TYPE_CHECKING:  # pragma: no cover
     from .system import CompiledSystem as System
@@ -796,6 +799,10 @@ def static_equilibrium(system: System, params: Mapping[str, float] | None = None
     contact, sol, loads = search.run()
     xs = prob.state(sol.q)
     free = sol.free.shape[1] if sol.free is not None else 0
+    _log.info("static equilibrium of %s: contact state %s (Newton iterations %d, contact states tried %d, "
+              "residual %.3g)", getattr(system, "name", "the system"),
+              ", ".join(f"{m}: {s}" for m, s in contact.items()) or "(no backlash mesh)",
+              search.iterations, search.solves, sol.residual)
     return StaticEquilibrium(
         state=xs, coordinates=coords, contact=dict(contact), loads=_margins(contact, loads),
         sigma=avg.sides(xs, contact), nodes=(avg.t, avg.w), free=int(free),

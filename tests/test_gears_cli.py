@@ -140,5 +140,5 @@ def test_help_has_examples(capsys):
         main(["stiffness", "--help"])
     assert info.value.code == 0
     out = capsys.readouterr().out
-    assert "examples:" in out and "gearsym stiffness --z1 50 --z2 50 --module 3 --face-width 20" in out
+    assert "Examples:" in out and "gearsym stiffness --z1 50 --z2 50 --module 3 --face-width 20" in out
     assert math.isfinite(len(out))

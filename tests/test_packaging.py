@@ -180,3 +180,76 @@ def test_time_history_shows_every_state_or_the_chosen_ones(tmp_path, capsys, mon
     assert drawn[2][0][0] == "v" and len(drawn[2]) == 1
     code, _, err = cli(capsys, "simulate", "kahraman_singh", "--out", str(tmp_path), "--plot-states", "x,w")
     assert code == 2 and "--plot-states: 'w' is not a state (states: x, v)" in err
+
+
+# ------------------------------------------------------------------ package metadata (issue 29)
+def _metadata() -> str:
+    """The core metadata (PKG-INFO) setuptools makes from pyproject.toml, without building anything."""
+    import io
+
+    from setuptools.config.pyprojecttoml import apply_configuration
+    from setuptools.dist import Distribution
+
+    buf = io.StringIO()
+    apply_configuration(Distribution(), REPO / "pyproject.toml").metadata.write_pkg_file(buf)
+    return buf.getvalue()
+
+
+def test_metadata_has_urls_classifiers_keywords_and_authors():
+    from email.parser import Parser
+
+    meta = Parser().parsestr(_metadata())
+    urls = dict(u.split(", ", 1) for u in meta.get_all("Project-URL") or [])
+    assert set(urls) == {"Homepage", "Documentation", "Source", "Issues"}
+    assert all(u.startswith("https://") for u in urls.values()) and urls["Issues"].startswith(urls["Source"])
+    classifiers = meta.get_all("Classifier") or []
+    assert len(classifiers) == len(set(classifiers))
+    for required in ("Development Status :: ", "Intended Audience :: Science/Research",
+                     "Operating System :: POSIX :: Linux", "Programming Language :: Python :: 3 :: Only",
+                     "Programming Language :: Python :: 3.11", "Topic :: Scientific/Engineering", "Typing :: Typed"):
+        assert any(c.startswith(required) for c in classifiers), required
+    # Linux only (docs/install.md, "Supported platforms"): no other operating system is claimed
+    assert [c for c in classifiers if c.startswith("Operating System")] == ["Operating System :: POSIX :: Linux"]
+    # the licence is the SPDX expression (PEP 639: setuptools refuses a "License ::" classifier beside it)
+    assert meta["License-Expression"] == "MIT" and not any(c.startswith("License ::") for c in classifiers)
+    assert meta["Author"] == "the gearsym developers" and meta["Requires-Python"] == ">=3.11"
+    keywords = meta["Keywords"].split(",")
+    assert {"gear dynamics", "backlash", "Floquet multipliers", "continuation", "SUNDIALS"} <= set(keywords)
+
+
+def test_metadata_declares_platformdirs_as_a_core_dependency():
+    from email.parser import Parser
+
+    from packaging.requirements import Requirement
+
+    requires = [Requirement(r) for r in Parser().parsestr(_metadata()).get_all("Requires-Dist") or []]
+    core = {r.name: r for r in requires if r.marker is None}
+    # 4.11.8: the first platformdirs that ignores a relative XDG_CACHE_HOME (gearsym.engine.trust.user_cache_dir)
+    assert "platformdirs" in core and core["platformdirs"].specifier.contains("4.11.8")
+    assert not core["platformdirs"].specifier.contains("4.11.7")
+
+
+def test_py_typed_is_package_data():
+    import runpy
+
+    import setuptools
+
+    captured: dict = {}
+    monkey = pytest.MonkeyPatch()
+    monkey.setattr(setuptools, "setup", lambda **kw: captured.update(kw))
+    try:
+        runpy.run_path(str(REPO / "setup.py"), run_name="__main__")
+    finally:
+        monkey.undo()
+    assert "py.typed" in captured["package_data"]["gearsym"]
+    assert (Path(gearsym.__file__).parent / "py.typed").is_file()
+
+
+def test_supported_platforms_are_stated():
+    install = (REPO / "docs" / "install.md").read_text(encoding="utf-8")
+    section = install[install.index("## Supported platforms"):]
+    section = section[: section.index("\n## ", 3)]
+    for fact in ("fcntl.flock", "O_NOFOLLOW", "PR_SET_PDEATHSIG", "ELF", "Windows is not supported"):
+        assert fact in section, fact
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    assert "Supported platforms: Linux only" in readme

@@ -76,7 +76,8 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> dict:
                    check=True, capture_output=True, text=True, cwd=tmp, env=clean)
     wheel = next(dist.glob("gearsym-*.whl"))
     with zipfile.ZipFile(wheel) as zf:
-        name = next(n for n in zf.namelist() if n.endswith(".dist-info/METADATA"))
+        names = zf.namelist()
+        name = next(n for n in names if n.endswith(".dist-info/METADATA"))
         meta = Parser().parsestr(zf.read(name).decode())
     requires = meta.get_all("Requires-Dist") or []
     core = [r for r in requires if "extra ==" not in r]
@@ -94,7 +95,8 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> dict:
     env.update(GEARSYM_GENERATED=str(tmp / "builds"), OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     work = tmp / "work"
     work.mkdir()
-    return {"bin": env_dir / "bin", "env": env, "cwd": work, "requires": requires, "core": core}
+    return {"bin": env_dir / "bin", "env": env, "cwd": work, "requires": requires, "core": core, "meta": meta,
+            "names": names}
 
 
 def _run(venv: dict, *args: str) -> subprocess.CompletedProcess:
@@ -104,7 +106,7 @@ def _run(venv: dict, *args: str) -> subprocess.CompletedProcess:
 
 def test_wheel_declares_the_core_and_the_extras(venv):
     core = sorted(canonicalize_name(Requirement(r).name) for r in venv["core"])
-    assert core == ["casadi", "numpy", "scikit-sundae", "scipy", "sympy"]
+    assert core == ["casadi", "numpy", "platformdirs", "scikit-sundae", "scipy", "sympy"]
     extras = {}
     for r in venv["requires"]:
         req = Requirement(r)
@@ -114,6 +116,20 @@ def test_wheel_declares_the_core_and_the_extras(venv):
                 extras.setdefault(extra, set()).add(canonicalize_name(req.name))
     assert extras["plots"] == {"matplotlib"}
     assert {"xarray", "dask", "distributed"} <= extras["maps"]
+
+
+def test_wheel_metadata_is_complete_and_ships_py_typed(venv):
+    # issue 29: project URLs, classifiers (Linux only), keywords and the PEP 561 marker in the wheel
+    meta = venv["meta"]
+    urls = dict(u.split(", ", 1) for u in meta.get_all("Project-URL") or [])
+    assert set(urls) == {"Homepage", "Documentation", "Source", "Issues"}
+    assert all(u.startswith("https://") for u in urls.values())
+    classifiers = set(meta.get_all("Classifier") or [])
+    assert {"Operating System :: POSIX :: Linux", "Intended Audience :: Science/Research",
+            "Topic :: Scientific/Engineering", "Typing :: Typed"} <= classifiers
+    assert meta["License-Expression"] == "MIT" and meta["Requires-Python"] == ">=3.11"
+    assert meta["Author"] and "gear dynamics" in meta["Keywords"].split(",")
+    assert "gearsym/py.typed" in venv["names"]
 
 
 def test_installed_wheel_runs_a_shipped_scene_by_name(venv):

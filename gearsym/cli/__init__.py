@@ -7,7 +7,8 @@ whose every point failed), 130 on Ctrl-C and 143 on SIGTERM (both stop worker
 processes and remove temporary files before the exit).  ``--json`` prints one JSON object on stdout (strict
 JSON: non-finite numbers are ``null``).  Every numeric option is checked before any
 work (:mod:`gearsym.cli.checks`); every output file is written atomically
-(:mod:`gearsym.files`).
+(:mod:`gearsym.files`).  ``-v`` / ``-vv`` / ``-q`` (before or after the command) set how much
+of the ``gearsym`` log shows on stderr (:mod:`~gearsym.cli.verbosity`).
 
 One module per command or command group (:mod:`~gearsym.cli.inspect_model`,
 :mod:`~gearsym.cli.simulate`, :mod:`~gearsym.cli.orbits`, :mod:`~gearsym.cli.maps`,
@@ -24,6 +25,7 @@ import sys
 from ..errors import GearsymError
 from .checks import UsageError
 from .parser import build_parser
+from .verbosity import log_level, logging_to_stderr
 
 __all__ = ["build_parser", "main"]
 
@@ -44,7 +46,8 @@ def main(argv: list[str] | None = None) -> int:
         from ..signals import sigterm_interrupts
 
         require_for_command(args)  # a missing optional dependency: exit 2, naming the extra
-        with sigterm_interrupts():  # SIGTERM cleans up like Ctrl-C (workers, temporary files)
+        # the log on stderr (-v, -vv, -q; gearsym.cli.verbosity); SIGTERM cleans up like Ctrl-C
+        with logging_to_stderr(log_level(args)), sigterm_interrupts():
             return int(args.func(args) or 0)
     except GearsymError as exc:
         print(f"gearsym: error: {exc}", file=sys.stderr)

@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 from ..errors import ParameterError
+from .helptext import examples
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
 if TYPE_CHECKING:  # pragma: no cover
@@ -25,10 +26,15 @@ def add_cache_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "cache", help="where compiled builds go; list or remove them",
         description="Builds go to $GEARSYM_GENERATED if set, else to the user cache "
-                    "($XDG_CACHE_HOME/gearsym, else ~/.cache/gearsym); never to a generated/ folder "
-                    "that happens to lie next to or above a scene (name a project's folder on purpose: "
+                    "(platformdirs' user cache: $XDG_CACHE_HOME/gearsym, else ~/.cache/gearsym); never to a "
+                    "generated/ folder that happens to lie next to or above a scene (name a project's folder on purpose: "
                     "GEARSYM_GENERATED=generated).  A build is loaded only if this user's gearsym signed "
-                    "it; 'clear' removes only such builds, never another folder.")
+                    "it; 'clear' removes only such builds, never another folder.",
+        epilog=examples(
+            ("gearsym cache path kahraman_singh", "the folder of the scene's build"),
+            ("gearsym cache list kahraman_singh --json", "its builds: size, date, key, whether this user's gearsym "
+             "signed them"),
+            note="gearsym cache clear --older-than 30 removes the builds older than 30 days."))
     p.add_argument("action", choices=["path", "list", "clear"],
                    help="path: print the build folder; list: the builds; clear: remove builds")
     p.add_argument("scene", nargs="?",

@@ -10,6 +10,7 @@ import re
 from pathlib import Path
 
 from ..errors import ParameterError, SpecError
+from .helptext import examples
 
 __all__ = ["add_catalog_parsers", "cmd_init", "cmd_models", "init_files"]
 
@@ -26,7 +27,9 @@ def add_catalog_parsers(sub: argparse._SubParsersAction) -> None:
     """
     p = sub.add_parser("models", help="list the shipped models (with their papers) and scenes",
                        description="The models and scenes shipped with gearsym.  Every command that takes a "
-                                   "scene also takes a shipped scene's name: gearsym simulate kahraman_singh.")
+                                   "scene also takes a shipped scene's name: gearsym simulate kahraman_singh.",
+                       epilog=examples(("gearsym models", "the shipped models, their papers and their scenes"),
+                                       ("gearsym models --json", "the same as one JSON object")))
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=cmd_models)
 
@@ -34,7 +37,11 @@ def add_catalog_parsers(sub: argparse._SubParsersAction) -> None:
                        description="Write DIR/models/NAME.toml and DIR/scenes/NAME.toml: a commented template "
                                    "(a spur pair with backlash, mesh stiffness variation and transmission error, "
                                    "starting from its static deflection), or a copy of a shipped scene and its "
-                                   "model (--from).  Existing files are never overwritten.")
+                                   "model (--from).  Existing files are never overwritten.",
+                       epilog=examples(("gearsym init mygear", "models/mygear.toml and scenes/mygear.toml: a "
+                                        "commented template to edit"),
+                                       ("gearsym init myks --from kahraman_singh", "a renamed copy of a shipped scene "
+                                        "and its model")))
     p.add_argument("name", help="name of the new model and scene (an ASCII letter, then letters, digits, _ and -)")
     p.add_argument("--dir", default=".", help="folder to write models/ and scenes/ into (default: the current one)")
     p.add_argument("--from", dest="source", metavar="SCENE",

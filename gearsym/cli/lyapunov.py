@@ -15,6 +15,7 @@ from pathlib import Path
 from ..errors import ParameterError
 from ..integrators import method_names
 from .checks import emit, float_list, load, scene_args
+from .helptext import examples
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
 if TYPE_CHECKING:  # pragma: no cover
@@ -37,11 +38,17 @@ def add_lyapunov_parser(sub: argparse._SubParsersAction) -> None:
         description="Lyapunov exponents of a scene: the state is integrated --transient forcing periods, then "
                     "the variational equations (with the saltation matrix at every contact event) block by "
                     "block, one forcing period each, with QR re-orthonormalisation; exponent i is the windowed "
-                    "time average of log|R_ii|, its error the 95%% half-width from 8 batches.  Forced models: "
+                    "time average of log|R_ii|, its error the 95 % half-width from 8 batches.  Forced models: "
                     "the forcing phase is not a state (no zero exponent for it); autonomous models: give "
                     "--block-time (counts are then in blocks).  Rigid-body directions of free models are "
                     "reported apart (their exponents are 0).  Exit 1 if an exponent has not converged "
-                    "(its error above --abs-tol + --rel-tol * max|lambda|).")
+                    "(its error above --abs-tol + --rel-tol * max|lambda|).",
+        epilog=examples(
+            ("gearsym lyapunov kahraman_singh --set Omega=0.6 --periods 200 --transient 50",
+             "a periodic response without impacts: both exponents negative"),
+            ("gearsym lyapunov kahraman_singh --set Omega=0.6 --periods 100 --transient 20 --exponents 1 --json",
+             "the largest exponent only, as JSON (a chaotic response, e.g. Omega=0.8 Fa=0.6, needs some "
+             "thousand periods)")))
     scene_args(p)
     p.add_argument("--periods", type=float, help="forcing periods averaged over (default 2000)")
     p.add_argument("--transient", type=float, help="forcing periods integrated first and discarded (default 200)")

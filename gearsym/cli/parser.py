@@ -10,6 +10,7 @@ from .benchmark import cmd_bench
 from .cache import add_cache_parser
 from .catalog import add_catalog_parsers
 from .checks import GearsymArgumentParser, scene_args
+from .helptext import HelpFormatter, examples
 from .inspect_model import cmd_inspect
 from .lyapunov import add_lyapunov_parser
 from .maps import cmd_map
@@ -17,6 +18,7 @@ from .modes import cmd_modes
 from .orbits import cmd_continue, cmd_orbit
 from .simulate import cmd_compile, cmd_export, cmd_simulate
 from .stiffness import add_stiffness_parser
+from .verbosity import add_verbosity_options
 
 __all__ = ["build_parser"]
 
@@ -26,10 +28,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser = GearsymArgumentParser(
         prog="gearsym",
         description="Symbolic model compiler for gear-transmission dynamics.",
-        epilog="Exit codes: 0 success, 2 bad input, 1 internal or numerical failure.",
+        epilog="Exit codes: 0 success, 2 bad input, 1 internal or numerical failure.  Every command's --help "
+               "ends with examples on shipped scenes.",
+        formatter_class=HelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"gearsym {_version()}")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of internal errors (and the "
+                        "debug log, as -vv)")
+    add_verbosity_options(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=GearsymArgumentParser)
     _add_inspect(sub)
     _add_compile(sub)
@@ -44,12 +50,20 @@ def build_parser() -> argparse.ArgumentParser:
     add_lyapunov_parser(sub)
     add_cache_parser(sub)
     add_catalog_parsers(sub)
+    for p in sub.choices.values():  # every subcommand, whoever registered it
+        add_verbosity_options(p, dest_prefix="sub_")
+        p.formatter_class = HelpFormatter  # filled paragraphs, the examples kept as written
     return parser
 
 
 def _add_inspect(sub: Any) -> None:
     """The ``gearsym inspect`` subcommand."""
-    p = sub.add_parser("inspect", help="show derived equations, states, parameters, effects, modes")
+    p = sub.add_parser("inspect", help="show derived equations, states, parameters, effects, modes",
+                       epilog=examples(
+                           ("gearsym inspect kahraman_singh", "the derived equations, states, parameters, effects and "
+                            "contact modes of a shipped scene"),
+                           ("gearsym inspect spur_pair_torsional --latex", "a shipped model by name, its equations "
+                            "also as LaTeX")))
     p.add_argument("path", help="scene or model file, or the name of a shipped scene or model")
     p.add_argument("--latex", action="store_true", help="also print the equations as LaTeX")
     p.add_argument("--jacobian", action="store_true", help="also print the symbolic Jacobian")
@@ -62,7 +76,12 @@ def _add_inspect(sub: Any) -> None:
 
 def _add_compile(sub: Any) -> None:
     """The ``gearsym compile`` subcommand."""
-    p = sub.add_parser("compile", help="generate C and compile it (cached by content)")
+    p = sub.add_parser("compile", help="generate C and compile it (cached by content)",
+                       epilog=examples(
+                           ("gearsym compile kahraman_singh", "generate C and compile (a verified build of the same "
+                            "sources is reused)"),
+                           ("gearsym compile kahraman_singh --json -v", "the build as JSON; -v logs the cache hit or "
+                            "miss and the compile time on stderr")))
     scene_args(p)
     p.add_argument("--force", action="store_true", help="rebuild even if cached")
     p.set_defaults(func=cmd_compile)
@@ -70,7 +89,12 @@ def _add_compile(sub: Any) -> None:
 
 def _add_simulate(sub: Any) -> None:
     """The ``gearsym simulate`` subcommand."""
-    p = sub.add_parser("simulate", help="simulate a scene with the C engine")
+    p = sub.add_parser("simulate", help="simulate a scene with the C engine",
+                       epilog=examples(
+                           ("gearsym simulate kahraman_singh --periods 50 --json", "50 forcing periods of the "
+                            "backlash oscillator; one JSON object on stdout"),
+                           ("gearsym simulate kahraman_singh --set Omega=0.9 --periods 100 --out ks_sim",
+                            "single-sided impacts: ks_sim/trajectory.npz and figures (gearsym[plots])")))
     scene_args(p)
     p.add_argument("--periods", type=float, help="number of forcing periods (default: the scene's [simulate] "
                    "periods or t_end, else 100)")
@@ -90,7 +114,12 @@ def _add_simulate(sub: Any) -> None:
 
 def _add_bench(sub: Any) -> None:
     """The ``gearsym bench`` subcommand."""
-    p = sub.add_parser("bench", help="work-precision benchmark: error vs wall time, gearsym vs peer integrators")
+    p = sub.add_parser("bench", help="work-precision benchmark: error vs wall time, gearsym vs peer integrators",
+                       epilog=examples(
+                           ("gearsym bench kahraman_singh --rtols 1e-4,1e-6 --periods 5 --methods 'gearsym,scipy "
+                            "LSODA' --rounds 0 --no-compile-times --no-analyses", "a quick look: two integrators at "
+                            "two tolerances, each timed by one run (the full benchmark: gearsym bench kahraman_singh "
+                            "--out bench)")))
     scene_args(p)
     p.add_argument("--out", help="folder for work_precision_<scene>.json and .png (written at the end)")
     p.add_argument("--rtols", help="comma-separated relative tolerances (default 1e-3 .. 1e-10, and 1e-11, "
@@ -107,7 +136,13 @@ def _add_bench(sub: Any) -> None:
 def _add_continue(sub: Any) -> None:
     """The ``gearsym continue`` subcommand."""
     p = sub.add_parser("continue", help="continue periodic orbits in one parameter (branch, folds, period "
-                       "doubling, Neimark-Sacker, grazing)")
+                       "doubling, Neimark-Sacker, grazing)",
+                       epilog=examples(
+                           ("gearsym continue kahraman_singh --param Omega --from 0.5 --to 1.5 --no-progress",
+                            "the frequency response of the backlash oscillator through its jump: folds and "
+                            "grazings located"),
+                           ("gearsym continue kahraman_singh --param Omega --from 0.5 --to 0.8 --json",
+                            "the branch (points, multipliers, special points) as JSON")))
     scene_args(p)
     p.add_argument("--param", required=True, help="the parameter to vary")
     p.add_argument("--from", dest="start", type=float, required=True,
@@ -137,7 +172,14 @@ def _add_continue(sub: Any) -> None:
 
 def _add_orbit(sub: Any) -> None:
     """The ``gearsym orbit`` subcommand."""
-    p = sub.add_parser("orbit", help="periodic orbit by shooting or harmonic balance, Floquet multipliers")
+    p = sub.add_parser("orbit", help="periodic orbit by shooting or harmonic balance, Floquet multipliers",
+                       epilog=examples(
+                           ("gearsym orbit kahraman_singh --set Omega=0.6", "the periodic orbit without impacts "
+                            "and its Floquet multipliers"),
+                           ("gearsym orbit kahraman_singh --set Omega=0.9 --segments 4", "with impacts, by "
+                            "multiple shooting (4 segments)"),
+                           ("gearsym orbit kahraman_singh --set Omega=0.6 --method hbm --json", "the same orbit by "
+                            "harmonic balance, as JSON")))
     scene_args(p)
     p.add_argument("--periods", type=float, help="forcing periods per orbit (default: the scene's [orbit], else 1)")
     p.add_argument("--method", choices=["shooting", "hbm"], help="periodic solver (default: the scene's [orbit], "
@@ -161,7 +203,12 @@ def _add_orbit(sub: Any) -> None:
 def _add_export(sub: Any) -> None:
     """The ``gearsym export`` subcommand."""
     p = sub.add_parser("export", help="standalone C project (--c DIR, SUNDIALS libraries included) and/or "
-                       "FMI 2.0 FMU for Model Exchange and Co-Simulation (--fmu FILE.fmu) of a scene")
+                       "FMI 2.0 FMU for Model Exchange and Co-Simulation (--fmu FILE.fmu) of a scene",
+                       epilog=examples(
+                           ("gearsym export kahraman_singh --c ks_c", "a standalone C project in ks_c/: main.c, the "
+                            "driver, a Makefile and the SUNDIALS libraries"),
+                           ("gearsym export kahraman_singh --fmu ks.fmu", "an FMI 2.0 FMU (Model Exchange and "
+                            "Co-Simulation)")))
     scene_args(p)
     p.add_argument("--c", metavar="DIR", help="folder for the C project (main.c, driver, Makefile, README, "
                    "lib/ with the SUNDIALS libraries)")
@@ -173,7 +220,11 @@ def _add_export(sub: Any) -> None:
 def _add_modes(sub: Any) -> None:
     """The ``gearsym modes`` subcommand."""
     p = sub.add_parser("modes", help="natural frequencies and mode shapes about the static equilibrium "
-                       "(mean mesh stiffness)")
+                       "(mean mesh stiffness)",
+                       epilog=examples(
+                           ("gearsym modes spur_pair_torsional", "natural frequencies and mode shapes of a "
+                            "torsional spur pair"),
+                           ("gearsym modes kahraman_singh --json", "as JSON")))
     scene_args(p)
     p.add_argument("--samples", type=int, default=None,
                    help="equally spaced samples per forcing period for the mean stiffness and loads "
@@ -183,7 +234,11 @@ def _add_modes(sub: Any) -> None:
 
 def _add_map(sub: Any) -> None:
     """The ``gearsym map`` subcommand."""
-    p = sub.add_parser("map", help="two-parameter stability / response map (netCDF + heat map)")
+    p = sub.add_parser("map", help="two-parameter stability / response map (netCDF + heat map)",
+                       epilog=examples(
+                           ("gearsym map meissner --x a 0 0.5 6 --y T 0.5 6 6 --out meissner_map", "a coarse "
+                            "stability chart of the Meissner equation (exact matrix exponentials); map.nc and "
+                            "map.png in meissner_map/ (gearsym[maps])")))
     scene_args(p)
     p.add_argument("--x", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"),
                    help="horizontal axis: parameter (declared unit), range and number of points")

@@ -13,21 +13,19 @@ import math
 import re
 
 from ..errors import ParameterError
+from .helptext import examples
 
 __all__ = ["add_stiffness_parser", "cmd_stiffness"]
 
-EXAMPLES = """\
-examples:
-  gearsym stiffness --z1 50 --z2 50 --module 3 --face-width 20
-      the 50/50-teeth pair of Yu et al. (Fig. 14): module 3 mm, face width 20 mm, 20 deg, steel
-  gearsym stiffness --z1 19 --z2 48 --module 3.2mm --face-width 16mm --profile-shift 0.3,-0.1 --out tvms
-      profile-shifted pair; writes tvms/stiffness.csv, stiffness.json and stiffness.png
-  gearsym stiffness --z1 25 --z2 40 --module 2 --face-width 15 --youngs 206GPa,110GPa --poisson 0.3,0.34 --json
-      steel pinion, bronze wheel; one JSON object on stdout
-
-bad geometry exits 2 naming the parameter: undercut, a pointed tooth, interference, a tip hitting
-the mating root, a contact ratio below 1, a centre distance below the tight-mesh one.
-"""
+EXAMPLES = examples(
+    ("gearsym stiffness --z1 50 --z2 50 --module 3 --face-width 20",
+     "the 50/50-teeth pair of Yu et al. (Fig. 14): module 3 mm, face width 20 mm, 20 deg, steel"),
+    ("gearsym stiffness --z1 19 --z2 48 --module 3.2mm --face-width 16mm --profile-shift 0.3,-0.1 --out tvms",
+     "profile-shifted pair; writes tvms/stiffness.csv, stiffness.json and stiffness.png"),
+    ("gearsym stiffness --z1 25 --z2 40 --module 2 --face-width 15 --youngs 206GPa,110GPa --poisson 0.3,0.34 "
+     "--json", "steel pinion, bronze wheel; one JSON object on stdout"),
+    note="Bad geometry exits 2 naming the parameter: undercut, a pointed tooth, interference, a tip hitting "
+         "the mating root, a contact ratio below 1, a centre distance below the tight-mesh one.")
 
 #: a number and what follows it (the unit)
 _NUMBER = re.compile(r"^([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|[-+]?(?:inf|nan))\s*(.*)$", re.IGNORECASE)
@@ -55,7 +53,7 @@ def add_stiffness_parser(sub: argparse._SubParsersAction) -> None:
                     "(pinion driving).  Lengths take a unit (3mm, 0.02m; bare numbers are mm), Young's modulus "
                     "too (206GPa; bare numbers are GPa).  Per-gear options take one value for both gears or "
                     "PINION,WHEEL.",
-        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+        epilog=EXAMPLES)
     p.add_argument("--z1", type=int, required=True, help="pinion teeth (gear 1, driving)")
     p.add_argument("--z2", type=int, required=True, help="wheel teeth (gear 2)")
     p.add_argument("--module", required=True, metavar="LENGTH", help="module (mm unless a unit is given)")

@@ -38,6 +38,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import logging
 import os
 import re
 import shutil
@@ -66,6 +67,7 @@ from ..errors import CompileError
 __all__ = ["BuildCache", "BuildEntry", "CacheEntry", "UntrustedCacheError", "build_key", "build_signature",
            "safe_name"]
 
+_log = logging.getLogger(__name__)
 _PKG = Path(__file__).resolve().parent.parent
 #: Python sources whose changes change the generated code (the spec -> symbolic ->
 #: codegen chain); the driver sources enter through the toolchain identity.
@@ -327,27 +329,48 @@ class BuildCache:
         UntrustedCacheError
             If the cache folder or the signing key is not safe to use.
         """
+        gen, why = self.check(entry, key)
+        _log.debug("build cache %s: %s", "hit" if gen is not None else "miss", why)
+        return gen
+
+    def check(self, entry: BuildEntry, key: str):
+        """:meth:`lookup` with the reason: ``(build or None, why)``, ``why`` one line
+        for the logs ("no build folder ...", "... is not signed by this user's gearsym", ...).
+
+        Raises
+        ------
+        UntrustedCacheError
+            If the cache folder or the signing key is not safe to use.
+        """
         from .artifact import GeneratedModel
 
         key_bytes = signing_key(create=False)
         with self._opened(create=False) as opened:
-            if opened is None or key_bytes is None:
-                return None
+            if opened is None:
+                return None, f"no build cache folder {self.root} yet"
+            if key_bytes is None:
+                return None, "no signing key yet (this user's gearsym has made no build)"
             dfd = _open_dir_at(opened[0], entry.name)
             if dfd is None:
-                return None
+                return None, f"no build folder {entry.directory} (or not a folder of yours)"
             try:
                 signed = _read_signed(dfd, key_bytes)
-                if signed is None or signed[0].get("build_key") != key or not _intact(dfd, *signed, key):
-                    return None
+                if signed is None:
+                    return None, (f"{entry.directory}/meta.json is missing, unreadable or not signed by this "
+                                  "user's gearsym (planted, edited or copied from elsewhere)")
+                if signed[0].get("build_key") != key:
+                    return None, f"{entry.directory} holds a build of another key"
+                if not _intact(dfd, *signed, key):
+                    return None, (f"a file of {entry.directory} is missing or does not have the SHA-256 it was "
+                                  "signed with (damaged or edited)")
             finally:
                 os.close(dfd)
         try:
             gen = GeneratedModel(**signed[0])
         except TypeError:
-            return None
+            return None, f"{entry.directory}/meta.json does not describe a build of this gearsym"
         gen.directory, gen.so_path = str(entry.directory), str(entry.directory / Path(gen.so_path).name)
-        return gen
+        return gen, f"verified build {entry.directory}"
 
     # ---------------------------------------------------------------- build
     @contextmanager

@@ -21,10 +21,12 @@ import functools
 import hashlib
 import importlib.util
 import json
+import logging
 import os
 import shutil
 import subprocess
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,6 +40,8 @@ from gearsym.engine.trust import (
     user_cache_dir,
     verify,
 )
+
+_log = logging.getLogger(__name__)
 
 __all__ = [
     "CFLAGS",
@@ -319,8 +323,9 @@ def model_cflags(source_bytes: int) -> list[str]:
 
 
 def driver_cache_dir(fallback: str | os.PathLike[str]) -> Path:
-    """Where driver objects are kept: ``$GEARSYM_DRIVER_CACHE``, else
-    ``$XDG_CACHE_HOME/gearsym/driver`` (``~/.cache/gearsym/driver``), shared by every build
+    """Where driver objects are kept: ``$GEARSYM_DRIVER_CACHE``, else ``driver/`` in the
+    user cache (:func:`gearsym.engine.trust.user_cache_dir`: on Linux
+    ``$XDG_CACHE_HOME/gearsym/driver``, else ``~/.cache/gearsym/driver``), shared by every build
     root of the user (objects are named by content hash); ``fallback`` if that folder
     cannot be created.  :func:`driver_object` checks the folder (no other user can change
     it) and verifies what it finds there."""
@@ -351,6 +356,17 @@ def _driver_verified(dir_fd: int, name: str) -> bool:
         return False
     return verify(signing_key(create=False), sig.decode("ascii", "replace"), _DRIVER_TAG, name,
                   hashlib.sha256(data).hexdigest())
+
+
+def _driver_why(dir_fd: int, name: str, force: bool) -> str:
+    """Why the driver object ``name`` is (re)built, for the log."""
+    if force:
+        return "rebuild asked for (force)"
+    try:
+        os.stat(name, dir_fd=dir_fd, follow_symlinks=False)
+    except OSError:
+        return "none yet for this driver version and compiler"
+    return "the object there does not verify: damaged, truncated, unsigned or not made by this user's gearsym"
 
 
 def _install_driver(dir_fd: int, tmpdir: str, name: str, key: bytes) -> None:
@@ -413,10 +429,13 @@ def driver_object(folder: str | os.PathLike[str], cc: str | None = None, *, forc
     dir_fd, real = open_secure_directory(folder, create=True, what="driver cache")
     try:
         if not force and _driver_verified(dir_fd, name):
+            _log.debug("driver object %s: verified, reused", real / name)
             return real / name
         with locked_file(dir_fd, f".{name}.lock", Path(folder)):
             if not force and _driver_verified(dir_fd, name):  # made by another process while we waited
                 return real / name
+            _log.info("driver object %s: compiling it (%s)", real / name, _driver_why(dir_fd, name, force))
+            t0 = time.perf_counter()
             with tempfile.TemporaryDirectory(prefix=f".{name}.", dir=real) as td:
                 tmp = Path(td) / "driver.o"
                 (Path(td) / "units").mkdir()
@@ -425,6 +444,7 @@ def driver_object(folder: str | os.PathLike[str], cc: str | None = None, *, forc
                 if not _is_elf_relocatable(tmp):
                     raise EngineBuildError(f"the compiler {cc} wrote an invalid ELF object for the driver")
                 _install_driver(dir_fd, td, name, key)
+            _log.info("driver object %s: compiled in %.2f s", real / name, time.perf_counter() - t0)
         return real / name
     finally:
         os.close(dir_fd)

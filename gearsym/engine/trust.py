@@ -5,8 +5,8 @@ A compiled model is native code: loading it runs it.  gearsym therefore loads on
 builds that this user's gearsym made, and proves it with a secret key of the user:
 
 * **The key**: 32 random bytes in ``<user cache>/.signing-key`` (:func:`user_cache_dir`:
-  ``$XDG_CACHE_HOME/gearsym``, else ``~/.cache/gearsym``), created mode 0600 in one
-  atomic ``link`` (no reader ever sees a partial key) and refused unless it is a regular
+  platformdirs' user cache, on Linux ``$XDG_CACHE_HOME/gearsym``, else
+  ``~/.cache/gearsym``), created mode 0600 in one atomic ``link`` (no reader ever sees a partial key) and refused unless it is a regular
   file owned by the user that no other user can read or write (:func:`signing_key`).  It
   never lives in a build folder: a folder that came from elsewhere (a paper's supplement,
   a colleague's zip) cannot bring its own key.
@@ -28,6 +28,19 @@ builds that this user's gearsym made, and proves it with a secret key of the use
   not writable by others, with one link, and read up to a size limit
   (:func:`read_file_at`).
 
+* **Locks** (:func:`locked_file`): ``fcntl.flock`` on a lock file opened relative to
+  the verified folder's descriptor with ``O_NOFOLLOW`` (a planted link is refused with
+  a clear error, never followed), checked like any other file (regular, the user's,
+  one link) and never truncated, removed by its holder on release (a waiter whose file
+  was removed retries, comparing device and inode).  This is hand-written on purpose:
+  ``filelock`` (its Unix lock opens with ``O_NOFOLLOW`` since 3.20.1 and, in current
+  versions, unlinks on release as here) opens the lock by *path*, not relative to the checked folder's descriptor,
+  opens with ``O_TRUNC`` and does not check the file's owner, type or link count (a
+  hard link to another file of the user would be truncated), creates missing parent
+  folders itself with the default mode (around :func:`open_secure_directory`'s
+  checks), and reports a refused link as a bare ``OSError``.  Wrapping it to keep these
+  guarantees would be longer than the 60 lines here.  POSIX only, as all of gearsym.
+
 Between the check of a build and its ``dlopen`` (by path) only processes of this user
 (or root) can change the folder or the file, and they can anyway run any code as the
 user: loading the verified path is as safe as loading a private copy.  Measured on the
@@ -47,6 +60,8 @@ import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+
+import platformdirs
 
 from gearsym.errors import CompileError
 
@@ -77,11 +92,28 @@ class UntrustedCacheError(CompileError):
 
 
 def user_cache_dir() -> Path:
-    """The user's gearsym cache: ``$XDG_CACHE_HOME/gearsym`` (an absolute
-    ``XDG_CACHE_HOME`` only, as the XDG specification says), else ``~/.cache/gearsym``."""
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    base = Path(xdg) if xdg and os.path.isabs(xdg) else Path.home() / ".cache"
-    return base / "gearsym"
+    """The user's gearsym cache: ``platformdirs.user_cache_dir("gearsym")``.
+
+    On Linux that is ``$XDG_CACHE_HOME/gearsym`` when ``XDG_CACHE_HOME`` holds an
+    absolute path (a relative one is ignored, as the XDG specification says; platformdirs
+    4.11.8 and later), else ``~/.cache/gearsym``.  Nothing is created here: the folder is
+    made and checked by :func:`open_secure_directory`.
+
+    Raises
+    ------
+    UntrustedCacheError
+        If no absolute folder can be found (no absolute ``HOME`` and no absolute
+        ``XDG_CACHE_HOME``): a relative folder would depend on the working directory.
+    """
+    try:
+        path = Path(platformdirs.user_cache_dir("gearsym", appauthor=False, ensure_exists=False))
+    except RuntimeError as exc:  # platformdirs: the home folder is unknown
+        raise UntrustedCacheError(f"cannot find the user cache: {exc} (set GEARSYM_GENERATED to a folder "
+                                  "only you can write)") from None
+    if not path.is_absolute():  # never a folder relative to wherever gearsym runs
+        raise UntrustedCacheError(f"the user cache {path} is not an absolute path (set XDG_CACHE_HOME or HOME to "
+                                  "an absolute path, or GEARSYM_GENERATED to a folder only you can write)")
+    return path
 
 
 

@@ -18,6 +18,7 @@ expression (``DimensionlessForm.check``).
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
@@ -33,6 +34,8 @@ from .scales import Scales, choose_scales
 
 if TYPE_CHECKING:
     from .model import SymbolicModel
+
+_log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -220,8 +223,7 @@ def dimensionless_form(model: SymbolicModel) -> DimensionlessForm:
             worst = max(worst, abs(a - c) / max(abs(a), 1e-300)) if a != 0 else max(worst, abs(c))
         elif not (math.isnan(a) and math.isnan(c)):
             worst = math.inf
-        if _DEBUG:
-            print("BLOCK", v, "->", final[b], a, c)
+        _log.debug("dimensionless block %s -> %s: %.17g (dimensional) vs %.17g (groups)", v, final[b], a, c)
     allowed = set(gsyms.values()) | dynamic
     leftover = sorted({str(s) for e in (*rows, *switching) for s in e.free_symbols if s not in allowed})
     scale_exprs = {"time": scales.time, "length": scales.length, "mass": scales.mass}
@@ -305,9 +307,6 @@ class DimensionlessSystem:
 
 
 # ------------------------------------------------------------------------------- helpers
-
-
-_DEBUG = False
 
 
 def _dimension_table(sm: SymbolicModel) -> Dimensions:

@@ -8,6 +8,7 @@ step control, detection and location of special points between accepted points
 
 from __future__ import annotations
 
+import logging
 import math
 import sys
 from collections.abc import Callable, Mapping
@@ -22,6 +23,8 @@ from ._branch import Bifurcation, Branch, ContinuationSetup
 from ._corrector import Continuer, Node, distance_to_one, graph_like, rescale
 from ._detection import boundary_node, detect_between
 from ._stall import QUICK_STALL, stalled_branch
+
+_log = logging.getLogger(__name__)
 
 if TYPE_CHECKING:  # pragma: no cover
     from ._options import ContinuationOptions
@@ -350,6 +353,9 @@ class _Tracer:
             integrator=getattr(res, "method", None), state_scale=tuple(float(v) for v in C.state_scale),
             state_weight=C.state_weight, state=leg.state, n_dense=leg.n_dense, tol=self.o.tol, start=leg.start,
             stop=leg.stop)
+        _log.info("continuation in %s: %d points, %s; %s", res.param, len(points),
+                  ", ".join(f"{b.type} at {b.value:.6g}" for b in bifs) or "no special point",
+                  f"stopped: {self.stop_reason}" if self.stop_reason else "complete")
         return Branch(param=res.param, points=points, bifurcations=bifs, periods=res.periods, method=leg.method,
                       state=res.system.state_names[leg.state], state_names=res.system.state_names,
                       stop_reason=self.stop_reason, complete=self.complete, stop_value=float(nodes[-1].z[-1]),

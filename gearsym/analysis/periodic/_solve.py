@@ -9,6 +9,7 @@ with alternating frequency/time), both of which return a
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -21,6 +22,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
 
 __all__ = ["ORBIT_METHODS", "periodic_orbit"]
+
+_log = logging.getLogger(__name__)
 
 #: Periodic-orbit solvers: method name -> what it is.
 ORBIT_METHODS: dict[str, str] = {
@@ -74,7 +77,12 @@ def periodic_orbit(system: CompiledSystem, period: float | None = None, periods:
         No orbit found, or the state found failed its verification.
     """
     if method == "shooting":
-        return shoot(system, period=period, periods=periods, x0=x0, params=params, **options)
-    if method == "hbm":
-        return harmonic_balance(system, period=period, periods=periods, x0=x0, params=params, **options)
-    raise ParameterError(f"method must be one of {', '.join(ORBIT_METHODS)}, got '{method}'")
+        orbit = shoot(system, period=period, periods=periods, x0=x0, params=params, **options)
+    elif method == "hbm":
+        orbit = harmonic_balance(system, period=period, periods=periods, x0=x0, params=params, **options)
+    else:
+        raise ParameterError(f"method must be one of {', '.join(ORBIT_METHODS)}, got '{method}'")
+    _log.info("periodic orbit (%s, period %.6g): %d iterations, residual %.2g, max |multiplier| %.6g, %s",
+              orbit.method, orbit.period, orbit.iterations, orbit.residual, orbit.max_multiplier,
+              orbit.stability or ("stable" if orbit.stable else "unstable"))
+    return orbit

@@ -43,6 +43,7 @@ units (as ``--set``; :class:`~gearsym.spec.units.ParameterUnits`), with the SI v
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 import time
@@ -75,6 +76,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
 
 __all__ = ["QUANTITIES", "save_map", "stability_map"]
+
+_log = logging.getLogger(__name__)
 
 #: Quantities a map can show (all are stored; ``quantity`` picks the plotted one).
 QUANTITIES: dict[str, str] = {
@@ -224,6 +227,8 @@ def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Seque
             "xname": grid.xname, "yname": grid.yname, "method": method, "periods": periods, "want_ptp": want_ptp,
             "options": dict(orbit_options or {}), "params": base, "x0": None if x0 is None else [float(v) for v in x0]})
         flat, runner = _run_tasks(system, tasks, dask, n_workers)
+    _log.info("stability map of %s: %d x %d points (%s x %s), %s, %d failed", system.name, len(grid.xs),
+              len(grid.ys), grid.xname, grid.yname, runner, sum(1 for r in flat if r.get("error")))
     ds = _dataset(system, flat, grid.xname, grid.xs, grid.yname, grid.ys, want_ptp)
     ds.attrs.update({
         "title": f"{QUANTITIES[quantity]} over {grid.xname} x {grid.yname}",
