@@ -253,3 +253,14 @@ def test_supported_platforms_are_stated():
         assert fact in section, fact
     readme = (REPO / "README.md").read_text(encoding="utf-8")
     assert "Supported platforms: Linux only" in readme
+
+
+def test_the_licence_named_in_the_metadata_is_shipped():
+    """``license = "MIT"`` names a licence; its text is in the repository and in the wheel's metadata."""
+    import tomllib
+
+    root = Path(__file__).resolve().parents[1]
+    project = tomllib.loads((root / "pyproject.toml").read_text())["project"]
+    assert project["license"] == "MIT" and project["license-files"] == ["LICENSE"]
+    text = (root / "LICENSE").read_text()
+    assert text.startswith("MIT License") and "WITHOUT WARRANTY OF ANY KIND" in text
