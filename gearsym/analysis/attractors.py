@@ -60,6 +60,8 @@ SIZE_FLOOR = 1e-3
 REPEAT_TOL = 1e-3
 #: Output samples per forcing period of the dense integrations (amplitudes).
 DENSE = 32
+#: A non-periodic attractor settles a trajectory after this many times ``hits`` points in its region.
+CLOUD_HITS = 4
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,29 +170,37 @@ class Table:
         ``1 / scale`` of the point's attractor.
     radius : ndarray, shape (K,)
         The neighbourhood radius of the point's attractor (after the cut against the others).
+    hits : ndarray of int, shape (A,)
+        Consecutive Poincare points in each attractor's neighbourhood that settle a trajectory on
+        it: ``hits`` for a periodic orbit, :data:`CLOUD_HITS` times that for a non-periodic one
+        (a transient may cross the region of a cloud for a few periods).
     """
 
     points: np.ndarray
     owner: np.ndarray
     inv_scale: np.ndarray
     radius: np.ndarray
+    hits: np.ndarray
 
     @classmethod
-    def of(cls, attractors: Sequence[Attractor], nx: int) -> Table:
-        """The table of ``attractors`` (radii cut so that no two neighbourhoods overlap)."""
+    def of(cls, attractors: Sequence[Attractor], nx: int, hits: int = 3) -> Table:
+        """The table of ``attractors`` (radii cut so that no two neighbourhoods overlap; ``hits``
+        consecutive points settle a trajectory on a periodic orbit)."""
+        need = np.array([hits if a.kind == "periodic" else CLOUD_HITS * hits for a in attractors], dtype=int)
         if not attractors:
             z = np.zeros((0, nx))
-            return cls(z, np.zeros(0, int), z.copy(), np.zeros(0))
+            return cls(z, np.zeros(0, int), z.copy(), np.zeros(0), need)
         radii = effective_radii(attractors)
         pts = np.vstack([a.points for a in attractors])
         owner = np.concatenate([np.full(len(a.points), a.index) for a in attractors])
         inv = np.vstack([np.broadcast_to(1.0 / a.scale, a.points.shape) for a in attractors])
         rad = np.concatenate([np.full(len(a.points), r) for a, r in zip(attractors, radii, strict=True)])
-        return cls(pts, owner, inv, rad)
+        return cls(pts, owner, inv, rad, need)
 
     def as_arrays(self) -> dict[str, np.ndarray]:
         """Plain arrays (what a worker process gets)."""
-        return {"points": self.points, "owner": self.owner, "inv_scale": self.inv_scale, "radius": self.radius}
+        return {"points": self.points, "owner": self.owner, "inv_scale": self.inv_scale, "radius": self.radius,
+                "hits": self.hits}
 
     def match(self, X: np.ndarray, block: int = 4096) -> np.ndarray:
         """The attractor whose neighbourhood holds each state, or -1.
@@ -237,7 +247,8 @@ def effective_radii(attractors: Sequence[Attractor]) -> list[float]:
 def table_from_arrays(arrays: Mapping[str, np.ndarray]) -> Table:
     """The inverse of :meth:`Table.as_arrays`."""
     return Table(np.asarray(arrays["points"], float), np.asarray(arrays["owner"], int),
-                 np.asarray(arrays["inv_scale"], float), np.asarray(arrays["radius"], float))
+                 np.asarray(arrays["inv_scale"], float), np.asarray(arrays["radius"], float),
+                 np.asarray(arrays["hits"], int))
 
 
 # ------------------------------------------------------------------ identification
@@ -324,7 +335,7 @@ def identify(ctx: Context, x: np.ndarray, sigma: np.ndarray | None, index: int, 
     L = 2 * ctx.max_period + 8
     Y, _ = _integrate(ctx, x, L, sigma, per_period=DENSE)
     Q = Y[DENSE::DENSE]
-    table = Table.of(known, x.shape[0])
+    table = Table.of(known, x.shape[0], hits)
     lab = table.match(Q[-hits:])
     if lab.size and lab[0] >= 0 and np.all(lab == lab[0]):
         return None

@@ -532,13 +532,13 @@ class _Run:
         """Continue the ``pending`` cells up to ``periods`` more periods (tasks on the workers)."""
         from .workers import TaskFailure, run_tasks
 
-        table = Table.of(self.attractors, self.x.shape[1]).as_arrays()
+        table = Table.of(self.attractors, self.x.shape[1], self.opts.hits).as_arrays()
         parallel = (self.workers > 1 or self.dask is not None) and pending.size >= MIN_PARALLEL
         n_tasks = max(math.ceil(pending.size / MAX_BLOCK), (16 if self.dask is not None else 4 * self.workers)
                       if parallel else 1)
         blocks = [b for b in np.array_split(pending, n_tasks) if b.size]
         common = {"p": self.ctx.p, "t0": self.ctx.t0, "T": self.ctx.T, "periods": int(periods),
-                  "chunk": self.opts.chunk, "hits": self.opts.hits, "table": table, "rtol": self.ctx.rtol,
+                  "chunk": self.opts.chunk, "table": table, "rtol": self.ctx.rtol,
                   "atol": self.ctx.atol, "method": self.ctx.method, "bound": self._bound()}
         tasks = [{**common, "x": self.x[b], "sigma": self._sigma0(b)} for b in blocks]
 
@@ -594,7 +594,7 @@ def settle_block(system: System, task: Mapping[str, Any]) -> dict[str, Any]:
     X = np.array(task["x"], dtype=float)
     m, nx = X.shape
     sig = None if task["sigma"] is None else np.array(task["sigma"], dtype=float)
-    t0, T, budget, chunk, hits = task["t0"], task["T"], int(task["periods"]), int(task["chunk"]), int(task["hits"])
+    t0, T, budget, chunk = task["t0"], task["T"], int(task["periods"]), int(task["chunk"])
     bound = np.asarray(task["bound"], float)
     atol = np.broadcast_to(np.asarray(task["atol"], float), (nx,))
     label = np.full(m, UNRESOLVED, dtype=int)
@@ -632,7 +632,7 @@ def settle_block(system: System, task: Mapping[str, Any]) -> dict[str, Any]:
             same = (lab >= 0) & (lab == last[cells])
             streak[cells] = np.where(same, streak[cells] + 1, (lab >= 0).astype(int))
             last[cells] = lab
-            settled = streak[cells] >= hits
+            settled = (lab >= 0) & (streak[cells] >= table.hits[np.maximum(lab, 0)])
             label[cells[settled]] = lab[settled]
             used[cells[settled]] = done + j + 1
         X[active[ok]] = res.x_final[ok]
