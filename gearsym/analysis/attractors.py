@@ -80,7 +80,9 @@ class Attractor:
         Poincare points at the basin's phase: the ``k`` states of a period-``k`` orbit in the
         order the orbit visits them, or the cloud of a non-periodic attractor.
     minimum, maximum : ndarray, shape (nx,)
-        Range of each state along the attractor (continuous trajectory).
+        Range of each state along the attractor: of a periodic orbit from 1024 samples per forcing
+        period refined by parabolic interpolation (:meth:`PeriodicOrbit.extrema`), of a non-periodic
+        attractor from :data:`DENSE` samples per period along its cloud's integration.
     scale : ndarray, shape (nx,)
         Its size per state (the unit of the neighbourhood test, module docstring).
     radius : float
@@ -373,8 +375,9 @@ def _periodic(ctx: Context, Q: np.ndarray, k: int, index: int, seed: int) -> Att
         return None
     mm = float(np.max(np.abs(orbit.multipliers))) if len(orbit.multipliers) else 0.0
     lyap = math.log(mm) / (k * ctx.T) if mm > 0 else -math.inf
-    return Attractor(index=index, kind="periodic", period=int(k), points=points, minimum=np.min(Y, axis=0),
-                     maximum=np.max(Y, axis=0), scale=scale, radius=ctx.radius, rattle_state=orbit.rattle_state,
+    ext = np.array([orbit.extrema(i) for i in range(points.shape[1])])  # refined from 1024 samples per period
+    return Attractor(index=index, kind="periodic", period=int(k), points=points, minimum=ext[:, 0],
+                     maximum=ext[:, 1], scale=scale, radius=ctx.radius, rattle_state=orbit.rattle_state,
                      max_multiplier=mm, stability=orbit.stability, lyapunov=lyap, lyapunov_error=0.0, seed=seed,
                      info={"iterations": int(orbit.iterations), "residual": float(orbit.residual),
                            "multipliers": [[float(m.real), float(m.imag)] for m in orbit.multipliers]})

@@ -213,7 +213,17 @@ class BasinResult:
 
     # ------------------------------------------------------------ queries
     def count(self, label: int) -> int:
-        """Cells with this label."""
+        """The number of cells with a label.
+
+        Parameters
+        ----------
+        label
+            An attractor's index or a special label (:data:`UNRESOLVED`, ...).
+
+        Returns
+        -------
+        int
+        """
         return int(np.count_nonzero(self.labels == label))
 
     @property
@@ -223,13 +233,30 @@ class BasinResult:
         return {int(k): float(c) / self.labels.size for k, c in zip(labs, n, strict=True)}
 
     def label_at(self, x: float, y: float) -> int:
-        """The label of the grid cell nearest to the point ``(x, y)`` of the plane."""
+        """The label of the grid cell nearest to a point of the plane.
+
+        Parameters
+        ----------
+        x, y
+            Values of :attr:`x_state` and :attr:`y_state`.
+
+        Returns
+        -------
+        int
+        """
         i = int(np.argmin(np.abs(self.y_values - y)))
         j = int(np.argmin(np.abs(self.x_values - x)))
         return int(self.labels[i, j])
 
     def as_dict(self) -> dict[str, Any]:
-        """A JSON-ready summary (no per-cell arrays)."""
+        """A JSON-ready summary (no per-cell arrays).
+
+        Returns
+        -------
+        dict
+            The grid, the attractors (:meth:`Attractor.as_dict`), the fraction of the cells per
+            label, the options and :attr:`stats`.
+        """
         return {"scene": self.scene, "x": {"state": self.x_state, "lo": float(self.x_values[0]),
                                            "hi": float(self.x_values[-1]), "n": int(self.x_values.size)},
                 "y": {"state": self.y_state, "lo": float(self.y_values[0]), "hi": float(self.y_values[-1]),
@@ -242,7 +269,18 @@ class BasinResult:
                 "n_failed": self.count(FAILED), "options": asdict(self.options), "stats": dict(self.stats)}
 
     def label_name(self, label: int) -> str:
-        """``"A0: period 1, rattle 0"``, or the name of a special label."""
+        """The name of a label.
+
+        Parameters
+        ----------
+        label
+            An attractor's index or a special label.
+
+        Returns
+        -------
+        str
+            ``"A0: period 1, rattle 0"``, or ``"unresolved"``, ``"unbounded"``, ``"failed"``.
+        """
         if label in SPECIAL_LABELS:
             return SPECIAL_LABELS[label]
         return f"A{label}: {self.attractors[label].name}"
@@ -259,7 +297,17 @@ class BasinResult:
         return _dataset(self)
 
     def plot(self, ax: Any = None) -> Any:
-        """Draw the basin map (one colour per label, the attractors' Poincare points, a legend)."""
+        """Draw the basin map: one colour per label, the attractors' Poincare points, a legend.
+
+        Parameters
+        ----------
+        ax
+            A matplotlib axes (default: a new figure's).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
         return _plot(self, ax)
 
     def save(self, out_dir: str | Path, stem: str = "basins") -> list[Path]:
@@ -632,6 +680,8 @@ def settle_block(system: System, task: Mapping[str, Any]) -> dict[str, Any]:
             same = (lab >= 0) & (lab == last[cells])
             streak[cells] = np.where(same, streak[cells] + 1, (lab >= 0).astype(int))
             last[cells] = lab
+            if not table.hits.size:  # no attractor known: nothing settles
+                continue
             settled = (lab >= 0) & (streak[cells] >= table.hits[np.maximum(lab, 0)])
             label[cells[settled]] = lab[settled]
             used[cells[settled]] = done + j + 1

@@ -107,7 +107,9 @@ def _flagged(exc: ParameterError) -> ParameterError:
     """The error with the option's flag in front when its message starts with an option's name."""
     msg = str(exc)
     for name, flag in _FLAGS.items():
-        if msg.startswith((f"{name} ", f"{name}=", f"{name}:")):
+        if msg.startswith(f"{name}:"):
+            return ParameterError(f"{flag}{msg[len(name):]}")
+        if msg.startswith((f"{name} ", f"{name}=")):
             return ParameterError(f"{flag}: {msg}")
     return exc
 

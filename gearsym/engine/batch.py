@@ -29,6 +29,8 @@ __all__ = ["STATUS_NAMES", "BatchResult", "run_batch"]
 STATUS_NAMES: dict[int, str] = {0: "ok", -1: "too much work", -2: "event storm", -3: "non-finite", -4: "solver",
                                 -5: "abi", -6: "input", -7: "max events", -8: "interrupted"}
 
+_GS_ERR_INPUT = -6
+
 #: Most values of one batch's output (states x output times x state entries).
 MAX_BATCH_VALUES = 50_000_000
 
@@ -108,7 +110,7 @@ def run_batch(engine: Engine, x0s: Any, p: Any, t0: float, t_end: float, t_out: 
     ------
     EngineInputError
         Wrong shapes, an unknown method, a batch above :data:`MAX_BATCH_VALUES` output values,
-        or a template the driver refuses (bad time span, tolerances).
+        or settings the driver refuses for every state (bad time span, tolerances, output grid).
     KeyboardInterrupt
         Ctrl-C during the batch (checked between runs and within each).
     """
@@ -154,6 +156,9 @@ def run_batch(engine: Engine, x0s: Any, p: Any, t0: float, t_end: float, t_out: 
         engine._call(fn, a, n, _ptr(X), _ptr(S), _ptr(y) if tout.shape[0] else None, _ptr(xf),
                      _ptr(sf) if nsw else None, _ptr(status), _ptr(counts))
     del keep  # (the template's buffers lived until the call returned)
+    msg = a.errmsg.decode("utf-8", errors="replace")
+    if n and np.all(status == _GS_ERR_INPUT):  # the template itself (time span, tolerances, grid) is refused
+        raise EngineInputError(f"every state of the batch was refused; {msg}")
     return BatchResult(y=y, x_final=xf, sigma_final=sf[:, :nsw], status=status.astype(int),
                        n_events=counts[:, 0].astype(int), n_steps=counts[:, 1].astype(int),
-                       n_rhs=counts[:, 2].astype(int), message=a.errmsg.decode("utf-8", errors="replace"))
+                       n_rhs=counts[:, 2].astype(int), message=msg)
