@@ -189,9 +189,11 @@ class BasinResult:
     scene : str
     options : BasinOptions
     stats : dict
-        Counts and times: ``n_cells``, ``periods_integrated``, ``events``, ``steps``, ``c_seconds``
-        (inside the C batches, summed over workers), ``wall_s`` and per phase, ``runner``,
-        ``rounds``, ``first_error``.
+        Counts and times: ``n_cells``, ``periods_integrated`` (settling rounds and discovery),
+        ``events``, ``steps``, ``c_seconds`` / ``c_cpu_seconds`` (wall / CPU time inside the C
+        batches of the settling rounds, summed over the workers), ``cpu_seconds`` (CPU time of the
+        settling tasks, summed over the workers), ``wall_s``, ``discovery_s``, ``settle_s``,
+        ``runner``, ``rounds``, ``n_seeds``, ``first_error``.
     """
 
     labels: np.ndarray
@@ -482,7 +484,7 @@ class _Run:
                            rtol=float(opts.rtol), atol=self._atol(), method=method, max_period=opts.max_period,
                            radius=opts.radius, cloud=opts.cloud, lyapunov_periods=float(opts.lyapunov_periods))
         self.stats: dict[str, Any] = {"n_cells": n, "periods_integrated": 0, "events": 0, "steps": 0,
-                                      "c_seconds": 0.0, "discovery_s": 0.0, "settle_s": 0.0, "rounds": 0,
+                                      "c_seconds": 0.0, "c_cpu_seconds": 0.0, "cpu_seconds": 0.0, "discovery_s": 0.0, "settle_s": 0.0, "rounds": 0,
                                       "runner": "serial", "first_error": "", "n_seeds": 0}
 
     def _magnitude(self) -> np.ndarray:
@@ -607,7 +609,7 @@ class _Run:
             self.x[b] = out["x"]
             self.sigma[b] = out["sigma"]
             self.started[b] = True
-            for k in ("periods_integrated", "events", "steps", "c_seconds"):
+            for k in ("periods_integrated", "events", "steps", "c_seconds", "c_cpu_seconds", "cpu_seconds"):
                 self.stats[k] += out[k]
             if out["message"] and not self.stats["first_error"]:
                 self.stats["first_error"] = out["message"]
@@ -649,16 +651,19 @@ def settle_block(system: System, task: Mapping[str, Any]) -> dict[str, Any]:
     used = np.zeros(m, dtype=int)
     last = np.full(m, -1, dtype=int)
     streak = np.zeros(m, dtype=int)
-    out = {"periods_integrated": 0, "events": 0, "steps": 0, "c_seconds": 0.0, "message": ""}
+    out = {"periods_integrated": 0, "events": 0, "steps": 0, "c_seconds": 0.0, "c_cpu_seconds": 0.0,
+           "message": ""}
+    cpu0 = time.process_time()
     active = np.arange(m)
     done = 0
     while active.size and done < budget:
         c = min(chunk, budget - done)
-        tc = time.perf_counter()
+        tc, cc = time.perf_counter(), time.process_time()
         res = run_batch(system.engine, X[active], task["p"], t0, t0 + c * T, t0 + T * np.arange(1, c + 1),
                         sigma0s=None if sig is None else sig[active], method=task["method"], rtol=task["rtol"],
                         atol=float(np.min(atol)), atol_vec=atol, max_step=T / 8)
         out["c_seconds"] += time.perf_counter() - tc
+        out["c_cpu_seconds"] += time.process_time() - cc
         out["periods_integrated"] += c * active.size
         out["events"] += int(np.sum(res.n_events))
         out["steps"] += int(np.sum(res.n_steps))
@@ -691,6 +696,7 @@ def settle_block(system: System, task: Mapping[str, Any]) -> dict[str, Any]:
         still = label[active] == UNRESOLVED
         used[active[still]] = done
         active = active[still]
+    out["cpu_seconds"] = time.process_time() - cpu0
     return {**out, "label": label, "periods": used, "x": X,
             "sigma": sig if sig is not None else np.zeros((m, system.engine.nsw))}
 
