@@ -166,6 +166,9 @@ class BasinOptions:
 class BasinResult:
     """A basin map: a label per grid cell and the attractors (module docstring).
 
+    States (the grid, :attr:`base`, the attractors' points) are in the system's own variables, as
+    :attr:`gearsym.system.System.x0`.
+
     Attributes
     ----------
     labels : ndarray of int, shape (ny, nx)
@@ -333,7 +336,6 @@ class BasinResult:
         import matplotlib.pyplot as plt
 
         from ..files import atomic_path, save_figure, write_json
-        from .maps import _netcdf_engine
 
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -703,6 +705,16 @@ def settle_block(system: System, task: Mapping[str, Any]) -> dict[str, Any]:
 
 # ------------------------------------------------------------------ dataset and figure
 _KIND_CODES = {k: i for i, k in enumerate(KINDS)}
+
+
+def _netcdf_engine() -> str:
+    """netCDF4 or h5netcdf when installed, else scipy's netCDF-3 writer."""
+    import importlib.util
+
+    for engine, module in (("netcdf4", "netCDF4"), ("h5netcdf", "h5netcdf")):
+        if importlib.util.find_spec(module) is not None:
+            return engine
+    return "scipy"
 
 
 def _dataset(r: BasinResult) -> xr.Dataset:
