@@ -204,15 +204,16 @@ class Table:
         return {"points": self.points, "owner": self.owner, "inv_scale": self.inv_scale, "radius": self.radius,
                 "hits": self.hits}
 
-    def match(self, X: np.ndarray, block: int = 4096) -> np.ndarray:
+    def match(self, X: np.ndarray, values: int = 4_000_000) -> np.ndarray:
         """The attractor whose neighbourhood holds each state, or -1.
 
         Parameters
         ----------
         X
             States, shape (m, nx).
-        block
-            States compared at once (memory ``block * K * nx``).
+        values
+            Differences computed at once (memory: 8 bytes each): states are compared in blocks
+            of ``values / (K nx)``.
 
         Returns
         -------
@@ -223,6 +224,7 @@ class Table:
         out = np.full(m, -1, dtype=int)
         if m == 0 or self.points.shape[0] == 0:
             return out
+        block = max(1, values // max(self.points.size, 1))
         for s in range(0, m, block):
             D = np.max(np.abs(X[s:s + block, None, :] - self.points[None, :, :]) * self.inv_scale[None, :, :],
                        axis=2) / self.radius[None, :]
@@ -397,9 +399,10 @@ def _non_periodic(ctx: Context, x: np.ndarray, index: int, seed: int, k_guess: i
     scale = size_of(Y)
     rattle = rattle_state(traj, system=system, steady_fraction=1.0) if system.generated.contact_surfaces else None
     # the gap between neighbouring cloud points: the neighbourhood must bridge it
-    C = cloud / scale
-    gaps = np.sort(np.max(np.abs(C[:, None, :] - C[None, :, :]), axis=2), axis=1)[:, 1]
-    radius = max(ctx.radius, 2.0 * float(np.median(gaps)))
+    from scipy.spatial import cKDTree
+
+    gaps, _ = cKDTree(cloud / scale).query(cloud / scale, k=2, p=np.inf)  # each point's nearest other point
+    radius = max(ctx.radius, 2.0 * float(np.median(gaps[:, 1])))
     # the state at a multiple of the forcing period (the exponents' runs start at t = 0)
     phase_left = (math.ceil(ctx.t0 / ctx.T) * ctx.T - ctx.t0) if ctx.t0 % ctx.T else 0.0
     x_start = Y[-1]

@@ -140,7 +140,7 @@ class BasinOptions:
             raise ParameterError(f"phase must be in [0, 1) (a fraction of the forcing period), got {self.phase!r}")
         for name, lo, hi in (("periods_max", 1, 10_000_000), ("chunk", 1, 10_000), ("hits", 1, 10_000),
                              ("seeds", 1, 100_000), ("transient", 0, 10_000_000), ("max_period", 1, 1000),
-                             ("cloud", 8, 1_000_000)):
+                             ("cloud", 8, 100_000)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
                 raise ParameterError(f"{name} must be an integer in [{lo:,}, {hi:,}], got {v!r}")
