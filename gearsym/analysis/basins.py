@@ -17,10 +17,18 @@ The run:
    point (the state at ``t0 + i T``) checked after every period against the neighbourhoods of
    the known attractors (:class:`~gearsym.analysis.attractors.Table`: a distance relative to
    each attractor's size, any of its ``k`` phases); a cell is settled, with that attractor's
-   label, after ``hits`` consecutive Poincare points in one neighbourhood, so most cells cost
-   a few periods.  Blocks of cells run in one C call per chunk (no per-trajectory Python), on
-   local worker processes or a Dask cluster (:func:`gearsym.analysis.workers.run_tasks`), with a
-   progress bar.
+   label, after ``hits`` consecutive Poincare points in one neighbourhood (four times that for
+   a non-periodic attractor, whose region a transient may cross), so most cells cost a few
+   periods (16 on average on the benchmark oscillator's two coexisting orbits, whose
+   multipliers have modulus 0.7).  Blocks of cells run in one C call per chunk (no
+   per-trajectory Python), on local worker processes or a Dask cluster
+   (:func:`gearsym.analysis.workers.run_tasks`), with a progress bar.
+
+   The early termination is safe when a neighbourhood lies inside its attractor's basin: the
+   radius (5 % of the attractor's size by default) must be small against the distance to the
+   nearest basin boundary (on the benchmark oscillator at ``Omega = 0.87`` the Poincare point of
+   the saddle orbit between the two attractors is about 11 radii from the nearer one's).  A smaller ``radius`` or more ``hits``
+   trade periods for margin.
 3. **Rounds.**  The cells still unsettled get a budget that doubles from
    :data:`FIRST_BUDGET` periods up to ``periods_max``; before each later round, up to ``seeds``
    of them are integrated ``transient`` more periods and identified (attractors the first seeds
