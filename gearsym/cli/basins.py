@@ -183,7 +183,7 @@ def _print(res: BasinResult, files: list[str]) -> None:
     st = res.stats
     print(f"{res.scene}: basins over ({res.x_state}, {res.y_state}), {res.x_values.size} x {res.y_values.size} "
           f"cells at phase {res.phase:g}, {st['wall_s']:.3g} s ({st['runner']}), {st['periods_integrated']:,} "
-          f"forcing periods integrated ({st['periods_integrated'] / max(res.labels.size, 1):.3g} per cell)")
+          f"forcing periods integrated (a cell settled after {res.periods.mean():.3g} on average)")
     for a in res.attractors:
         extra = (f"max|mu| = {a.max_multiplier:.6g}" if a.kind == "periodic"
                  else f"lambda_1 = {a.lyapunov:.4g} +- {a.lyapunov_error:.2g}")
