@@ -108,7 +108,7 @@ def bench_batch(system: Any, n: int = 400, periods: int = 2) -> dict[str, Any]:
 
 # ------------------------------------------------------------------ 2-3. the main map and its overhead
 def bench_main(system: Any, n: int, workers: int, out_dir: Path) -> tuple[Any, dict[str, Any]]:
-    from gearsym.analysis.basins import basins
+    from gearsym.analysis.sweeps import basins
 
     xa, ya = _axes(n)
     t, c = time.perf_counter(), time.process_time()
@@ -165,7 +165,7 @@ def bench_dask(system: Any, n: int) -> dict[str, Any]:
     against drifting load; the best of each count, wall time and the CPU time of the settling tasks)."""
     from distributed import Client, LocalCluster
 
-    from gearsym.analysis.basins import basins
+    from gearsym.analysis.sweeps import basins
 
     xa, ya = _axes(n)
     out: dict[str, Any] = {"n": n, "cells": n * n, "runs": []}

@@ -22,8 +22,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import gearsym
-from gearsym.analysis.basins import FAILED, UNBOUNDED, UNRESOLVED, BasinOptions, basins
-from gearsym.analysis.workers import run_tasks
+from gearsym.analysis.sweeps import FAILED, UNBOUNDED, UNRESOLVED, BasinOptions, basins, run_tasks
 from gearsym.engine.batch import run_batch
 from gearsym.engine.errors import EngineInputError
 from gearsym.errors import ParameterError
@@ -379,7 +378,7 @@ def test_cli(tmp_path, capsys):
 def test_cli_exit_1_when_no_attractor_is_found(capsys, monkeypatch):
     """A run that found no attractor for cells that stayed bounded failed: exit 1 with the reason
     (here the identification is switched off, so nothing can settle)."""
-    import gearsym.analysis.basins as mod
+    import gearsym.analysis.sweeps._basins as mod
 
     monkeypatch.setattr(mod, "identify", lambda *a, **k: None)
     rc, out, err = _cli(capsys, "kahraman_singh", "--set", "Omega=0.87", "--x", "x,0,1,2", "--y", "v,0,1,2",

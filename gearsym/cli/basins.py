@@ -21,7 +21,7 @@ TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym
 if TYPE_CHECKING:  # pragma: no cover
     from typing import Any
 
-    from ..analysis.basins import BasinOptions, BasinResult
+    from ..analysis.sweeps import BasinOptions, BasinResult
 
 __all__ = ["add_basins_parser", "cmd_basins", "parse_axis"]
 
@@ -92,7 +92,7 @@ def parse_axis(text: str, flag: str) -> tuple[str, float, float, int]:
 
 
 def _options(args: argparse.Namespace) -> BasinOptions:
-    from ..analysis.basins import BasinOptions
+    from ..analysis.sweeps import BasinOptions
 
     given = {name: getattr(args, name) for name in ("phase", "periods_max", "seeds", "rtol", "chunk", "hits",
                                                       "transient", "max_period")
@@ -144,7 +144,7 @@ def _check(args: argparse.Namespace) -> tuple[tuple[str, float, float, int], tup
 
 def cmd_basins(args: argparse.Namespace) -> int:
     """Basins of attraction of a scene over a grid of two states."""
-    from ..analysis.basins import FAILED, UNBOUNDED, UNRESOLVED, basins
+    from ..analysis.sweeps import FAILED, UNBOUNDED, UNRESOLVED, basins
 
     xa, ya, base, workers = _check(args)
     opts = _options(args)

@@ -7,7 +7,7 @@ status and counts.  One :meth:`Engine.run` per state costs about 30 us of Python
 struct, buffers, result object), as much as half a forcing period of the benchmark
 oscillator's integration; a batch costs that once.  A state whose integration fails does not
 stop the batch: its ``status`` says why (``GS_ERR_*`` of ``gs_driver.h``, names in
-:data:`STATUS_NAMES`).  Used by basins of attraction (:mod:`gearsym.analysis.basins`).
+:data:`STATUS_NAMES`).  Used by basins of attraction (:func:`gearsym.analysis.sweeps.basins`).
 """
 
 from __future__ import annotations

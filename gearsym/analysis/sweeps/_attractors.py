@@ -1,6 +1,6 @@
 """Attractors of a forced system found from landing states, and the neighbourhood test of a basin.
 
-Used by :mod:`gearsym.analysis.basins`.  An attractor is described by its **Poincare points**:
+Used by :mod:`gearsym.analysis.sweeps._basins`.  An attractor is described by its **Poincare points**:
 the states at the basin's phase ``t0 + i T`` of the forcing period (the ``k`` points of a
 period-``k`` orbit, in order; a cloud of points for a non-periodic attractor).
 
@@ -9,7 +9,7 @@ period-``k`` orbit, in order; a cloud of points for a non-periodic attractor).
 
 1. the landing is integrated ``2 max_period + 8`` more periods and the smallest ``k`` whose
    Poincare points repeat (to ``1e-3`` of their range) is its period guess;
-2. with a guess, the periodic orbit is shot (:meth:`gearsym.system.System.periodic_orbit`,
+2. with a guess, the periodic orbit is shot (:func:`gearsym.analysis.periodic.periodic_orbit`,
    ``periods = k``, from the landing, at the phase ``t0``); it is the attractor when Newton
    converges to an **asymptotically stable** orbit that passes through the landing (its
    Poincare points within the neighbourhood radius of the last samples) -- an orbit that is
@@ -17,7 +17,7 @@ period-``k`` orbit, in order; a cloud of points for a non-periodic attractor).
    divides ``k`` is found from the orbit's own Poincare points;
 3. otherwise the attractor is **non-periodic**: its Poincare section is ``cloud`` points of
    a further integration, and its largest Lyapunov exponent
-   (:func:`gearsym.analysis.lyapunov.lyapunov_exponents`) decides the kind: ``"chaotic"``
+   (:func:`gearsym.analysis.sweeps.lyapunov_exponents`) decides the kind: ``"chaotic"``
    (positive beyond its error), ``"quasi-periodic"`` (zero within its error) or
    ``"long-period"`` (negative: the trajectory converges, but to no orbit of period at most
    ``max_period`` that the shooting found).
@@ -40,10 +40,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import GearsymError
+from ...errors import GearsymError
+from ..periodic import periodic_orbit
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..system import System
+    from ...system import CompiledSystem as System
 
 __all__ = ["KINDS", "Attractor", "Table", "detect_period", "identify"]
 
@@ -89,7 +90,7 @@ class Attractor:
         Relative radius of its neighbourhood (before the cut against other attractors).
     rattle_state : int or None
         0 no contact loss, 1 contact loss only, 2 back-side contact
-        (:data:`gearsym.analysis.rattle.RATTLE_STATES`); ``None`` without contact surfaces.
+        (:data:`gearsym.analysis.periodic.RATTLE_STATES`); ``None`` without contact surfaces.
     max_multiplier : float
         Largest Floquet multiplier modulus (periodic; NaN otherwise).
     stability : str
@@ -354,8 +355,8 @@ def identify(ctx: Context, x: np.ndarray, sigma: np.ndarray | None, index: int, 
 def _shoot(ctx: Context, x: np.ndarray, k: int) -> Any:
     """The periodic orbit of ``k`` forcing periods from ``x`` at ``t0``, or None (no convergence)."""
     try:
-        return ctx.system.periodic_orbit(periods=k, x0=x, params=ctx.params, method="shooting", t0=ctx.t0,
-                                         transient=0)
+        return periodic_orbit(ctx.system, periods=k, x0=x, params=ctx.params, method="shooting", t0=ctx.t0,
+                              transient=0)
     except GearsymError:
         return None
 
@@ -387,8 +388,8 @@ def _periodic(ctx: Context, Q: np.ndarray, k: int, index: int, seed: int) -> Att
 
 def _non_periodic(ctx: Context, x: np.ndarray, index: int, seed: int, k_guess: int | None) -> Attractor:
     """A non-periodic attractor from a landing: its cloud, rattle state and largest Lyapunov exponent."""
-    from .lyapunov import LyapunovOptions, lyapunov_exponents
-    from .rattle import rattle_state
+    from ..periodic import rattle_state
+    from ._lyapunov import LyapunovOptions, lyapunov_exponents
 
     system = ctx.system
     n = max(int(ctx.cloud), 8)

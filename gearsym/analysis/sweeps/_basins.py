@@ -9,20 +9,20 @@ The run:
 
 1. **Discovery.**  ``seeds`` cells spread over the grid are integrated ``transient`` forcing
    periods (one C call for all of them: :func:`gearsym.engine.batch.run_batch`); each landing
-   that is not on a known attractor is identified (:func:`gearsym.analysis.attractors.identify`):
+   that is not on a known attractor is identified (:func:`~gearsym.analysis.sweeps._attractors.identify`):
    a periodic orbit is shot from it and kept when it is asymptotically stable and passes
    through the landing; else the attractor is non-periodic (quasi-periodic, chaotic or
    long-period, by its largest Lyapunov exponent) and its Poincare section is kept.
 2. **Settling.**  Every cell is integrated ``chunk`` forcing periods per C call, its Poincare
    point (the state at ``t0 + i T``) checked after every period against the neighbourhoods of
-   the known attractors (:class:`~gearsym.analysis.attractors.Table`: a distance relative to
+   the known attractors (:class:`~gearsym.analysis.sweeps._attractors.Table`: a distance relative to
    each attractor's size, any of its ``k`` phases); a cell is settled, with that attractor's
    label, after ``hits`` consecutive Poincare points in one neighbourhood (four times that for
    a non-periodic attractor, whose region a transient may cross), so most cells cost a few
    periods (16 on average on the benchmark oscillator's two coexisting orbits, whose
    multipliers have modulus 0.7).  Blocks of cells run in one C call per chunk (no
    per-trajectory Python), on local worker processes or a Dask cluster
-   (:func:`gearsym.analysis.workers.run_tasks`), with a progress bar.
+   (:func:`gearsym.analysis.sweeps.run_tasks`), with a progress bar.
 
    The early termination is safe when a neighbourhood lies inside its attractor's basin: the
    radius (5 % of the attractor's size by default) must be small against the distance to the
@@ -60,15 +60,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..budget import LIMITS, check_count
-from ..errors import GearsymError, ParameterError
-from .attractors import KINDS, Attractor, Context, Table, identify, table_from_arrays
+from ...budget import LIMITS, check_count
+from ...errors import GearsymError, ParameterError
+from .._inputs import SceneLike, as_system
+from ._attractors import KINDS, Attractor, Context, Table, identify, table_from_arrays
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray as xr
 
-    from ..facade import Scene
-    from ..system import System
+    from ...system import CompiledSystem as System
 
 __all__ = ["FAILED", "UNBOUNDED", "UNRESOLVED", "BasinOptions", "BasinResult", "basins"]
 
@@ -105,7 +105,7 @@ class BasinOptions:
         Consecutive Poincare points in one attractor's neighbourhood that settle a cell.
     radius : float
         Radius of an attractor's neighbourhood relative to its size (module
-        :mod:`gearsym.analysis.attractors`).
+        :mod:`gearsym.analysis.sweeps._attractors`).
     seeds : int
         Cells integrated ``transient`` periods and identified before the first round (spread
         over the grid), and unsettled cells identified before each later round, at most.
@@ -343,7 +343,7 @@ class BasinResult:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..files import atomic_path, save_figure, write_json
+        from ...files import atomic_path, save_figure, write_json
 
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -360,7 +360,7 @@ class BasinResult:
 
 
 # ------------------------------------------------------------------ the run
-def basins(target: Scene | System, x: Sequence[Any], y: Sequence[Any], *, params: Mapping[str, float] | None = None,
+def basins(target: SceneLike | System, x: Sequence[Any], y: Sequence[Any], *, params: Mapping[str, float] | None = None,
            options: BasinOptions | None = None, base: Sequence[float] | None = None, workers: int = 1,
            dask: Any = None, progress: bool | None = False, **overrides: Any) -> BasinResult:
     """The basins of attraction of a forced system over a grid of two states (module docstring).
@@ -399,7 +399,7 @@ def basins(target: Scene | System, x: Sequence[Any], y: Sequence[Any], *, params
     """
     wall = time.perf_counter()
     opts = _options(options, overrides)
-    system = target.compile() if not hasattr(target, "simulate") and hasattr(target, "compile") else target
+    system = as_system(target, "a basin of attraction")
     if system.generated.implicit:
         raise ParameterError("basins of attraction need an explicit model (CVODE); this one is implicit")
     check_count("workers", workers)
@@ -520,7 +520,7 @@ class _Run:
     def discover(self, idx: np.ndarray) -> int:
         """Integrate the cells ``idx`` ``transient`` periods from where they are and identify their
         landings; returns the number of new attractors."""
-        from ..engine.batch import run_batch
+        from ...engine.batch import run_batch
 
         t = time.perf_counter()
         ctx, opts = self.ctx, self.opts
@@ -590,7 +590,7 @@ class _Run:
 
     def _round(self, pending: np.ndarray, periods: int, bar: Any) -> None:
         """Continue the ``pending`` cells up to ``periods`` more periods (tasks on the workers)."""
-        from .workers import TaskFailure, run_tasks
+        from ._workers import TaskFailure, run_tasks
 
         table = Table.of(self.attractors, self.x.shape[1], self.opts.hits).as_arrays()
         parallel = (self.workers > 1 or self.dask is not None) and pending.size >= MIN_PARALLEL
@@ -648,7 +648,7 @@ def settle_block(system: System, task: Mapping[str, Any]) -> dict[str, Any]:
     stopped), ``periods_integrated``, ``events``, ``steps``, ``c_seconds`` and ``message`` (the
     first failure).
     """
-    from ..engine.batch import run_batch
+    from ...engine.batch import run_batch
 
     table = table_from_arrays(task["table"])
     X = np.array(task["x"], dtype=float)
