@@ -16,6 +16,7 @@ from pathlib import Path
 from ..budget import LIMITS
 from ..errors import ConvergenceError, ParameterError
 from .checks import emit, float_list, load, scene_args
+from .helptext import examples
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
 if TYPE_CHECKING:  # pragma: no cover
@@ -40,7 +41,15 @@ def add_basins_parser(sub: argparse._SubParsersAction) -> None:
                     "(periodic orbits by shooting from the first landings, matched by their Poincare points; "
                     "non-periodic ones classified by the largest Lyapunov exponent); each cell is integrated "
                     "until its Poincare point stays in one attractor's neighbourhood.  Exit 1 if every cell "
-                    "failed or no attractor was found.")
+                    "failed or no attractor was found.",
+        epilog=examples(
+            ("gearsym basins kahraman_singh --set Omega=0.87 --x x,0.5,2.5,12 --y v,-0.5,0.5,8 --workers 1",
+             "the two coexisting orbits of the benchmark oscillator (in contact and impacting) and which of "
+             "96 initial states leads to which"),
+            ("gearsym basins kahraman_singh --set Omega=0.87 --x x,-2,4,10 --y v,-2,2,8 --workers 1 --json "
+             "--out basins",
+             "a wider plane as JSON, with basins.nc, basins.json and basins.png (400 x 400 cells on 2 cores: a "
+             "few minutes)")))
     scene_args(p)
     p.add_argument("--x", required=True, metavar="STATE,LO,HI,N", help="horizontal axis: a state, its range and "
                    "number of grid points (N >= 2)")

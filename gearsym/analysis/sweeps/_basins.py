@@ -50,6 +50,7 @@ guard (workers start a fresh interpreter).
 from __future__ import annotations
 
 import json
+import logging
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -71,6 +72,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem as System
 
 __all__ = ["FAILED", "UNBOUNDED", "UNRESOLVED", "BasinOptions", "BasinResult", "basins"]
+
+_log = logging.getLogger(__name__)
 
 #: Label of a cell that did not settle on a known attractor within ``periods_max``.
 UNRESOLVED = -1
@@ -419,6 +422,10 @@ def basins(target: SceneLike | System, x: Sequence[Any], y: Sequence[Any], *, pa
     run.discover(_spread(ys.size, xs.size, opts.seeds))
     run.settle_all(progress)
     run.stats["wall_s"] = time.perf_counter() - wall
+    _log.info("basins of %s: %d x %d cells in (%s, %s), %d attractor(s) [%s], %d unresolved, %d unbounded, %d failed, "
+              "%.3g s", system.name, xs.size, ys.size, system.state_names[xi], system.state_names[yi],
+              len(run.attractors), "; ".join(a.name for a in run.attractors), int(np.sum(run.labels == UNRESOLVED)),
+              int(np.sum(run.labels == UNBOUNDED)), int(np.sum(run.labels == FAILED)), run.stats["wall_s"])
     return BasinResult(labels=run.labels.reshape(ys.size, xs.size), periods=run.periods.reshape(ys.size, xs.size),
                        attractors=tuple(run.attractors), x_state=system.state_names[xi],
                        y_state=system.state_names[yi], x_values=xs, y_values=ys, base=b0,
