@@ -44,6 +44,9 @@ _EXPORTS: dict[str, str] = {
     "LyapunovOptions": ".analysis.sweeps",
     "LyapunovResult": ".analysis.sweeps",
     "lyapunov_exponents": ".analysis.sweeps",
+    "BasinOptions": ".analysis.sweeps",
+    "BasinResult": ".analysis.sweeps",
+    "basins": ".analysis.sweeps",
     "CompileError": ".errors",
     "ConvergenceError": ".errors",
     "GearsymError": ".errors",
@@ -59,10 +62,11 @@ _EXPORTS: dict[str, str] = {
 }
 
 __all__ = [
-    "Bifurcation", "Branch", "BranchPoint", "CompileError", "ContinuationOptions", "ConvergenceError", "Event",
-    "GearsymError", "LyapunovOptions", "LyapunovResult", "ParameterError", "PeriodicOrbit", "Scene",
-    "ShootingOptions", "SimulateOptions", "SimulationError", "SpecError", "System", "Trajectory", "__version__",
-    "continuation", "load_scene", "lyapunov_exponents", "switch_period_doubling",
+    "BasinOptions", "BasinResult", "Bifurcation", "Branch", "BranchPoint", "CompileError",
+    "ContinuationOptions", "ConvergenceError", "Event", "GearsymError", "LyapunovOptions", "LyapunovResult",
+    "ParameterError", "PeriodicOrbit", "Scene", "ShootingOptions", "SimulateOptions", "SimulationError",
+    "SpecError", "System", "Trajectory", "__version__", "basins", "continuation", "load_scene",
+    "lyapunov_exponents", "switch_period_doubling",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -75,7 +79,14 @@ if TYPE_CHECKING:  # pragma: no cover
         switch_period_doubling,
     )
     from .analysis.periodic import PeriodicOrbit, ShootingOptions
-    from .analysis.sweeps import LyapunovOptions, LyapunovResult, lyapunov_exponents
+    from .analysis.sweeps import (
+        BasinOptions,
+        BasinResult,
+        LyapunovOptions,
+        LyapunovResult,
+        basins,
+        lyapunov_exponents,
+    )
     from .errors import (
         CompileError,
         ConvergenceError,

@@ -8,7 +8,7 @@
 * :mod:`gearsym.analysis.linear`: linear analysis (modes about the static equilibrium, the
   structure of planetary modes);
 * :mod:`gearsym.analysis.sweeps`: sweeps and global dynamics (stability / response maps,
-  Lyapunov exponents, the process pool they run on).
+  Lyapunov exponents, basins of attraction, the process pool they run on).
 
 The kinds import one another in one direction only (``tests/test_import_graph.py`` checks it):
 continuation may import the periodic-orbit analysis; sweeps may import the periodic-orbit and
@@ -36,7 +36,7 @@ _EXPORTS: dict[str, str] = {
     "ContinuationOptions": "continuation", "Branch": "continuation", "BranchPoint": "continuation",
     "Bifurcation": "continuation", "switch_period_doubling": "continuation",
     "modal_analysis": "linear", "classify_planetary": "linear",
-    "stability_map": "sweeps", "save_map": "sweeps", "lyapunov_exponents": "sweeps",
+    "stability_map": "sweeps", "save_map": "sweeps", "lyapunov_exponents": "sweeps", "basins": "sweeps",
 }
 #: the kinds of analysis (subpackages)
 KINDS = ("periodic", "continuation", "linear", "sweeps")
@@ -44,7 +44,7 @@ KINDS = ("periodic", "continuation", "linear", "sweeps")
 __all__ = [
     "KINDS", "Bifurcation", "Branch", "BranchPoint", "ContinuationOptions", "HarmonicBalanceOptions", "PeriodicOrbit",
     "ShootingOptions",
-    "classify_planetary", "harmonic_balance", "lyapunov_exponents", "modal_analysis", "periodic_orbit", "save_map",
+    "basins", "classify_planetary", "harmonic_balance", "lyapunov_exponents", "modal_analysis", "periodic_orbit", "save_map",
     "shoot",
     "stability_map", "switch_period_doubling",
 ]
@@ -60,7 +60,7 @@ if TYPE_CHECKING:  # pragma: no cover
         periodic_orbit,
         shoot,
     )
-    from .sweeps import lyapunov_exponents, save_map, stability_map
+    from .sweeps import basins, lyapunov_exponents, save_map, stability_map
 
 
 def __getattr__(name: str) -> object:

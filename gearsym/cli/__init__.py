@@ -12,7 +12,7 @@ of the ``gearsym`` log shows on stderr (:mod:`~gearsym.cli.verbosity`).
 
 One module per command or command group (:mod:`~gearsym.cli.inspect_model`,
 :mod:`~gearsym.cli.simulate`, :mod:`~gearsym.cli.orbits`, :mod:`~gearsym.cli.maps`,
-:mod:`~gearsym.cli.modes`, :mod:`~gearsym.cli.lyapunov`, :mod:`~gearsym.cli.benchmark`, :mod:`~gearsym.cli.cache`,
+:mod:`~gearsym.cli.modes`, :mod:`~gearsym.cli.lyapunov`, :mod:`~gearsym.cli.basins`, :mod:`~gearsym.cli.benchmark`, :mod:`~gearsym.cli.cache`,
 :mod:`~gearsym.cli.catalog`), the shared argument checks in :mod:`~gearsym.cli.checks` and the
 parser in :mod:`~gearsym.cli.parser`.  Importing the package imports none of numpy, sympy,
 CasADi or the benchmark harness: each command imports what it needs when it runs.

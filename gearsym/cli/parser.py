@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from ..integrators import method_names
+from .basins import add_basins_parser
 from .benchmark import cmd_bench
 from .cache import add_cache_parser
 from .catalog import add_catalog_parsers
@@ -48,6 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_map(sub)
     add_stiffness_parser(sub)
     add_lyapunov_parser(sub)
+    add_basins_parser(sub)
     add_cache_parser(sub)
     add_catalog_parsers(sub)
     for p in sub.choices.values():  # every subcommand, whoever registered it

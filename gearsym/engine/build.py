@@ -97,6 +97,7 @@ DRIVER_C_FILES: tuple[str, ...] = (
     "gs_eval.c",
     "gs_shoot.c",
     "gs_correct.c",
+    "gs_batch.c",
 )
 #: Files of this package whose bytes change the binary of every build.
 _DRIVER_FILES = (*DRIVER_C_FILES, "gs_driver.h", "gs_internal.h", "gs_model_abi.h", "sundials7.h", "build.py")

@@ -305,4 +305,17 @@ typedef struct gs_correct_args {
  * the status of an interrupt. */
 int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c);
 
+/* ---- many initial states over one time span in one call (gs_batch.c) ---- */
+/* Runs gs_simulate_ws() once per state i = 0..n-1 with the template `a` (method, tolerances,  */
+/* t0, t_end, output grid, budgets; no monodromy, no sensitivities), its x0 / sigma0 taken    */
+/* from x0s[i*nx..] / sigma0s[i*nsw..] (sigma0s may be NULL), its outputs written to          */
+/* y_outs[i*n_out*nx..] (row-major per state; may be NULL when n_out = 0), x_finals[i*nx..]   */
+/* and sigma_finals[i*nsw..] (may be NULL).  status[i] is the state's GS_OK / GS_ERR_*;        */
+/* counts[3*i..] its events, steps and right-hand sides.  A failed state does not stop the     */
+/* batch; a->errmsg then holds the first failed state's message, a->n_* the totals.  Returns  */
+/* GS_OK, GS_ERR_INPUT, or GS_ERR_INTERRUPTED (the states not run have that status).          */
+/* The template's x0, sigma0, y_out, x_final and sigma_final are restored on return.          */
+int gs_simulate_batch(gs_workspace* ws, gs_sim_args* a, int n, const double* x0s, const double* sigma0s,
+                      double* y_outs, double* x_finals, double* sigma_finals, int* status, long* counts);
+
 #endif

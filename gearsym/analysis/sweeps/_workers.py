@@ -204,7 +204,9 @@ def _stop_all(workers: list[_Worker], graceful: bool) -> None:
 class _Run:
     """The state of one :func:`run_tasks` call on local processes."""
 
-    def __init__(self, tasks: Sequence[Any], n_workers: int, blob: bytes) -> None:
+    def __init__(self, tasks: Sequence[Any], n_workers: int, blob: bytes,
+                 on_result: Callable[[int, Any], None] | None = None) -> None:
+        self.on_result = on_result
         self.ctx = mp.get_context("spawn")
         self.tasks = tasks
         self.pending = deque(range(len(tasks)))
@@ -235,6 +237,8 @@ class _Run:
             self._next(w)
         elif kind == "ok":
             self.results[msg[1]] = msg[2]
+            if self.on_result is not None:
+                self.on_result(msg[1], msg[2])
             self._next(w)
         elif kind == "raised":
             exc, tb = msg[2], msg[3]
@@ -264,6 +268,8 @@ class _Run:
                                    f"an 'if __name__ == \"__main__\":' guard)")
         if w.task is not None:
             self.results[w.task] = TaskFailure(w.task, _death(w.proc), w.proc.exitcode)
+            if self.on_result is not None:
+                self.on_result(w.task, self.results[w.task])
         w.conn.close()
         w.proc.close()
         if self.pending:
@@ -299,8 +305,9 @@ class _Run:
         self.lifeline_r.close()
 
 
-def _run_local(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], n_workers: int) -> list[Any]:
-    run = _Run(tasks, n_workers, pickle.dumps((fn, shared)))
+def _run_local(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], n_workers: int,
+               on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
+    run = _Run(tasks, n_workers, pickle.dumps((fn, shared)), on_result)
     graceful = False
     try:
         results = run.loop()
@@ -310,12 +317,23 @@ def _run_local(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any],
         run.close(graceful)
 
 
-def _run_dask(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], dask: Any) -> list[Any]:
+def _run_dask(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], dask: Any,
+              on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
     from distributed import Client
 
     client = dask if isinstance(dask, Client) else Client(dask)
     try:
-        return list(client.get_executor().map(_apply, [(fn, shared, t) for t in tasks]))
+        if on_result is None:
+            return list(client.get_executor().map(_apply, [(fn, shared, t) for t in tasks]))
+        from concurrent.futures import as_completed
+
+        executor = client.get_executor()
+        futures = {executor.submit(_apply, (fn, shared, t)): i for i, t in enumerate(tasks)}
+        results: list[Any] = [None] * len(tasks)
+        for f in as_completed(futures):
+            results[futures[f]] = f.result()
+            on_result(futures[f], results[futures[f]])
+        return results
     finally:
         if client is not dask:  # our own Client: close it (Client.shutdown would stop the cluster)
             client.close()
@@ -327,7 +345,7 @@ def _apply(args: tuple[Callable[[Any, Any], Any], Any, Any]) -> Any:
 
 
 def run_tasks(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], *, workers: int = 1,
-              dask: Any = None) -> tuple[list[Any], str]:
+              dask: Any = None, on_result: Callable[[int, Any], None] | None = None) -> tuple[list[Any], str]:
     """Compute ``fn(shared, task)`` for every task.
 
     Parameters
@@ -342,6 +360,10 @@ def run_tasks(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], 
         Local worker processes (``1``, or a single task: this process).
     dask
         Scheduler address or ``distributed.Client``: run on that cluster instead.
+    on_result
+        Called in this process with ``(index, result)`` as each task finishes (in the order
+        they finish; a progress bar), the result a :class:`TaskFailure` for a task whose local
+        worker died.
 
     Returns
     -------
@@ -357,8 +379,13 @@ def run_tasks(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], 
         Ctrl-C or SIGTERM (:class:`gearsym.signals.Terminated`): the workers are stopped first.
     """
     if dask is not None:
-        return _run_dask(fn, shared, tasks, dask), "dask"
+        return _run_dask(fn, shared, tasks, dask, on_result), "dask"
     if workers <= 1 or len(tasks) <= 1:
-        return [fn(shared, t) for t in tasks], "serial"
+        out = []
+        for i, t in enumerate(tasks):
+            out.append(fn(shared, t))
+            if on_result is not None:
+                on_result(i, out[-1])
+        return out, "serial"
     n = min(workers, len(tasks))
-    return _run_local(fn, shared, tasks, n), f"processes({n})"
+    return _run_local(fn, shared, tasks, n, on_result), f"processes({n})"
