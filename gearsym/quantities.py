@@ -114,7 +114,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 _log = logging.getLogger(__name__)
 
-__all__ = ["QUANTITIES", "GearQuantities", "MeshQuantities", "branch_quantities", "gear_quantities",
+__all__ = ["QUANTITIES", "GearQuantities", "MeshQuantities", "branch_quantities", "gear_quantities", "map_quantities",
            "orbit_gear_quantities", "orbit_quantities", "parse_quantity", "periodic_quantities", "planet_sets",
            "planet_sets_of"]
 
@@ -146,6 +146,26 @@ _HARMONIC = re.compile(r"dte_harmonic_([1-9][0-9]*)")
 _QUANTITY = re.compile(r"([a-z_0-9]+)(?:\[([^\]]+)\])?")
 #: a window end or an output time within this fraction of the sample step is on the grid
 _GRID_TOL = 1e-6
+
+
+def map_quantities() -> dict[str, tuple[str, str]]:
+    """The gear quantities a map can show (the scalar ones of :data:`gearsym.spec.settings.MAP_QUANTITIES`).
+
+    Returns
+    -------
+    dict
+        Name -> ``(unit, meaning)`` as :data:`QUANTITIES`.
+    """
+    from .spec.settings import MAP_QUANTITIES
+
+    out = {}
+    for name in MAP_QUANTITIES:
+        h = _HARMONIC.fullmatch(name)
+        if name in QUANTITIES:
+            out[name] = QUANTITIES[name]
+        elif h:
+            out[name] = ("deflection", f"amplitude of mesh order {h.group(1)} of the dynamic transmission error")
+    return out
 
 
 def parse_quantity(name: str) -> tuple[str, str | None]:
@@ -505,7 +525,7 @@ def _grid_indices(t: np.ndarray, ts: float, te: float) -> tuple[int, int]:
     k1 = int(np.argmin(np.abs(t - te)))
     if h <= 0 or abs(t[k0] - ts) > _GRID_TOL * h or abs(t[k1] - te) > _GRID_TOL * h or k1 - k0 < 2:
         raise ParameterError(f"the window [{ts:.12g}, {te:.12g}] does not start and end on output samples: "
-                             "simulate whole forcing periods (periods=..., the default grid) for gear quantities")
+                             "for gear quantities simulate a whole number of forcing periods (periods= or --periods) on the default output grid")
     d = np.diff(t[k0:k1 + 1])
     if np.max(np.abs(d - h)) > _GRID_TOL * h:
         raise ParameterError("the output samples in the window are not evenly spaced: gear quantities need the "
