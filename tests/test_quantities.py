@@ -221,9 +221,11 @@ def _planet_forces(system, tr, k0, k1):
         for mesh, side in (("sp", +1), ("rp", -1)):
             M = "s" if side > 0 else "r"
             ang = psi - a if side > 0 else psi + a
-            geo = lambda v, M=M, ang=ang, n=n, side=side: (
-                -s[f"x_{M}{v}"] * np.sin(ang) + s[f"y_{M}{v}"] * np.cos(ang) + s[f"u_{M}{v}"]
-                - side * s[f"zeta_{n}{v}"] * np.sin(a) - s[f"eta_{n}{v}"] * np.cos(a) + side * s[f"u_{n}{v}"])
+
+            def geo(v, M=M, ang=ang, n=n, side=side):
+                return (-s[f"x_{M}{v}"] * np.sin(ang) + s[f"y_{M}{v}"] * np.cos(ang) + s[f"u_{M}{v}"]
+                        - side * s[f"zeta_{n}{v}"] * np.sin(a) - s[f"eta_{n}{v}"] * np.cos(a) + side * s[f"u_{n}{v}"])
+
             d, dd = geo(""), geo("_dot")  # the deflection along the line of action and its rate
             if side > 0:
                 k = p["k_sp"] * (1 + p["eps_s"] * np.cos(2 * np.pi * p["f_m"] * t - p["Z_s"] * psi))

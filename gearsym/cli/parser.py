@@ -98,7 +98,10 @@ def _add_simulate(sub: Any) -> None:
                            ("gearsym simulate kahraman_singh --periods 50 --json", "50 forcing periods of the "
                             "backlash oscillator; one JSON object on stdout"),
                            ("gearsym simulate kahraman_singh --set Omega=0.9 --periods 100 --out ks_sim",
-                            "single-sided impacts: ks_sim/trajectory.npz and figures (gearsym[plots])")))
+                            "single-sided impacts: ks_sim/trajectory.npz and figures (gearsym[plots])"),
+                           ("gearsym simulate kahraman_singh --set Omega=0.9 --periods 100 --quantity "
+                            "dynamic_factor,contact_loss_ratio", "the dynamic factor and the fraction of the mesh "
+                            "cycle in contact loss over the steady part")))
     scene_args(p)
     p.add_argument("--periods", type=float, help="number of forcing periods (default: the scene's [simulate] "
                    "periods or t_end, else 100)")
