@@ -330,6 +330,22 @@ def test_map_of_the_dynamic_factor_is_that_of_each_points_orbit(ks):
         assert float(ds["dynamic_factor"].values[0, i]) == pytest.approx(hand["dynamic_factor"], rel=1e-6)
 
 
+def test_map_on_the_exact_path_gives_the_quantity_of_the_periodic_state():
+    """A piecewise-constant LTV model (matrix exponentials, no orbit solve): the gear quantity of its
+    periodic state equals that of the shooting orbit there; a model without meshes is refused."""
+    from gearsym.analysis.sweeps import stability_map
+
+    system = gearsym.load_scene("vaishya_singh_parametric").compile()
+    ds = stability_map(system, ("Omega_p", 1000, 1000, 1), ("zeta", 0.05, 0.05, 1), quantity="dte_rms",
+                       method="exact", workers=1)
+    assert ds.attrs["methods_used"] == "exact"
+    orbit = system.periodic_orbit(params={"Omega_p": 1000.0, "zeta": 0.05})
+    assert float(ds["dte_rms"].values[0, 0]) == pytest.approx(orbit.gear_quantities()["mesh"].dte_rms, rel=1e-6)
+    meissner = gearsym.load_scene("meissner").compile()
+    with pytest.raises(ParameterError, match="'dynamic_factor': model 'meissner' has no mesh elements"):
+        stability_map(meissner, ("a", 0.0, 0.5, 2), ("T", 1.0, 2.0, 1), quantity="dynamic_factor", workers=1)
+
+
 def test_the_map_quantities_are_the_gear_quantities():
     from gearsym.quantities import QUANTITIES, map_quantities, parse_quantity
     from gearsym.spec.settings import MAP_QUANTITIES

@@ -221,6 +221,8 @@ def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Seque
                              f"shape {np.shape(x0)}")
     want_ptp = quantity == "peak_to_peak"
     gear = quantity if quantity in GEAR_QUANTITIES else None  # a gear quantity (gearsym.quantities)
+    if gear and not system.generated.meshes:
+        raise ParameterError(f"quantity '{gear}': model '{system.name}' has no mesh elements")
     n_workers = int(workers or os.cpu_count() or 1)
     flat: list[dict[str, Any]] | None = None
     runner = ""
