@@ -439,6 +439,8 @@ def gear_quantities(system: System, trajectory: Trajectory, *, window: tuple[flo
     names = list(getattr(system.generated, "meshes", []) or [])
     if not names:
         raise ParameterError(f"model '{system.generated.scene}' has no mesh elements: no gear quantities")
+    if int(harmonics) != harmonics or harmonics < 0:
+        raise ParameterError(f"harmonics must be a whole number >= 0, got {harmonics}")
     T = trajectory.period
     if not T:
         raise ParameterError("gear quantities need a forcing period (the steady window is whole periods)")
@@ -559,7 +561,7 @@ def _static(system: System, params: Mapping[str, float], p: np.ndarray, t: np.nd
     from .static import static_equilibrium
 
     try:
-        eq = static_equilibrium(system, params, rigid="keep")
+        eq = static_equilibrium(system, params, rigid="keep", where=(None, None))
     except GearsymError as exc:
         notes.append(f"no static equilibrium ({exc}): no static deflection, static force, DTE or dynamic factor")
         return None
