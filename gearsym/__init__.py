@@ -56,6 +56,8 @@ _EXPORTS: dict[str, str] = {
     "Scene": ".facade",
     "load_scene": ".facade",
     "Event": ".results",
+    "GearQuantities": ".quantities",
+    "gear_quantities": ".quantities",
     "Trajectory": ".results",
     "System": ".facade",
     "SimulateOptions": ".simulation_options",
@@ -63,10 +65,10 @@ _EXPORTS: dict[str, str] = {
 
 __all__ = [
     "BasinOptions", "BasinResult", "Bifurcation", "Branch", "BranchPoint", "CompileError",
-    "ContinuationOptions", "ConvergenceError", "Event", "GearsymError", "LyapunovOptions", "LyapunovResult",
-    "ParameterError", "PeriodicOrbit", "Scene", "ShootingOptions", "SimulateOptions", "SimulationError",
-    "SpecError", "System", "Trajectory", "__version__", "basins", "continuation", "load_scene",
-    "lyapunov_exponents", "switch_period_doubling",
+    "ContinuationOptions", "ConvergenceError", "Event", "GearQuantities", "GearsymError", "LyapunovOptions",
+    "LyapunovResult", "ParameterError", "PeriodicOrbit", "Scene", "ShootingOptions", "SimulateOptions",
+    "SimulationError", "SpecError", "System", "Trajectory", "__version__", "basins", "continuation",
+    "gear_quantities", "load_scene", "lyapunov_exponents", "switch_period_doubling",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -96,6 +98,7 @@ if TYPE_CHECKING:  # pragma: no cover
         SpecError,
     )
     from .facade import Scene, System, load_scene
+    from .quantities import GearQuantities, gear_quantities
     from .results import Event, Trajectory
     from .simulation_options import SimulateOptions
 

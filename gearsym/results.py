@@ -4,9 +4,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .quantities import GearQuantities
+    from .system import CompiledSystem
 
 
 class Event(NamedTuple):
@@ -63,6 +67,8 @@ class Trajectory:
         The settings the run used, resolved from the call and the scene's ``[simulate]``
         (``t0``, ``t_end``, ``rtol``, ``atol``, ``method``, ``n_out``, ``max_step``,
         ``max_steps``, ``transient_periods``).
+    system : CompiledSystem or None
+        The compiled system that made the trajectory (for :meth:`gear_quantities`).
     """
 
     t: np.ndarray
@@ -77,6 +83,7 @@ class Trajectory:
     event_speed: np.ndarray = field(default_factory=lambda: np.zeros(0))
     sensitivities: dict[str, np.ndarray] | None = None
     settings: dict = field(default_factory=dict)
+    system: CompiledSystem | None = field(default=None, repr=False, compare=False)
 
     @property
     def final_state(self) -> np.ndarray:
@@ -114,6 +121,29 @@ class Trajectory:
         on = np.abs(k - np.round(k)) < 1e-9 * max(1.0, float(np.max(k)))
         pts = self.y[on]
         return pts[skip:]
+
+    def gear_quantities(self, **options: Any) -> GearQuantities:
+        """Per mesh: static and dynamic transmission error, mesh force, dynamic factor, DTE harmonics,
+        contact-loss and back-contact ratios, impacts, load sharing, over the steady part of the run
+        (:func:`gearsym.quantities.gear_quantities`, where every quantity is defined).
+
+        Parameters
+        ----------
+        **options
+            ``window``, ``steady_fraction``, ``harmonics``, ``mesh_periods``, ``planet_sets`` of
+            :func:`~gearsym.quantities.gear_quantities`.
+
+        Returns
+        -------
+        gearsym.quantities.GearQuantities
+        """
+        from .errors import ParameterError
+        from .quantities import gear_quantities
+
+        if self.system is None:
+            raise ParameterError("this trajectory is not attached to a system: use "
+                                 "gearsym.quantities.gear_quantities(system, trajectory)")
+        return gear_quantities(self.system, self, **options)
 
     def save_npz(self, path: str | Path) -> None:
         """Write the trajectory to a ``.npz`` file (atomically: a complete file or none).

@@ -537,7 +537,8 @@ class CompiledSystem(Evaluations, SensitivityMethods):
         return Trajectory(t=plan.grid, y=res.y, state_names=self.state_names, events=events, stats=stats,
                           period=plan.period, params=self.param_dict(p),
                           x_final=res.x_final, monodromy=res.monodromy,
-                          event_speed=np.asarray(res.events.speed), sensitivities=sens, settings=plan.settings)
+                          event_speed=np.asarray(res.events.speed), sensitivities=sens, settings=plan.settings,
+                          system=self)
 
     def flow(self, x0: Sequence[float], t0: float, t1: float, p: np.ndarray | None = None,
              options: FlowOptions | None = None, *, sigma0: Sequence[float] | None = None,

@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1] / "gearsym"
 #:   *below* codegen, which generates a model's C and links it against the driver;
 #: * codegen: sympy -> CasADi -> C, the build cache, the GeneratedModel artefact;
 #: * system: the engine-level compiled system (gearsym.system.CompiledSystem), result objects,
-#:   the static equilibrium, evaluations and sensitivities;
+#:   the static equilibrium, evaluations and sensitivities, the gear quantities of a result;
 #: * analysis: periodic orbits, Floquet, continuation, maps, modes (by kind: ANALYSIS_KINDS);
 #: * facade: Scene, load_scene and the user-facing System with its analysis conveniences
 #:   (System.periodic_orbit): above the analysis it calls;
@@ -42,7 +42,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("engine", ("gearsym.engine",)),
     ("codegen", ("gearsym.codegen",)),
     ("system", ("gearsym.system", "gearsym.results", "gearsym.static", "gearsym.evaluation", "gearsym.sensitivity",
-                "gearsym.simulation_options")),
+                "gearsym.simulation_options", "gearsym.quantities")),
     ("analysis", ("gearsym.analysis",)),
     ("facade", ("gearsym.facade",)),
     ("presentation", ("gearsym.plots", "gearsym.inspection", "gearsym.export")),

@@ -39,7 +39,7 @@ def cmd_map(args: argparse.Namespace) -> int:
                                + (f"; first error at {first[0]}" if first else ""))
     files = save_map(ds, args.out)
     q = ds[quantity].values.astype(float)
-    if quantity in ("rattle_state", "peak_to_peak"):
+    if quantity != "max_multiplier":
         q[ds["response"].values != 1] = np.nan  # a response quantity: of stable responses only
     mm = ds["max_multiplier"].values
     info = {
@@ -66,7 +66,7 @@ def cmd_map(args: argparse.Namespace) -> int:
               f"{info['runner']}) in {info['wall_s']:.2f} s; range [{info['min']}, {info['max']}], "
               f"unstable fraction {info['fraction_unstable']}, failed {info['n_failed']}, no stable periodic "
               f"response at {info['n_no_stable_response']} point(s) (hatched, no {args.quantity} shown there"
-              f"{'' if args.quantity in ('rattle_state', 'peak_to_peak') else ' as a response'})")
+              f"{'' if quantity != 'max_multiplier' else ' as a response'})")
         for f in info["files"]:
             print(f"wrote {f}")
     return 0

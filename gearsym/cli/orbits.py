@@ -10,6 +10,7 @@ from ..errors import ConvergenceError, ParameterError
 from ..inspection import branch_mesh_figure, print_branch_meshes, print_meshes, print_trivial
 from . import checks
 from .checks import emit, load, unit_suffix
+from .quantities import add_branch_quantity, check_quantities, print_quantities, quantity_values
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
 if TYPE_CHECKING:  # pragma: no cover
@@ -23,8 +24,11 @@ def cmd_orbit(args: argparse.Namespace) -> int:
     from ..files import write_json
 
     checks.check_orbit(args)
+    quantities = check_quantities(args.quantity, "--quantity")
     scene = load(args)
     system = scene.compile()
+    if quantities and not system.generated.meshes:
+        raise ParameterError(f"--quantity: model '{scene.model_spec.name}' has no mesh elements")
     x0 = checks.float_list(args.x0, "--x0") if args.x0 else None
     # only the options the user typed: System.periodic_orbit resolves the rest from the scene's [orbit]
     opts = {k: getattr(args, k) for k in ("segments", "transient", "harmonics", "tol", "rtol", "atol")
@@ -32,6 +36,11 @@ def cmd_orbit(args: argparse.Namespace) -> int:
     orbit = system.periodic_orbit(periods=args.periods, x0=x0, method=args.method, **opts)
     info: dict[str, Any] = {"scene": scene.name, **orbit.to_dict()}
     info.setdefault("isolation", orbit.info.get("isolation"))  # smallest singular value of M - I, threshold
+    gq = orbit.gear_quantities() if system.generated.meshes else None  # per mesh (gearsym.quantities)
+    if gq is not None:
+        info["gear_quantities"] = gq.to_dict()
+        if quantities:
+            info["quantities"] = quantity_values(gq, quantities)
     if args.out:
         out = Path(args.out)
         files = orbit.save_plots(out, title=f"{scene.name}: periodic orbit ({orbit.method})")
@@ -54,6 +63,8 @@ def cmd_orbit(args: argparse.Namespace) -> int:
               f"[{info['min']:.10g}, {info['max']:.10g}]"
               + (f"; rattle state {orbit.rattle_state}" if orbit.rattle_state is not None else ""))
         print_meshes(info.get("meshes", {}))
+        if gq is not None:
+            print_quantities(gq, quantities)
         for f in info.get("files", []):
             print(f"wrote {f}")
     return 0
@@ -68,6 +79,7 @@ def cmd_continue(args: argparse.Namespace) -> int:
     from ..files import write_json
 
     checks.check_continue(args)
+    quantity = (check_quantities([args.quantity], "--quantity") or [None])[0] if args.quantity else None
     scene = load(args)
     name = args.param
     spec_p = scene.model_spec.parameters.get(name)
@@ -76,6 +88,8 @@ def cmd_continue(args: argparse.Namespace) -> int:
                              f"{', '.join(scene.model_spec.parameters)})")
     unit = unit_suffix(spec_p.unit)  # --from, --to and every value of the branch: in the declared unit
     system = scene.compile()
+    if quantity and not system.generated.meshes:
+        raise ParameterError(f"--quantity: model '{scene.model_spec.name}' has no mesh elements")
     # only the options the user typed: continuation() resolves the rest from the scene's [continue]
     kw: dict[str, Any] = {k: getattr(args, k) for k in ("periods", "method", "segments", "harmonics", "switch",
                                                          "ds_max", "max_points", "rtol", "atol")
@@ -92,6 +106,8 @@ def cmd_continue(args: argparse.Namespace) -> int:
 
     with_unit(data)
     data["scene"] = scene.name
+    if quantity:
+        add_branch_quantity(branch, data, quantity)
     if args.out:
         from ..files import save_figure
 
@@ -105,7 +121,7 @@ def cmd_continue(args: argparse.Namespace) -> int:
         import matplotlib.pyplot as plt
 
         label = f"{name} [{spec_p.unit}]" if spec_p.unit not in ("", "1") else name
-        for fname, draw in (("response.png", lambda ax: branch.plot(ax, quantity=["max", "min"])),
+        for fname, draw in (("response.png", lambda ax: branch.plot(ax, quantity=[quantity] if quantity else ["max", "min"])),
                             ("multipliers.png", lambda ax: branch.plot_multipliers(ax, children=True))):
             fig, ax = plt.subplots(figsize=(7, 4.2))
             draw(ax)
@@ -136,6 +152,11 @@ def cmd_continue(args: argparse.Namespace) -> int:
                 print(f"  {b.type:16s} {name} = {b.value:.8g}{unit}{extra}  multipliers "
                       + ", ".join(f"{m.real:.4f}{m.imag:+.4f}j" for m in big))
             print_branch_meshes(br)
+            if quantity:
+                q = br.quantity(quantity)
+                ok = q[np.isfinite(q)]
+                print(f"  {quantity}: " + (f"{ok.min():.6g} .. {ok.max():.6g} along the branch" if ok.size else
+                                           "not computed (see the log)"))
         for f in data.get("files", []):
             print(f"wrote {f}")
     return _continue_exit(branch)

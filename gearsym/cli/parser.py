@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from ..integrators import method_names
+from ..spec.settings import MAP_QUANTITIES
 from .basins import add_basins_parser
 from .benchmark import cmd_bench
 from .cache import add_cache_parser
@@ -17,6 +18,7 @@ from .lyapunov import add_lyapunov_parser
 from .maps import cmd_map
 from .modes import cmd_modes
 from .orbits import cmd_continue, cmd_orbit
+from .quantities import QUANTITY_HELP
 from .simulate import cmd_compile, cmd_export, cmd_simulate
 from .stiffness import add_stiffness_parser
 from .verbosity import add_verbosity_options
@@ -96,7 +98,10 @@ def _add_simulate(sub: Any) -> None:
                            ("gearsym simulate kahraman_singh --periods 50 --json", "50 forcing periods of the "
                             "backlash oscillator; one JSON object on stdout"),
                            ("gearsym simulate kahraman_singh --set Omega=0.9 --periods 100 --out ks_sim",
-                            "single-sided impacts: ks_sim/trajectory.npz and figures (gearsym[plots])")))
+                            "single-sided impacts: ks_sim/trajectory.npz and figures (gearsym[plots])"),
+                           ("gearsym simulate kahraman_singh --set Omega=0.9 --periods 100 --quantity "
+                            "dynamic_factor,contact_loss_ratio", "the dynamic factor and the fraction of the mesh "
+                            "cycle in contact loss over the steady part")))
     scene_args(p)
     p.add_argument("--periods", type=float, help="number of forcing periods (default: the scene's [simulate] "
                    "periods or t_end, else 100)")
@@ -111,6 +116,10 @@ def _add_simulate(sub: Any) -> None:
     p.add_argument("--out", help="folder for trajectory.npz and PNG plots")
     p.add_argument("--plot-states", metavar="NAMES", help="comma-separated states the time-history figure "
                    "shows (default: every state)")
+    p.add_argument("--gear-quantities", action="store_true", help="every gear quantity of every mesh over the "
+                   "steady part (whole forcing periods after the scene's transient_periods, else the second half)")
+    p.add_argument("--quantity", action="append", metavar="NAME", help=QUANTITY_HELP + "; repeatable or "
+                   "comma-separated")
     p.set_defaults(func=cmd_simulate)
 
 
@@ -168,6 +177,8 @@ def _add_continue(sub: Any) -> None:
                    "state magnitude on the first orbit; for the orbit x = 0 the scene's scale)")
     p.add_argument("--x0", help="initial guess of the orbit's state at t = 0, comma-separated")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--quantity", metavar="NAME", help="plot this gear quantity along the branch (response.png) and "
+                   "give each point's gear quantities in the JSON (one more integration per point): " + QUANTITY_HELP)
     p.add_argument("--out", help="folder for branch.json, response.png, multipliers.png")
     p.set_defaults(func=cmd_continue)
 
@@ -198,6 +209,8 @@ def _add_orbit(sub: Any) -> None:
                    "else 1e-11)")
     p.add_argument("--atol", type=float, help="integrator absolute tolerance (default: the scene's [orbit], "
                    "else 1e-13)")
+    p.add_argument("--quantity", action="append", metavar="NAME", help="print these gear quantities (the JSON "
+                   "has them all, under gear_quantities): " + QUANTITY_HELP)
     p.add_argument("--out", help="folder for orbit.json, orbit_phase.png, orbit_multipliers.png")
     p.set_defaults(func=cmd_orbit)
 
@@ -245,8 +258,9 @@ def _add_map(sub: Any) -> None:
     p.add_argument("--x", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"),
                    help="horizontal axis: parameter (declared unit), range and number of points")
     p.add_argument("--y", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"), help="vertical axis")
-    p.add_argument("--quantity", choices=["max_multiplier", "peak_to_peak", "rattle_state"],
-                   help="what the heat map shows (default: the scene's [map], else max_multiplier)")
+    p.add_argument("--quantity", choices=list(MAP_QUANTITIES),
+                   help="what the heat map shows (default: the scene's [map], else max_multiplier); a gear "
+                        "quantity is of the worst mesh (the largest value over the meshes)")
     p.add_argument("--method", choices=["auto", "exact", "shooting", "hbm"],
                    help="auto: exact matrix exponentials for piecewise-constant LTV models, else shooting "
                         "(default: the scene's [map], else auto)")

@@ -8,6 +8,7 @@ from pathlib import Path
 from ..inspection import mesh_figure
 from . import checks
 from .checks import emit, load
+from .quantities import check_quantities, print_quantities, quantity_values
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
 if TYPE_CHECKING:  # pragma: no cover
@@ -50,6 +51,7 @@ def cmd_compile(args: argparse.Namespace) -> int:
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Simulate a scene; print statistics, optionally write the trajectory and plots."""
     checks.check_simulate(args)  # before any work: bad options and a bad --out are bad input
+    quantities = check_quantities(args.quantity, "--quantity")
     scene = load(args)
     plot_states = checks.state_list(args.plot_states, scene.resolved.state_names(), "--plot-states")
     system = scene.compile()
@@ -86,6 +88,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     meshes = trajectory_meshes(system, traj)
     if meshes:
         info["meshes"] = meshes
+    gq = traj.gear_quantities() if args.gear_quantities or quantities else None
+    if gq is not None and args.gear_quantities:
+        info["gear_quantities"] = gq.to_dict()
+    if gq is not None and quantities:
+        info["quantities"] = quantity_values(gq, quantities)
     if args.out:
         from ..files import save_npz
         from ..plots import plot_all, plot_outputs, surface_levels
@@ -112,6 +119,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
               f"{info['n_events']} events, {info['wall_s'] * 1e3:.1f} ms")
         print("final state: " + ", ".join(f"{n} = {v:.10g}" for n, v in zip(traj.state_names,
                                                                            traj.final_state)))
+        if gq is not None:
+            print_quantities(gq, quantities)
         for f in info.get("files", []):
             print(f"wrote {f}")
     return 0

@@ -37,7 +37,7 @@ from ..errors import ParameterError, SpecError
 from ..integrators import method_names
 from .fields import unknown_key
 
-__all__ = ["SETTINGS", "Setting", "read_settings", "resolve_settings"]
+__all__ = ["MAP_QUANTITIES", "SETTINGS", "Setting", "read_settings", "resolve_settings"]
 
 
 @dataclass(frozen=True)
@@ -65,6 +65,13 @@ class Setting:
 
 
 _NUM = (int, float)
+#: What a map can show: its own quantities, then the scalar gear quantities (defined in
+#: gearsym.quantities; tests/test_quantities.py checks that the two lists agree).
+MAP_QUANTITIES = ("max_multiplier", "peak_to_peak", "rattle_state",
+                  "static_deflection", "static_force", "dte_mean", "dte_rms", "dte_peak_to_peak", "dte_harmonic_1",
+                  "dte_harmonic_2", "dte_harmonic_3", "force_mean", "force_rms", "force_min", "force_max",
+                  "dynamic_factor", "dynamic_factor_rms", "contact_loss_ratio", "back_contact_ratio", "impact_count",
+                  "impacts_per_period", "impact_velocity_max", "load_sharing_factor")
 _PERIODS = Setting(_NUM, None, "positive")
 _RTOL = Setting(_NUM, None, "rtol")
 _TOL = Setting(_NUM, None, "tolerance")
@@ -109,7 +116,7 @@ SETTINGS: dict[str, dict[str, Setting]] = {
     "map": {
         "periods": Setting(_NUM, 1, "positive"),
         "method": Setting((str,), "auto", None, ("auto", "exact", "shooting", "hbm")),
-        "quantity": Setting((str,), "max_multiplier", None, ("max_multiplier", "peak_to_peak", "rattle_state")),
+        "quantity": Setting((str,), "max_multiplier", None, MAP_QUANTITIES),
         "harmonics": _COUNT0,
         "rtol": _RTOL,
     },

@@ -25,9 +25,14 @@ from ._points import BIFURCATION_TYPES, Bifurcation, BranchPoint, ContinuationSe
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
 
+    from ...quantities import GearQuantities
     from ...system import CompiledSystem
 
 __all__ = ["BIFURCATION_TYPES", "Bifurcation", "Branch", "BranchPoint", "ContinuationSetup", "add_legend"]
+
+
+#: The quantities of the observed state (:meth:`Branch.quantity`; the others are gear quantities).
+_STATE_QUANTITIES = ("max", "min", "rms", "ptp", "peak_to_peak", "x0")
 
 
 @dataclass(frozen=True, eq=False)
@@ -140,12 +145,14 @@ class Branch:
         Parameters
         ----------
         name
-            ``"max"``, ``"min"``, ``"rms"``, ``"ptp"`` (peak-to-peak) or ``"x0"`` (first entry).
+            ``"max"``, ``"min"``, ``"rms"``, ``"ptp"`` (peak-to-peak) or ``"x0"`` (first entry); or a
+            gear quantity (:data:`gearsym.quantities.QUANTITIES`, e.g. ``"dynamic_factor"``, of the
+            worst mesh, or ``"dynamic_factor[sp1]"`` of one mesh: :meth:`gear_quantities`).
 
         Returns
         -------
         ndarray
-            One value per point.
+            One value per point (NaN where a gear quantity could not be computed).
         """
         if name in ("ptp", "peak_to_peak"):
             return self.peak_to_peak
@@ -153,7 +160,24 @@ class Branch:
             return np.array([p.x0[0] for p in self.points])
         if name in ("max", "min", "rms"):
             return getattr(self, name)
-        raise ValueError(f"unknown branch quantity '{name}' (max, min, rms, ptp, x0)")
+        from ...quantities import parse_quantity
+
+        parse_quantity(name)  # an unknown name: ParameterError naming the known ones
+        return np.array([math.nan if g is None else g.value(name) for g in self.gear_quantities()])
+
+    def gear_quantities(self) -> list[GearQuantities | None]:
+        """The gear quantities of every point: per mesh, static and dynamic transmission error, mesh
+        force, dynamic factor, DTE harmonics, contact ratios, impacts, load sharing over one period of
+        the orbit (:func:`gearsym.quantities.branch_quantities`; one integration per point, once).
+
+        Returns
+        -------
+        list
+            One :class:`gearsym.quantities.GearQuantities` per point (``None`` where it failed).
+        """
+        from ...quantities import branch_quantities
+
+        return branch_quantities(self)
 
     @property
     def mesh_names(self) -> list[str]:
@@ -327,7 +351,8 @@ class Branch:
         ax
             Axes to draw into (new figure if ``None``).
         quantity
-            ``"max"``, ``"min"``, ``"rms"``, ``"ptp"`` or a list of them.
+            ``"max"``, ``"min"``, ``"rms"``, ``"ptp"``, a gear quantity (:meth:`quantity`) or a list
+            of them.
         color
             Line colour (default: next in the cycle; children get their own).
         label
@@ -360,15 +385,15 @@ class Branch:
                 lab = f"period-{int(round(br.periods))} branch" if br.periods != 1 else "branch"
             x = br.values * xscale
             st = br.stable
+            ys = {q: br.quantity(q) for q in quantities}
             for qi, q in enumerate(quantities):
-                y = br.quantity(q)
-                _styled_line(ax, x, y, st, col, lab if qi == 0 else None)
+                _styled_line(ax, x, ys[q], st, col, lab if qi == 0 else None)
             if markers:
                 for b in br.bifurcations:
                     for q in quantities:
                         y = {"max": b.point.max, "min": b.point.min, "rms": b.point.rms,
                              "ptp": b.point.max - b.point.min, "peak_to_peak": b.point.max - b.point.min,
-                             "x0": b.point.x0[0]}[q]
+                             "x0": b.point.x0[0]}.get(q, ys[q][b.index] if 0 <= b.index < len(ys[q]) else math.nan)
                         mk, mc = _MARKERS.get(b.type, ("x", "k"))
                         name = b.type.replace("_", " ")
                         ax.plot([b.value * xscale], [y], mk, color=mc, ms=7, mfc="none" if mk != "x" else mc,
@@ -376,7 +401,8 @@ class Branch:
                         seen.add(name)
         ax.set_xlabel(self.param)
         sname = self.state or "x"
-        ax.set_ylabel(" / ".join(f"{q} {sname}" for q in quantities))
+        ax.set_ylabel(" / ".join(f"{q} {sname}" if q in _STATE_QUANTITIES else q.replace("_", " ")
+                                 for q in quantities))
         if legend:
             add_legend(ax)
         ax.grid(alpha=0.3)

@@ -24,6 +24,7 @@ from ._rattle import RATTLE_STATES, mesh_rattle_states
 from ._stability import floquet, rigid_state_basis, verdict
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ...quantities import GearQuantities
     from ...results import Event, Trajectory
     from ...system import CompiledSystem
 
@@ -319,6 +320,27 @@ class PeriodicOrbit:
             tr = self.trajectory()
             t, Y = tr.t, tr.y
         return mesh_report(self.system, t, Y, self.params, self.rattle_states)
+
+    def gear_quantities(self, **options: Any) -> GearQuantities:
+        """Per mesh: static and dynamic transmission error, mesh force, dynamic factor, DTE harmonics,
+        contact-loss and back-contact ratios, impacts, load sharing, over one period of the orbit
+        (:func:`gearsym.quantities.gear_quantities`, where every quantity is defined).
+
+        Parameters
+        ----------
+        **options
+            ``harmonics``, ``mesh_periods``, ``planet_sets`` of
+            :func:`~gearsym.quantities.gear_quantities`.
+
+        Returns
+        -------
+        gearsym.quantities.GearQuantities
+        """
+        from ...quantities import orbit_gear_quantities
+
+        if self.system is None:
+            raise ParameterError("this orbit is not attached to a system")
+        return orbit_gear_quantities(self.system, self, **options)
 
     def to_dict(self, extrema: bool = True) -> dict[str, Any]:
         """JSON-ready summary (multipliers as ``[re, im]`` pairs).

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...errors import GearsymError
+from ...quantities import orbit_quantities, periodic_quantities
 from ..periodic import (
     NotPiecewiseConstantError,
     PeriodicOrbit,
@@ -73,7 +74,7 @@ def empty_point(method: str) -> dict[str, Any]:
 
 
 def map_point(system: CompiledSystem, params: dict[str, float], method: str, periods: float, guess: np.ndarray | None,
-              want_ptp: bool, options: Mapping[str, Any]) -> dict[str, Any]:
+              want_ptp: bool, options: Mapping[str, Any], gear: str | None = None) -> dict[str, Any]:
     """The response at one grid point (module docstring).
 
     Parameters
@@ -92,6 +93,9 @@ def map_point(system: CompiledSystem, params: dict[str, float], method: str, per
         Compute the peak-to-peak of the first state.
     options
         Options of the orbit solver.
+    gear
+        A gear quantity of the response to compute (:func:`gearsym.quantities.orbit_quantities`: the
+        worst mesh), stored under its name (NaN without a stable response).
 
     Returns
     -------
@@ -105,7 +109,8 @@ def map_point(system: CompiledSystem, params: dict[str, float], method: str, per
     out = empty_point(method)
     if method in ("auto", "exact"):
         try:
-            return _exact_point(system, params, periods, want_ptp, out)
+            return _gear_of_exact(system, params, periods, _exact_point(system, params, periods, want_ptp, out),
+                                  gear)
         except NotPiecewiseConstantError as exc:
             if method == "exact":
                 out["error"] = str(exc)
@@ -136,6 +141,24 @@ def map_point(system: CompiledSystem, params: dict[str, float], method: str, per
                 np.ptp(orbit.trajectory(n_out=513).y[:, 0]))
         except GearsymError as exc:
             out["error"] = f"the peak-to-peak integration failed: {exc}"
+    if gear:
+        try:
+            out[gear] = orbit_quantities(system, orbit, [gear])[gear]
+        except GearsymError as exc:
+            out["error"] = f"the gear quantity {gear} failed: {exc}"
+    return out
+
+
+def _gear_of_exact(system: CompiledSystem, params: dict[str, float], periods: float, out: dict[str, Any],
+                   gear: str | None) -> dict[str, Any]:
+    """The gear quantity of an exact (matrix-exponential) point's response, from its periodic state."""
+    if gear and out["response"] == 1:
+        ltv = PiecewiseLTV.from_system(system, params, periods=periods)
+        try:
+            out[gear] = periodic_quantities(system, ltv.periodic_state(), float(ltv.times[-1] - ltv.times[0]),
+                                            t0=float(ltv.times[0]), params=params).value(gear)
+        except GearsymError as exc:
+            out["error"] = f"the gear quantity {gear} failed: {exc}"
     return out
 
 

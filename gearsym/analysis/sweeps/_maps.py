@@ -57,6 +57,7 @@ import numpy as np
 from ...budget import LIMITS, check_count, check_counts, check_orbit_options
 from ...errors import ParameterError
 from ...files import atomic_path, save_figure
+from ...quantities import map_quantities
 from ...spec.settings import resolve_settings
 from .._inputs import SceneLike, is_scene
 from ..periodic import (
@@ -79,11 +80,14 @@ __all__ = ["QUANTITIES", "save_map", "stability_map"]
 
 _log = logging.getLogger(__name__)
 
+#: The gear quantities a map can show (gearsym.quantities), with their meanings.
+GEAR_QUANTITIES = map_quantities()
 #: Quantities a map can show (all are stored; ``quantity`` picks the plotted one).
 QUANTITIES: dict[str, str] = {
     "max_multiplier": "maximum Floquet multiplier modulus max|mu| (unstable > 1)",
     "peak_to_peak": "peak-to-peak of the first state over the periodic orbit",
     "rattle_state": "0 no contact loss, 1 contact loss only, 2 back-side contact",
+    **{k: f"{v[1]} (the worst mesh)" for k, v in GEAR_QUANTITIES.items()},
 }
 
 #: Largest map (grid points): every point keeps its orbit summary, about 1 kB.
@@ -105,7 +109,8 @@ def _run_chunk(system: CompiledSystem, task: Mapping[str, Any]) -> list[dict[str
         params = dict(base)
         params[task["xname"]] = float(xv)
         params[task["yname"]] = float(yv)
-        r = map_point(system, params, task["method"], task["periods"], guess, task["want_ptp"], task["options"])
+        r = map_point(system, params, task["method"], task["periods"], guess, task["want_ptp"], task["options"],
+                      gear=task.get("gear"))
         if r["response"] == 1 and r["x0"] is not None and np.all(np.isfinite(r["x0"])):
             # the next point starts from this point's response (never from an unstable orbit)
             guess = np.asarray(r["x0"], float)
@@ -215,21 +220,25 @@ def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Seque
         raise ParameterError(f"x0 must have {system.generated.nx} entries ({', '.join(system.state_names)}), got "
                              f"shape {np.shape(x0)}")
     want_ptp = quantity == "peak_to_peak"
+    gear = quantity if quantity in GEAR_QUANTITIES else None  # a gear quantity (gearsym.quantities)
+    if gear and not system.generated.meshes:
+        raise ParameterError(f"quantity '{gear}': model '{system.name}' has no mesh elements")
     n_workers = int(workers or os.cpu_count() or 1)
     flat: list[dict[str, Any]] | None = None
     runner = ""
-    if method in ("auto", "exact") and not want_ptp:
+    if method in ("auto", "exact") and not want_ptp and not gear:
         flat = _exact_points(system, [dict(base, **{grid.xname: float(xv), grid.yname: float(yv)})
                                       for yv in grid.ys for xv in grid.xs], periods, required=method == "exact")
         runner = "vectorised (exact)"
     if flat is None:
         tasks = _row_tasks(grid, rows_per_task, n_workers, {
             "xname": grid.xname, "yname": grid.yname, "method": method, "periods": periods, "want_ptp": want_ptp,
-            "options": dict(orbit_options or {}), "params": base, "x0": None if x0 is None else [float(v) for v in x0]})
+            "options": dict(orbit_options or {}), "params": base, "x0": None if x0 is None else [float(v) for v in x0],
+            "gear": gear})
         flat, runner = _run_tasks(system, tasks, dask, n_workers)
     _log.info("stability map of %s: %d x %d points (%s x %s), %s, %d failed", system.name, len(grid.xs),
               len(grid.ys), grid.xname, grid.yname, runner, sum(1 for r in flat if r.get("error")))
-    ds = _dataset(system, flat, grid.xname, grid.xs, grid.yname, grid.ys, want_ptp)
+    ds = _dataset(system, flat, grid.xname, grid.xs, grid.yname, grid.ys, want_ptp, gear)
     ds.attrs.update({
         "title": f"{QUANTITIES[quantity]} over {grid.xname} x {grid.yname}",
         "quantity": quantity,
@@ -345,12 +354,13 @@ def _exact_record(fq: Any) -> dict[str, Any]:
 
 
 def _dataset(system: CompiledSystem, flat: list[dict[str, Any]], xname: str, xs: np.ndarray, yname: str, ys: np.ndarray,
-             want_ptp: bool) -> xr.Dataset:
+             want_ptp: bool, gear: str | None = None) -> xr.Dataset:
     """The map's variables and coordinates from the point records (row-major in ``y``, ``x``)."""
     import xarray as xr
 
     ny, nx = len(ys), len(xs)
-    floats = {k: np.full((ny, nx), np.nan) for k in ("max_multiplier", "peak_to_peak", "unstable_max_multiplier")}
+    floats = {k: np.full((ny, nx), np.nan) for k in ("max_multiplier", "peak_to_peak", "unstable_max_multiplier",
+                                                      *((gear,) if gear else ()))}
     ints = {k: np.full((ny, nx), -1, dtype=np.int8) for k in ("rattle_state", "stability", "response",
                                                              "response_search", "unstable_rattle_state")}
     conv = np.zeros((ny, nx), dtype=np.int8)
@@ -360,7 +370,7 @@ def _dataset(system: CompiledSystem, flat: list[dict[str, Any]], xname: str, xs:
     for idx, r in enumerate(flat):
         j, i = divmod(idx, nx)
         for k, a in floats.items():
-            a[j, i] = r[k]
+            a[j, i] = r.get(k, np.nan)
         for k, a in ints.items():
             a[j, i] = _STABILITY_CODE.get(r.get("stability", "unknown"), -1) if k == "stability" else r[k]
         conv[j, i] = 1 if r["converged"] else 0
@@ -395,6 +405,9 @@ def _dataset(system: CompiledSystem, flat: list[dict[str, Any]], xname: str, xs:
     if want_ptp:
         data["peak_to_peak"] = (dims, floats["peak_to_peak"], {"long_name": QUANTITIES["peak_to_peak"] + " (the "
                                                                "response's; NaN: no stable response)"})
+    if gear:
+        data[gear] = (dims, floats[gear], {"long_name": f"{QUANTITIES[gear]} of the response (NaN: no stable "
+                                                        "response)"})
     units = system.units
     si = units.to_si({xname: xs, yname: ys})
     coords = {
@@ -466,7 +479,7 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     X, Y = ds[xname].values, ds[yname].values
     Z = ds[q].values.astype(float)
     resp = ds["response"].values if "response" in ds else None
-    if resp is not None and q in ("rattle_state", "peak_to_peak"):
+    if resp is not None and (q in ("rattle_state", "peak_to_peak") or q in GEAR_QUANTITIES):
         Z[resp != 1] = np.nan  # the response's quantity: none where there is no stable response
     fig, ax = plt.subplots(figsize=(7, 5.2))
     if q == "max_multiplier":
