@@ -386,7 +386,7 @@ class PeriodicOrbit:
             d["min"], d["max"] = lo, hi
             d["meshes"] = self.meshes()
         for k in ("wall_s", "harmonic_growth", "rtol", "atol", "tol", "defect", "defect_relative", "harmonic_set",
-                  "verification"):
+                  "verification", "newton"):
             if k in self.info:
                 d[k] = self.info[k]
         return d
