@@ -81,6 +81,8 @@ class Continuer:
         self.state_scale = np.ones(gen.nx)  # every state's magnitude (the unknowns' scales: res.unknown_scale)
         #: where the corrector runs: ``"C"`` or ``"Python"`` with the reason (decided on the first correction)
         self.corrector_engine: str | None = None
+        #: corrections the C corrector gave up (a failed run, a singular matrix, ...) and the Python one made
+        self.n_c_fallbacks = 0
         self.Rs = np.ones(res.n)
         self.S = np.ones(res.n + 1)
         self.S[-1] = self.lam_scale
@@ -296,6 +298,7 @@ class Continuer:
         if out.code == 6:
             raise ConvergenceError("corrector: non-finite residual")
         if not out.converged:
+            self.n_c_fallbacks += 1
             return None
         ev_log = out.events
         ev = Evaluation(out.R, segment_jacobian([out.monodromy]), out.f_lambda, monodromy=out.monodromy,
@@ -303,6 +306,14 @@ class Continuer:
                         samples=out.samples, tangent=None if out.tangent is None else (t_ref, out.tangent),
                         period=out.period if math.isfinite(out.period) else None, multipliers=out.multipliers)
         return out.z, ev, out.iterations
+
+    def engine_report(self) -> str:
+        """Where the corrections ran, for the branch's ``info["corrector"]``: ``"C"``, ``"C (the
+        Python corrector took over N times)"`` or ``"Python: <why not C>"``."""
+        out = self.corrector_engine or "Python"
+        if out == "C" and self.n_c_fallbacks:
+            out += f" (the Python corrector took over {self.n_c_fallbacks} times)"
+        return out
 
     def tangent(self, ev: Evaluation, t_ref: np.ndarray, lam: float | None = None) -> np.ndarray:
         """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0`` (and, with

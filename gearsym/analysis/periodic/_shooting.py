@@ -427,8 +427,8 @@ class ShootingProblem:
             fast = _newton_in_c(self.system, X[0], self.s[0], self.s[1], self.pvec, rtol=o.rtol, atol=o.atol,
                                 tol=o.tol, max_iter=o.max_iter, method=o.method, max_step=self.max_step,
                                 n_amp=self.n_amp)
-            if isinstance(fast, str):
-                self.newton_engine, fast = f"Python: {fast}", None
+            if fast is None or isinstance(fast, str):
+                self.newton_engine, fast = f"Python: {fast or 'the C iteration does not apply'}", None
             else:
                 self.newton_engine = "C" if fast.converged else "C, then Python"
         if fast is not None and not fast.converged:
