@@ -325,7 +325,7 @@ class Engine:
             column), so that the variational entries, whose scale is that of
             ``x_i / x0_j`` (or ``x_i / p_k``), get a tolerance of their own.
         sensitivities
-            Parameter sensitivities (explicit models, CVODE): directions ``D = d p / d lambda``,
+            Parameter sensitivities (CVODE; IDA: the residual's, gs_resp): directions ``D = d p / d lambda``,
             the span's derivatives, whether at the output times too
             (:class:`~gearsym.engine.run_settings.SensitivityRequest`; see ``gs_driver.c`` for
             the equations and jumps).

@@ -95,7 +95,7 @@ typedef struct gs_sim_args {
   long    n_steps, n_rhs, n_jac, n_root_evals, n_breaks, n_reinit;
   int     status;          /* GS_OK or GS_ERR_*  (also the return value)            */
   char    errmsg[1024];    /* human-readable message when status != GS_OK          */
-  /* ---- parameter sensitivities (explicit models, CVODE; see gs_driver.c) ---- */
+  /* ---- parameter sensitivities (CVODE, or IDA on the residual; see gs_driver.c) ---- */
   int     n_sens;          /* number of parameter directions (0: none)              */
   const double* sens_dir;  /* [np*n_sens] column-major: column s is a direction     */
                            /* d p / d lambda_s in parameter space                   */
