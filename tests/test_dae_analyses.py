@@ -282,3 +282,42 @@ def test_cli_continue_and_map_on_the_dae(tmp_path, capsys):
     assert rc == 0
     d = json.loads(capsys.readouterr().out)
     assert d["n_points"] == 9 and d["n_failed"] == 0 and math.isfinite(d["max"])
+
+
+# ------------------------------------------------------------------ implicit form without algebraic variables
+
+@pytest.fixture(scope="module")
+def ks_pair(tmp_path_factory):
+    """The benchmark oscillator (scenes/kahraman_singh.toml) in implicit (mass-matrix) form, on
+    IDA, and as shipped (CVODE): the IDA paths of a model without algebraic variables."""
+    d = tmp_path_factory.mktemp("ks_implicit")
+    text = (ROOT / "models" / "kahraman_singh.toml").read_text()
+    (d / "m.toml").write_text(text.replace('name = "kahraman_singh"', 'name = "ks_implicit"\nform = "implicit"', 1))
+    scene = (ROOT / "scenes" / "kahraman_singh.toml").read_text()
+    (d / "s.toml").write_text(scene.replace('model = "../models/kahraman_singh.toml"', 'model = "m.toml"'))
+    imp = gearsym.load_scene(d / "s.toml").compile()
+    exp = gearsym.load_scene(ROOT / "scenes" / "kahraman_singh.toml").compile()
+    assert imp.generated.implicit and not imp.generated.algebraic and imp.state_names == exp.state_names
+    return imp, exp
+
+
+def test_implicit_form_sensitivities_continuation_and_balance(ks_pair):
+    imp, exp = ks_pair
+    T = exp.period()
+    x0 = exp.simulate(periods=20).x_final
+    names = ["zeta", "Fa", "eps", "Omega"]
+    a = imp.simulate(t_end=3 * T, x0=x0, rtol=1e-10, atol=1e-12, n_out=3, sensitivities=names)
+    b = exp.simulate(t_end=3 * T, x0=x0, rtol=1e-12, atol=1e-14, t_out=a.t, sensitivities=names, method="bdf")
+    assert len(a.events) == len(b.events) == 6
+    for n in names:
+        err = np.max(np.abs(a.sensitivities[n] - b.sensitivities[n])) / np.max(np.abs(b.sensitivities[n]))
+        assert err < TOL, (n, err)  # (measured <= 7e-9)
+    kw = {"ds_max": 0.1}
+    bi = gearsym.continuation(imp, "Omega", 0.885, 0.9, **kw)
+    be = gearsym.continuation(exp, "Omega", 0.885, 0.9, **kw)
+    assert [x.type for x in bi.bifurcations] == [x.type for x in be.bifurcations] == ["grazing", "fold"]
+    for u, v in zip(bi.bifurcations, be.bifurcations, strict=True):
+        assert abs(u.value - v.value) < TOL * v.value, (u.type, u.value, v.value)
+    hi, he = (s.periodic_orbit(method="hbm", params={"Omega": 0.7}) for s in (imp, exp))
+    assert hi.converged and he.converged and hi.harmonics == he.harmonics
+    assert np.max(np.abs(hi.coefficients - he.coefficients)) < TOL * np.max(np.abs(he.coefficients))
