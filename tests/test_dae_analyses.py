@@ -21,6 +21,7 @@ How the comparisons are made (all to 1e-7):
 from __future__ import annotations
 
 import json
+import logging
 import math
 from pathlib import Path
 
@@ -259,12 +260,15 @@ def test_harmonic_balance_equals_the_twins(pair):
 
 # ------------------------------------------------------------------ shooting and the CLI
 
-def test_shooting_reports_the_python_newton(pair):
+def test_shooting_reports_the_python_newton(pair, caplog):
     dae, ode = pair
-    od = dae.periodic_orbit(transient=20)
+    with caplog.at_level(logging.INFO, logger="gearsym.analysis"):
+        od = dae.periodic_orbit(transient=20)
     oo = ode.periodic_orbit(transient=20)
     assert od.info["newton"].startswith("Python: method 'ida'") and oo.info["newton"] == "C"
     assert od.to_dict(extrema=False)["newton"] == od.info["newton"]
+    msgs = [r.getMessage() for r in caplog.records if r.name == "gearsym.analysis.periodic._shooting"]
+    assert msgs == [f"shooting Newton: {od.info['newton']}"]
 
 
 def test_cli_continue_and_map_on_the_dae(tmp_path, capsys):
@@ -301,7 +305,7 @@ def ks_pair(tmp_path_factory):
     return imp, exp
 
 
-def test_implicit_form_sensitivities_continuation_and_balance(ks_pair):
+def test_implicit_form_sensitivities_continuation_and_balance(ks_pair, caplog):
     imp, exp = ks_pair
     T = exp.period()
     x0 = exp.simulate(periods=20).x_final
@@ -313,7 +317,12 @@ def test_implicit_form_sensitivities_continuation_and_balance(ks_pair):
         err = np.max(np.abs(a.sensitivities[n] - b.sensitivities[n])) / np.max(np.abs(b.sensitivities[n]))
         assert err < TOL, (n, err)  # (measured <= 7e-9)
     kw = {"ds_max": 0.1}
-    bi = gearsym.continuation(imp, "Omega", 0.885, 0.9, **kw)
+    with caplog.at_level(logging.INFO, logger="gearsym.analysis"):
+        bi = gearsym.continuation(imp, "Omega", 0.885, 0.9, **kw)
+    msgs = [r.getMessage() for r in caplog.records if r.name == "gearsym.analysis.continuation._corrector"]
+    assert bi.info["corrector"].startswith("Python: method 'ida'")
+    # (once for the first orbit's correction, once for the branch)
+    assert msgs and set(msgs) == {f"continuation corrector in Python: {bi.info['corrector'][len('Python: '):]}"}
     be = gearsym.continuation(exp, "Omega", 0.885, 0.9, **kw)
     assert [x.type for x in bi.bifurcations] == [x.type for x in be.bifurcations] == ["grazing", "fold"]
     for u, v in zip(bi.bifurcations, be.bifurcations, strict=True):

@@ -10,6 +10,7 @@ with its test functions.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -36,6 +37,8 @@ from ._bifurcation import tau_branch_point, tau_neimark_sacker, tau_period_doubl
 from ._branch import BranchPoint
 
 __all__ = ["Continuer", "Node", "distance_to_one", "graph_like", "rescale"]
+
+_log = logging.getLogger(__name__)
 
 
 def _periodic_extremum(y: np.ndarray, i: int, sign: float) -> float:
@@ -220,8 +223,10 @@ class Continuer:
         if isinstance(out, str):  # the reason why not: reported in the branch's info["corrector"]
             self.corrector_engine = f"Python: {out}"
             out = None
+            _log.info("continuation corrector in Python: %s", self.corrector_engine[8:])
         else:
             self.corrector_engine = "C"
+            _log.debug("continuation corrector in C")
         self.__dict__["_c_setup_cache"] = out
         return out
 

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import logging
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -61,6 +62,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
 
 __all__ = ["shoot"]
+
+_log = logging.getLogger(__name__)
 
 
 def shoot(system: CompiledSystem, period: float | None = None, periods: float = 1,
@@ -431,6 +434,7 @@ class ShootingProblem:
                 self.newton_engine, fast = f"Python: {fast or 'the C iteration does not apply'}", None
             else:
                 self.newton_engine = "C" if fast.converged else "C, then Python"
+        (_log.debug if self.newton_engine == "C" else _log.info)("shooting Newton: %s", self.newton_engine)
         if fast is not None and not fast.converged:
             if fast.code in (1, 2, 3, 4) and fast.iterations >= 1:
                 X = fast.x[None, :].copy()
