@@ -143,7 +143,7 @@ INTEGRATION_METHODS: Mapping[str, IntegrationMethod] = MappingProxyType({m.name:
                       monodromy=True, sensitivities=True, c_shooting=True, c_corrector=True,
                       summary="CVODE, BDF orders 1-5, modified Newton with the analytic Jacobian (stiff models)"),
     IntegrationMethod("ida", "IDA", "BDF", 2, (IMPLICIT,), ("newton",), _CVODE_LINEAR,
-                      monodromy=True, sensitivities=False, c_shooting=False, c_corrector=False,
+                      monodromy=True, sensitivities=True, c_shooting=False, c_corrector=False,
                       summary="IDA, BDF orders 1-5 on the residual F(t, x, x') = 0 (implicit and DAE models)"),
     IntegrationMethod("adams_fixedpoint", "CVODE", "Adams-Moulton", 1, (EXPLICIT,), ("fixedpoint",), (),
                       monodromy=True, sensitivities=True, c_shooting=True, c_corrector=True,

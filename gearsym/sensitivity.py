@@ -12,9 +12,11 @@ into those directions:
   contributes ``d bound / d input`` too.  That one derivative is a central finite
   difference of the scalar function (it has no symbolic form); everything else is exact.
 
-No sympy here; the derivatives come from the generated functions (``gs_jacp``,
-``gs_swp``, ``gs_schedp``, ``gs_periodp``) of the scene's build with derivatives
-(:meth:`gearsym.system.System.derivative_engine`).
+No sympy here; the derivatives come from the generated functions (``gs_jacp``; for
+implicit models, integrated by IDA, ``gs_resp`` and ``gs_rest``; ``gs_swp``, ``gs_schedp``,
+``gs_periodp``) of the scene's build with derivatives
+(:meth:`gearsym.system.System.derivative_engine`).  On a DAE the sensitivities of the
+algebraic variables are those of the solution, ``S_z = h_x S_d + h_p D``.
 """
 
 from __future__ import annotations
@@ -32,6 +34,10 @@ if TYPE_CHECKING:  # pragma: no cover
     from .system import CompiledSystem as System
 
 __all__ = ["SensitivityMethods", "directions", "period_gradient", "sensitivity_atol"]
+
+#: The generated function that marks a build with the parameter derivatives, by model form
+#: (implicit?): d f / d p of the right-hand side, or d F / d p of the residual.
+_DERIVATIVE_FN = {False: "gs_jacp", True: "gs_resp"}
 
 
 def directions(system: System, names: Sequence[str], p: np.ndarray,
@@ -150,11 +156,10 @@ class SensitivityMethods:
 
     @property
     def has_derivatives(self) -> bool:
-        """Whether exact parameter sensitivities are available (explicit models whose build
-        has the parameter derivatives, or can make that build on demand)."""
-        if self.generated.implicit:
-            return False
-        return "gs_jacp" in self.generated.functions or self.derivative_build is not None
+        """Whether exact parameter sensitivities are available (a build with the parameter
+        derivatives, or one that can be made on demand)."""
+        return _DERIVATIVE_FN[bool(self.generated.implicit)] in self.generated.functions or \
+            self.derivative_build is not None
 
     def derivative_engine(self) -> Engine:
         """The engine of the build with the parameter derivatives (made on first use).
@@ -168,12 +173,9 @@ class SensitivityMethods:
         Raises
         ------
         ParameterError
-            An implicit model, or a system without a scene to build from.
+            A system without a scene to build from.
         """
-        if self.generated.implicit:
-            raise ParameterError("parameter sensitivities need an explicit model (CVODE); this one is in "
-                                 "implicit (residual) form")
-        if "gs_jacp" in self.generated.functions:
+        if _DERIVATIVE_FN[bool(self.generated.implicit)] in self.generated.functions:
             return self.engine
         if self._derivative_engine is None:
             if self.derivative_build is None:
@@ -191,18 +193,16 @@ class SensitivityMethods:
                           inputs: Mapping[str, float] | None = None) -> dict:
         """Engine arguments of the sensitivities ``names``: directions and a tolerance vector
         (state, monodromy as :meth:`flow` sets it, then ``atol_i / |p|`` per sensitivity)."""
-        if self.generated.implicit:
-            raise ParameterError("parameter sensitivities need an explicit model (CVODE); this one is in "
-                                 "implicit (residual) form")
         if not names:
             raise ParameterError("sensitivities: give at least one parameter name")
         D = directions(self, names, p, inputs)
         nx = self.generated.nx
+        nd = nx - len(self.generated.algebraic)  # monodromy columns: the differential states
         parts = [ax]
         if mono:
             sc = np.ones(nx) if scales is None else np.maximum(np.asarray(scales, float), np.finfo(float).tiny)
             am = np.broadcast_to(np.asarray(atol_mono, float), (nx,))
-            parts.append((am[:, None] / sc[None, :]).T.ravel())
+            parts.append((am[:, None] / sc[None, :nd]).T.ravel())
         parts.append(sensitivity_atol(ax, p, D))
         return {"sens_dir": D, "atol_vec": np.concatenate(parts)}
 

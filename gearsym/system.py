@@ -578,7 +578,7 @@ class CompiledSystem(Evaluations, SensitivityMethods):
             all made the variational equations take 7-26x the steps of the state.
         sensitivities
             Run-time parameters whose exact derivatives ``d phi / d p`` to return in
-            :attr:`Flow.sensitivity` (explicit models): parameter variational equations
+            :attr:`Flow.sensitivity` (CVODE, or IDA for implicit models and DAEs): parameter variational equations
             with event-time and breakpoint-time terms, in the same integration as the
             monodromy.
         span_derivative

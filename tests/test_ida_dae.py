@@ -116,15 +116,26 @@ def test_floquet_multipliers_ida_vs_cvode(pair):
                                atol=1e-6 * np.max(np.abs(oc.monodromy)))
 
 
-def test_harmonic_balance_refuses_the_dae_and_names_shooting(pair):
-    """Harmonic balance needs x' = f(t, x): on the DAE it says so (it failed with the engine's
-    "the compiled model has no gs_rhs"), and the CLI exits 2 with that message."""
+def test_harmonic_balance_on_the_dae(pair, capsys):
+    """Harmonic balance on the DAE (issue 26; it refused the model before, naming shooting): the
+    coupling torque is solved for at every AFT sample, and the balance with 40 harmonics is the
+    orbit of the hand-written explicit reduction's shooting to the series' truncation; the CLI
+    runs it (exit 0)."""
+    import json
+
     from gearsym.cli import main
 
-    dae, _ = pair
-    with pytest.raises(ParameterError, match=r"explicit model .* DAE: use shooting"):
-        dae.periodic_orbit(method="hbm")
-    assert main(["orbit", str(SCENE), "--method", "hbm"]) == 2
+    dae, ode = pair
+    hb = dae.periodic_orbit(method="hbm", harmonics=40)
+    ref = ode.periodic_orbit(transient=40, rtol=1e-11, atol=1e-14)
+    assert hb.converged and hb.coefficients.shape == (81, 5)
+    scale = np.max(np.abs(ref.trajectory().y), axis=0)
+    assert np.max(np.abs(hb.x0[:4] - ref.x0) / scale) < 1e-5  # (measured 1.7e-6: 40 harmonics of a contact orbit)
+    tau0 = ode.params["J_L"] * ode.engine.evaluate("rhs", [0.0], hb.x0[None, :4], ode.param_vector())[0, 3] + \
+        ode.params["T_L"]
+    assert abs(hb.x0[4] - tau0) < 1e-9 * abs(tau0)  # x(t0)'s tau_c: consistent with its differential states
+    assert main(["orbit", str(SCENE), "--method", "hbm", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["method"] == "hbm"
 
 
 # ------------------------------------------------------------------ bad input

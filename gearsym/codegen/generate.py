@@ -74,9 +74,10 @@ def c_comment(text: object, limit: int = 160) -> str:
 def build_functions(model: SymbolicModel, derivatives: bool = False) -> dict[str, ca.Function]:
     """Build the CasADi functions of the engine contract from a symbolic model.
 
-    With ``derivatives`` (explicit models) also the parameter derivatives of the
-    sensitivities: ``gs_jacp`` (d f / d p), ``gs_swp`` (d g / d p), ``gs_schedp`` and
-    ``gs_periodp``, with respect to *every* parameter (sparse), so that choosing the
+    With ``derivatives`` also the parameter derivatives of the sensitivities: ``gs_jacp``
+    (d f / d p; implicit models: ``gs_resp``, d F / d p of the residual, and ``gs_rest``,
+    d F / d t, for the time derivative of the algebraic variables), ``gs_swp`` (d g / d p),
+    ``gs_schedp`` and ``gs_periodp``, with respect to *every* parameter (sparse), so that choosing the
     parameters at run time never recompiles.  They are a separate build, made on the
     first sensitivity request (:meth:`gearsym.system.System.simulate`): measured on the
     shipped scenes they add 20-370 % to the C compile (``benchmarks/sensitivity_cost.py``:
@@ -89,7 +90,6 @@ def build_functions(model: SymbolicModel, derivatives: bool = False) -> dict[str
 
 
 def _build_functions(model: SymbolicModel, derivatives: bool, budget: Budget) -> dict[str, ca.Function]:
-    derivatives = derivatives and model.form == "explicit"
     nx = len(model.states)
     params = model.parameters
     nsw = len(model.switching)
@@ -126,6 +126,11 @@ def _build_functions(model: SymbolicModel, derivatives: bool, budget: Budget) ->
         jr = ca.jacobian(r, x) + cj * ca.jacobian(r, xd)  # sparse: the driver densifies
         fns["gs_resjac"] = ca.Function("gs_resjac", [t, x, xd, p, m, cj], [jr],
                                        ["t", "x", "xd", "p", "m", "cj"], ["Jr"])
+        if derivatives:  # d F / d p (sparse; IDAS-style sensitivities) and d F / d t (z' at a moving end)
+            fns["gs_resp"] = ca.Function("gs_resp", [t, x, xd, p, m], [ca.jacobian(r, p)],
+                                         ["t", "x", "xd", "p", "m"], ["Rp"])
+            fns["gs_rest"] = ca.Function("gs_rest", [t, x, xd, p, m], [ca.densify(ca.jacobian(r, t))],
+                                         ["t", "x", "xd", "p", "m"], ["Rt"])
         # the explicit right-hand side is still useful from Python (plots, checks)
     budget.check("gs_sw")
     g = ca.vertcat(*[tr(s.expr) for s in model.switching]) if nsw else ca.SX(0, 1)
@@ -179,6 +184,8 @@ _DOCS = {
     "gs_sched": "schedules: [period, break fractions...] for each schedule",
     "gs_period": "the scene's forcing period T(p)",
     "gs_jacp": "d f / d p (sparse), for the parameter sensitivities",
+    "gs_resp": "d r / d p of the implicit residual (sparse), for the parameter sensitivities (IDA)",
+    "gs_rest": "d r / d t of the implicit residual, for the time derivative of the algebraic variables",
     "gs_swp": "d g / d p (sparse), for the event-time sensitivities",
     "gs_schedp": "d s / d p of the schedules (breakpoint-time sensitivities)",
     "gs_periodp": "d T / d p of the forcing period",

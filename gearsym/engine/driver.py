@@ -44,7 +44,8 @@ INDEX_MAX = 2 ** 31 - 1
 #: :data:`gearsym.integrators.INTEGRATION_METHODS`, which also holds their settings).
 METHODS: dict[str, int] = {name: m.code for name, m in INTEGRATION_METHODS.items()}
 #: Functions of :meth:`Engine.evaluate`: name -> GS_EVAL_* code.
-EVAL_FUNCTIONS: dict[str, int] = {"sw": 0, "out": 1, "rhs": 2, "jac": 3, "mode": 4, "mesh": 5}
+EVAL_FUNCTIONS: dict[str, int] = {"sw": 0, "out": 1, "rhs": 2, "jac": 3, "mode": 4, "mesh": 5, "dae": 6,
+                                  "dae_jac": 7}
 # CVODE's nonlinear solvers (NONLINEAR) and Newton's linear solvers (LINEAR_SOLVERS): name -> C
 # code, from gearsym.integrators
 _DEFAULT_SETTINGS = RunSettings()
@@ -232,8 +233,13 @@ class Engine:
         function
             ``"sw"`` (switching functions), ``"out"`` (the model's outputs),
             ``"rhs"``, ``"jac"`` (dense ``d xdot / d x``), ``"mode"`` (the mode
-            vector: surface sides, schedule cycle and segment) or ``"mesh"`` (the
-            dynamic deflection of each mesh).
+            vector: surface sides, schedule cycle and segment), ``"mesh"`` (the
+            dynamic deflection of each mesh), or the model as the ODE of its ``nd``
+            differential states ``x_d' = f_d(t, x_d)`` with its algebraic variables
+            ``z = h(t, x_d)`` solved for (any form; the ``x`` given for ``z`` is only the
+            Newton iteration's start): ``"dae"`` (``[y, f_d]``, ``y`` the state with the
+            consistent ``z``) or ``"dae_jac"`` (``[d f_d / d x_d; d h / d x_d]``, by the
+            implicit function theorem).
         t
             Times, shape (n,).
         x
@@ -248,7 +254,7 @@ class Engine:
         -------
         ndarray
             Shape (n, k) with ``k`` = nsw, number of outputs, nx or nm; for
-            ``"jac"`` shape (n, nx, nx).
+            ``"jac"`` shape (n, nx, nx); ``"dae"`` (n, nx + nd); ``"dae_jac"`` (n, nx, nd).
         """
         code = EVAL_FUNCTIONS[function]
         ta = np.ascontiguousarray(np.asarray(t, dtype=float).reshape(-1))
@@ -263,7 +269,9 @@ class Engine:
         elif function == "mesh":
             k = max(self.n_meshes(), 0)
         else:
-            k = {"sw": self.nsw, "rhs": self.nx, "jac": self.nx * self.nx, "mode": self.nm}[function]
+            nd = self.nx - self.nalg
+            k = {"sw": self.nsw, "rhs": self.nx, "jac": self.nx * self.nx, "mode": self.nm, "dae": self.nx + nd,
+                 "dae_jac": self.nx * nd}[function]
         out = np.empty((n, max(k, 1)))
         msg = C.create_string_buffer(256)
         rc = self._lib.gs_eval(self._ws(), code, n, _ptr(ta), _ptr(xa), _ptr(pa) if pa.shape[0] else None,
@@ -273,6 +281,8 @@ class Engine:
         out = out[:, :k]
         if function == "jac":
             return out.reshape(n, self.nx, self.nx).transpose(0, 2, 1)  # column-major -> [i, row, col]
+        if function == "dae_jac":
+            return out.reshape(n, self.nx - self.nalg, self.nx).transpose(0, 2, 1)
         return out
 
     def __repr__(self) -> str:
@@ -315,7 +325,7 @@ class Engine:
             column), so that the variational entries, whose scale is that of
             ``x_i / x0_j`` (or ``x_i / p_k``), get a tolerance of their own.
         sensitivities
-            Parameter sensitivities (explicit models, CVODE): directions ``D = d p / d lambda``,
+            Parameter sensitivities (CVODE; IDA: the residual's, gs_resp): directions ``D = d p / d lambda``,
             the span's derivatives, whether at the output times too
             (:class:`~gearsym.engine.run_settings.SensitivityRequest`; see ``gs_driver.c`` for
             the equations and jumps).

@@ -111,14 +111,20 @@ static int eval_jac(gs_ud* ud, double t, const double* x, const double* m, doubl
   return gs_call(ud, &ud->jac, in, 4, out);
 }
 
-static int eval_res(gs_ud* ud, double t, const double* x, const double* xd, const double* m, double* out) {
+/* A function of the residual's inputs (t, x, xd, p, m): gs_res, gs_resp, gs_rest. */
+static int eval_resfn(gs_ud* ud, const gs_fn* fn, double t, const double* x, const double* xd, const double* m,
+                      double* out) {
   const double* in[5];
   in[0] = &t;
   in[1] = x;
   in[2] = xd;
   in[3] = ud->np ? ud->p : ud->dummy;
   in[4] = ud->nm ? m : ud->dummy;
-  return gs_call(ud, &ud->res, in, 5, out);
+  return gs_call(ud, fn, in, 5, out);
+}
+
+static int eval_res(gs_ud* ud, double t, const double* x, const double* xd, const double* m, double* out) {
+  return eval_resfn(ud, &ud->res, t, x, xd, m, out);
 }
 
 static int eval_resjac(gs_ud* ud, double t, const double* x, const double* xd, const double* m, double cj,
@@ -208,10 +214,50 @@ int eval_xdot_dae(gs_ud* ud, double t, const double* x, const double* m, const d
   return all_finite(out, n, NULL) && all_finite(xs, n, NULL) ? 0 : -1;
 }
 
+/* d F / d p of the residual into ud->Fp (nx x np, column-major) at (t, y, y'): gs_resp for an
+ * implicit model, -gs_jacp for an explicit one on IDA (F = y' - f). */
+static int ida_res_p(gs_ud* ud, double t, const double* yv, const double* ypv) {
+  int i;
+  if (ud->implicit) return eval_resfn(ud, &ud->resp_fn, t, yv, ypv, ud->m, ud->Fp);
+  {
+    const double* in[4];
+    in[0] = &t;
+    in[1] = yv;
+    in[2] = ud->p;
+    in[3] = ud->nm ? ud->m : ud->dummy;
+    if (gs_call(ud, &ud->jacp, in, 4, ud->Fp)) return -1;
+  }
+  for (i = 0; i < ud->nx * ud->np; ++i) ud->Fp[i] = -ud->Fp[i];
+  return 0;
+}
+
+/* b += F_p D(:, s) for sensitivity direction s (ud->Fp from ida_res_p). */
+static void add_res_p(const gs_ud* ud, int s, double* b) {
+  const double* d = ud->sdir + (size_t)s * ud->np;
+  int k, i;
+  for (k = 0; k < ud->np; ++k) {
+    const double* fk = ud->Fp + (size_t)k * ud->nx;
+    if (d[k] == 0.0) continue;
+    for (i = 0; i < ud->nx; ++i) b[i] += fk[i] * d[k];
+  }
+}
+
+/* J <- [F_y'(:, d) | F_y(:, z)] at (t, y, y') (J2 keeps F_y): the matrix of the unknowns
+ * [x_d'; z] (and of [S_d'; S_z] of every variational block) of an index-1 DAE. */
+static int dae_matrix(gs_ud* ud, double t, const double* yv, const double* ypv, const double* m) {
+  int nx = ud->nx, nd = ud->nd, i, j;
+  if (eval_resjac(ud, t, yv, ypv, m, 1.0, ud->J) || eval_resjac(ud, t, yv, ypv, m, 0.0, ud->J2)) return -1;
+  for (j = 0; j < nd; ++j)
+    for (i = 0; i < nx; ++i) ud->J[(size_t)j * nx + i] -= ud->J2[(size_t)j * nx + i];
+  for (j = nd; j < nx; ++j) memcpy(ud->J + (size_t)j * nx, ud->J2 + (size_t)j * nx, sizeof(double) * (size_t)nx);
+  return 0;
+}
+
 /* IDACalcIC's starting point for a DAE (nalg > 0): the algebraic variables and the
  * derivatives of the differential states solved for in the current mode
- * (eval_xdot_dae), and with the variational equations the same for every block:
- * [F_y'(:, d) | F_y(:, z)] [S'_d; S_z] = -F_y(:, d) S_d.  IDACalcIC then makes them
+ * (eval_xdot_dae), and with variational columns the same for every block:
+ * [F_y'(:, d) | F_y(:, z)] [S'_d; S_z] = -F_y(:, d) S_d (- F_p D(:, s) for the
+ * sensitivity of direction s).  IDACalcIC then makes them
  * consistent in IDA's own norm.  Needed because IDACalcIC weighs its Newton
  * corrections with error weights computed from the guess: an algebraic variable
  * guessed as 0 gets the weight 1/atol (1e14 for atol = 1e-14), and its roundoff
@@ -219,34 +265,99 @@ int eval_xdot_dae(gs_ud* ud, double t, const double* x, const double* m, const d
  * models/spur_pair_coupled_load.toml at rtol 1e-10).  If a solve fails the guess
  * is left as it is (IDACalcIC then reports what goes wrong). */
 void ida_consistent_guess(gs_ud* ud, double t, double* yv, double* ypv) {
-  int nx = ud->nx, nd = ud->nd, i, j, k;
+  int nx = ud->nx, nd = ud->nd, nphi = ud->mono * nd, i, j, k;
   int* piv;
   if (eval_xdot_dae(ud, t, yv, ud->m, ypv, ud->f3)) return;
   memcpy(ypv, ud->f3, sizeof(double) * (size_t)nd);
   memcpy(yv + nd, ud->xs + nd, sizeof(double) * (size_t)(nx - nd));
-  if (!ud->mono) return;
+  if (!ud->nvc) return;
   /* F_y' (J) and F_y (J2) at the consistent point; A = [F_y'(:, d) | F_y(:, z)] in J */
-  if (eval_resjac(ud, t, yv, ypv, ud->m, 1.0, ud->J) || eval_resjac(ud, t, yv, ypv, ud->m, 0.0, ud->J2)) return;
-  for (j = 0; j < nd; ++j)
-    for (i = 0; i < nx; ++i) ud->J[(size_t)j * nx + i] -= ud->J2[(size_t)j * nx + i];
-  for (j = nd; j < nx; ++j) memcpy(ud->J + (size_t)j * nx, ud->J2 + (size_t)j * nx, sizeof(double) * (size_t)nx);
+  if (dae_matrix(ud, t, yv, ypv, ud->m)) return;
+  if (ud->ns && ida_res_p(ud, t, yv, ypv)) return;
   piv = (int*)malloc(sizeof(int) * (size_t)nx);
   if (!piv) return;
   if (lu_factor(nx, ud->J, piv) == 0) {
-    for (k = 0; k < nd; ++k) {
+    for (k = 0; k < ud->nvc; ++k) {
       double* Sk = yv + (size_t)(k + 1) * nx;
       double* b = ud->f;
       for (i = 0; i < nx; ++i) {
         double sum = 0.0;
         for (j = 0; j < nd; ++j) sum += ud->J2[(size_t)j * nx + i] * Sk[j];
-        b[i] = -sum;
+        b[i] = sum;
       }
+      if (k >= nphi) add_res_p(ud, k - nphi, b);
+      for (i = 0; i < nx; ++i) b[i] = -b[i];
       lu_apply(nx, ud->J, piv, b);
       memcpy(ypv + (size_t)(k + 1) * nx, b, sizeof(double) * (size_t)nd);
       memcpy(Sk + nd, b + nd, sizeof(double) * (size_t)(nx - nd));
     }
   }
   free(piv);
+}
+
+/* The whole derivative y' = [x_d'; z'] of an implicit model on its solution at (t, y), y
+ * consistent: x_d' as eval_xdot (from `guess`), and for a DAE z' from the time derivative
+ * of F(t, y, y') = 0 along the solution, F_t + F_y y' + F_y' y'' = 0, whose unknowns
+ * [x_d''; z'] have the matrix [F_y'(:, d) | F_y(:, z)] (gs_rest gives F_t).  Explicit
+ * models: f.  The total derivative of x(t_end(lambda)) needs it (sens_final). */
+int ida_xdot_full(gs_ud* ud, double t, const double* y, const double* guess, double* out) {
+  int nx = ud->nx, nd = ud->nd, i, j;
+  double* b = ud->f;
+  if (!ud->implicit) return eval_rhs(ud, t, y, ud->m, out);
+  if (eval_xdot(ud, t, y, ud->m, guess, out)) return -1;
+  if (ud->nalg == 0) return 0;
+  y = ud->xs; /* the consistent state eval_xdot_dae solved for (y to round-off) */
+  if (!ud->rest_fn.present || dae_matrix(ud, t, y, out, ud->m) || eval_resfn(ud, &ud->rest_fn, t, y, out, ud->m, b))
+    return -1;
+  for (i = 0; i < nx; ++i) {
+    double sum = b[i];
+    for (j = 0; j < nd; ++j) sum += ud->J2[(size_t)j * nx + i] * out[j];
+    b[i] = -sum;
+  }
+  if (lu_solve(nx, ud->J, b)) return -1;
+  for (i = nd; i < nx; ++i) out[i] = b[i];
+  return all_finite(out, nx, NULL) ? 0 : -1;
+}
+
+/* One point of gs_eval's GS_EVAL_DAE / GS_EVAL_DAE_JAC: the model as the ODE of its
+ * differential states x_d, x_d' = f_d(t, x_d), with the algebraic variables z = h(t, x_d)
+ * solved for in the mode m (index 1).  want_jac = 0: out = [y (nx, consistent: [x_d; z]);
+ * f_d (nd)]; want_jac = 1: out = [d f_d / d x_d; d h / d x_d] (nx x nd, column-major) by
+ * the implicit function theorem, [F_y'(:, d) | F_y(:, z)] [df_d/dx_d; dh/dx_d] = -F_y(:, d).
+ * Explicit models: [x; f] and d f / d x; implicit ones without algebraic variables: the
+ * derivative solved for (eval_xdot). */
+int eval_dae_point(gs_ud* ud, double t, const double* x, const double* m, double* out, int want_jac) {
+  int nx = ud->nx, nd = ud->nd, i, j;
+  const double* y = x;
+  int* piv;
+  if (!ud->implicit) {
+    if (want_jac) return eval_jac(ud, t, x, m, out);
+    memcpy(out, x, sizeof(double) * (size_t)nx);
+    return eval_rhs(ud, t, x, m, out + nx);
+  }
+  memset(ud->f2, 0, sizeof(double) * (size_t)nx);
+  if (eval_xdot(ud, t, x, m, ud->f2, ud->f3)) return -1;
+  if (ud->nalg > 0) y = ud->xs;
+  if (!want_jac) {
+    memcpy(out, y, sizeof(double) * (size_t)nx);
+    memcpy(out + nx, ud->f3, sizeof(double) * (size_t)nd);
+    return 0;
+  }
+  memcpy(ud->f2, y, sizeof(double) * (size_t)nx);
+  if (dae_matrix(ud, t, ud->f2, ud->f3, m)) return -1;
+  piv = (int*)malloc(sizeof(int) * (size_t)nx);
+  if (!piv) return -1;
+  if (lu_factor(nx, ud->J, piv)) {
+    free(piv);
+    return -1;
+  }
+  for (j = 0; j < nd; ++j) {
+    double* col = out + (size_t)j * nx;
+    for (i = 0; i < nx; ++i) col[i] = -ud->J2[(size_t)j * nx + i];
+    lu_apply(nx, ud->J, piv, col);
+  }
+  free(piv);
+  return all_finite(out, nx * nd, NULL) ? 0 : -1;
 }
 
 /* --------------------------------------------------------------------------
@@ -257,7 +368,7 @@ void ida_consistent_guess(gs_ud* ud, double t, double* yv, double* ypv) {
 static int sens_forcing(gs_ud* ud, double t, const double* yv, double* yd) {
   const double* in[4];
   int nx = ud->nx, np = ud->np, s, k, i;
-  double* dS = yd + nx + (size_t)ud->mono * nx * nx;
+  double* dS = yd + sens_offset(ud);
   in[0] = &t;
   in[1] = yv;
   in[2] = ud->p;
@@ -389,21 +500,38 @@ int cv_root(sunrealtype t, N_Vector y, sunrealtype* gout, void* user_data) {
 
 /* Variational equations of the DAE F(t, y, y') = 0 on IDA: for each of the nd
  * differential initial directions k, the block S_k (= d y / d y_d0(k), length nx)
- * obeys F_y S_k + F_y' S_k' = 0 (the algebraic rows of S_k are algebraic again).
+ * obeys F_y S_k + F_y' S_k' = 0 (the algebraic rows of S_k are algebraic again); the
+ * sensitivity of parameter direction s (blocks after the monodromy's) obeys
+ * F_y S_s + F_y' S_s' + F_p D(:, s) = 0 (ida_res_p).
  * F_y = gs_resjac(cj=0), F_y' = gs_resjac(1) - gs_resjac(0); explicit models run
  * through IDA have F = y' - f: F_y = -J, F_y' = I. */
 static int ida_variational_res(gs_ud* ud, double t, const double* yv, const double* ypv, double* rv) {
-  int nx = ud->nx, nd = ud->nd, k, c, i;
+  int nx = ud->nx, nphi = ud->mono * ud->nd, k, c, i;
   double* Fy = ud->J;
   double* Fyp = ud->J2;
+  const double* ypf = ypv; /* the y' at which the derivatives of F are taken */
+  if (ud->ns && ud->implicit) {
+    /* With sensitivities the derivatives of F are taken at (y, y'(y)), the derivative
+     * solved for at the iterate y (eval_xdot, from IDA's y'), not at IDA's own y' = y'_pred
+     * + cj (y - y_pred): F_p may depend on y' (an inertia parameter: F_p = v'), and through
+     * IDA's y' every sensitivity residual would depend on the state's correction times cj,
+     * a coupling the block-diagonal Newton matrix leaves out (IDAS's simultaneous corrector
+     * has the same matrix): with it the Newton iteration diverged and the steps collapsed
+     * (d/dJ_L on models/spur_pair_coupled_load.toml: 81 000 steps in 0.1 forcing periods,
+     * then IDA_CONV_FAIL).  At convergence both agree to the corrector's tolerance. */
+    if (eval_xdot(ud, t, yv, ud->m, ypv, ud->ypc)) return -1;
+    for (i = ud->nd; i < nx; ++i) ud->ypc[i] = ypv[i];
+    ypf = ud->ypc;
+  }
   if (ud->implicit) {
-    if (eval_resjac(ud, t, yv, ypv, ud->m, 1.0, Fyp) || eval_resjac(ud, t, yv, ypv, ud->m, 0.0, Fy)) return -1;
+    if (eval_resjac(ud, t, yv, ypf, ud->m, 1.0, Fyp) || eval_resjac(ud, t, yv, ypf, ud->m, 0.0, Fy)) return -1;
     for (i = 0; i < nx * nx; ++i) Fyp[i] -= Fy[i];
   } else {
     if (eval_jac(ud, t, yv, ud->m, Fy)) return -1;
     for (i = 0; i < nx * nx; ++i) Fy[i] = -Fy[i];
   }
-  for (k = 0; k < nd; ++k) {
+  if (ud->ns && ida_res_p(ud, t, yv, ypf)) return -1;
+  for (k = 0; k < ud->nvc; ++k) {
     const double* Sk = yv + (size_t)(k + 1) * nx;
     const double* Spk = ypv + (size_t)(k + 1) * nx;
     double* rk = rv + (size_t)(k + 1) * nx;
@@ -417,6 +545,7 @@ static int ida_variational_res(gs_ud* ud, double t, const double* yv, const doub
       if (ud->implicit && sp != 0.0)
         for (i = 0; i < nx; ++i) rk[i] += colp[i] * sp;
     }
+    if (k >= nphi) add_res_p(ud, k - nphi, rk);
   }
   return all_finite(rv, ud->nA, NULL) ? 0 : -1;
 }
@@ -444,8 +573,8 @@ int ida_res(sunrealtype t, N_Vector y, N_Vector yp, N_Vector r, void* user_data)
     record_nonfinite(ud, t, ud->implicit ? "the residual (gs_res)" : "the right-hand side (gs_rhs)", bad, yv);
     return 1;
   }
-  if (ud->mono && ida_variational_res(ud, t, yv, ypv, rv)) {
-    record_nonfinite(ud, t, "the variational residual (gs_resjac)", 0, yv);
+  if (ud->nvc && ida_variational_res(ud, t, yv, ypv, rv)) {
+    record_nonfinite(ud, t, ud->ns ? "the variational residual (gs_resjac, gs_resp)" : "the variational residual (gs_resjac)", 0, yv);
     return 1;
   }
   return 0;
@@ -495,7 +624,7 @@ int ida_jac(sunrealtype t, sunrealtype cj, N_Vector y, N_Vector yp, N_Vector r, 
     record_nonfinite(ud, t, ud->implicit ? "the residual Jacobian (gs_resjac)" : "the Jacobian (gs_jac)", bad, yv);
     return 1;
   }
-  if (ud->mono) ida_jac_blocks(ud, A);
+  if (ud->nvc) ida_jac_blocks(ud, A);
   return 0;
 }
 

@@ -95,7 +95,7 @@ typedef struct gs_sim_args {
   long    n_steps, n_rhs, n_jac, n_root_evals, n_breaks, n_reinit;
   int     status;          /* GS_OK or GS_ERR_*  (also the return value)            */
   char    errmsg[1024];    /* human-readable message when status != GS_OK          */
-  /* ---- parameter sensitivities (explicit models, CVODE; see gs_driver.c) ---- */
+  /* ---- parameter sensitivities (CVODE, or IDA on the residual; see gs_driver.c) ---- */
   int     n_sens;          /* number of parameter directions (0: none)              */
   const double* sens_dir;  /* [np*n_sens] column-major: column s is a direction     */
                            /* d p / d lambda_s in parameter space                   */
@@ -140,6 +140,11 @@ int gs_n_meshes(gs_workspace* ws);
  * GS_EVAL_JAC  d xdot / d x, dense column-major    -> out[i*nx*nx + c*nx + r]
  * GS_EVAL_MODE the mode vector m (sides, schedule) -> out[i*nm + j]
  * GS_EVAL_MESH dynamic deflection of each mesh      -> out[i*nmesh + j]
+ * GS_EVAL_DAE  the model as the ODE of its nd differential states (x_d' = f_d(t, x_d),
+ *              the nalg algebraic variables z = h(t, x_d) solved for; explicit models:
+ *              f): [y (nx, with the consistent z), f_d (nd)] -> out[i*(nx+nd) + j]
+ * GS_EVAL_DAE_JAC [d f_d/d x_d; d h/d x_d] (nx x nd), dense column-major
+ *                                                   -> out[i*nx*nd + c*nx + r]
  * in the mode the driver would use there: the side of each switching surface
  * from sigma[i*nsw + j] (or, with sigma NULL, +1 where g >= 0), the schedule
  * cycle and segment from t.  Returns 0, or -1 with a message. */
@@ -149,6 +154,8 @@ int gs_n_meshes(gs_workspace* ws);
 #define GS_EVAL_JAC  3
 #define GS_EVAL_MODE 4
 #define GS_EVAL_MESH 5
+#define GS_EVAL_DAE  6
+#define GS_EVAL_DAE_JAC 7
 int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p, const double* sigma,
             double* out, char* msg, int len);
 

@@ -7,8 +7,8 @@
 
 /* --------------------------------------------------------------------------
  * Evaluating the generated functions from the caller (no integration): the
- * forcing period, and switching functions, outputs, right-hand side or
- * Jacobian at many points with the mode the driver would use there (sides
+ * forcing period, and switching functions, outputs, right-hand side,
+ * Jacobian or the model as the ODE of its differential states at many points with the mode the driver would use there (sides
  * from the signs of g unless given, schedule segment from t).  Lets Python
  * avoid CasADi's own Python calls on hot paths.
  * -------------------------------------------------------------------------- */
@@ -120,6 +120,12 @@ int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, c
   } else if (fn == GS_EVAL_MESH) {
     f = &ud->mesh;
     nout = ws->n_mesh_fn;
+  } else if (fn == GS_EVAL_DAE) {
+    f = ud->implicit ? &ud->res : &ud->rhs;
+    nout = nx + ud->nd;
+  } else if (fn == GS_EVAL_DAE_JAC) {
+    f = ud->implicit ? &ud->resjac : &ud->jac;
+    nout = nx * ud->nd;
   } else {
     snprintf(msg, (size_t)len, "unknown function code %d", fn);
     return -1;
@@ -163,6 +169,10 @@ int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, c
       memcpy(out + (size_t)i * nout, m, sizeof(double) * (size_t)nout);
       continue;
     }
+    if (fn == GS_EVAL_DAE || fn == GS_EVAL_DAE_JAC) {
+      if (eval_dae_point(ud, ti, xi, m, out + (size_t)i * nout, fn == GS_EVAL_DAE_JAC)) goto fail;
+      continue;
+    }
     in[0] = &ti;
     in[1] = xi;
     in[2] = ud->np ? p : ud->dummy;
@@ -171,6 +181,7 @@ int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, c
   }
   return 0;
 fail:
-  snprintf(msg, (size_t)len, "evaluation of %s failed at point %d", f ? f->name : "the mode", i);
+  snprintf(msg, (size_t)len, "evaluation of %s failed at point %d%s", f ? f->name : "the mode", i,
+           fn == GS_EVAL_DAE || fn == GS_EVAL_DAE_JAC ? " (solving for the derivatives and algebraic variables)" : "");
   return -1;
 }

@@ -117,7 +117,7 @@ static int ev_record(gs_evlog* L, double t, int j, int dir, double speed) {
  * dg/dx and dg/dt at (t, x). */
 static int apply_saltation(gs_ud* ud, gs_sim_args* a, double t, double* yv, int j, const double* f_b,
                            const double* f_a) {
-  int nx = ud->nx, nsw = ud->nsw, np = ud->np, nphi = ud->mono * nx, c, k;
+  int nx = ud->nx, nsw = ud->nsw, np = ud->np, nphi = ud->mono * ud->nd, c, k;
   double d = ud->gt[j];
   double* Phi = yv + nx;
   if (ud->ns && eval_swfn(ud, &ud->swp, t, yv, ud->Gp))
@@ -148,12 +148,14 @@ static int apply_saltation(gs_ud* ud, gs_sim_args* a, double t, double* yv, int 
  * ODE x_d' = f_m(t, x_d) (the algebraic variables solved for in each mode), so the
  * differential rows of the nd variational columns get
  *   S_d <- S_d + (f_a - f_b) (G_d . S_d) / (G_d . f_b + gt_j)
+ * and those of the sensitivity of direction s the event-time term as on CVODE
+ * (apply_saltation), + (f_a - f_b) gp_j / d with gp_j = (dg_j/dp) D(:, s),
  * with f_b, f_a the consistent derivatives in the old and new modes
  * (eval_xdot_dae); the algebraic rows are made consistent again by IDACalcIC
  * after the re-initialisation.  Switching functions do not depend on algebraic
  * variables (the spec layer allows those in [outputs] only). */
 static int ida_saltation(gs_ud* ud, gs_sim_args* a, double t, double* yv, int j, int side) {
-  int nx = ud->nx, nd = ud->nd, nsw = ud->nsw, c, k;
+  int nx = ud->nx, nd = ud->nd, nsw = ud->nsw, np = ud->np, nphi = ud->mono * nd, c, k;
   double d = ud->gt[j];
   double* fb = ud->f2;
   double* fa = ud->f3;
@@ -163,20 +165,26 @@ static int ida_saltation(gs_ud* ud, gs_sim_args* a, double t, double* yv, int j,
   memset(fa, 0, sizeof(double) * (size_t)nx);
   if (eval_xdot(ud, t, yv, ud->m, fb, fb) || eval_xdot(ud, t, yv, ud->m_alt, fb, fa))
     return set_err(a, GS_ERR_NONFINITE, "consistent derivatives at the event t=%.17g could not be computed", t);
+  if (ud->ns && eval_swfn(ud, &ud->swp, t, yv, ud->Gp))
+    return set_err(a, GS_ERR_NONFINITE, "gs_swp failed at the event t=%.17g", t);
   for (k = 0; k < nd; ++k) d += ud->G[(size_t)k * nsw + j] * fb[k];
   if (!(d != 0.0) || !isfinite(d))
     return set_err(a, GS_ERR_NONFINITE,
                    "grazing contact on switching surface %d at t=%.17g: dg/dt = %g along the flow, the saltation "
                    "matrix of the monodromy is undefined",
                    j, t, d);
-  for (c = 0; c < nd; ++c) {
+  for (c = 0; c < ud->nvc; ++c) {
     double* col = yv + (size_t)(c + 1) * nx;
     double wv = 0.0;
     for (k = 0; k < nd; ++k) wv += ud->G[(size_t)k * nsw + j] * col[k];
+    if (c >= nphi) { /* sensitivity column s: + gp_j = sum_q dg_j/dp_q D(q, s) */
+      const double* dir = ud->sdir + (size_t)(c - nphi) * np;
+      for (k = 0; k < np; ++k) wv += ud->Gp[(size_t)k * nsw + j] * dir[k];
+    }
     wv /= d;
     for (k = 0; k < nd; ++k) col[k] += (fa[k] - fb[k]) * wv;
   }
-  if (!all_finite(yv + nx, nx * nd, NULL))
+  if (!all_finite(yv + nx, nx * ud->nvc, NULL))
     return set_err(a, GS_ERR_NONFINITE, "non-finite monodromy after the saltation at surface %d, t=%.17g", j, t);
   return 0;
 }
@@ -186,7 +194,7 @@ static int ida_saltation(gs_ud* ud, gs_sim_args* a, double t, double* yv, int j,
 int switch_surface(gs_ud* ud, gs_evlog* L, double t, double* yv, int j, int side, double speed) {
   int rc = ev_record(L, t, j, side, speed);
   if (rc) return rc;
-  if (ud->mono && ud->use_ida) {
+  if (ud->nvc && ud->use_ida) {
     rc = ida_saltation(ud, L->a, t, yv, j, side);
     if (rc) return rc;
   } else if (ud->nvc) {

@@ -73,6 +73,8 @@ GS_DECLARE_MODEL_FN(gs_jacp)
 GS_DECLARE_MODEL_FN(gs_swp)
 GS_DECLARE_MODEL_FN(gs_schedp)
 GS_DECLARE_MODEL_FN(gs_periodp)
+GS_DECLARE_MODEL_FN(gs_resp)
+GS_DECLARE_MODEL_FN(gs_rest)
 extern int gs_model_info(int* out, int len) GS_WEAK;
 
 typedef int (*gs_cfun_ptr)(const casadi_real**, casadi_real**, casadi_int*, casadi_real*, int);
@@ -104,9 +106,9 @@ typedef struct {
   int nA;          /* solver state size: nx, or nx*(nd+1) with monodromy      */
   int mono;        /* variational equations on                               */
   int ns;          /* parameter sensitivity directions (0: none)             */
-  int nvc;         /* variational columns after the state: mono*nx + ns      */
+  int nvc;         /* variational columns after the state: mono*nd + ns      */
   const double* sdir; /* [np*ns] column-major sensitivity directions         */
-  double* Fp;      /* [nx*np] dense d f / d p (column-major), scratch        */
+  double* Fp;      /* [nx*np] dense d f / d p (IDA: d F / d p), scratch      */
   double* Gp;      /* [nsw*np] dense d g / d p (column-major), scratch       */
   int blockdiag;   /* block-diagonal linear solver of the variational system */
   int use_ida;
@@ -117,6 +119,7 @@ typedef struct {
 
   gs_fn rhs, jac, res, resjac, sw, swx, swt, sched, period, out, mesh;
   gs_fn jacp, swp, schedp, periodp; /* parameter derivatives (optional)     */
+  gs_fn resp_fn, rest_fn; /* implicit models: d F / d p and d F / d t (optional)  */
   const casadi_real** arg;
   casadi_real** resp;
   casadi_int* iw;
@@ -129,6 +132,7 @@ typedef struct {
   double* f2;      /* [nx] scratch                                           */
   double* f3;      /* [nx] scratch                                           */
   double* xs;      /* [nx] scratch state (DAE: consistent algebraic part)    */
+  double* ypc;     /* [nx] consistent derivative (IDA sensitivities)         */
   double* g;       /* [nsw]                                                  */
   double* G;       /* [nsw*nx] column-major                                  */
   double* gt;      /* [nsw]                                                  */
@@ -278,6 +282,12 @@ static inline int all_finite(const double* v, int n, int* bad) {
   return 1;
 }
 
+/* The first sensitivity column of a solver vector [x; Phi (nd columns with the
+ * monodromy); S (ns columns)], each column nx long. */
+static inline size_t sens_offset(const gs_ud* ud) {
+  return (size_t)ud->nx + (size_t)ud->mono * (size_t)ud->nd * (size_t)ud->nx;
+}
+
 /* --------------------------------------------------------------------------
  * Functions shared between the driver's files (hidden: not part of the API)
  * -------------------------------------------------------------------------- */
@@ -304,6 +314,8 @@ int eval_swfn(gs_ud* ud, const gs_fn* fn, double t, const double* x, double* out
 int eval_xdot(gs_ud* ud, double t, const double* x, const double* m, const double* guess, double* out);
 int eval_xdot_dae(gs_ud* ud, double t, const double* x, const double* m, const double* guess, double* out);
 void ida_consistent_guess(gs_ud* ud, double t, double* yv, double* ypv);
+int ida_xdot_full(gs_ud* ud, double t, const double* y, const double* guess, double* out);
+int eval_dae_point(gs_ud* ud, double t, const double* x, const double* m, double* out, int want_jac);
 int cv_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user_data);
 int cv_jac(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix Jm, void* user_data, N_Vector t1, N_Vector t2,
                   N_Vector t3);

@@ -266,6 +266,7 @@ void gs_ws_free(gs_workspace* ws) {
   free(ud->f2);
   free(ud->f3);
   free(ud->xs);
+  free(ud->ypc);
   free(ud->g);
   free(ud->G);
   free(ud->gt);
@@ -343,6 +344,8 @@ int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
   GS_FN_SETUP(ud->swp, gs_swp);
   GS_FN_SETUP(ud->schedp, gs_schedp);
   GS_FN_SETUP(ud->periodp, gs_periodp);
+  GS_FN_SETUP(ud->resp_fn, gs_resp);
+  GS_FN_SETUP(ud->rest_fn, gs_rest);
   {
     int s4[4] = {1, nx, np, nm};
     int s5[5] = {1, nx, nx, np, nm};
@@ -391,6 +394,8 @@ int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
     if (ud->swp.present) GS_CHECK(swp, gs_swp, s3, 3, nsw, np)
     if (ud->schedp.present) GS_CHECK(schedp, gs_schedp, s1, 1, ws->nsched_total, np)
     if (ud->periodp.present) GS_CHECK(periodp, gs_periodp, s1, 1, 1, np)
+    if (ud->implicit && ud->resp_fn.present) GS_CHECK(resp_fn, gs_resp, s5, 5, nx, np)
+    if (ud->implicit && ud->rest_fn.present) GS_CHECK(rest_fn, gs_rest, s5, 5, nx, 1)
 #undef GS_CHECK
   }
 
@@ -408,6 +413,7 @@ int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
   ud->f2 = (double*)calloc((size_t)nx, sizeof(double));
   ud->f3 = (double*)calloc((size_t)nx, sizeof(double));
   ud->xs = (double*)calloc((size_t)nx, sizeof(double));
+  ud->ypc = (double*)calloc((size_t)nx, sizeof(double));
   ud->g = (double*)calloc((size_t)nsw + 1, sizeof(double));
   ud->G = (double*)calloc((size_t)nsw * nx + 1, sizeof(double));
   ud->gt = (double*)calloc((size_t)nsw + 1, sizeof(double));
@@ -420,7 +426,7 @@ int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
   ud->Fp = (double*)calloc((size_t)nx * np + 1, sizeof(double));
   ud->Gp = (double*)calloc((size_t)nsw * np + 1, sizeof(double));
   if (!ud->arg || !ud->resp || !ud->iw || !ud->w || !ud->nzbuf || !ud->m || !ud->m_alt || !ud->J || !ud->J2 ||
-      !ud->f || !ud->f2 || !ud->f3 || !ud->xs || !ud->g || !ud->G || !ud->gt || !ud->rootsfound || !ud->rootdir || !ws->nb ||
+      !ud->f || !ud->f2 || !ud->f3 || !ud->xs || !ud->ypc || !ud->g || !ud->G || !ud->gt || !ud->rootsfound || !ud->rootdir || !ws->nb ||
       !ws->sched_off || !ws->sched_s || !ws->sched_sp || !ud->Fp || !ud->Gp)
     return set_err(a, GS_ERR_INPUT, "out of memory");
 

@@ -123,7 +123,7 @@ class RunSettings:
 
 @dataclass(frozen=True)
 class SensitivityRequest:
-    """Forward parameter sensitivities of one run (explicit models, CVODE).
+    """Forward parameter sensitivities of one run (CVODE, or IDA for implicit models and DAEs).
 
     Parameters
     ----------

@@ -224,8 +224,6 @@ def _check(task: _Task, o: ContinuationOptions) -> tuple[ContinuationOptions, tu
         raise ParameterError(f"the parameter range must be two different finite values, got {start} .. {stop}")
     if o.method not in ORBIT_METHODS:
         raise ParameterError(f"method must be one of {', '.join(ORBIT_METHODS)}, got '{o.method}'")
-    if system.generated.implicit:
-        raise ParameterError("continuation needs an explicit model (variational equations for the monodromy)")
     o = replace(o, periods=whole_periods(o.periods))  # a whole number of forcing periods
     types = detect_types(o.detect)
     if o.method == "hbm" and o.detect is True:
@@ -376,7 +374,7 @@ def _first_orbit_shooting(task: _Task, o: ContinuationOptions) -> tuple[np.ndarr
     row[-1] = 1.0
     try:
         z, _, _ = C.correct(np.concatenate([res.u_from_orbit(guess, start), [start]]), row, start)
-        x_start = res.x0_of(z[:-1])
+        x_start = res.x0_of(z[:-1], float(z[-1]))
     except GearsymError:
         orbit = shoot(system, periods=o.periods, x0=guess, params=p_start, segments=o.segments, t0=t0, transient=0,
                       rtol=rtol, atol=a_tol, tol=min(o.tol, 1e-9))

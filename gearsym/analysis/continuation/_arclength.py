@@ -361,7 +361,8 @@ class _Tracer:
                       stop_reason=self.stop_reason, complete=self.complete, stop_value=float(nodes[-1].z[-1]),
                       parent=leg.parent, system=res.system, setup=setup,
                       info={"n_rejected_steps": self.n_rejected, "n_residual_evaluations": res.n_evals,
-                            "n_integrations": res.n_integrations, **dict(leg.info)})
+                            "n_integrations": res.n_integrations, "corrector": C.engine_report(),
+                            **dict(leg.info)})
 
 
 def _append_specials(nodes: list[Node], specials: list[tuple[int, str, dict[str, Any]]],

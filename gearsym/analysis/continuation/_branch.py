@@ -72,7 +72,9 @@ class Branch:
     parent : Bifurcation or None
         The period doubling this branch was switched on at.
     info : dict
-        Settings, counts of residual evaluations, wall time.
+        Settings, counts of residual evaluations, wall time, and ``"corrector"``: where the
+        corrections ran (``"C"``, ``"C (the Python corrector took over N times)"`` or
+        ``"Python: <why not C>"``, e.g. a DAE on IDA).
     system : System or None
         The compiled system (for :meth:`poincare`).
     setup : ContinuationSetup or None

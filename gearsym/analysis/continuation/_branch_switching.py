@@ -92,6 +92,9 @@ def _switch(branch: Branch, bifurcation: Bifurcation | int | None, stop: float |
     k = int(np.argmin(np.abs(w + 1.0)))
     v = np.real(V[:, k])
     v = v / np.linalg.norm(v)
+    # (a DAE's monodromy is that of its differential states: the algebraic variables, the last
+    # states, follow them and are not moved)
+    v = np.concatenate([v, np.zeros(len(pt.x0) - len(v))])
     res = ShootingResidual(system, setup.param, 2 * setup.periods, setup.params, setup.segments * (
         2 if setup.segments > 1 else 1), setup.t0, setup.rtol, setup.atol, setup.fd_step, setup.integrator,
         f_lambda=o.f_lambda)

@@ -10,6 +10,7 @@ with its test functions.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -36,6 +37,8 @@ from ._bifurcation import tau_branch_point, tau_neimark_sacker, tau_period_doubl
 from ._branch import BranchPoint
 
 __all__ = ["Continuer", "Node", "distance_to_one", "graph_like", "rescale"]
+
+_log = logging.getLogger(__name__)
 
 
 def _periodic_extremum(y: np.ndarray, i: int, sign: float) -> float:
@@ -78,7 +81,11 @@ class Continuer:
         gen = res.system.generated
         self.surfaces = [s["name"] for s in gen.surfaces]
         self.state_weight = float(state_weight)
-        self.state_scale = np.ones(res.nx)
+        self.state_scale = np.ones(gen.nx)  # every state's magnitude (the unknowns' scales: res.unknown_scale)
+        #: where the corrector runs: ``"C"`` or ``"Python"`` with the reason (decided on the first correction)
+        self.corrector_engine: str | None = None
+        #: corrections the C corrector gave up (a failed run, a singular matrix, ...) and the Python one made
+        self.n_c_fallbacks = 0
         self.Rs = np.ones(res.n)
         self.S = np.ones(res.n + 1)
         self.S[-1] = self.lam_scale
@@ -202,50 +209,65 @@ class Continuer:
 
     def _c_setup(self, lam: float) -> dict | None:
         """What the corrector in C needs (:func:`gearsym.engine.shoot.correct_in_c`), or ``None``
-        where it does not apply: not single shooting, no exact parameter derivatives, a parameter
-        that does not enter the parameter vector linearly (an argument of a bound parameter),
-        anchor rows (rigid-body modes) that change with the parameter, implicit models.  Decided once."""
+        where it does not apply: not single shooting, a method the C corrector does not run (IDA:
+        implicit and DAE models), no exact parameter derivatives, a parameter that does not enter
+        the parameter vector linearly (an argument of a bound parameter), anchor rows (rigid-body
+        modes) that change with the parameter.  Decided once; the choice and its reason are kept in
+        :attr:`corrector_engine` (the branch's ``info["corrector"]``)."""
         if "_c_setup_cache" in self.__dict__:
             return self.__dict__["_c_setup_cache"]
         try:
             out = self._make_c_setup(lam)
-        except GearsymError:
+        except GearsymError as exc:
+            out = f"the C corrector could not be set up ({exc})"
+        if isinstance(out, str):  # the reason why not: reported in the branch's info["corrector"]
+            self.corrector_engine = f"Python: {out}"
             out = None
+            _log.info("continuation corrector in Python: %s", self.corrector_engine[8:])
+        else:
+            self.corrector_engine = "C"
+            _log.debug("continuation corrector in C")
         self.__dict__["_c_setup_cache"] = out
         return out
 
-    def _make_c_setup(self, lam: float) -> dict | None:
+    def _make_c_setup(self, lam: float) -> dict | str:
+        """The C corrector's setup, or the reason why it does not apply."""
         res = self.res
         system = getattr(res, "system", None)
-        if getattr(res, "segments", None) != 1 or system is None or system.generated.implicit or \
-                system.generated.nx > MAX_STATES or len(system.generated.param_names) > MAX_STATES:
-            return None
+        if system is None or not hasattr(res, "segments"):
+            return "not a shooting residual"
+        if res.segments != 1:
+            return "multiple shooting"
         gen = system.generated
+        method = res.method or default_method(gen.implicit, system.defaults.get("method"))
+        if not supports_c_corrector(method):
+            return f"method '{method}' (the C corrector runs only the methods of the registry that allow it)"
+        if gen.nx > MAX_STATES or len(gen.param_names) > MAX_STATES:
+            return f"more than {MAX_STATES} states or parameters"
         if res.param not in gen.param_names or res.param in gen.bound or any(
                 res.param in args for _, args in gen.bound.values()):
-            return None
+            return f"'{res.param}' is not a plain entry of the parameter vector"
         if not getattr(res, "flam_with_residual", lambda lam: False)(lam):
-            return None
+            return "no exact parameter derivative"
         anchor = res.anchor_rows(lam)
         if anchor is not None:
             # the C iteration keeps the anchor rows of its start; they must not move with lambda
             for d in (1.0, -0.5):
                 other = res.anchor_rows(lam + d * max(1.0, abs(lam)))
                 if other is None or other.shape != anchor.shape or np.max(np.abs(other - anchor)) > 1e-12:
-                    return None
+                    return "rigid-body anchor rows that move with the parameter"
         engine = system.derivative_engine()
         if not hasattr(engine._lib, "gs_correct_ws"):
-            return None
-        method = res.method or default_method(False, system.defaults.get("method"))
-        if not supports_c_corrector(method) or np.ndim(res.atol):
-            return None
+            return "the build has no C corrector"
+        if np.ndim(res.atol):
+            return "per-state absolute tolerances"
         p0 = np.array(res.pvec(lam), float)
         D = directions(system, [res.param], p0, res.params(lam))[:, 0]
         # p(lambda) must be p0 + (lambda - lam0) D (declared-unit scaling is linear; check it)
         for d in (1.0, -0.5):
             pl = res.pvec(lam + d * max(1.0, abs(lam)))
             if np.max(np.abs(pl - (p0 + d * max(1.0, abs(lam)) * D))) > 1e-12 * max(1.0, float(np.max(np.abs(pl)))):
-                return None
+                return f"the parameter vector is not linear in '{res.param}'"
         return {"engine": engine, "method": method, "lam0": float(lam), "p0": p0, "D": D,
                 "max_steps": int(system.defaults.get("max_steps", 0)), "anchor": anchor}
 
@@ -281,6 +303,7 @@ class Continuer:
         if out.code == 6:
             raise ConvergenceError("corrector: non-finite residual")
         if not out.converged:
+            self.n_c_fallbacks += 1
             return None
         ev_log = out.events
         ev = Evaluation(out.R, segment_jacobian([out.monodromy]), out.f_lambda, monodromy=out.monodromy,
@@ -288,6 +311,14 @@ class Continuer:
                         samples=out.samples, tangent=None if out.tangent is None else (t_ref, out.tangent),
                         period=out.period if math.isfinite(out.period) else None, multipliers=out.multipliers)
         return out.z, ev, out.iterations
+
+    def engine_report(self) -> str:
+        """Where the corrections ran, for the branch's ``info["corrector"]``: ``"C"``, ``"C (the
+        Python corrector took over N times)"`` or ``"Python: <why not C>"``."""
+        out = self.corrector_engine or "Python"
+        if out == "C" and self.n_c_fallbacks:
+            out += f" (the Python corrector took over {self.n_c_fallbacks} times)"
+        return out
 
     def tangent(self, ev: Evaluation, t_ref: np.ndarray, lam: float | None = None) -> np.ndarray:
         """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0`` (and, with
@@ -341,7 +372,7 @@ class Continuer:
         mu = fq.multipliers
         smp = ev.samples
         G = H = g0 = None
-        x0 = res.x0_of(u)
+        x0 = res.x0_of(u, lam)
         params = res.params(lam)
         if smp is not None:  # from the corrector's C call: the period's samples, end excluded
             t_dense, Y, G, H = smp.t[:-1], smp.y[:-1], smp.g[:-1].T, smp.mesh[:-1]

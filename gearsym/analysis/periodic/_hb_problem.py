@@ -76,8 +76,11 @@ class HBResidual(_Residual):
     def _anchor_index(self) -> list[int]:
         return [i * self.nc for i in range(self.nx)]  # the mean (a0) of every state
 
-    def x0_of(self, u: np.ndarray) -> np.ndarray:
+    def x0_of(self, u: np.ndarray, lam: float | None = None) -> np.ndarray:
+        """The series' state at ``t0`` (a DAE's algebraic variables solved for at ``lam`` when given)."""
         C = self.coefficients(u)
+        if lam is not None and self.system.generated.algebraic:
+            return self._hb(float(lam)).x_at_t0(C)
         return C[0] + sum(C[2 * k - 1] for k in range(1, self.H + 1)) if self.H else C[0].copy()
 
     def unknown_scale(self, state_scale: np.ndarray) -> np.ndarray:
@@ -117,6 +120,8 @@ class HBResidual(_Residual):
                                       n_out=2, params=self.params(lam), monodromy=True)
             self.n_integrations += 1
             mono, events, x_end = tr.monodromy, list(tr.events), np.asarray(tr.x_final, float)
+            nd = self.nx - len(self.system.generated.algebraic)
+            mono = None if mono is None else mono[:nd, :nd]  # (a DAE: the differential states' multipliers)
         except GearsymError:
             pass
         return _Eval(R, J, Flam, monodromy=mono, events=events, x_end=x_end)
@@ -131,8 +136,9 @@ class HBResidual(_Residual):
         how = "integration over one period from the balance's x(t0) (time-domain defect)"
         if ev.x_end is None:
             return Closure(math.inf, math.inf, False, how=how, error="the integration from the balance's x(t0) failed")
-        d = np.abs(ev.x_end - self.x0_of(u))
-        ratio = d / state_sizes(Y, self.atol / FIXED_HARMONICS_DEFECT) / FIXED_HARMONICS_DEFECT
+        nd = self.nx - len(self.system.generated.algebraic)  # (a DAE: closes in its differential states)
+        d = np.abs(ev.x_end - self.x0_of(u))[:nd]
+        ratio = d / state_sizes(Y, self.atol / FIXED_HARMONICS_DEFECT)[:nd] / FIXED_HARMONICS_DEFECT
         k = int(np.argmax(ratio))
         return Closure(float(np.max(d)), float(ratio[k]), bool(ratio[k] <= 1.0), k, how=how)
 

@@ -27,6 +27,16 @@ that contain every excitation frequency (:mod:`gearsym.analysis.periodic._hbm_se
 period integrated from the balanced state closes to ``defect_tol`` of the orbit's
 size (:mod:`gearsym.analysis.periodic._hbm_driver`, which also adapts the AFT samples).
 
+**Implicit models and DAEs** (integrated by IDA): the derivatives of the differential states
+``x_d`` and the algebraic variables ``z`` of an index-1 DAE are solved for at every time sample
+from the residual ``F(t, [x_d; z], [x_d'; .]) = 0`` (the engine's ``"dae"`` evaluation: the
+model as the ODE ``x_d' = f_d(t, x_d)`` of its differential states, with ``z = h(t, x_d)``).
+Every state keeps its series; a differential state is balanced as above, an algebraic one by
+``w (C_z - DFT(h(t_m, x_d(t_m)))) = 0`` (its series is that of ``h`` along the orbit; the
+factor ``w`` gives its rows the size of the differential rows'), and the Jacobian's
+algebraic blocks are ``w (I - DFT diag(dh/dx_d) IDFT)`` (``d h / d x_d`` and ``d f_d / d x_d``
+by the implicit function theorem, the engine's ``"dae_jac"``).
+
 This is a second, independent periodic solver: it shares only the generated
 model functions with shooting, not the integrator.  The Floquet multipliers of
 the orbit it finds come from one engine integration of the variational
@@ -55,10 +65,38 @@ from ._floquet import segment_breaks
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
 
-__all__ = ["HarmonicBalance"]
+__all__ = ["HarmonicBalance", "sample_field", "sample_jacobian"]
 
 #: Largest harmonic-balance Jacobian (entries): the matrix budget of :mod:`gearsym.budget`.
 MAX_JACOBIAN_VALUES = MAX_MATRIX_VALUES
+
+
+def sample_field(system: CompiledSystem, t: np.ndarray, X: np.ndarray, p: np.ndarray,
+                 sigma: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The vector field at samples ``(t_m, X_m)``, in the mode the driver would use there.
+
+    Returns
+    -------
+    F : ndarray, shape (M, nd)
+        The derivatives of the differential states (an explicit model's right-hand side).
+    H : ndarray, shape (M, nalg)
+        The algebraic variables solved for at the samples (empty without).
+    """
+    if not system.generated.implicit:
+        F = system.engine.evaluate("rhs", t, X, p, sigma)
+        return F, F[:, :0]
+    nx = system.generated.nx
+    Y = system.engine.evaluate("dae", t, X, p, sigma)
+    nd = Y.shape[1] - nx
+    return Y[:, nx:], Y[:, nd:nx]
+
+
+def sample_jacobian(system: CompiledSystem, t: np.ndarray, X: np.ndarray, p: np.ndarray,
+                    sigma: np.ndarray | None = None) -> np.ndarray:
+    """``d [f_d; h] / d x_d`` at the samples, shape (M, nx, nd) (an explicit model's Jacobian)."""
+    if not system.generated.implicit:
+        return system.engine.evaluate("jac", t, X, p, sigma)
+    return system.engine.evaluate("dae_jac", t, X, p, sigma)
 
 
 class HarmonicBalance:
@@ -67,7 +105,7 @@ class HarmonicBalance:
     Parameters
     ----------
     system
-        An explicit compiled system.
+        The compiled system (an implicit one and a DAE too: module docstring).
     period
         Period of the sought orbit.
     harmonics
@@ -86,8 +124,6 @@ class HarmonicBalance:
 
     def __init__(self, system: CompiledSystem, period: float, harmonics: int | Sequence[int],
                  params: Mapping[str, float] | None = None, t0: float = 0.0, samples: int | None = None):
-        if system.generated.implicit:
-            raise ParameterError("harmonic balance needs an explicit model (x' = f(t, x))")
         self.system = system
         if isinstance(harmonics, (int, np.integer)):
             if int(harmonics) < 0:
@@ -107,6 +143,8 @@ class HarmonicBalance:
         self.w = 2 * np.pi / self.P
         self.t0 = float(t0)
         self.nx = system.generated.nx
+        #: the differential states (the first ``nd``; the rest are a DAE's algebraic variables)
+        self.nd = self.nx - len(system.generated.algebraic)
         self.nc = 2 * len(ks) + 1
         n = self.nx * self.nc
         if float(n) * n > MAX_JACOBIAN_VALUES:
@@ -154,10 +192,9 @@ class HarmonicBalance:
             D[2 * i, 2 * i - 1] = -k * self.w
         self.D = D
         self.uniform = self.quadrature.startswith("uniform")
-        # f and df/dx at the samples are evaluated by the engine (gs_eval), in the mode the
-        # driver would use there: the side of each surface from the sign of g, the schedule
-        # cycle and segment from t (the one schedule decoder, in C)
-        self._engine = system.engine
+        # f and df/dx at the samples are evaluated by the engine (gs_eval: sample_field,
+        # sample_jacobian), in the mode the driver would use there: the side of each surface
+        # from the sign of g, the schedule cycle and segment from t (the one schedule decoder, in C)
         self.n_evals = 0
 
     # -------------------------------------------------------------- series
@@ -166,11 +203,17 @@ class HarmonicBalance:
         return self.E @ C
 
     def residual(self, C: np.ndarray) -> np.ndarray:
-        """``R(C) = D C - DFT(f(t_m, x(t_m)))``, shape (nc, nx)."""
+        """``R(C) = D C - DFT(f(t_m, x(t_m)))``, shape (nc, nx); a DAE's algebraic columns
+        ``w (C_z - DFT(h(t_m, x_d(t_m))))``."""
         X = self.samples_of(C)
-        F = self._engine.evaluate("rhs", self.t, X, self.p)  # (M, nx)
+        F, H = sample_field(self.system, self.t, X, self.p)  # (M, nd), (M, nalg)
         self.n_evals += 1
-        return self.D @ C - self.Ep @ F
+        nd = self.nd
+        R = np.empty_like(C)
+        R[:, :nd] = self.D @ C[:, :nd] - self.Ep @ F
+        if nd < self.nx:
+            R[:, nd:] = self.w * (C[:, nd:] - self.Ep @ H)
+        return R
 
     def jacobian(self, C: np.ndarray) -> np.ndarray:
         """Exact AFT Jacobian ``dR/dC`` (ordering: state-major, then coefficient).
@@ -181,17 +224,18 @@ class HarmonicBalance:
         DFT of the samples aliases them), in ``O(nc^2)`` per block instead of ``O(nc^2 M)``.
         """
         X = self.samples_of(C)
-        Jm = self._engine.evaluate("jac", self.t, X, self.p)  # (M, i, j): d f_i / d x_j
-        nc = self.nc
+        Jm = sample_jacobian(self.system, self.t, X, self.p)  # (M, i, j): d f_i / d x_j (j < nd)
+        nc, nd = self.nc, self.nd
         n = self.nx * nc
         Jr = np.zeros((n, n))
         for i in range(self.nx):
-            for j in range(self.nx):
+            w = 1.0 if i < nd else self.w  # a DAE's algebraic rows: w (C_z - DFT h)
+            for j in range(nd):
                 col = Jm[:, i, j]
                 if not np.any(col):
                     continue
-                Jr[i * nc:(i + 1) * nc, j * nc:(j + 1) * nc] = -self.product_matrix(col)
-            Jr[i * nc:(i + 1) * nc, i * nc:(i + 1) * nc] += self.D
+                Jr[i * nc:(i + 1) * nc, j * nc:(j + 1) * nc] = -w * self.product_matrix(col)
+            Jr[i * nc:(i + 1) * nc, i * nc:(i + 1) * nc] += self.D if i < nd else self.w * np.eye(nc)
         return Jr
 
     def product_matrix(self, col: np.ndarray) -> np.ndarray:
@@ -239,14 +283,21 @@ class HarmonicBalance:
         return out
 
     def x_at_t0(self, C: np.ndarray) -> np.ndarray:
-        """The state ``x(t0)`` of the series."""
-        return np.asarray(C[0] + C[1::2].sum(axis=0), float)
+        """The state ``x(t0)`` of the series (a DAE's algebraic variables solved for from the
+        differential states there, not read from their series)."""
+        x = np.asarray(C[0] + C[1::2].sum(axis=0), float)
+        if self.nd < self.nx:
+            _, H = sample_field(self.system, np.array([self.t0]), x[None, :], self.p)
+            x[self.nd:] = H[0]
+        return x
 
     def relative_residual(self, C: np.ndarray, R: np.ndarray | None = None) -> float:
         """``max_i |R_i| / |(D C)_i|`` (2-norms over the harmonics of state ``i``): the
-        residual relative to the size of the derivative it balances (dimensionless)."""
+        residual relative to the size of the derivative it balances (dimensionless; a DAE's
+        algebraic rows relative to ``w |C_z|``)."""
         R = self.residual(C) if R is None else R
         DC = np.linalg.norm(self.D @ C, axis=0)
+        DC[self.nd:] = self.w * np.linalg.norm(C[:, self.nd:], axis=0)  # a DAE's algebraic rows: w |C_z|
         Rn = np.linalg.norm(R, axis=0)
         ref = np.maximum(DC, 1e-300)
         return float(np.max(Rn / ref)) if Rn.size else 0.0

@@ -115,11 +115,15 @@ def state_sizes(Y: np.ndarray, floor: float = 0.0) -> np.ndarray:
 
 def time_defect(system: CompiledSystem, x_start: np.ndarray, t0: float, period: float, params: Mapping[str, float] | None,
                 sizes: np.ndarray, rtol: float, atol: float, monodromy: bool = False):
-    """``(relative defect, absolute defect, trajectory)`` of one period integrated from ``x_start``."""
+    """``(relative defect, absolute defect, trajectory)`` of one period integrated from ``x_start``.
+
+    Over the differential states: a DAE's algebraic variables follow from them (the integration
+    makes them consistent), the orbit closes when they do."""
     tr = system.simulate(t_end=t0 + period, t0=t0, x0=x_start, rtol=rtol, atol=atol, n_out=256, params=params,
                          monodromy=monodromy)
-    d = np.abs(tr.x_final - x_start)
-    return float(np.max(d / sizes)), float(np.max(d)), tr
+    nd = system.generated.nx - len(system.generated.algebraic)
+    d = np.abs(tr.x_final - x_start)[:nd]
+    return float(np.max(d / np.asarray(sizes)[:nd])), float(np.max(d)), tr
 
 
 def harmonic_balance(system: CompiledSystem, period: float | None = None, periods: float = 1,
@@ -131,7 +135,8 @@ def harmonic_balance(system: CompiledSystem, period: float | None = None, period
     Parameters
     ----------
     system
-        An explicit compiled system.
+        The compiled system (an implicit model or a DAE too: the derivatives and the algebraic
+        variables are solved for at every sample, :mod:`gearsym.analysis.periodic._hbm`).
     period, periods
         Orbit period (default ``periods`` forcing periods; a positive whole number for a forced
         system, and ``period`` a whole number of forcing periods).
@@ -166,7 +171,7 @@ def harmonic_balance(system: CompiledSystem, period: float | None = None, period
     Raises
     ------
     ParameterError
-        An implicit model, bad options, a keyword that is no setting of
+        Bad options, a keyword that is no setting of
         :class:`~gearsym.analysis.periodic.HarmonicBalanceOptions`.
     ConvergenceError
         The balance did not converge, or it converged only relative to coefficients
@@ -209,9 +214,6 @@ class _Balance:
         o, system = self.o, self.system
         check_tolerances(tol=o.tol, rtol=o.rtol, atol=o.atol, defect_tol=o.defect_tol, aft_tol=o.aft_tol)
         self.floor = o.atol / o.defect_tol  # the absolute floor of every state's size (see state_sizes)
-        if system.generated.implicit:
-            raise ParameterError("harmonic balance needs an explicit model (x' = f(t, x)); this one is in implicit "
-                                 "(residual) form, a DAE: use shooting (method='shooting')")
         self.period, self.periods = orbit_period(system, self.params, period, periods)  # whole forcing periods
         self.T = system.period(self.params)
         nx = system.generated.nx

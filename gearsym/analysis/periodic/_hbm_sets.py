@@ -9,7 +9,7 @@ the harmonics between the clusters; a *set* ``{0..h} U {m c - h .. m c + h}`` do
 not.
 
 The excitation harmonics are read from the model itself: the right-hand side and
-its Jacobian are sampled along a constant state over one period and their
+its Jacobian (a DAE's: :func:`~gearsym.analysis.periodic._hbm.sample_field`) are sampled along a constant state over one period and their
 spectra give every frequency the model's time dependence contains
 (:func:`excitation_harmonics`).  :func:`harmonic_set` builds the set for a band
 half-width ``h`` and ``m`` multiples of every carrier; :func:`growth_sets` the
@@ -24,6 +24,8 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from ._hbm import sample_field, sample_jacobian
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
@@ -57,10 +59,9 @@ def excitation_harmonics(system: CompiledSystem, period: float, x: np.ndarray, p
         # the time dependence, not of the switching a constant state sees as the backlash moves
         g = system.engine.evaluate("sw", t[:1], X[:1], p)[0]
         sigma = np.tile(np.where(g >= 0, 1.0, -1.0)[None, :], (samples, 1))
-    F = system.engine.evaluate("rhs", t, X, p, sigma)  # (samples, nx)
-    J = system.engine.evaluate("jac", t, X, p, sigma)  # (samples, i, j)
-    nx = F.shape[1]
-    rows = np.vstack([F.T, J.reshape(samples, nx * nx).T])
+    F, H = sample_field(system, t, X, p, sigma)  # (samples, nd), a DAE's algebraic variables (samples, nalg)
+    J = sample_jacobian(system, t, X, p, sigma)  # (samples, i, j)
+    rows = np.vstack([F.T, H.T, J.reshape(samples, -1).T])
     A = np.abs(np.fft.rfft(rows, axis=1))[:, 1:samples // 2]
     out: dict[int, float] = {}
     for a in A:

@@ -95,7 +95,9 @@ class PeriodicOrbit:
     info : dict
         Method-specific extras (tolerances, harmonic growth history, wall time) and
         ``"verification"``: the orbit integrated once more over its period, the check every
-        converged orbit passes before it is reported (:mod:`gearsym.analysis.periodic._verification`).
+        converged orbit passes before it is reported (:mod:`gearsym.analysis.periodic._verification`);
+        shooting's ``"newton"``: where the Newton iteration ran (``"C"``, ``"C, then Python"``
+        or ``"Python: <why not C>"``, e.g. a DAE on IDA).
     stability : str
         ``"asymptotically_stable"``, ``"neutral"`` (a multiplier on the unit circle
         within the monodromy's error) or ``"unstable"`` (the rule of
@@ -386,7 +388,7 @@ class PeriodicOrbit:
             d["min"], d["max"] = lo, hi
             d["meshes"] = self.meshes()
         for k in ("wall_s", "harmonic_growth", "rtol", "atol", "tol", "defect", "defect_relative", "harmonic_set",
-                  "verification"):
+                  "verification", "newton"):
             if k in self.info:
                 d[k] = self.info[k]
         return d

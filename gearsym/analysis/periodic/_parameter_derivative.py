@@ -12,9 +12,11 @@ events and breakpoints included, see ``gearsym/engine/gs_driver.c``) and
 integration per segment of the state and one sensitivity column, in place of the
 finite difference with step ``sqrt(rtol)`` (whose truncation error moved fold locations).
 
-Where the exact derivative is not available, :func:`exact_f_lambda` returns ``None`` and
-the continuation keeps its finite difference: the harmonic-balance residual, implicit
-(IDA) models, systems whose build with the parameter derivatives cannot be made (the
+Implicit (IDA) models and DAEs have it too (IDA's forward sensitivities; the residual's
+unknowns and rows are the differential states).  Where the exact derivative is not
+available, :func:`exact_f_lambda` returns ``None`` and
+the continuation keeps its finite difference: the harmonic-balance residual, systems whose
+build with the parameter derivatives cannot be made (the
 first exact ``F_lambda`` makes it: :meth:`gearsym.system.System.derivative_engine`), and
 integrations that fail for the sensitivities only (a grazing event, where the event-time
 derivative is infinite).  A residual made with ``f_lambda="finite_difference"`` (the

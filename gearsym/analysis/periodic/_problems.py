@@ -130,7 +130,9 @@ class PeriodicOrbitProblem:
                  ) -> Evaluation:  # pragma: no cover
         raise NotImplementedError
 
-    def x0_of(self, u: np.ndarray) -> np.ndarray:  # pragma: no cover
+    def x0_of(self, u: np.ndarray, lam: float | None = None) -> np.ndarray:  # pragma: no cover
+        """The state at ``t0`` of the unknowns ``u`` (at ``lambda``: a DAE's algebraic variables
+        depend on the parameters)."""
         raise NotImplementedError
 
     def unknown_scale(self, state_scale: np.ndarray) -> np.ndarray:  # pragma: no cover
@@ -196,6 +198,13 @@ class PeriodicOrbitProblem:
 class ShootingResidual(PeriodicOrbitProblem):
     """``F(X, lambda)``: the (multiple) shooting residual of ``periods`` forcing periods.
 
+    The unknowns are the differential states at the segment starts: a DAE's algebraic
+    variables are functions of them (index 1), made consistent by the integrator (IDA's
+    ``IDACalcIC``) at every segment start, so the residual, its Jacobian (the differential
+    block of the monodromy) and ``F_lambda`` are those of the ODE of the differential states,
+    and the algebraic variables appear in the states of the orbit (:meth:`x0_of`,
+    :meth:`dense`).
+
     Parameters
     ----------
     system
@@ -240,32 +249,53 @@ class ShootingResidual(PeriodicOrbitProblem):
         if f_lambda not in F_LAMBDA:
             raise ParameterError(f"f_lambda must be one of {', '.join(F_LAMBDA)}, got '{f_lambda}'")
         self.f_lambda = f_lambda
-        self.nx = system.generated.nx
+        #: unknowns per segment: the differential states (all states of an ODE)
+        self.nx = system.generated.nx - len(system.generated.algebraic)
         self.n = self.segments * self.nx
         self.n_evals = 0
         self.n_integrations = 0
+        #: a DAE's algebraic variables at each segment start (the last consistent values: the
+        #: start of the integrator's consistent initialisation)
+        self._z = np.zeros((self.segments, system.generated.nx - self.nx))
 
     def times(self, lam: float) -> np.ndarray:
         """Segment boundaries ``t0 = s_0 < ... < s_N = t0 + P(lambda)``."""
         return segment_times(self.t0, self.period(lam), self.segments)
 
-    def x0_of(self, u: np.ndarray) -> np.ndarray:
-        return np.asarray(u[: self.nx], float)
+    def x0_of(self, u: np.ndarray, lam: float | None = None) -> np.ndarray:
+        """The state at ``t0``; a DAE's algebraic variables solved for at ``lam`` (required then)."""
+        x = np.asarray(u[: self.nx], float)
+        if not self._z.shape[1]:
+            return x
+        if lam is None:
+            raise ParameterError("the state of a DAE's orbit needs the parameter value (its algebraic variables "
+                                 "depend on it)")
+        y = self.system.engine.evaluate("dae", [self.t0], np.concatenate([x, self._z[0]])[None, :], self.pvec(lam))
+        return np.asarray(y[0, : self.system.generated.nx], float)
 
     def _anchor_index(self) -> list[int]:
         return list(range(self.nx))  # the states of the first segment
 
     def unknown_scale(self, state_scale: np.ndarray) -> np.ndarray:
-        return np.tile(state_scale, self.segments)
+        return np.tile(np.asarray(state_scale, float)[: self.nx], self.segments)
 
     def u_from_orbit(self, x0: np.ndarray, lam: float) -> np.ndarray:
-        """Unknowns (segment start states) of the orbit through ``x0``."""
+        """Unknowns (segment start states) of the orbit through ``x0`` (all states)."""
+        x0 = np.asarray(x0, float)
         if self.segments == 1:
-            return np.asarray(x0, float).copy()
-        s = self.times(lam)
-        tr = self.system.simulate(t_end=s[-1], t0=s[0], x0=x0, rtol=self.rtol, atol=self.atol, t_out=s,
-                                  params=self.params(lam), method=self.method)
-        return np.asarray(tr.y[:-1], float).ravel()
+            Y = x0[None, :]
+        else:
+            s = self.times(lam)
+            tr = self.system.simulate(t_end=s[-1], t0=s[0], x0=x0, rtol=self.rtol, atol=self.atol, t_out=s,
+                                      params=self.params(lam), method=self.method)
+            Y = np.asarray(tr.y[:-1], float)
+        self._z = Y[:, self.nx:].copy()
+        return Y[:, : self.nx].ravel().copy()
+
+    def _start(self, i: int, x: np.ndarray) -> np.ndarray:
+        """The integration's start of segment ``i`` from its unknowns ``x``: with a DAE's algebraic
+        variables appended (their last consistent values)."""
+        return np.concatenate([x, self._z[i]]) if self._z.shape[1] else x
 
     def flam_with_residual(self, lam: float) -> bool:
         """Whether :meth:`evaluate` gets ``F_lambda`` from the residual's own integration (the
@@ -311,22 +341,27 @@ class ShootingResidual(PeriodicOrbitProblem):
                 inputs, _, dP = setup
                 sens = {"sensitivities": [self.param], "span_derivative": (dP * i / N, dP * (i + 1) / N),
                         "inputs": inputs}
-            fl = self.system.flow(X[i], s[i], s[i + 1], p, rtol=self.rtol, atol=self.atol, monodromy=jac,
-                                  method=self.method, max_step=max_step, **sens)
+            fl = self.system.flow(self._start(i, X[i]), s[i], s[i + 1], p, rtol=self.rtol, atol=self.atol,
+                                  monodromy=jac, method=self.method, max_step=max_step, **sens)
             self.n_integrations += 1
-            xs.append(fl.x_final)
-            Ms.append(fl.monodromy)
+            xs.append(fl.x_final[:nx])
+            self._keep_z((i + 1) % N, fl.x_final)
+            Ms.append(None if fl.monodromy is None else fl.monodromy[:nx, :nx])  # (a DAE: the differential block)
             evs.extend(flow_events(self.system, fl))
             if Flam is not None:
-                Flam[i * nx:(i + 1) * nx] = fl.sensitivity[:, 0]
+                Flam[i * nx:(i + 1) * nx] = fl.sensitivity[:nx, 0]
         R = np.concatenate([xs[i] - X[(i + 1) % N] for i in range(N)])
         self.n_evals += int(count)
         if not jac:
             return Evaluation(R, None, Flam, events=evs)
         if any(M is None for M in Ms):
-            raise GearsymError("the engine returned no monodromy (implicit models are not supported by "
-                               "continuation yet)")
+            raise GearsymError(f"the engine returned no monodromy (method '{self.method}')")
         return Evaluation(R, segment_jacobian(Ms), Flam, monodromy=monodromy_product(Ms), events=evs)
+
+    def _keep_z(self, i: int, x: np.ndarray) -> None:
+        """Keep the consistent algebraic variables of a segment end for segment ``i``'s next start."""
+        if self._z.shape[1] and np.all(np.isfinite(x)):
+            self._z[i] = x[self.nx:]
 
     def dense(self, u: np.ndarray, lam: float, n_per_period: int) -> tuple[np.ndarray, np.ndarray]:
         t, Y, _ = self.dense_ends(u, lam, n_per_period)
@@ -339,8 +374,9 @@ class ShootingResidual(PeriodicOrbitProblem):
         if ends is None:
             return Closure(math.inf, math.inf, False, error="no integration of the orbit without the variational "
                                                            "equations")
-        return closure(np.reshape(u, (self.segments, self.nx)), ends, scale, rtol=self.rtol, atol=self.atol, tol=tol,
-                       amplification=amplification)
+        nx = self.nx  # (a DAE: the differential states, which determine the orbit)
+        return closure(np.reshape(u, (self.segments, nx)), np.asarray(ends)[:, :nx], np.asarray(scale)[:nx],
+                       rtol=self.rtol, atol=self.atol, tol=tol, amplification=amplification)
 
     def dense_ends(self, u: np.ndarray, lam: float, n_per_period: int
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
@@ -351,12 +387,12 @@ class ShootingResidual(PeriodicOrbitProblem):
         n_seg = max(8, int(math.ceil(n_per_period * self.periods / N)))
         max_step = self.period(lam) / self.periods / 8
         ts, ys = [], []
-        ends = np.empty((N, nx))
+        ends = np.empty((N, self.system.generated.nx))
         for i in range(N):
             # the flow's samples: the same integration as System.simulate on this grid, without
             # the trajectory object
-            fl = self.system.flow(X[i], s[i], s[i + 1], p, rtol=self.rtol, atol=self.atol, monodromy=False,
-                                  method=self.method, max_step=max_step, n_samples=n_seg + 1)
+            fl = self.system.flow(self._start(i, X[i]), s[i], s[i + 1], p, rtol=self.rtol, atol=self.atol,
+                                  monodromy=False, method=self.method, max_step=max_step, n_samples=n_seg + 1)
             self.n_integrations += 1
             grid = np.linspace(s[i], s[i + 1], n_seg + 1)
             ts.append(grid[:-1])

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import logging
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -61,6 +62,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
 
 __all__ = ["shoot"]
+
+_log = logging.getLogger(__name__)
 
 
 def shoot(system: CompiledSystem, period: float | None = None, periods: float = 1,
@@ -132,6 +135,7 @@ def shoot(system: CompiledSystem, period: float | None = None, periods: float = 
         segments=problem.segments, segment_states=newton.X.copy(),
         segment_monodromies=[np.asarray(M) for M in newton.monodromies if M is not None], history=problem.history,
         info={"rtol": o.rtol, "atol": o.atol, "tol": o.tol, "wall_s": wall, "failure": verdict.failure or None,
+              "newton": problem.newton_engine,
               "monodromy_rtol": max(o.rtol / 1e-6, 1e-12) if system.generated.implicit else o.rtol,
               "rigid_anchor": problem.anchor is not None,
               "relative_residual": newton.relative_residual, "state_scales": problem.scale.tolist(),
@@ -230,6 +234,9 @@ class ShootingProblem:
 
     def __post_init__(self) -> None:
         system, o = self.system, self.options
+        #: where the Newton iteration ran: ``"C"``, ``"C, then Python"`` (the C iteration gave up and
+        #: the Python one resumed) or ``"Python: <why not C>"`` (:meth:`solve`)
+        self.newton_engine = ""
         T = system.period(self.params)
         self.segments = segments = int(o.segments)
         if segments < 1:
@@ -414,11 +421,20 @@ class ShootingProblem:
         singular step, ...) the Python iteration resumes from its last accepted iterate (the
         steps before are the ones it would have taken itself)."""
         fast = None
-        if self.segments == 1 and self.anchor is None:
+        if self.segments > 1:
+            self.newton_engine = "Python: multiple shooting"
+        elif self.anchor is not None:
+            self.newton_engine = "Python: rigid-body anchor rows"
+        else:
             o = self.options
             fast = _newton_in_c(self.system, X[0], self.s[0], self.s[1], self.pvec, rtol=o.rtol, atol=o.atol,
                                 tol=o.tol, max_iter=o.max_iter, method=o.method, max_step=self.max_step,
                                 n_amp=self.n_amp)
+            if fast is None or isinstance(fast, str):
+                self.newton_engine, fast = f"Python: {fast or 'the C iteration does not apply'}", None
+            else:
+                self.newton_engine = "C" if fast.converged else "C, then Python"
+        (_log.debug if self.newton_engine == "C" else _log.info)("shooting Newton: %s", self.newton_engine)
         if fast is not None and not fast.converged:
             if fast.code in (1, 2, 3, 4) and fast.iterations >= 1:
                 X = fast.x[None, :].copy()
@@ -547,17 +563,20 @@ _C_NOTES = {0: "", 1: "Newton step below tolerance (residual at the integration 
 def _newton_in_c(system: CompiledSystem, x: np.ndarray, t0: float, t1: float, pvec: np.ndarray, *, rtol: float, atol: float,
                  tol: float, max_iter: int, method: str | None, max_step: float, n_amp: int) -> Any:
     """The full-step Newton iteration of :func:`shoot` in one C call
-    (:func:`gearsym.engine.shoot.shoot_in_c`; its outcome, converged or not), or ``None`` where
-    it does not apply (implicit models, a build without it)."""
+    (:func:`gearsym.engine.shoot.shoot_in_c`; its outcome, converged or not), or the reason why
+    it does not apply (a method the C iteration does not run: IDA, for implicit and DAE models; a
+    build without it; more than :data:`~gearsym.engine.shoot.MAX_STATES` states)."""
     gen = system.generated
-    if gen.implicit or gen.nx > MAX_STATES or not hasattr(system.engine._lib, "gs_shoot_ws"):
-        return None
-    method = method or default_method(False, system.defaults.get("method"))
+    method = method or default_method(gen.implicit, system.defaults.get("method"))
     if not supports_c_shooting(method):
-        return None
+        return f"method '{method}' (the C iteration runs only the methods of the registry that allow it)"
+    if gen.nx > MAX_STATES:
+        return f"more than {MAX_STATES} states"
+    if not hasattr(system.engine._lib, "gs_shoot_ws"):
+        return "the build has no C iteration"
     max_steps = int(system.defaults.get("max_steps", 0))
     if max_step and (t1 - t0) / max_step > (max_steps or 10_000_000):
-        return None  # the Python path raises the step-budget error
+        return "the step budget"  # the Python path raises the step-budget error
     n = max(int(n_amp), 2)
     grid = _steps(n) * ((t1 - t0) / (n - 1)) + t0  # np.linspace(t0, t1, n)'s arithmetic
     grid[-1] = t1
