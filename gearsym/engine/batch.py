@@ -22,6 +22,7 @@ from gearsym.budget import check_count, check_counts
 from gearsym.engine.driver import INDEX_MAX, METHODS, Engine, _ptr
 from gearsym.engine.errors import EngineABIError, EngineInputError
 from gearsym.engine.sim_args import GsSimArgs
+from gearsym.integrators import DEFAULT_METHOD, EXPLICIT
 
 __all__ = ["STATUS_NAMES", "BatchResult", "run_batch"]
 
@@ -80,7 +81,7 @@ def _bind(engine: Engine) -> Any:
 
 
 def run_batch(engine: Engine, x0s: Any, p: Any, t0: float, t_end: float, t_out: Any = None, *,
-              sigma0s: Any = None, method: str = "adams", rtol: float = 1e-8, atol: float = 1e-10,
+              sigma0s: Any = None, method: str | None = None, rtol: float = 1e-8, atol: float = 1e-10,
               atol_vec: Any = None, max_step: float = 0.0, max_steps: int = 0, max_events: int = 0) -> BatchResult:
     """Integrate ``n`` initial states from ``t0`` to ``t_end`` in one C call.
 
@@ -114,6 +115,7 @@ def run_batch(engine: Engine, x0s: Any, p: Any, t0: float, t_end: float, t_out: 
     KeyboardInterrupt
         Ctrl-C during the batch (checked between runs and within each).
     """
+    method = method or DEFAULT_METHOD[EXPLICIT]  # the registry's default for explicit models
     if method not in METHODS:
         raise EngineInputError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
     check_count("max_steps", max_steps, low=0)

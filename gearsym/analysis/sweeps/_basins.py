@@ -63,6 +63,7 @@ import numpy as np
 
 from ...budget import LIMITS, check_count
 from ...errors import GearsymError, ParameterError
+from ...integrators import check_method, default_method, get_method
 from .._inputs import SceneLike, as_system
 from ._attractors import KINDS, Attractor, Context, Table, identify, table_from_arrays
 
@@ -166,8 +167,8 @@ class BasinOptions:
         if self.atol is not None and not (isinstance(self.atol, (int, float)) and math.isfinite(self.atol)
                                           and self.atol > 0):
             raise ParameterError(f"atol must be positive and finite, got {self.atol!r}")
-        if self.method is not None and self.method not in ("bdf", "adams"):
-            raise ParameterError(f"method must be 'bdf' or 'adams', got {self.method!r}")
+        if self.method is not None:
+            get_method(self.method)  # a known integration method (its model form is checked with the system)
         if self.lyapunov_periods < 32:
             raise ParameterError(f"lyapunov_periods must be at least 32 (the exponent's error estimate needs "
                                  f"32 blocks), got {self.lyapunov_periods:g}")
@@ -494,9 +495,8 @@ class _Run:
         self.periods = np.zeros(n, dtype=int)
         self.attractors: list[Attractor] = []
         self.grid_magnitude = np.max(np.abs(cells), axis=0)
-        method = opts.method or str(system.defaults.get("method", "adams"))
-        if method not in ("adams", "bdf"):
-            method = "adams"
+        method = opts.method or default_method(system.generated.implicit, system.defaults.get("method"))
+        check_method(method, system.generated.implicit)
         self.ctx = Context(system=system, params=params, p=system.param_vector(params), t0=opts.phase * T, T=T,
                            rtol=float(opts.rtol), atol=self._atol(), method=method, max_period=opts.max_period,
                            radius=opts.radius, cloud=opts.cloud, lyapunov_periods=float(opts.lyapunov_periods))
