@@ -18,6 +18,7 @@ from dataclasses import replace
 
 import sympy as sp
 
+from ..display import SymbolicDisplay
 from ..errors import SpecError
 from ..spec.scene import ResolvedScene
 from .budget import Budget, check_expression, checkpoint
@@ -29,8 +30,11 @@ from .rigid import mode_dicts, rigid_body_modes, transform_modes
 from .switching import ModalForm, Mode, ScheduleInfo, SwitchingFunction, make_modal
 
 
-class SymbolicModel:
+class SymbolicModel(SymbolicDisplay):
     """Equations of motion of a resolved scene, derived with sympy.
+
+    In Jupyter the model shows its equations of motion and switching functions typeset
+    (``_repr_latex_``: :meth:`latex`); ``repr`` is one line.
 
     Parameters
     ----------

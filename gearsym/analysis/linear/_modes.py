@@ -47,6 +47,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ...budget import check_count
+from ...display import ModalDisplay
 from ...errors import ParameterError
 from ...static import PeriodAverage, StaticEquilibrium, equal_nodes
 from ...static import static_equilibrium as solve_static
@@ -58,9 +59,12 @@ __all__ = ["ModalAnalysis", "averaged_linearization", "diagonal_mass", "equilibr
            "static_equilibrium"]
 
 
-@dataclass(frozen=True)
-class ModalAnalysis:
+@dataclass(frozen=True, repr=False)
+class ModalAnalysis(ModalDisplay):
     """Natural frequencies and mode shapes of a linearised model.
+
+    ``repr`` is one line; ``to_dataframe()`` gives one row per mode, ``to_xarray()`` a dataset
+    on ``(mode, coordinate)`` (:mod:`gearsym.display`).
 
     Attributes
     ----------
@@ -96,7 +100,8 @@ class ModalAnalysis:
     info : dict
         ``samples`` (``None``: the exact mean), ``nodes`` (of the average), ``period``,
         ``equilibrium_iterations`` and ``equilibrium_residual`` (Newton, all contact states
-        tried), ``contact_states_tried``, ``rigid_body``, ``symmetry_error``, ``cluster_tol``.
+        tried), ``contact_states_tried``, ``rigid_body``, ``symmetry_error``, ``cluster_tol``,
+        ``frequency_unit`` (``"Hz"``, or ``"1/time"`` for a model in dimensionless time).
     classification : list of str or None
         A type per mode where a classifier applies (planetary sets:
         ``"rotational"``, ``"translational"``, ``"planet"``, ``"mixed"``).
@@ -386,6 +391,12 @@ def _groups(f: np.ndarray, cluster_tol: float) -> list[list[int]]:
     return out
 
 
+def _frequency_unit(system: CompiledSystem) -> str:
+    """``"Hz"`` for a model in seconds, ``"1/time"`` in dimensionless time (or unknown)."""
+    table = getattr(system, "units_table", None)
+    return "Hz" if callable(table) and table().get("t") == "s" else "1/time"
+
+
 def modal_analysis(system: CompiledSystem, params: Mapping[str, float] | None = None, *, samples: int | None = None,
                    t0: float = 0.0, x0: Sequence[float] | None = None, cluster_tol: float = 1e-6,
                    where: tuple[str | None, str | None] = (None, None)) -> ModalAnalysis:
@@ -470,5 +481,6 @@ def modal_analysis(system: CompiledSystem, params: Mapping[str, float] | None = 
               "equilibrium_iterations": eq.info["iterations"], "equilibrium_residual": eq.info["residual"],
               "contact_states_tried": eq.info["states_tried"],
               "rigid_body": eq.free > 0 or bool(np.any(f == 0.0)),
-              "symmetry_error": sym_err if math.isfinite(sym_err) else None, "cluster_tol": cluster_tol},
+              "symmetry_error": sym_err if math.isfinite(sym_err) else None, "cluster_tol": cluster_tol,
+              "frequency_unit": _frequency_unit(system)},
         _vectors=vectors)
