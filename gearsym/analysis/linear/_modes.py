@@ -105,6 +105,9 @@ class ModalAnalysis(ModalDisplay):
     classification : list of str or None
         A type per mode where a classifier applies (planetary sets:
         ``"rotational"``, ``"translational"``, ``"planet"``, ``"mixed"``).
+    vectors : ndarray or None
+        The ``M``-orthonormal eigenvectors as columns (symmetric case), behind
+        :meth:`mass_normalized` (constructor argument ``_vectors``).
     """
 
     coordinate_names: list[str]
@@ -130,7 +133,12 @@ class ModalAnalysis(ModalDisplay):
         return len(self.frequencies_hz)
 
     def mass_normalized(self) -> np.ndarray:
-        """Shapes as columns, ``M``-orthonormal in the recovered mass (symmetric case only)."""
+        """Shapes as columns, ``M``-orthonormal in the recovered mass (symmetric case only).
+
+        Returns
+        -------
+        ndarray, shape (n_coordinates, n_modes)
+        """
         if self._vectors is None:
             raise ParameterError("mass-normalised shapes need the symmetric (diagonal-mass) case")
         return self._vectors
@@ -138,6 +146,11 @@ class ModalAnalysis(ModalDisplay):
     def energy_fractions(self, group: Sequence[int]) -> np.ndarray:
         """Kinetic-energy fraction of every coordinate in a group of modes (summed over the
         group: independent of the basis chosen inside a repeated frequency).
+
+        Parameters
+        ----------
+        group
+            Mode indices (one of :attr:`groups`).
 
         Returns
         -------
@@ -157,8 +170,19 @@ class ModalAnalysis(ModalDisplay):
         """The text report of ``gearsym modes``: one row per mode (frequency, multiplicity,
         damping ratio, type, largest components), the contact state and the structure verdict.
 
-        ``frequency_unit``: the label of the frequency column (``"1/time"`` for models in
-        dimensionless time, whose ``frequencies_hz`` are cycles per unit time)."""
+        Parameters
+        ----------
+        title
+            The scene's name (the first line's head).
+        frequency_unit
+            The label of the frequency column (``"1/time"`` for models in dimensionless time,
+            whose ``frequencies_hz`` are cycles per unit time).
+
+        Returns
+        -------
+        str
+            Lines of text.
+        """
         names = self.coordinate_names
         samples = self.info.get("samples")
         mean = (f"mean stiffness over {samples} samples per forcing period" if samples else
@@ -193,7 +217,17 @@ class ModalAnalysis(ModalDisplay):
         return "\n".join(lines)
 
     def to_dict(self, shapes: bool = True) -> dict[str, Any]:
-        """JSON-ready summary (``mode_shapes``: one mapping coordinate -> amplitude per mode)."""
+        """JSON-ready summary (``mode_shapes``: one mapping coordinate -> amplitude per mode).
+
+        Parameters
+        ----------
+        shapes
+            Include the mode shapes.
+
+        Returns
+        -------
+        dict
+        """
         d: dict[str, Any] = {
             "coordinate_names": list(self.coordinate_names),
             "frequencies_hz": [float(f) for f in self.frequencies_hz],
