@@ -261,7 +261,7 @@ class TrajectoryDisplay:
     def _repr_html_(self) -> str:
         units = getattr(self, "units", {}) or {}
         t, y, names = self.t, self.y, self.state_names  # type: ignore[attr-defined]
-        rows = [("time", f"{fmt(t[0])} .. {fmt(t[-1])} {_unit(units, 't') or 's'}, {len(t)} points"
+        rows = [("time", f"{_with_unit(f'{fmt(t[0])} .. {fmt(t[-1])}', _unit(units, 't'))}, {len(t)} points"
                  if len(t) else "none"),
                 ("events", f"{len(self.events)} surface crossings"),  # type: ignore[attr-defined]
                 ("forcing period", fmt(self.period) if self.period else "none"),  # type: ignore[attr-defined]
@@ -350,7 +350,7 @@ class OrbitDisplay:
                         [(fmt(m, 6), fmt(abs(m), 6), fmt(o.multiplier_tolerances[i], 2)
                           if i < len(o.multiplier_tolerances) else "") for i, m in enumerate(o.multipliers)])
         x0 = html_table(("state", "x0", "unit"), [(n, fmt(v), _unit(units, n)) for n, v in zip(o.state_names, o.x0)])
-        rows = [("method", o.method), ("period", f"{fmt(o.period)} {_unit(units, 't') or ''}".strip()),
+        rows = [("method", o.method), ("period", _with_unit(fmt(o.period), _unit(units, "t"))),
                 ("stability", f"{_stability(o.stability)} (max|mu| {fmt(o.max_multiplier)})"),
                 ("converged", f"{o.converged}: residual {fmt(o.residual, 3)}, {o.iterations} iterations")]
         if o.rattle_states:
@@ -463,8 +463,8 @@ class BifurcationDisplay:
 
     def _repr_html_(self) -> str:
         b: Any = self
-        info = [(k, v if isinstance(v, str) else json.dumps(v, default=_json_default)[:120])
-                for k, v in b.info.items()]
+        info = [(k, v if isinstance(v, str) else fmt(v) if isinstance(v, (float, int, np.number))
+                 else json.dumps(v, default=_json_default)[:120]) for k, v in b.info.items()]
         return html_card("Bifurcation", f"{b.type} at {fmt(b.value)}",
                          [("multipliers", _mu_text(b.point.multipliers, 8)),
                           ("x0", ", ".join(fmt(v) for v in b.point.x0)), ("period", fmt(b.point.period)), *info])
@@ -500,7 +500,8 @@ class BranchDisplay:
                          [(i, fmt(b.points[i].value), _stability(b.points[i].stability),
                            fmt(_max_abs(b.points[i].multipliers), 4), fmt(b.points[i].max, 5), fmt(b.points[i].min, 5),
                            b.points[i].rattle_state) for i in shown])
-        rows = [("parameter", f"{b.param} [{units.get(b.param, '') or '-'}]"), ("points", len(b.points)),
+        unit = units.get(b.param, "")
+        rows = [("parameter", f"{b.param} [{unit}]" if unit not in ("", "1") else b.param), ("points", len(b.points)),
                 ("stable points", int(np.sum(b.stable))), ("method", f"{b.method}, {fmt(b.periods)} forcing period(s)"),
                 ("end", f"{'complete' if b.complete else 'incomplete'}: {b.stop_reason}")]
         sections = [("bifurcations", bif)] if b.bifurcations else []
@@ -626,7 +627,7 @@ class ModalDisplay:
         m: Any = self
         f = ", ".join(fmt(v, 5) for v in m.frequencies_hz[:6]) + (", ..." if m.n_modes > 6 else "")
         contact = f"; contact {', '.join(f'{k}: {v}' for k, v in m.contact.items())}" if m.contact else ""
-        return (f"ModalAnalysis({m.n_modes} modes of [{names_list(m.coordinate_names)}]: {f} {self._frequency_unit()}"
+        return (f"ModalAnalysis({m.n_modes} mode{'s' if m.n_modes != 1 else ''} of [{names_list(m.coordinate_names)}]: {f} {self._frequency_unit()}"
                 f"{'' if m.symmetric else ' (not symmetric)'}{contact})")
 
     def _repr_html_(self) -> str:
@@ -695,15 +696,7 @@ class ModalDisplay:
 
 
 class LyapunovDisplay:
-    """Display and conversions of :class:`gearsym.LyapunovResult`."""
-
-    def __repr__(self) -> str:
-        r: Any = self
-        ex = ", ".join(f"{fmt(v, 4)} +- {fmt(e, 2)}" for v, e in zip(r.exponents[:4], r.errors[:4]))
-        more = ", ..." if len(r.exponents) > 4 else ""
-        return (f"LyapunovResult({len(r.exponents)} exponents: {ex}{more}; "
-                f"{'converged' if r.converged else 'not converged'} over {fmt(r.periods)} periods, "
-                f"Kaplan-Yorke {fmt(r.kaplan_yorke, 4)})")
+    """HTML and conversions of :class:`gearsym.LyapunovResult` (its one-line ``repr`` is its own)."""
 
     def _repr_html_(self) -> str:
         r: Any = self
