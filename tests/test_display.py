@@ -100,8 +100,8 @@ def test_latex_of_the_equations_and_the_groups(spur):
     scene = gearsym.load_scene(ROOT / "scenes" / "spur_pair_torsional.toml")
     tex = scene.model._repr_latex_()
     assert tex.startswith("$$\\begin{aligned}") and tex.endswith("\\end{aligned}$$")
-    assert "\\ddot{x} = \\begin{cases}" in tex  # Piecewise as cases
-    assert "g_{\\mathrm{mesh.drive}} = - b_{m} + x" in tex and "g_{\\mathrm{mesh.back}} = b_{m} + x" in tex
+    assert "\\ddot{x} &= \\begin{cases}" in tex  # Piecewise as cases, aligned at =
+    assert "g_{\\mathrm{mesh.drive}} &= - b_{m} + x" in tex and "g_{\\mathrm{mesh.back}} &= b_{m} + x" in tex
     form = scene.model.dimensionless()
     tex = form._repr_latex_()
     assert "\\zeta &= \\frac{c_{m}}{2 \\sqrt{k_{m} m_{e}}} = " in tex
