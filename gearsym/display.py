@@ -36,7 +36,7 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
     import xarray as xr
 
-__all__ = ["UNITS_CONVENTION", "BifurcationDisplay", "BranchDisplay", "BranchPointDisplay", "DimensionlessDisplay",
+__all__ = ["UNITS_CONVENTION", "BasinDisplay", "BifurcationDisplay", "BranchDisplay", "BranchPointDisplay", "DimensionlessDisplay",
            "LyapunovDisplay", "ModalDisplay", "OrbitDisplay", "SceneDisplay", "SymbolicDisplay", "SystemDisplay",
            "TrajectoryDisplay", "fmt", "html_card", "names_list", "netcdf_attrs", "netcdf_engine", "params_text"]
 
@@ -740,6 +740,68 @@ class LyapunovDisplay:
                  "periods": float(r.periods), "time": float(r.time), "kaplan_yorke": float(r.kaplan_yorke),
                  **{f"param_{k}": float(v) for k, v in r.params.items()}}
         return xr.Dataset(data, attrs=netcdf_attrs(attrs))
+
+
+class BasinDisplay:
+    """HTML and conversions of :class:`gearsym.BasinResult` (its one-line ``repr`` is its own)."""
+
+    def _repr_html_(self) -> str:
+        r: Any = self
+        rows = [(r.label_name(a.index), a.kind, a.period or "", "" if a.rattle_state is None else a.rattle_state,
+                 fmt(a.max_multiplier, 4), fmt(a.lyapunov, 4), f"{r.count(a.index) / r.labels.size:.1%}")
+                for a in r.attractors]
+        table = html_table(("attractor", "kind", "period", "rattle state", "max|mu|", "Lyapunov", "basin"), rows)
+        rest = [(name, f"{r.count(k) / r.labels.size:.1%}") for k, name in _special_labels(r).items() if r.count(k)]
+        grid = (f"{r.y_values.size} x {r.x_values.size} cells: {r.x_state} {fmt(r.x_values[0])} .. "
+                f"{fmt(r.x_values[-1])}, {r.y_state} {fmt(r.y_values[0])} .. {fmt(r.y_values[-1])}")
+        return html_card("BasinResult", r.scene, [("grid", grid), ("phase", fmt(r.phase)), *rest],
+                         [("attractors", table), ("parameters", _params_table(r.params, {}))]
+                         ).replace("<details>", "<details open>", 1)
+
+    def to_xarray(self) -> xr.Dataset:
+        """The basin map and the attractor table as an :class:`xarray.Dataset` (a copy of ``dataset``).
+
+        Returns
+        -------
+        xarray.Dataset
+            ``label`` and ``periods`` on the grid, the attractors on ``attractor`` (see
+            :attr:`~gearsym.BasinResult.dataset`); the states in the system's own variables
+            (SI, or ``1`` for a system in dimensionless variables), the parameters as
+            ``param_<name>`` (declared units).  Round-trips through netCDF.
+        """
+        r: Any = self
+        ds = r.dataset.copy()
+        ds.attrs.update(netcdf_attrs({"units_convention": UNITS_CONVENTION,
+                                      **{f"param_{k}": float(v) for k, v in r.params.items()}}))
+        return ds
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """One row per attractor: name, kind, period, rattle state, max|mu|, Lyapunov exponent, basin fraction.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Index ``attractor`` (the label of the map); ``df.attrs`` the grid, the fractions of
+            the special labels (unresolved, unbounded, failed) and the parameters.
+        """
+        pd = _pandas("BasinResult.to_dataframe")
+        r: Any = self
+        a = r.attractors
+        df = pd.DataFrame({"name": [x.name for x in a], "kind": [x.kind for x in a],
+                           "period": [x.period or 0 for x in a],
+                           "rattle_state": [-1 if x.rattle_state is None else x.rattle_state for x in a],
+                           "max_multiplier": [x.max_multiplier for x in a], "lyapunov": [x.lyapunov for x in a],
+                           "lyapunov_error": [x.lyapunov_error for x in a],
+                           "fraction": [r.count(x.index) / r.labels.size for x in a]},
+                          index=pd.Index([x.index for x in a], name="attractor"))
+        df.attrs.update({"scene": r.scene, "x_state": r.x_state, "y_state": r.y_state, "params": dict(r.params),
+                         "special_fractions": {n: r.count(k) / r.labels.size for k, n in _special_labels(r).items()}})
+        return df
+
+
+def _special_labels(r: Any) -> dict[int, str]:
+    """The special labels of a basin map (unresolved, unbounded, failed): negative labels with a name."""
+    return {k: r.label_name(k) for k in (-1, -2, -3) if not r.label_name(k).startswith("A")}
 
 
 # ================================================================== scenes, systems, equations

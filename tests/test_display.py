@@ -342,3 +342,22 @@ def test_continuation_draws_its_progress_through_the_helper(ks, monkeypatch):
     stream.text.clear()
     gearsym.continuation(ks, "Omega", 0.6, 0.62, ds_max=0.5, detect=False, progress=False)
     assert stream.text == []
+
+
+def test_basin_result_shows_and_converts(tmp_path, monkeypatch):
+    pytest.importorskip("tqdm")
+    system = gearsym.load_scene(ROOT / "scenes" / "kahraman_singh.toml", Omega=0.87).compile()
+    stream = _Stream(True)
+    monkeypatch.setattr(sys, "stderr", stream)
+    r = gearsym.basins(system, ("x", -2, 4, 5), ("v", -2, 2, 4), workers=1, progress=None)
+    assert "basin cells settled" in "".join(stream.text)  # the progress helper, in a terminal
+    page = r._repr_html_()
+    assert page.startswith('<div class="gearsym-repr"><b>BasinResult</b>')
+    for a in r.attractors:
+        assert r.label_name(a.index) in page
+    df = r.to_dataframe()
+    assert list(df.index) == [a.index for a in r.attractors]
+    np.testing.assert_array_equal(df["fraction"].values, [np.mean(r.labels == a.index) for a in r.attractors])
+    back = _round_trip(r.to_xarray(), tmp_path, "scipy")
+    np.testing.assert_array_equal(back["label"].values, r.labels)
+    assert back.attrs["param_Omega"] == 0.87
