@@ -369,8 +369,8 @@ class System(SystemDisplay, CompiledSystem):
         Returns
         -------
         gearsym.PeriodicOrbit
-            ``.x0``, ``.period``, ``.monodromy``, ``.multipliers``, ``.stable``,
-            ``.iterations``, ``.residual``, ``.rattle_state``, ...
+            ``.x0`` (SI), ``.period`` (the model's time unit), ``.monodromy``, ``.multipliers``,
+            ``.stable``, ``.iterations``, ``.residual``, ``.rattle_state``, ...
 
         Raises
         ------

@@ -451,7 +451,9 @@ class CompiledSystem(Evaluations, SensitivityMethods):
         Returns
         -------
         Trajectory
-            With :attr:`Trajectory.settings`, the settings the run used.
+            With :attr:`Trajectory.settings`, the settings the run used; time and states in SI
+            (``"1"`` for dimensionless variables), parameters in their declared units, each unit
+            in :attr:`Trajectory.units` (:meth:`units_table`).
 
         Notes
         -----
