@@ -36,7 +36,8 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
     import xarray as xr
 
-__all__ = ["UNITS_CONVENTION", "BasinDisplay", "BifurcationDisplay", "BranchDisplay", "BranchPointDisplay", "DimensionlessDisplay",
+__all__ = ["UNITS_CONVENTION", "BasinDisplay", "BifurcationDisplay", "BranchDisplay", "GearQuantitiesDisplay",
+           "MeshQuantitiesDisplay", "BranchPointDisplay", "DimensionlessDisplay",
            "LyapunovDisplay", "ModalDisplay", "OrbitDisplay", "SceneDisplay", "SymbolicDisplay", "SystemDisplay",
            "TrajectoryDisplay", "fmt", "html_card", "names_list", "netcdf_attrs", "netcdf_engine", "params_text"]
 
@@ -802,6 +803,107 @@ class BasinDisplay:
 def _special_labels(r: Any) -> dict[int, str]:
     """The special labels of a basin map (unresolved, unbounded, failed): negative labels with a name."""
     return {k: r.label_name(k) for k in (-1, -2, -3) if not r.label_name(k).startswith("A")}
+
+
+# ================================================================== gear quantities
+#: SI unit of each kind of gear quantity (:data:`gearsym.quantities.QUANTITIES`; a model in
+#: dimensionless variables gives them in its own scale).
+_KIND_UNITS = {"deflection": "m", "force": "N", "velocity": "m/s", "1": "1"}
+_SHOWN_QUANTITIES = ("dte_rms", "dte_peak_to_peak", "dynamic_factor", "contact_loss_ratio", "back_contact_ratio",
+                     "impacts_per_period")
+
+
+class MeshQuantitiesDisplay:
+    """Display of :class:`gearsym.quantities.MeshQuantities`."""
+
+    def __repr__(self) -> str:
+        m: Any = self
+        shown = ", ".join(f"{k} {fmt(m.value(k), 4)}" for k in _SHOWN_QUANTITIES
+                          if not math.isnan(m.value(k)))
+        return f"MeshQuantities('{m.name}': {shown})"
+
+
+class GearQuantitiesDisplay:
+    """Display and conversions of :class:`gearsym.GearQuantities` (one row per mesh; the class gives
+    the table of quantities as ``_table``: name -> (kind, definition))."""
+
+    def __repr__(self) -> str:
+        g: Any = self
+        meshes = "; ".join(repr(m)[len("MeshQuantities("):-1] for m in list(g.meshes.values())[:2])
+        more = f"; ... (+{len(g.meshes) - 2} meshes)" if len(g.meshes) > 2 else ""
+        return (f"GearQuantities({len(g.meshes)} mesh{'es' if len(g.meshes) != 1 else ''} over t {fmt(g.t_start, 5)} .. {fmt(g.t_end, 5)} "
+                f"({fmt(g.periods, 4)} periods): {meshes}{more})")[:MAX_REPR_CHARS]
+
+    def _repr_html_(self) -> str:
+        g: Any = self
+        df = self._rows()
+        names = list(df)
+        table = html_table(("quantity", *names), [(k, *(fmt(df[n][k], 5) for n in names)) for k in df[names[0]]]
+                           if names else [])
+        rows = [("window", f"t {fmt(g.t_start)} .. {fmt(g.t_end)}, {fmt(g.periods)} forcing periods, "
+                           f"{g.samples} samples")] + [("note", n) for n in g.notes]
+        return html_card("GearQuantities", f"{len(g.meshes)} mesh{'es' if len(g.meshes) != 1 else ''}", rows, [("quantities", table)]
+                         ).replace("<details>", "<details open>", 1)
+
+    def _rows(self) -> dict[str, dict[str, float]]:
+        """Mesh -> quantity -> value (NaN where it does not apply)."""
+        g: Any = self
+        names = list(g._table)
+        return {mesh: {k: m.value(k) for k in names} for mesh, m in g.meshes.items()}
+
+    def _units(self) -> dict[str, str]:
+        g: Any = self
+        return {k: _KIND_UNITS.get(kind, kind) for k, (kind, _) in g._table.items()}
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """One row per mesh, one column per scalar quantity (:data:`gearsym.quantities.QUANTITIES`).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Index ``mesh``; NaN where a quantity does not apply (no backlash, no planet set);
+            ``df.attrs["units"]``: the SI unit of each column (``m``, ``N``, ``m/s``, ``1``; a
+            model in dimensionless variables gives them in its own scale), and the window.
+        """
+        pd = _pandas("GearQuantities.to_dataframe")
+        g: Any = self
+        df = pd.DataFrame.from_dict(self._rows(), orient="index")
+        df.index.name = "mesh"
+        df.attrs.update({"units": self._units(), "t_start": float(g.t_start), "t_end": float(g.t_end),
+                         "periods": float(g.periods), "notes": list(g.notes)})
+        return df
+
+    def to_xarray(self) -> xr.Dataset:
+        """The quantities on the dimension ``mesh`` and the DTE harmonics on ``(mesh, order)``.
+
+        Returns
+        -------
+        xarray.Dataset
+            One variable per scalar quantity (``units``: SI, ``long_name``: its definition),
+            ``dte_harmonic`` (amplitude of mesh order ``order``), attributes: the window.
+            Round-trips through netCDF.
+        """
+        xr = _xarray("GearQuantities.to_xarray")
+        g: Any = self
+        rows = self._rows()
+        meshes = list(rows)
+        units = self._units()
+        data = {k: ("mesh", np.array([rows[m][k] for m in meshes], float), {"units": units[k], "long_name": d})
+                for k, (_, d) in g._table.items()}
+        n = max((len(m.dte_harmonics) for m in g.meshes.values()), default=0)
+        H = np.full((len(meshes), n), np.nan)
+        for i, m in enumerate(g.meshes.values()):
+            H[i, :len(m.dte_harmonics)] = m.dte_harmonics
+        data["dte_harmonic"] = (("mesh", "order"), H, {"units": units["dte_rms"],
+                                                       "long_name": "amplitude of each mesh order of the DTE"})
+        attrs = {"source": "gearsym.gear_quantities", "t_start": float(g.t_start), "t_end": float(g.t_end),
+                 "periods": float(g.periods), "samples": int(g.samples), "notes": list(g.notes),
+                 "units_convention": UNITS_CONVENTION}
+        return xr.Dataset(data, coords={"mesh": meshes, "order": np.arange(1, n + 1)}, attrs=netcdf_attrs(attrs))
+
+
+#: The longest one-line repr (characters).
+MAX_REPR_CHARS = 500
 
 
 # ================================================================== scenes, systems, equations

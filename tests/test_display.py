@@ -361,3 +361,20 @@ def test_basin_result_shows_and_converts(tmp_path, monkeypatch):
     back = _round_trip(r.to_xarray(), tmp_path, "scipy")
     np.testing.assert_array_equal(back["label"].values, r.labels)
     assert back.attrs["param_Omega"] == 0.87
+
+
+def test_gear_quantities_show_and_convert(spur, tmp_path):
+    g = spur.simulate(periods=60).gear_quantities()
+    _one_line(repr(g))
+    _one_line(repr(g["mesh"]))
+    assert f"dynamic_factor {g.value('dynamic_factor'):.4g}" in repr(g)
+    assert g._repr_html_().startswith('<div class="gearsym-repr"><b>GearQuantities</b>')
+    df = g.to_dataframe()
+    assert list(df.index) == list(g.meshes)
+    for k in ("dte_rms", "dynamic_factor", "contact_loss_ratio", "impact_count"):
+        assert df.loc["mesh", k] == g.value(k, "mesh")
+    assert df.attrs["units"]["dte_rms"] == "m" and df.attrs["units"]["static_force"] == "N"
+    back = _round_trip(g.to_xarray(), tmp_path, "scipy")
+    np.testing.assert_array_equal(back["dte_harmonic"].values[0, :len(g["mesh"].dte_harmonics)],
+                                  g["mesh"].dte_harmonics)
+    assert back["force_max"].attrs["units"] == "N"
