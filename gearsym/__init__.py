@@ -41,6 +41,12 @@ _EXPORTS: dict[str, str] = {
     "ContinuationOptions": ".analysis.continuation",
     "ShootingOptions": ".analysis.periodic",
     "PeriodicOrbit": ".analysis.periodic",
+    "HarmonicBalanceOptions": ".analysis.periodic",
+    "harmonic_balance": ".analysis.periodic",
+    "mesh_deflections": ".analysis.periodic",
+    "ModalAnalysis": ".analysis.linear",
+    "modal_analysis": ".analysis.linear",
+    "stability_map": ".analysis.sweeps",
     "LyapunovOptions": ".analysis.sweeps",
     "LyapunovResult": ".analysis.sweeps",
     "lyapunov_exponents": ".analysis.sweeps",
@@ -64,11 +70,12 @@ _EXPORTS: dict[str, str] = {
 }
 
 __all__ = [
-    "BasinOptions", "BasinResult", "Bifurcation", "Branch", "BranchPoint", "CompileError",
-    "ContinuationOptions", "ConvergenceError", "Event", "GearQuantities", "GearsymError", "LyapunovOptions",
-    "LyapunovResult", "ParameterError", "PeriodicOrbit", "Scene", "ShootingOptions", "SimulateOptions",
-    "SimulationError", "SpecError", "System", "Trajectory", "__version__", "basins", "continuation",
-    "gear_quantities", "load_scene", "lyapunov_exponents", "switch_period_doubling",
+    "BasinOptions", "BasinResult", "Bifurcation", "Branch", "BranchPoint", "CompileError", "ContinuationOptions",
+    "ConvergenceError", "Event", "GearQuantities", "GearsymError", "HarmonicBalanceOptions", "LyapunovOptions",
+    "LyapunovResult", "ModalAnalysis", "ParameterError", "PeriodicOrbit", "Scene", "ShootingOptions",
+    "SimulateOptions", "SimulationError", "SpecError", "System", "Trajectory", "__version__", "basins",
+    "continuation", "gear_quantities", "harmonic_balance", "load_scene", "lyapunov_exponents", "mesh_deflections",
+    "modal_analysis", "stability_map", "switch_period_doubling",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -80,7 +87,14 @@ if TYPE_CHECKING:  # pragma: no cover
         continuation,
         switch_period_doubling,
     )
-    from .analysis.periodic import PeriodicOrbit, ShootingOptions
+    from .analysis.linear import ModalAnalysis, modal_analysis
+    from .analysis.periodic import (
+        HarmonicBalanceOptions,
+        PeriodicOrbit,
+        ShootingOptions,
+        harmonic_balance,
+        mesh_deflections,
+    )
     from .analysis.sweeps import (
         BasinOptions,
         BasinResult,
@@ -88,6 +102,7 @@ if TYPE_CHECKING:  # pragma: no cover
         LyapunovResult,
         basins,
         lyapunov_exponents,
+        stability_map,
     )
     from .errors import (
         CompileError,

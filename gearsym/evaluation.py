@@ -139,8 +139,12 @@ class Evaluations:
 
     # -------------------------------------------------------------- simulate
 
-    def modes(self, t: Sequence[float] | float, x: Sequence[float], p: np.ndarray | None = None) -> np.ndarray:
-        """The mode vector (surface sides, then each schedule's cycle and segment) at many points.
+    def contact_modes(self, t: Sequence[float] | float, x: Sequence[float], p: np.ndarray | None = None) -> np.ndarray:
+        """The contact mode vector (surface sides, then each schedule's cycle and segment) at many points.
+
+        The *modes of the hybrid system* (which side of each contact surface, which segment of
+        each schedule), not its natural (vibration) modes: those are
+        :meth:`gearsym.System.natural_modes` (``gearsym modes``).
 
         Evaluated by the engine in C (the driver's own mode logic), so the analyses never
         decode the schedules themselves.
@@ -162,6 +166,20 @@ class Evaluations:
         ta = np.atleast_1d(np.asarray(t, float))
         pv = self.param_vector() if p is None else p
         return self.engine.evaluate("mode", ta, np.asarray(x, float).reshape(ta.shape[0], self.generated.nx), pv)
+
+    def modes(self, t: Sequence[float] | float, x: Sequence[float], p: np.ndarray | None = None) -> np.ndarray:
+        """Alias of :meth:`contact_modes` (the older name; natural modes: :meth:`gearsym.System.natural_modes`).
+
+        Parameters
+        ----------
+        t, x, p
+            As for :meth:`contact_modes`.
+
+        Returns
+        -------
+        ndarray
+        """
+        return self.contact_modes(t, x, p)
 
     def mesh_deflections(self, t: Sequence[float] | float, x: Sequence[float],
                          p: np.ndarray | None = None) -> np.ndarray:

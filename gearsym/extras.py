@@ -3,14 +3,18 @@
 The core install (casadi, scikit-sundae, numpy, sympy, scipy) derives, compiles,
 simulates, finds orbits and continues them.  The extras add:
 
-=========  =====================================  ==========================================
-extra      packages                               needed by
-=========  =====================================  ==========================================
-``plots``  matplotlib                             figures: ``--out`` of ``simulate``, ``orbit``,
-                                                  ``continue``, ``bench``
-``maps``   xarray, dask, distributed, matplotlib  ``gearsym map`` (netCDF + heat map)
-``all``    both, and tqdm                         tqdm draws the progress bar of ``continue``
-=========  =====================================  ==========================================
+============  =====================================  ==========================================
+extra         packages                               needed by
+============  =====================================  ==========================================
+``plots``     matplotlib                             figures: ``--out`` of ``simulate``, ``orbit``,
+                                                     ``continue``, ``bench``
+``maps``      xarray, dask, distributed, matplotlib  ``gearsym map`` (netCDF + heat map)
+``all``       both, and tqdm                         tqdm draws the progress bars (continuation,
+                                                     maps, Lyapunov exponents)
+``notebook``  ``all``, ipykernel, ipywidgets         Jupyter: the widget progress bars
+============  =====================================  ==========================================
+
+``to_xarray()`` / ``to_dataframe()`` of the results need xarray and pandas (``maps``).
 
 A command that needs a missing extra stops before any work with
 :class:`MissingExtraError` (exit 2): ``gearsym map needs the optional dependencies of

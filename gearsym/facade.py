@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 from .catalog import find_scene
 from .codegen.cache import BuildCache, build_key
 from .codegen.generate import GeneratedModel, build_functions, write_and_compile
+from .display import SceneDisplay, SystemDisplay
 from .engine.trust import user_cache_dir
 from .errors import GearsymError, SpecError
 from .spec.model import ModelSpec, load_model
@@ -44,6 +45,7 @@ from .symbolic.model import SymbolicModel
 from .system import CompiledSystem
 
 if TYPE_CHECKING:  # pragma: no cover
+    from .analysis.linear import ModalAnalysis
     from .analysis.periodic import PeriodicOrbit
 
 #: The settings of :meth:`System.periodic_orbit` that the scene's ``[orbit]`` table may set.
@@ -75,8 +77,11 @@ def default_generated_dir(scene_path: str | Path | None = None) -> Path:
     return user_cache_dir()
 
 
-class Scene:
+class Scene(SceneDisplay):
     """A scene: a model with effects switched on and parameter values.
+
+    ``repr`` is one line (name, model, states, effects, parameters); in Jupyter a scene shows
+    its parameters and effects as tables, and ``scene.model`` its equations in LaTeX.
 
     Parameters
     ----------
@@ -167,7 +172,8 @@ class Scene:
         values = {k: self.resolved.values[k] for k in gen.input_names}
         system = System(gen, values, self.initial_state(), self.spec.simulate, self.name,
                         ParameterUnits.of_model(self.model_spec), self.resolved.rules,
-                        {k: v for k, v in self.spec.extra.items() if k in ("orbit", "continue", "map")})
+                        {k: v for k, v in self.spec.extra.items() if k in ("orbit", "continue", "map")},
+                        state_units(self.model_spec))
         system.derivative_build = _DerivativeBuild(self, generated_dir, gen.dimensionless)
         if self.resolved.static:  # [initial] static = true: start from the static equilibrium
             system.x0 = static_state(system, *self.resolved.coordinate_states(),
@@ -273,8 +279,8 @@ class Scene:
         return gen
 
 
-class System(CompiledSystem):
-    """A compiled scene: simulate it, find its periodic orbits.
+class System(SystemDisplay, CompiledSystem):
+    """A compiled scene: simulate it, find its periodic orbits, its natural modes.
 
     Obtained from :meth:`Scene.compile`; not constructed directly.  Everything of
     :class:`gearsym.system.CompiledSystem` (:meth:`simulate`, :meth:`flow`, the parameters
@@ -300,7 +306,34 @@ class System(CompiledSystem):
     settings
         The scene's other settings tables (``orbit``, ``continue``, ``map``), the defaults of
         :meth:`periodic_orbit`, :func:`gearsym.continuation` and the maps.
+    state_units
+        The unit of time and of every state (:func:`state_units`).
     """
+
+    def natural_modes(self, params: Mapping[str, float] | None = None, **options: Any) -> ModalAnalysis:
+        """Natural frequencies and mode shapes about the static equilibrium (``gearsym modes``).
+
+        The linear vibration modes with the mean mesh stiffness
+        (:func:`gearsym.analysis.linear.modal_analysis`, the planetary mode types of
+        :func:`~gearsym.analysis.linear.classify_planetary` added where they apply); not the
+        contact modes of the hybrid system (:meth:`contact_modes`).
+
+        Parameters
+        ----------
+        params
+            Parameter overrides (declared units).
+        **options
+            Further settings of :func:`~gearsym.analysis.linear.modal_analysis` (``samples``, ...).
+
+        Returns
+        -------
+        ModalAnalysis
+            ``frequencies_hz`` (Hz; cycles per unit time for a model in dimensionless time),
+            ``shapes``, ``damping_ratios``, ...; ``to_dataframe()`` / ``to_xarray()``.
+        """
+        from .analysis.linear import classify_planetary, modal_analysis
+
+        return classify_planetary(modal_analysis(self, params=params, **options))
 
     def periodic_orbit(self, period: float | None = None, periods: float | None = None,
                        x0: Sequence[float] | None = None, method: str | None = None,
@@ -336,8 +369,8 @@ class System(CompiledSystem):
         Returns
         -------
         gearsym.PeriodicOrbit
-            ``.x0``, ``.period``, ``.monodromy``, ``.multipliers``, ``.stable``,
-            ``.iterations``, ``.residual``, ``.rattle_state``, ...
+            ``.x0`` (SI), ``.period`` (the model's time unit), ``.monodromy``, ``.multipliers``,
+            ``.stable``, ``.iterations``, ``.residual``, ``.rattle_state``, ...
 
         Raises
         ------
@@ -364,6 +397,44 @@ class _DerivativeBuild:
 
     def __call__(self) -> GeneratedModel:
         return self.scene.generate(self.generated_dir, dimensionless=self.dimensionless, derivatives=True)
+
+
+def state_units(model: ModelSpec) -> dict[str, str]:
+    """The unit of time ``"t"`` and of every state a model can have, as text (coherent SI).
+
+    A coordinate's declared unit (``m``, ``rad``, ``1``: the spec layer accepts coherent SI
+    units only), its velocity's that unit per second (``m/s``; the same unit in dimensionless
+    time), a reduced coordinate's its declared unit (else its dimension in SI base units), an
+    algebraic variable's its declared unit.
+
+    Parameters
+    ----------
+    model
+        The model.
+
+    Returns
+    -------
+    dict
+        Name -> unit text.
+    """
+    time_unit = model.time_unit or "s"
+
+    def per_time(unit: str) -> str:
+        if time_unit == "1":
+            return unit
+        return "1/s" if unit in ("", "1") else f"{unit}/s"
+
+    out = {"t": time_unit}
+    for c in model.coordinates.values():
+        out[c.name], out[c.velocity] = c.unit, per_time(c.unit)
+    if model.reduction is not None:
+        for r in model.reduction.coordinates:
+            dims = r.dims if r.dims is not None else model.units.get(r.name)
+            unit = r.unit or (dims.si_string() if dims is not None else "")
+            out[r.name], out[r.velocity] = unit, per_time(unit)
+    for name, a in (model.algebraic or {}).items():
+        out[name] = a.unit
+    return out
 
 
 def load_scene(path: str | Path, effects: Mapping[str, bool | str] | None = None,

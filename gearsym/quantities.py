@@ -106,6 +106,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .codegen.artifact import generated_map
+from .display import GearQuantitiesDisplay, MeshQuantitiesDisplay
 from .errors import GearsymError, ParameterError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -195,8 +196,8 @@ def parse_quantity(name: str) -> tuple[str, str | None]:
     return base, m.group(2)
 
 
-@dataclass(frozen=True)
-class MeshQuantities:
+@dataclass(frozen=True, repr=False)
+class MeshQuantities(MeshQuantitiesDisplay):
     """The gear quantities of one mesh over one window (definitions: :mod:`gearsym.quantities`).
 
     Attributes
@@ -313,9 +314,12 @@ class MeshQuantities:
         return d
 
 
-@dataclass(frozen=True)
-class GearQuantities:
+@dataclass(frozen=True, repr=False)
+class GearQuantities(GearQuantitiesDisplay):
     """The gear quantities of every mesh over one window (:func:`gear_quantities`).
+
+    ``repr`` is one line; in Jupyter a table (quantity x mesh); ``to_dataframe()`` one row per
+    mesh, ``to_xarray()`` a dataset on ``mesh`` (:mod:`gearsym.display`).
 
     Attributes
     ----------
@@ -343,6 +347,7 @@ class GearQuantities:
     static_state: np.ndarray | None = None
     planet_sets: dict[str, list[str]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    _table = QUANTITIES  # (a class attribute, no field: what the display converts)
 
     def __getitem__(self, mesh: str) -> MeshQuantities:
         """The quantities of one mesh, e.g. ``gq["mesh"]``."""

@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from .display import TrajectoryDisplay
+
 if TYPE_CHECKING:  # pragma: no cover
     from .quantities import GearQuantities
     from .system import CompiledSystem
@@ -31,16 +33,22 @@ class Event(NamedTuple):
     direction: int
 
 
-@dataclass(frozen=True)
-class Trajectory:
+@dataclass(frozen=True, repr=False)
+class Trajectory(TrajectoryDisplay):
     """A simulated trajectory.
+
+    Units: time and states in coherent SI units (``units`` names each: ``s``, ``m``,
+    ``rad/s``; ``1`` for dimensionless variables), parameters in the model's declared units.
+    ``repr`` is one line; in Jupyter it shows as a table; :meth:`to_xarray` and
+    :meth:`to_dataframe` convert it (:mod:`gearsym.display`).
 
     Attributes
     ----------
     t : ndarray, shape (n_out,)
-        Output times (evenly spaced from the start time to ``t_end``, both included).
+        Output times (evenly spaced from the start time to ``t_end``, both included), in the
+        model's time unit (``units["t"]``: seconds, or ``1`` for dimensionless time).
     y : ndarray, shape (n_out, n_states)
-        States at ``t``.
+        States at ``t`` (SI units: ``units[name]``).
     state_names : list of str
         Names of the states, in the order of the columns of ``y``.
     events : list of Event
@@ -49,7 +57,7 @@ class Trajectory:
         ``n_steps``, ``n_rhs``, ``n_jac``, ``n_events``, ``n_breaks`` and ``wall_s``
         (wall time of the whole ``simulate`` call, in seconds).
     period : float or None
-        The forcing period of the scene at these parameters.
+        The forcing period of the scene at these parameters (time unit).
     params : dict
         Parameter values used, in the model's declared units (bound parameters: SI), as
         :attr:`gearsym.system.CompiledSystem.params`.
@@ -69,6 +77,9 @@ class Trajectory:
         ``max_steps``, ``transient_periods``).
     system : CompiledSystem or None
         The compiled system that made the trajectory (for :meth:`gear_quantities`).
+    units : dict
+        The unit of time ``"t"``, of every state (SI) and of every parameter (declared):
+        :meth:`gearsym.system.CompiledSystem.units_table` (empty: unknown).
     """
 
     t: np.ndarray
@@ -84,6 +95,7 @@ class Trajectory:
     sensitivities: dict[str, np.ndarray] | None = None
     settings: dict = field(default_factory=dict)
     system: CompiledSystem | None = field(default=None, repr=False, compare=False)
+    units: dict[str, str] = field(default_factory=dict)
 
     @property
     def final_state(self) -> np.ndarray:

@@ -70,6 +70,9 @@ class CompiledSystem(Evaluations, SensitivityMethods):
         The scene's other settings tables: ``{"orbit": {...}, "continue": {...}, "map": {...}}``
         (:mod:`gearsym.spec.settings`), the defaults of :meth:`gearsym.System.periodic_orbit`,
         :func:`gearsym.continuation` and :func:`gearsym.analysis.sweeps.stability_map`.
+    state_units
+        The (coherent SI) unit of time ``"t"`` and of every state (``"m"``, ``"rad/s"``, ``"1"``),
+        as :meth:`units_table` reports them (default: unknown, ``""``).
 
     Attributes
     ----------
@@ -84,7 +87,8 @@ class CompiledSystem(Evaluations, SensitivityMethods):
     def __init__(self, generated: GeneratedModel, params: Mapping[str, float], x0: Sequence[float],
                  defaults: Mapping[str, object] | None = None, scene_name: str = "",
                  units: ParameterUnits | None = None, rules: ParameterRules | None = None,
-                 settings: Mapping[str, Mapping[str, Any]] | None = None):
+                 settings: Mapping[str, Mapping[str, Any]] | None = None,
+                 state_units: Mapping[str, str] | None = None):
         self.generated = generated
         self.engine: Engine = load_engine(generated.so_path, sha256=generated.so_sha256 or None,
                                           build_key=generated.build_key or None)
@@ -100,6 +104,7 @@ class CompiledSystem(Evaluations, SensitivityMethods):
         self.defaults = dict(defaults or {})
         self.settings = {k: dict(v) for k, v in (settings or {}).items()}
         self.name = scene_name or generated.scene
+        self.state_units = dict(state_units or {})
         #: makes the build with the parameter derivatives of the sensitivities on the first
         #: sensitivity request (set by :meth:`gearsym.Scene.compile`; None: not available)
         self.derivative_build = None
@@ -113,7 +118,8 @@ class CompiledSystem(Evaluations, SensitivityMethods):
             raise GearsymError(f"system '{self.name}' has no build key: it cannot be reloaded from a build cache")
         return {"cache": str(Path(gen.directory).parent), "scene": gen.scene, "build_key": gen.build_key,
                 "params": dict(self._si), "x0": self.x0.tolist(), "defaults": dict(self.defaults),
-                "name": self.name, "units": self.units, "rules": self.rules, "settings": self.settings}
+                "name": self.name, "units": self.units, "rules": self.rules, "settings": self.settings,
+                "state_units": self.state_units}
 
     def __setstate__(self, state: dict[str, object]) -> None:
         from .codegen.cache import BuildCache
@@ -125,7 +131,7 @@ class CompiledSystem(Evaluations, SensitivityMethods):
             raise GearsymError(f"the build {key[:16]} of scene '{state['scene']}' is not in the build cache "
                                f"{cache.root} on this machine (compile the scene here first)")
         self.__init__(gen, state["params"], state["x0"], state["defaults"], str(state["name"]),  # type: ignore[misc]
-                      state["units"], state.get("rules"), state.get("settings"))
+                      state["units"], state.get("rules"), state.get("settings"), state.get("state_units"))
 
     # ------------------------------------------------------------------ info
 
@@ -133,6 +139,26 @@ class CompiledSystem(Evaluations, SensitivityMethods):
     def params(self) -> Mapping[str, float]:
         """Current values of the run-time parameters, in the model's declared units (read-only)."""
         return self._params_view
+
+    def units_table(self) -> dict[str, str]:
+        """The unit of every value a result of this system holds.
+
+        Time ``"t"`` and the states in coherent SI units (``"s"``, ``"m"``, ``"rad/s"``; ``"1"``
+        for dimensionless variables, e.g. a system compiled with ``dimensionless=True``), the
+        run-time parameters in the units the model declares (``"um"``; ``""`` where none is
+        declared): what ``attrs["units"]`` of :meth:`gearsym.Trajectory.to_xarray` says.
+
+        Returns
+        -------
+        dict
+            Name -> unit text (a new dict).
+        """
+        if self.generated.dimensionless:
+            out = {"t": "1", **{n: "1" for n in self.generated.state_names}}
+        else:
+            out = {"t": self.state_units.get("t", ""), **{n: self.state_units.get(n, "") for n in self.generated.state_names}}
+        out.update({k: self.units.unit(k) for k in self.params})
+        return out
 
     def param_dict(self, p: Sequence[float]) -> dict[str, float]:
         """A parameter vector as a mapping in declared units (bound parameters: SI).
@@ -289,10 +315,19 @@ class CompiledSystem(Evaluations, SensitivityMethods):
         used, inputs = self.param_dict(self.param_vector(params)), self.params
         return {k: v for k, v in used.items() if k in inputs}
 
-    def period(self, params: Mapping[str, float] | None = None) -> float | None:
-        """The forcing period at these parameters.
+    @property
+    def forcing_period(self) -> float | None:
+        """The forcing period at the system's own parameter values (time unit: ``units_table()["t"]``,
+        seconds for a dimensional model), or ``None`` without one; :meth:`period` evaluates it at
+        other values."""
+        return self.period()
 
-        Evaluated by the generated C (``gs_period``) through the engine: about a microsecond.
+    def period(self, params: Mapping[str, float] | None = None) -> float | None:
+        """The forcing period at these parameters (in the model's time unit, seconds for a dimensional model).
+
+        A method because it takes parameter overrides; at the system's own values the property
+        :attr:`forcing_period` reads better.  Evaluated by the generated C (``gs_period``)
+        through the engine: about a microsecond.
 
         Parameters
         ----------
@@ -416,7 +451,9 @@ class CompiledSystem(Evaluations, SensitivityMethods):
         Returns
         -------
         Trajectory
-            With :attr:`Trajectory.settings`, the settings the run used.
+            With :attr:`Trajectory.settings`, the settings the run used; time and states in SI
+            (``"1"`` for dimensionless variables), parameters in their declared units, each unit
+            in :attr:`Trajectory.units` (:meth:`units_table`).
 
         Notes
         -----
@@ -538,7 +575,7 @@ class CompiledSystem(Evaluations, SensitivityMethods):
                           period=plan.period, params=self.param_dict(p),
                           x_final=res.x_final, monodromy=res.monodromy,
                           event_speed=np.asarray(res.events.speed), sensitivities=sens, settings=plan.settings,
-                          system=self)
+                          system=self, units=self.units_table())
 
     def flow(self, x0: Sequence[float], t0: float, t1: float, p: np.ndarray | None = None,
              options: FlowOptions | None = None, *, sigma0: Sequence[float] | None = None,

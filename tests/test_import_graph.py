@@ -20,7 +20,8 @@ ROOT = Path(__file__).resolve().parents[1] / "gearsym"
 #:
 #: * base: errors, the version, file helpers, optional extras, bound (fractal) functions, the work budget,
 #:   signals; the gear-geometry mesh stiffness (numpy only); frozen options objects; the registry of
-#:   integration methods (data: the scene's settings check method names against it);
+#:   integration methods (data: the scene's settings check method names against it); the progress bar
+#:   and the display mixins of the result classes (reprs, HTML, LaTeX, xarray / pandas; duck-typed);
 #: * spec: TOML parsing/validation (no sympy); the catalogue of shipped models and scenes;
 #: * symbolic: sympy equations of motion, modes, switching surfaces;
 #: * engine: the generic C driver over SUNDIALS and its build; it knows no model, so it sits
@@ -36,7 +37,7 @@ ROOT = Path(__file__).resolve().parents[1] / "gearsym"
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("base", ("gearsym._version", "gearsym.errors", "gearsym.files", "gearsym.extras", "gearsym.fractal",
               "gearsym.bound_functions", "gearsym.budget", "gearsym.signals", "gearsym.gears", "gearsym.options",
-              "gearsym.integrators")),
+              "gearsym.integrators", "gearsym.progress", "gearsym.display")),
     ("spec", ("gearsym.spec", "gearsym.catalog")),
     ("symbolic", ("gearsym.symbolic",)),
     ("engine", ("gearsym.engine",)),

@@ -31,32 +31,33 @@ TYPE_CHECKING = False
 
 #: public name -> the kind (subpackage) that defines it
 _EXPORTS: dict[str, str] = {
-    "periodic_orbit": "periodic", "shoot": "periodic", "harmonic_balance": "periodic",
+    "periodic_orbit": "periodic", "shoot": "periodic", "harmonic_balance": "periodic", "mesh_deflections": "periodic",
     "PeriodicOrbit": "periodic", "ShootingOptions": "periodic", "HarmonicBalanceOptions": "periodic",
     "ContinuationOptions": "continuation", "Branch": "continuation", "BranchPoint": "continuation",
     "Bifurcation": "continuation", "switch_period_doubling": "continuation",
-    "modal_analysis": "linear", "classify_planetary": "linear",
+    "modal_analysis": "linear", "classify_planetary": "linear", "ModalAnalysis": "linear",
     "stability_map": "sweeps", "save_map": "sweeps", "lyapunov_exponents": "sweeps", "basins": "sweeps",
 }
 #: the kinds of analysis (subpackages)
 KINDS = ("periodic", "continuation", "linear", "sweeps")
 
 __all__ = [
-    "KINDS", "Bifurcation", "Branch", "BranchPoint", "ContinuationOptions", "HarmonicBalanceOptions", "PeriodicOrbit",
-    "ShootingOptions",
-    "basins", "classify_planetary", "harmonic_balance", "lyapunov_exponents", "modal_analysis", "periodic_orbit", "save_map",
-    "shoot",
+    "KINDS", "Bifurcation", "Branch", "BranchPoint", "ContinuationOptions", "HarmonicBalanceOptions", "ModalAnalysis",
+    "PeriodicOrbit", "ShootingOptions",
+    "basins", "classify_planetary", "harmonic_balance", "lyapunov_exponents", "mesh_deflections", "modal_analysis",
+    "periodic_orbit", "save_map", "shoot",
     "stability_map", "switch_period_doubling",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
     from .continuation import Bifurcation, Branch, BranchPoint, ContinuationOptions, switch_period_doubling
-    from .linear import classify_planetary, modal_analysis
+    from .linear import ModalAnalysis, classify_planetary, modal_analysis
     from .periodic import (
         HarmonicBalanceOptions,
         PeriodicOrbit,
         ShootingOptions,
         harmonic_balance,
+        mesh_deflections,
         periodic_orbit,
         shoot,
     )

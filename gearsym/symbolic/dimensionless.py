@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 
 import sympy as sp
 
+from ..display import DimensionlessDisplay
 from ..errors import GearsymError, SpecError
 from ..spec.exprtree import BOUND_FUNCTIONS
 from .dims import ZERO, Dim, Dimensions, monomial
@@ -38,9 +39,12 @@ if TYPE_CHECKING:
 _log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True)
-class DimensionlessForm:
+@dataclass(frozen=True, repr=False)
+class DimensionlessForm(DimensionlessDisplay):
     """A model's equations in dimensionless variables.
+
+    In Jupyter it shows the dimensionless equations, switching functions and groups
+    (definition = value) typeset (``_repr_latex_``); ``repr`` is one line.
 
     Attributes
     ----------

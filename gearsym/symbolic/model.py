@@ -18,6 +18,7 @@ from dataclasses import replace
 
 import sympy as sp
 
+from ..display import SymbolicDisplay
 from ..errors import SpecError
 from ..spec.scene import ResolvedScene
 from .budget import Budget, check_expression, checkpoint
@@ -29,8 +30,11 @@ from .rigid import mode_dicts, rigid_body_modes, transform_modes
 from .switching import ModalForm, Mode, ScheduleInfo, SwitchingFunction, make_modal
 
 
-class SymbolicModel:
+class SymbolicModel(SymbolicDisplay):
     """Equations of motion of a resolved scene, derived with sympy.
+
+    In Jupyter the model shows its equations of motion and switching functions typeset
+    (``_repr_latex_``: :meth:`latex`); ``repr`` is one line.
 
     Parameters
     ----------
@@ -428,7 +432,8 @@ class SymbolicModel:
         return [str(a) for a in self.algebraic]
 
     def latex(self) -> str:
-        """LaTeX of the equations of motion and switching functions."""
+        """LaTeX of the equations of motion and switching functions (an ``aligned`` block, aligned at ``=``;
+        ``Piecewise`` as ``cases``): what a notebook shows for the model (``_repr_latex_``)."""
         lines = []
         for i, qi in enumerate(self.coordinates):
             lhs = sp.latex(sp.Symbol(f"\\ddot{{{sp.latex(qi)}}}"))
@@ -436,13 +441,13 @@ class SymbolicModel:
             if self.accelerations is None:
                 lhs = sp.latex(sum(self.mass_matrix[i, j] * sp.Symbol(f"\\ddot{{{sp.latex(qj)}}}")
                                    for j, qj in enumerate(self.coordinates)))
-            lines.append(f"{lhs} = {sp.latex(rhs)}")
+            lines.append(f"{lhs} &= {sp.latex(rhs)}")
         if self.constraint_rows is not None:  # the algebraic equations, in the accelerations
             put = {a: sp.Symbol(f"\\dot{{{sp.latex(v_)}}}")
                    for a, v_ in zip(self.constrained.accelerations, self.velocities)}
-            lines += [f"0 = {sp.latex(r.xreplace(put))}" for r in self.constraint_rows]
+            lines += [f"0 &= {sp.latex(r.xreplace(put))}" for r in self.constraint_rows]
         for g in self.switching:
-            lines.append(f"g_{{\\mathrm{{{g.name}}}}} = {sp.latex(g.expr)}")
+            lines.append(f"g_{{\\mathrm{{{g.name}}}}} &= {sp.latex(g.expr)}")
         return "\\begin{aligned}\n" + " \\\\\n".join(lines) + "\n\\end{aligned}"
 
     @property

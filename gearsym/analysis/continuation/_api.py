@@ -136,6 +136,9 @@ def continuation(system: CompiledSystem | SceneLike, param: str, start: float, s
     Returns
     -------
     Branch
+        Parameter values in the parameter's declared unit, states (``x0``, ``max``, ...) in SI,
+        periods in the model's time unit; :meth:`Branch.to_dataframe` names the unit of every
+        column.
 
     Raises
     ------

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
@@ -18,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...errors import ConvergenceError, GearsymError
+from ...progress import progress_bar
 from ..periodic import PeriodicOrbitProblem, neutral_step_limit
 from ._branch import Bifurcation, Branch, ContinuationSetup
 from ._corrector import Continuer, Node, distance_to_one, graph_like, rescale
@@ -42,36 +42,27 @@ def formatter(display: tuple[float, str] | None) -> Callable[[float], str]:
 
 
 class Progress:
-    """A progress bar (tqdm) of a continuation over its parameter range; silent when disabled."""
-    def __init__(self, enabled: bool | None, start: float, stop: float, param: str):
-        self.bar = None
-        if enabled is None:
-            enabled = bool(getattr(sys.stderr, "isatty", lambda: False)())
-        if enabled:
-            try:
-                from tqdm import tqdm
+    """The progress bar of a continuation over its parameter range (:mod:`gearsym.progress`:
+    ``tqdm.auto`` in terminals and notebooks; silent when not wanted)."""
 
-                self.bar = tqdm(total=1000, desc=f"continuation in {param}", file=sys.stderr, leave=False,
+    def __init__(self, enabled: bool | None, start: float, stop: float, param: str):
+        self.bar = progress_bar(enabled, 1000, f"continuation in {param}",
                                 bar_format="{desc}: {percentage:3.0f}%|{bar}| {postfix} [{elapsed}]")
-            except ImportError:  # pragma: no cover
-                self.bar = None
         self.start, self.stop = start, stop
         self.done = 0
 
     def update(self, lam: float, n_points: int, n_bif: int) -> None:
-        if self.bar is None:
-            return
+        """Show the fraction of the range covered, the value and the counts."""
         span = self.stop - self.start
         frac = 0.0 if span == 0 else min(max((lam - self.start) / span, 0.0), 1.0)
         k = int(1000 * frac)
         if k > self.done:
-            self.bar.update(k - self.done)
+            self.bar(k - self.done)
             self.done = k
-        self.bar.set_postfix_str(f"value={lam:.6g} points={n_points} bifurcations={n_bif}", refresh=False)
+        self.bar.postfix(f"value={lam:.6g} points={n_points} bifurcations={n_bif}")
 
     def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
+        self.bar.close()
 
 
 @dataclass(frozen=True)

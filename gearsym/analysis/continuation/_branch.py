@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ...display import BranchDisplay
 from ...files import save_figure, write_json
 from ._points import BIFURCATION_TYPES, Bifurcation, BranchPoint, ContinuationSetup, _jsonable
 
@@ -35,9 +36,14 @@ __all__ = ["BIFURCATION_TYPES", "Bifurcation", "Branch", "BranchPoint", "Continu
 _STATE_QUANTITIES = ("max", "min", "rms", "ptp", "peak_to_peak", "x0")
 
 
-@dataclass(frozen=True, eq=False)
-class Branch:
+@dataclass(frozen=True, eq=False, repr=False)
+class Branch(BranchDisplay):
     """A continued branch of periodic orbits.
+
+    Units: the parameter values in its declared unit, states in SI, periods in the model's time
+    unit.  ``repr`` is one line (range, points, bifurcations); in Jupyter a table;
+    ``to_dataframe()`` gives one row per point, ``to_xarray()`` a dataset on ``point``
+    (:mod:`gearsym.display`).
 
     Attributes
     ----------

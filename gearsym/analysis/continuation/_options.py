@@ -81,7 +81,8 @@ class ContinuationOptions:
         Depth of automatic branch switching at period doublings (0: none; 1: the doubled
         branches; 2: also their doublings, ...).  Default 0.
     progress : bool or None
-        Show a progress bar on stderr.  Default: when stderr is a terminal.
+        Show a progress bar (:func:`gearsym.progress.progress_bar`: ``tqdm.auto``, a widget in a
+        notebook).  Default: in a terminal or a Jupyter kernel, not in a worker process.
     transient : float or None
         Forcing periods integrated before the first Newton solve when no ``x0`` or ``orbit``
         is given.  Default: the scene's ``transient_periods``, else 20.

@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from ...display import BifurcationDisplay, BranchPointDisplay
+
 __all__ = ["BIFURCATION_TYPES", "Bifurcation", "BranchPoint", "ContinuationSetup"]
 
 #: Types of located special points and what they mean.
@@ -21,9 +23,12 @@ BIFURCATION_TYPES: dict[str, str] = {
 }
 
 
-@dataclass(frozen=True, eq=False)
-class BranchPoint:
+@dataclass(frozen=True, eq=False, repr=False)
+class BranchPoint(BranchPointDisplay):
     """One periodic orbit on a branch.
+
+    Units: ``value`` in the parameter's declared unit, ``x0`` in SI, ``period`` in the model's
+    time unit (seconds); ``max``, ``min``, ``rms`` in the observed state's SI unit.
 
     Attributes
     ----------
@@ -136,8 +141,8 @@ class BranchPoint:
         }
 
 
-@dataclass(frozen=True, eq=False)
-class Bifurcation:
+@dataclass(frozen=True, eq=False, repr=False)
+class Bifurcation(BifurcationDisplay):
     """A located special point of a branch.
 
     Attributes
@@ -167,6 +172,16 @@ class Bifurcation:
     def multipliers(self) -> np.ndarray:
         """Floquet multipliers at the point."""
         return self.point.multipliers
+
+    @property
+    def x0(self) -> np.ndarray:
+        """The state of the orbit at the point at ``t0`` (SI units; the ``x0`` of :meth:`to_dict`)."""
+        return self.point.x0
+
+    @property
+    def period(self) -> float:
+        """The orbit's period at the point (the model's time unit)."""
+        return self.point.period
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary.

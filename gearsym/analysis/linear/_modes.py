@@ -47,6 +47,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ...budget import check_count
+from ...display import ModalDisplay
 from ...errors import ParameterError
 from ...static import PeriodAverage, StaticEquilibrium, equal_nodes
 from ...static import static_equilibrium as solve_static
@@ -58,9 +59,12 @@ __all__ = ["ModalAnalysis", "averaged_linearization", "diagonal_mass", "equilibr
            "static_equilibrium"]
 
 
-@dataclass(frozen=True)
-class ModalAnalysis:
+@dataclass(frozen=True, repr=False)
+class ModalAnalysis(ModalDisplay):
     """Natural frequencies and mode shapes of a linearised model.
+
+    ``repr`` is one line; ``to_dataframe()`` gives one row per mode, ``to_xarray()`` a dataset
+    on ``(mode, coordinate)`` (:mod:`gearsym.display`).
 
     Attributes
     ----------
@@ -96,10 +100,14 @@ class ModalAnalysis:
     info : dict
         ``samples`` (``None``: the exact mean), ``nodes`` (of the average), ``period``,
         ``equilibrium_iterations`` and ``equilibrium_residual`` (Newton, all contact states
-        tried), ``contact_states_tried``, ``rigid_body``, ``symmetry_error``, ``cluster_tol``.
+        tried), ``contact_states_tried``, ``rigid_body``, ``symmetry_error``, ``cluster_tol``,
+        ``frequency_unit`` (``"Hz"``, or ``"1/time"`` for a model in dimensionless time).
     classification : list of str or None
         A type per mode where a classifier applies (planetary sets:
         ``"rotational"``, ``"translational"``, ``"planet"``, ``"mixed"``).
+    vectors : ndarray or None
+        The ``M``-orthonormal eigenvectors as columns (symmetric case), behind
+        :meth:`mass_normalized` (constructor argument ``_vectors``).
     """
 
     coordinate_names: list[str]
@@ -125,7 +133,12 @@ class ModalAnalysis:
         return len(self.frequencies_hz)
 
     def mass_normalized(self) -> np.ndarray:
-        """Shapes as columns, ``M``-orthonormal in the recovered mass (symmetric case only)."""
+        """Shapes as columns, ``M``-orthonormal in the recovered mass (symmetric case only).
+
+        Returns
+        -------
+        ndarray, shape (n_coordinates, n_modes)
+        """
         if self._vectors is None:
             raise ParameterError("mass-normalised shapes need the symmetric (diagonal-mass) case")
         return self._vectors
@@ -133,6 +146,11 @@ class ModalAnalysis:
     def energy_fractions(self, group: Sequence[int]) -> np.ndarray:
         """Kinetic-energy fraction of every coordinate in a group of modes (summed over the
         group: independent of the basis chosen inside a repeated frequency).
+
+        Parameters
+        ----------
+        group
+            Mode indices (one of :attr:`groups`).
 
         Returns
         -------
@@ -152,8 +170,19 @@ class ModalAnalysis:
         """The text report of ``gearsym modes``: one row per mode (frequency, multiplicity,
         damping ratio, type, largest components), the contact state and the structure verdict.
 
-        ``frequency_unit``: the label of the frequency column (``"1/time"`` for models in
-        dimensionless time, whose ``frequencies_hz`` are cycles per unit time)."""
+        Parameters
+        ----------
+        title
+            The scene's name (the first line's head).
+        frequency_unit
+            The label of the frequency column (``"1/time"`` for models in dimensionless time,
+            whose ``frequencies_hz`` are cycles per unit time).
+
+        Returns
+        -------
+        str
+            Lines of text.
+        """
         names = self.coordinate_names
         samples = self.info.get("samples")
         mean = (f"mean stiffness over {samples} samples per forcing period" if samples else
@@ -188,7 +217,17 @@ class ModalAnalysis:
         return "\n".join(lines)
 
     def to_dict(self, shapes: bool = True) -> dict[str, Any]:
-        """JSON-ready summary (``mode_shapes``: one mapping coordinate -> amplitude per mode)."""
+        """JSON-ready summary (``mode_shapes``: one mapping coordinate -> amplitude per mode).
+
+        Parameters
+        ----------
+        shapes
+            Include the mode shapes.
+
+        Returns
+        -------
+        dict
+        """
         d: dict[str, Any] = {
             "coordinate_names": list(self.coordinate_names),
             "frequencies_hz": [float(f) for f in self.frequencies_hz],
@@ -386,6 +425,12 @@ def _groups(f: np.ndarray, cluster_tol: float) -> list[list[int]]:
     return out
 
 
+def _frequency_unit(system: CompiledSystem) -> str:
+    """``"Hz"`` for a model in seconds, ``"1/time"`` in dimensionless time (or unknown)."""
+    table = getattr(system, "units_table", None)
+    return "Hz" if callable(table) and table().get("t") == "s" else "1/time"
+
+
 def modal_analysis(system: CompiledSystem, params: Mapping[str, float] | None = None, *, samples: int | None = None,
                    t0: float = 0.0, x0: Sequence[float] | None = None, cluster_tol: float = 1e-6,
                    where: tuple[str | None, str | None] = (None, None)) -> ModalAnalysis:
@@ -470,5 +515,6 @@ def modal_analysis(system: CompiledSystem, params: Mapping[str, float] | None = 
               "equilibrium_iterations": eq.info["iterations"], "equilibrium_residual": eq.info["residual"],
               "contact_states_tried": eq.info["states_tried"],
               "rigid_body": eq.free > 0 or bool(np.any(f == 0.0)),
-              "symmetry_error": sym_err if math.isfinite(sym_err) else None, "cluster_tol": cluster_tol},
+              "symmetry_error": sym_err if math.isfinite(sym_err) else None, "cluster_tol": cluster_tol,
+              "frequency_unit": _frequency_unit(system)},
         _vectors=vectors)

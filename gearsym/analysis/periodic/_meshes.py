@@ -32,10 +32,22 @@ def mesh_deflections(system: System, t: Sequence[float], Y: np.ndarray,
                      params: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
     """Dynamic deflection of every mesh at the states ``Y[k]`` at times ``t[k]`` (SI).
 
+    Parameters
+    ----------
+    system
+        The compiled system.
+    t
+        Times, shape (n,), in the model's time unit.
+    Y
+        States at ``t``, shape (n, nx), SI units (a trajectory's ``y``).
+    params
+        Parameter overrides (declared units), e.g. the trajectory's ``params``.
+
     Returns
     -------
     dict
-        Mesh name -> array like ``t`` (empty dict for a model without meshes).
+        Mesh name -> array like ``t``: the deflection along the line of action less the
+        transmission error (m, or the model's length unit: SI), empty for a model without meshes.
     """
     names = mesh_names(system)
     if not names or "gs_mesh" not in system.generated.functions:

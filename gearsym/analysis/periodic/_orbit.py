@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ...display import OrbitDisplay
 from ...errors import ParameterError
 from ...files import save_figure
 from ._fourier import synthesize
@@ -37,9 +38,13 @@ __all__ = ["VANISHING", "PeriodicOrbit", "SolvedOrbit", "finish_orbit"]
 #: largest, their vanishing ones near 1e-12.
 VANISHING = 1e-9
 
-@dataclass(frozen=True, eq=False)
-class PeriodicOrbit:
+@dataclass(frozen=True, eq=False, repr=False)
+class PeriodicOrbit(OrbitDisplay):
     """A periodic orbit of a compiled system and its Floquet multipliers.
+
+    Units: ``x0`` in SI (the system's ``units_table()``), ``period`` and ``t0`` in the model's
+    time unit (seconds), ``params`` in the declared units.  ``repr`` is one line; in Jupyter a
+    table; ``to_xarray()`` / ``to_dataframe()`` give the sampled orbit (:mod:`gearsym.display`).
 
     Attributes
     ----------

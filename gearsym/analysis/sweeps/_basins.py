@@ -62,8 +62,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...budget import LIMITS, check_count
+from ...display import BasinDisplay
 from ...errors import GearsymError, ParameterError
 from ...integrators import check_method, default_method, get_method
+from ...progress import progress_bar
 from .._inputs import SceneLike, as_system
 from ._attractors import KINDS, Attractor, Context, Table, identify, table_from_arrays
 
@@ -175,8 +177,11 @@ class BasinOptions:
 
 
 @dataclass(frozen=True, eq=False)
-class BasinResult:
+class BasinResult(BasinDisplay):
     """A basin map: a label per grid cell and the attractors (module docstring).
+
+    In Jupyter a table of the attractors and their basins; ``to_xarray()`` the map
+    (:attr:`dataset`), ``to_dataframe()`` one row per attractor (:mod:`gearsym.display`).
 
     States (the grid, :attr:`base`, the attractors' points) are in the system's own variables, as
     :attr:`gearsym.system.System.x0`.
@@ -387,7 +392,8 @@ def basins(target: SceneLike | System, x: Sequence[Any], y: Sequence[Any], *, pa
     dask
         A Dask scheduler address or ``distributed.Client``: the settling rounds run there.
     progress
-        A progress bar of the settled cells on stderr (tqdm; ``None``: when stderr is a terminal).
+        A progress bar of the settled cells (:func:`gearsym.progress.progress_bar`: ``tqdm.auto``;
+        ``None``: in a terminal or a notebook).
     **overrides
         Fields of :class:`BasinOptions` overriding ``options`` (``periods_max=200``).
 
@@ -576,7 +582,7 @@ class _Run:
     def settle_all(self, progress: bool | None) -> None:
         """The settling rounds (module docstring, steps 2 and 3)."""
         t = time.perf_counter()
-        bar = _progress_bar(progress, self.labels.size)
+        bar = progress_bar(progress, self.labels.size, "basin cells settled", unit="cell")
         try:
             done, budget = 0, min(FIRST_BUDGET, self.opts.periods_max)
             while True:
@@ -591,8 +597,7 @@ class _Run:
                 self.stats["rounds"] += 1
                 done, budget = budget, min(2 * budget, self.opts.periods_max)
         finally:
-            if bar is not None:
-                bar.close()
+            bar.close()
         self.stats["settle_s"] = time.perf_counter() - t
 
     def _round(self, pending: np.ndarray, periods: int, bar: Any) -> None:
@@ -610,8 +615,8 @@ class _Run:
         tasks = [{**common, "x": self.x[b], "sigma": self._sigma0(b)} for b in blocks]
 
         def finished(i: int, out: Any) -> None:
-            if bar is not None and not isinstance(out, TaskFailure):
-                bar.update(int(np.count_nonzero(out["label"] != UNRESOLVED)))
+            if not isinstance(out, TaskFailure):
+                bar(int(np.count_nonzero(out["label"] != UNRESOLVED)))
 
         results, runner = run_tasks(settle_block, self.system, tasks, workers=self.workers if parallel else 1,
                                     dask=self.dask if parallel else None, on_result=finished)
@@ -630,21 +635,6 @@ class _Run:
                 self.stats[k] += out[k]
             if out["message"] and not self.stats["first_error"]:
                 self.stats["first_error"] = out["message"]
-
-
-def _progress_bar(enabled: bool | None, total: int) -> Any:
-    """A tqdm bar of the settled cells on stderr, or None (disabled, or tqdm missing)."""
-    import sys
-
-    if enabled is None:
-        enabled = bool(getattr(sys.stderr, "isatty", lambda: False)())
-    if not enabled:
-        return None
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:  # pragma: no cover
-        return None
-    return tqdm(total=total, desc="basin cells settled", file=sys.stderr, leave=False, unit="cell")
 
 
 def settle_block(system: System, task: Mapping[str, Any]) -> dict[str, Any]:

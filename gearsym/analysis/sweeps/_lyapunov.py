@@ -88,8 +88,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ...display import LyapunovDisplay
 from ...errors import ParameterError, SimulationError
 from ...integrators import INTEGRATION_METHODS, default_method
+from ...progress import progress_bar
 from .._options import resolve_options
 from ..periodic import ERROR_FACTOR, rigid_state_basis
 
@@ -215,9 +217,11 @@ def _integer(name: str, v: Any, lo: int, hi: int | None) -> None:
         raise ParameterError(f"{name} must be an integer {rng}, got {v!r}")
 
 
-@dataclass(frozen=True)
-class LyapunovResult:
+@dataclass(frozen=True, repr=False)
+class LyapunovResult(LyapunovDisplay):
     """Lyapunov exponents of one run of :func:`lyapunov_exponents`.
+
+    ``repr`` is one line; ``to_dataframe()`` one row per exponent (:mod:`gearsym.display`).
 
     Attributes
     ----------
@@ -586,7 +590,9 @@ def lyapunov_exponents(system: CompiledSystem, params: Mapping[str, float] | Non
     x0
         Initial state at ``t = 0`` (default: the scene's).
     progress
-        A progress bar on stderr (tqdm; ``None``: when stderr is a terminal).
+        A progress bar of the blocks (:func:`gearsym.progress.progress_bar`: ``tqdm.auto``;
+        ``None``: in a terminal or a notebook).  Default ``False``: a map that computes the
+        exponents at its points calls this once per point.
     **overrides
         Fields of :class:`LyapunovOptions` overriding ``options`` (e.g. ``periods=500``).
 
@@ -627,35 +633,16 @@ def lyapunov_exponents(system: CompiledSystem, params: Mapping[str, float] | Non
                              f"{opts.periods:g} periods need {n_blocks:,} blocks; compute fewer exponents")
     h = b * unit
     L = np.empty((n_blocks, k))
-    bar = _progress_bar(progress, n_blocks)
     step = max(n_blocks // 200, 1)
-    try:
+    with progress_bar(progress, n_blocks, "Lyapunov blocks", unit="block") as bar:
         for j in range(n_blocks):
             Q, L[j] = _qr_step(run.tangent_map(h) @ Q)
             if k > 1:
                 growth = max(growth, float(L[j, 0] - L[j, -1]))
-            if bar is not None and (j + 1) % step == 0:
-                bar.update(step)
-    finally:
-        if bar is not None:
-            bar.close()
+            if (j + 1) % step == 0:
+                bar(step)
     rate = (run.t - t_start) / unit / max(time.perf_counter() - t_phase, 1e-300)
     return _result(system, params, opts, run, L, b, unit, forced, k, m, growth, wall, rate)
-
-
-def _progress_bar(enabled: bool | None, total: int) -> Any:
-    """A tqdm bar over the blocks on stderr, or None (disabled, or tqdm missing)."""
-    import sys
-
-    if enabled is None:
-        enabled = bool(getattr(sys.stderr, "isatty", lambda: False)())
-    if not enabled:
-        return None
-    try:
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover
-        return None
-    return tqdm(total=total, desc="Lyapunov blocks", file=sys.stderr, leave=False)
 
 
 def _time_unit(system: CompiledSystem, params: Mapping[str, float] | None, opts: LyapunovOptions) -> tuple[float, bool]:
