@@ -157,8 +157,8 @@ class SymbolicModel(SymbolicDisplay):
         self.schedules: list[ScheduleInfo] = [
             ScheduleInfo(s, ns.schedule_period[s], (sp.Integer(0), *ns.schedule_breaks[s]),
                          ns.sched_n[s], ns.sched_seg[s])
-            for s in self.spec.schedules if s in self.modal.used_schedules
-        ]
+            for s in [*self.spec.schedules, *ns.tables.hidden] if s in self.modal.used_schedules
+        ]  # the model's schedules, then those of its tables (gearsym/symbolic/tables.py)
         self.forcing_period = ns.parse(self.spec.forcing_period, "forcing.period") \
             if self.spec.forcing_period else None
         self.outputs = self._outputs(ns)
