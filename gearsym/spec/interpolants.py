@@ -150,7 +150,8 @@ def linear_pieces(x: np.ndarray, y: np.ndarray, period: float | None = None, out
     parts = []
     for a, b in _runs(x):
         xs, ys = x[a:b + 1], y[a:b + 1]
-        slope = (ys[1:] - ys[:-1]) / (xs[1:] - xs[:-1])
+        with np.errstate(over="ignore", invalid="ignore"):  # checked by the caller (finite)
+            slope = (ys[1:] - ys[:-1]) / (xs[1:] - xs[:-1])
         parts.append((xs, np.stack([slope, ys[:-1]], axis=1)))
     return _join(parts, period, outside)
 
@@ -168,12 +169,14 @@ def cubic_pieces(x: np.ndarray, y: np.ndarray, period: float | None = None, outs
     if period is not None:
         x, y = _rotated(*_periodic_samples(x, y, period), period)
         if len(_runs(x)) == 1 and y[-1] == y[0]:
-            cs = CubicSpline(x, y, bc_type="periodic")
+            with np.errstate(over="ignore", invalid="ignore"):
+                cs = CubicSpline(x, y, bc_type="periodic")
             return _join([(x, cs.c.T)], period, outside)
     parts = []
     for a, b in _runs(x):
         xs, ys = x[a:b + 1], y[a:b + 1]
-        cs = CubicSpline(xs, ys, bc_type="not-a-knot")
+        with np.errstate(over="ignore", invalid="ignore"):
+            cs = CubicSpline(xs, ys, bc_type="not-a-knot")
         c = cs.c.T
         if c.shape[1] < 4:  # two samples: scipy's line (degree 1), padded to a cubic
             c = np.hstack([np.zeros((c.shape[0], 4 - c.shape[1])), c])
