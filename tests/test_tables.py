@@ -17,8 +17,6 @@ the knots of a table over the phase (so the reference never steps across a kink 
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -222,7 +220,7 @@ class Reference:
                         return yy[0] - s
                     ev.terminal, ev.direction = True, -mode[j]
                     evs.append(ev)
-                sol = solve_ivp(lambda tt, yy: field(tt, yy, mode), (t, tb), y, method="DOP853", rtol=rtol,
+                sol = solve_ivp(lambda tt, yy, mode=mode: field(tt, yy, mode), (t, tb), y, method="DOP853", rtol=rtol,
                                 atol=1e-20, events=evs, dense_output=t_eval is not None)
                 hit = [i for i, e in enumerate(sol.t_events) if len(e)]
                 t_next, y_next = (sol.t_events[hit[0]][0], sol.y_events[hit[0]][0]) if hit else (sol.t[-1], sol.y[:, -1])
