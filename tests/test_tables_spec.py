@@ -274,3 +274,47 @@ def test_table_data_is_part_of_the_build_key(tmp_path):
     a = load_model(write(tmp_path)).data_digest()
     b = load_model(write(tmp_path, csv=GOOD_CSV.replace("1.2e8", "1.3e8"))).data_digest()
     assert a and b and a != b
+
+
+# ------------------------------------------------------------------ gear geometry
+
+GEARS = '''unit = "N/m"
+interpolation = "cubic"
+[tables.k.gears]
+module = "3 mm"
+teeth = [50, 50]
+face_width = "20 mm"
+youngs_modulus = "206 GPa"
+samples = 32
+'''
+
+
+def test_a_table_from_gear_geometry_is_the_geometry_stiffness(tmp_path):
+    """The 50/50, 3 mm pair of Yu et al.: the table equals gearsym.gears' stiffness between the samples
+    (a cubic spline per contact zone) and jumps where a pair enters or leaves."""
+    from gearsym.gears import Gear, GearPair, mesh_stiffness
+
+    t = load_model(write(tmp_path, table=GEARS, csv=None)).tables["k"]
+    res = mesh_stiffness(GearPair(module=3e-3, pinion=Gear(50), wheel=Gear(50), face_width=20e-3), samples=32)
+    q = np.linspace(0.0, 1.0, 2001)[:-1]
+    assert np.max(np.abs(t(q) - res.at(q))) / res.mean < 1e-6
+    jump = res.contact_ratio - 1
+    before, after = t([jump - 1e-13, jump])
+    assert before > 4.5e8 and after < 2.9e8                    # two pairs, then one
+    assert t.info["contact_ratio"] == pytest.approx(1.7546732846981046, rel=1e-12)
+    assert t.info["mean_N_per_m"] == pytest.approx(res.mean, rel=1e-12)
+    assert t.info["iso6336_c_gamma_N_per_m"] == pytest.approx(res.iso.mesh_stiffness, rel=1e-12)
+    assert t.source == "gears" and t.period == 1.0
+
+
+@pytest.mark.parametrize("change, needles", [
+    (('module = "3 mm"', "module = 3"), ["tables.k.gears.module", "with its unit"]),
+    (('teeth = [50, 50]', "teeth = [8, 50]"), ["tables.k.gears", "refused"]),
+    (('samples = 32', "samples = 3"), ["tables.k.gears.samples", "4 to 1024"]),
+    (('samples = 32', 'bore_radius = "1 mm"\nmodul = "3 mm"'), ["tables.k.gears.modul", "did you mean 'module'"]),
+    (('face_width = "20 mm"', 'face_width = "20 N"'), ["tables.k.gears.face_width", "[kg*m*s^-2]"]),
+])
+def test_bad_gear_geometry_names_the_key(tmp_path, change, needles):
+    msg = spec_error(write(tmp_path, table=GEARS.replace(*change), csv=None))
+    for n in needles:
+        assert n in msg, msg

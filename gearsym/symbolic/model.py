@@ -81,6 +81,9 @@ class SymbolicModel(SymbolicDisplay):
         self.structured = structured
         ns = Namespace(rs, structured=structured)
         self.ns = ns
+        #: each table written into the equations -> its short form ``k_ltca(mesh_phase)`` (for display:
+        #: ``expr.xreplace(model.table_display)``; gearsym/symbolic/tables.py)
+        self.table_display = ns.tables.display
         self.t = ns.t
         self._surface_hints: list[SwitchingFunction] = []
         q = list(ns.coords.values())
@@ -386,15 +389,16 @@ class SymbolicModel(SymbolicDisplay):
         return out
 
     def equations(self) -> list[sp.Eq]:
-        """The equations of motion ``M q'' = F`` (one per coordinate)."""
+        """The equations of motion ``M q'' = F`` (one per coordinate); a table is shown as its call
+        (``k_ltca(mesh_phase)``, :attr:`table_display`), not as its pieces."""
         out = []
         for i, qi in enumerate(self.coordinates):
             acc = sp.Symbol(f"{qi}''")
             lhs = sum(self.mass_matrix[i, j] * sp.Symbol(f"{qj}''") for j, qj in enumerate(self.coordinates))
             if self.accelerations is not None and self.mass_matrix[i, i] != 0:
-                out.append(sp.Eq(acc, self.accelerations[i]))
+                out.append(sp.Eq(acc, self.accelerations[i].xreplace(self.table_display)))
             else:
-                out.append(sp.Eq(lhs, self.forces[i]))
+                out.append(sp.Eq(lhs, self.forces[i].xreplace(self.table_display)))
         if self.constraint_rows is not None:  # q_d'' from the accelerations of the kept coordinates
             put = {a: sp.Symbol(f"{v_}'") for a, v_ in zip(self.constrained.accelerations, self.velocities)}
             out += [sp.Eq(r.xreplace(put), 0) for r in self.constraint_rows]
@@ -438,6 +442,7 @@ class SymbolicModel(SymbolicDisplay):
         for i, qi in enumerate(self.coordinates):
             lhs = sp.latex(sp.Symbol(f"\\ddot{{{sp.latex(qi)}}}"))
             rhs = self.accelerations[i] if self.accelerations is not None else self.forces[i]
+            rhs = rhs.xreplace(self.table_display)
             if self.accelerations is None:
                 lhs = sp.latex(sum(self.mass_matrix[i, j] * sp.Symbol(f"\\ddot{{{sp.latex(qj)}}}")
                                    for j, qj in enumerate(self.coordinates)))
@@ -474,6 +479,10 @@ class SymbolicModel(SymbolicDisplay):
         from .dimensionless import dimensionless_form
 
         cached = self.__dict__.get("_dimensionless")
+        if cached is None and self.table_display:
+            raise SpecError("the dimensionless form (its groups) is not derived for equations that use tables: "
+                            "a table's values carry its unit, which the form does not scale yet",
+                            file=self.spec.path, field="tables")
         if cached is None:
             with Budget(what=f"the dimensionless form of model '{self.name}'", file=self.spec.path).active():
                 cached = dimensionless_form(self)

@@ -114,10 +114,10 @@ class TableLowering:
             return self._cache[key]
         cols = [self._column(table, f, first, where, record, j) for j, f in enumerate(table.interpolants)]
         value = cols[0] if second is None else self._across(table, cols, second, where, record)
-        if table.scale is not None:
-            value = value * self.ns.parse(table.scale, f"tables.{table.name}.scale")
         shown = [shown0] + ([second] if second is not None else [])
         self.display[value] = sp.Function(table.name)(*shown)
+        if table.scale is not None:
+            value = value * self.ns.parse(table.scale, f"tables.{table.name}.scale")
         self._cache[key] = value
         return value
 
