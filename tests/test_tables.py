@@ -34,6 +34,12 @@ VALS = K0 * (1 + 0.3 * np.cos(2 * np.pi * XK) + 0.1 * np.sin(4 * np.pi * XK) + 0
 LOADS = np.array([200.0, 600.0, 1000.0])
 GRID = np.outer(VALS, 1 + 0.2 * LOADS / 1000)  # k(phase_i, load_j)
 
+# a periodic load over time (the last knot closes the period, 0.55 ms) and a ramp held after 2 ms
+TIME_X = np.array([0.0, 0.1, 0.25, 0.3, 0.55]) * 1e-3
+TIME_V = np.array([-800.0, 1800.0, -600.0, 1200.0, -800.0])
+RAMP_X = np.array([0.0, 1.0, 2.0]) * 1e-3
+RAMP_V = np.array([0.0, 300.0, 200.0])
+
 FORCE_X = np.array([-20.0, -10.0, 0.0, 5.0, 10.0, 20.0, 30.0, 40.0]) * 1e-6   # a measured force law
 FORCE_V = np.array([-3000.0, -1200.0, 0.0, 250.0, 700.0, 2200.0, 4200.0, 7000.0])
 
@@ -56,6 +62,7 @@ b = {{ value = {B * 1e6}, unit = "um" }}
 s_k = {{ value = 1.0 }}
 T_m = {{ value = {T_M}, unit = "s" }}
 F_a = {{ value = 800.0, unit = "N" }}
+k_c = {{ value = 1e8, unit = "N/m" }}
 [schedules.mesh]
 period = "T_m"
 [forcing]
@@ -78,11 +85,12 @@ outside = "extend"
 [equations.x]
 force = "-s_k*Fs(x) - c*v + F + F_a*cos(2*pi*t/T_m)"
 '''
-    mesh = '''
+    load = "F_per(t) + F_ramp(t)" if kind == "time" else "F"
+    mesh = f'''
 [elements.load]
 type = "force"
 coordinate = "x"
-value = "F"
+value = "{load}"
 [elements.mesh]
 type = "mesh"
 deflection = "x"
@@ -98,6 +106,20 @@ domain = ["phase", "N"]
 x = {_floats(XK)}
 y = {_floats(LOADS)}
 values = [{rows}]
+'''
+    if kind == "time":
+        return head + mesh + f'''stiffness = "s_k*k_c"
+[tables.F_per]
+unit = "N"
+domain = "ms"
+x = {_floats(TIME_X * 1e3)}
+values = {_floats(TIME_V)}
+periodic = true
+[tables.F_ramp]
+unit = "N"
+domain = "ms"
+x = {_floats(RAMP_X * 1e3)}
+values = {_floats(RAMP_V)}
 '''
     tol = "\ntolerance = 0.0" if kind == "fourier" else ""
     return head + mesh + f'''stiffness = "s_k*k(mesh_phase)"
@@ -163,9 +185,17 @@ class Reference:
     def __init__(self, kind: str, s_k: float = 1.0):
         self.kind = kind
         self.s_k = s_k
+        self.knot_times: list[float] = []
         if kind == "force_law":
             self.surfaces = [float(a) for a in FORCE_X[1:-1]]      # the interior knots (extended ends)
             self.knot_phases: list[float] = []
+        elif kind == "time":
+            self.k = lambda t: 1e8
+            self.surfaces = [B, -B]
+            self.knot_phases = []
+            P = TIME_X[-1]
+            self.knot_times = sorted({n * P + x for n in range(int(PERIODS * T_M / P) + 2) for x in TIME_X[:-1]}
+                                     | set(RAMP_X))
         else:
             self.k = _stiffness(kind)
             self.surfaces = [B, -B]                                  # drive and back flanks
@@ -185,7 +215,7 @@ class Reference:
                 f, df = x + B, 1.0
             else:
                 f, df = 0.0, 0.0
-            force = F - C * v - self.s_k * k * f
+            force = self._load(t) - C * v - self.s_k * k * f
             dfdx, dfds = -self.s_k * k * df, -k * f
         A = np.array([[0.0, 1.0], [dfdx / M, -C / M]])
         phi = y[2:6].reshape(2, 2)
@@ -199,7 +229,12 @@ class Reference:
             fs, _ = _force_law(x, sum(1 for m in mode if m > 0))
             return [v, (-self.s_k * fs - C * v + F + 800.0 * np.cos(2 * np.pi * t / T_M)) / M]
         f = x - B if mode[0] > 0 else (x + B if mode[1] < 0 else 0.0)
-        return [v, (F - C * v - self.s_k * float(self.k(t)) * f) / M]
+        return [v, (self._load(t) - C * v - self.s_k * float(self.k(t)) * f) / M]
+
+    def _load(self, t: float) -> float:
+        if self.kind != "time":
+            return F
+        return float(np.interp(np.mod(t, TIME_X[-1]), TIME_X, TIME_V) + np.interp(t, RAMP_X, RAMP_V))
 
     def run(self, x0, t_end: float, t_eval: np.ndarray | None = None, rtol: float = 1e-12,
             variational: bool = True):
@@ -209,7 +244,8 @@ class Reference:
         t = 0.0
         mode = tuple(1 if y[0] - s > 0 else -1 for s in self.surfaces)
         n_cycles = int(np.ceil(t_end / T_M)) + 1
-        stops = sorted({(n + p) * T_M for n in range(n_cycles) for p in self.knot_phases} | {t_end})
+        stops = sorted({(n + p) * T_M for n in range(n_cycles) for p in self.knot_phases} | {t_end}
+                       | set(self.knot_times))
         stops = [s for s in stops if 0 < s <= t_end]
         events, out_t, out_y = 0, [], []
         for tb in stops:
@@ -238,7 +274,7 @@ class Reference:
 
 # ------------------------------------------------------------------ the tests
 
-KINDS = ["linear", "cubic", "fourier", "grid", "force_law"]
+KINDS = ["linear", "cubic", "fourier", "grid", "force_law", "time"]
 
 
 @pytest.fixture(scope="module")
@@ -269,9 +305,11 @@ def test_table_trajectory_and_events_equal_the_reference(systems, kind):
     assert events > 100  # the orbit loses contact (or crosses the knots of the force law) every period
     if kind in ("linear", "cubic", "grid"):  # the integrator stopped at every knot of the table
         assert tr.stats["n_breaks"] >= PERIODS * N - 1
+    if kind == "time":  # every knot of the periodic load (4 a period) and the two of the ramp
+        assert tr.stats["n_breaks"] >= int(PERIODS * T_M / TIME_X[-1]) * 4 + 2
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", [k for k in KINDS if k != "time"])   # (the loads over time are not T_m-periodic)
 def test_table_floquet_multipliers_equal_the_reference(systems, kind):
     system = systems[kind]
     tr = system.simulate(periods=60, x0=[1.5e-5, 0.0], rtol=1e-11, atol=1e-18)
