@@ -139,7 +139,9 @@ class SymbolicModel(SymbolicDisplay):
                                     file=self.spec.path, field="reduction")
                 hints.append(replace(h, expr=g))
             self._surface_hints = hints
-            self._meshes = {k: _expand_in_states(d.subs(rr.sub), states, ns.t) for k, d in self._meshes.items()}
+            hide, show = ns.tables.hider()
+            self._meshes = {k: show(_expand_in_states(hide(d.subs(rr.sub)), states, ns.t))
+                            for k, d in self._meshes.items()}
             R = transform_modes(R, rr.A)
         #: rigid-body modes of the final coordinates (columns of coefficients)
         self.rigid_modes = R
@@ -272,7 +274,8 @@ class SymbolicModel(SymbolicDisplay):
                     W = W.xreplace(self._constraint_sub)
                 sub = getattr(self, "_reduction_sub", None)
                 if sub is not None:
-                    W = _expand_in_states(W.subs(sub), states, self.t)
+                    hide, show = self.ns.tables.hider()
+                    W = show(_expand_in_states(hide(W.subs(sub)), states, self.t))
             if not ((W.free_symbols & dynamic) - allowed):
                 out[name] = W
         return out

@@ -121,6 +121,21 @@ class TableLowering:
         self._cache[key] = value
         return value
 
+    def hider(self) -> tuple[Callable[[sp.Basic], sp.Basic], Callable[[sp.Basic], sp.Basic]]:
+        """``(hide, show)``: replace every table that depends on no state by a symbol, and back.
+
+        Expanding and folding the equations (a reduction: :mod:`gearsym.symbolic.reduction`) would
+        otherwise multiply every other term out over the table's 64 pieces (and the dead zone's
+        branches into each piece); a table of time or of the parameters needs none of it.
+        """
+        dynamic = set(self.ns.coords.values()) | set(self.ns.vels.values())
+        fwd = {k: sp.Dummy(f"table{i}", real=True) for i, k in enumerate(self.display)
+               if not (k.free_symbols & dynamic)}
+        back = {d: k for k, d in fwd.items()}
+        if not fwd:
+            return (lambda e: e), (lambda e: e)
+        return (lambda e: e.xreplace(fwd)), (lambda e: e.xreplace(back))
+
     def _error(self, where: str, message: str) -> SpecError:
         return SpecError(message, file=self.ns.rs.model.path, field=where or None)
 
