@@ -36,6 +36,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.ticker import FuncFormatter  # noqa: E402
 
 import gearsym  # noqa: E402
 
@@ -77,13 +78,20 @@ def orbit_at(system, label: str) -> dict:
 
 
 def frequency_response(system, lo: float, hi: float, label: str, params=None):
-    t0 = time.perf_counter()
-    branch = gearsym.continuation(system, "n1", lo, hi, params=params)
-    dt = time.perf_counter() - t0
-    kinds = [f"{b.type} at {b.value:.0f} rpm" for b in branch.bifurcations]
-    print(f"{label}: {len(branch.points)} orbits in {dt:.1f} s ({branch.stop_reason}); " + "; ".join(kinds))
-    return branch, {"points": len(branch.points), "seconds": dt, "stop": branch.stop_reason,
-                    "bifurcations": [{"type": b.type, "n1_rpm": b.value} for b in branch.bifurcations]}
+    """The orbit continued in the pinion speed from both ends of the range (a softening resonance
+    turns back at its folds: the branch from below may return below ``lo`` before the jump down)."""
+    branches, info = [], []
+    for a, b in ((lo, hi), (hi, lo)):
+        t0 = time.perf_counter()
+        branch = gearsym.continuation(system, "n1", a, b, params=params)
+        dt = time.perf_counter() - t0
+        kinds = [f"{x.type} at {x.value:.0f} rpm" for x in branch.bifurcations]
+        print(f"{label}, from {a:g} rpm: {len(branch.points)} orbits in {dt:.1f} s ({branch.stop_reason}); "
+              + "; ".join(kinds))
+        branches.append(branch)
+        info.append({"from_rpm": a, "points": len(branch.points), "seconds": dt, "stop": branch.stop_reason,
+                     "bifurcations": [{"type": x.type, "n1_rpm": x.value} for x in branch.bifurcations]})
+    return branches, info
 
 
 def main() -> None:
@@ -131,15 +139,25 @@ def main() -> None:
     ax[0, 2].axvline(40.0, color="C1", ls=":", lw=0.8)
     ax[0, 2].set(xlabel="DTE x (um)", ylabel="v (m/s)", title="periodic orbits (dotted: backlash)")
     ax[0, 2].legend(fontsize=8)
-    yu_branch.plot(ax[1, 0], quantity="ptp", label="peak-to-peak DTE")
-    ax[1, 0].set(xlabel="pinion speed (rpm)", ylabel="peak-to-peak of x (m)", title="Yu pair: frequency response")
-    for b, T in zip(ltca_branches, LTCA_TORQUES):
-        b.plot(ax[1, 1], quantity="ptp", label=f"{T:g} N m", legend=False)
-    ax[1, 1].legend(fontsize=8)
-    ax[1, 1].set(xlabel="pinion speed (rpm)", ylabel="peak-to-peak of x (m)",
+    for b in yu_branch:
+        b.plot(ax[1, 0], quantity="ptp", color="C0", legend=False)
+    ax[1, 0].set(xlabel="pinion speed (rpm)", ylabel="peak-to-peak of x (um)",
+                 title="Yu pair: frequency response (continued from both ends)")
+    for pair, T, c in zip(ltca_branches, LTCA_TORQUES, ("C0", "C1")):
+        for b in pair:
+            b.plot(ax[1, 1], quantity="ptp", color=c, legend=False)
+        ax[1, 1].plot([], [], color=c, label=f"{T:g} N m", gid="key")
+    ax[1, 1].set(xlabel="pinion speed (rpm)", ylabel="peak-to-peak of x (um)",
                  title="LTCA pair: frequency response at two torques")
+    for axis in (ax[1, 0], ax[1, 1]):
+        axis.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v * 1e6:g}"))
+        keys = [h for h in axis.lines if h.get_gid() == "key"]
+        keys += axis.plot([], [], "k-", label="stable") + axis.plot([], [], "k--", label="unstable")
+        keys += axis.plot([], [], "k^", mfc="none", label="grazing")
+        keys += axis.plot([], [], "o", color="C3", mfc="none", label="fold")
+        axis.legend(handles=keys, fontsize=8)
     tr = yu_run["trajectory"]
-    last = tr.t >= tr.t[-1] - 5 * yu.period
+    last = tr.t >= tr.t[-1] - 5 * yu.period()
     ax[1, 2].plot((tr.t[last] - tr.t[last][0]) * 1e3, tr["x"][last] * 1e6, lw=1)
     ax[1, 2].axhline(50.0, color="k", ls=":", lw=0.8)
     ax[1, 2].set(xlabel="t (ms)", ylabel="x (um)", title="Yu pair: DTE over 5 mesh periods (contact loss)")
