@@ -318,3 +318,30 @@ def test_bad_gear_geometry_names_the_key(tmp_path, change, needles):
     msg = spec_error(write(tmp_path, table=GEARS.replace(*change), csv=None))
     for n in needles:
         assert n in msg, msg
+
+
+# ------------------------------------------------------------------ shipped models with tables
+
+
+def test_init_from_a_scene_with_a_table_file_copies_the_table(tmp_path):
+    r = _cli(["init", "mine", "--from", "ltca_pair", "--dir", str(tmp_path)])
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "models" / "ltca_pair_k.csv").is_file()
+    spec = load_model(tmp_path / "models" / "mine.toml")
+    assert spec.tables["k_ltca"].axes[1].knots == (50.0, 100.0, 200.0, 400.0, 700.0)
+
+
+def test_the_geometry_pair_starts_from_its_static_deflection():
+    """yu_fig14_geometry: the static start is b_m + F/k_mean, k_mean the geometry's mean stiffness
+    (integrated zone by zone by gearsym.gears, independently of the table's spline)."""
+    import gearsym
+
+    root = Path(__file__).resolve().parents[1]
+    scene = gearsym.load_scene(root / "scenes" / "yu_fig14_geometry.toml")
+    k_mean = scene.model_spec.tables["k_mesh"].info["mean_N_per_m"]
+    rb1 = 70.47694656e-3
+    expected = 50e-6 + 340.0 / rb1 / k_mean
+    system = scene.compile()
+    assert system.x0[0] == pytest.approx(expected, rel=1e-6)
+    tr = system.simulate(periods=5)
+    assert tr.stats["n_breaks"] >= 5 * 65 - 1   # 64 samples and the jump: 65 breaks a mesh cycle
