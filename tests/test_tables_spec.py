@@ -345,3 +345,73 @@ def test_the_geometry_pair_starts_from_its_static_deflection():
     assert system.x0[0] == pytest.approx(expected, rel=1e-6)
     tr = system.simulate(periods=5)
     assert tr.stats["n_breaks"] >= 5 * 65 - 1   # 64 samples and the jump: 65 breaks a mesh cycle
+
+
+# ------------------------------------------------------------------ in the symbolic model (no compile)
+
+
+def _scene(folder: Path, model_text: str, effects: dict | None = None):
+    import gearsym
+
+    (folder / "m.toml").write_text(model_text)
+    (folder / "s.toml").write_text('[scene]\nmodel = "m.toml"\n')
+    return gearsym.load_scene(folder / "s.toml", effects=effects)
+
+
+def test_an_effect_switched_off_removes_its_table_and_breakpoints(tmp_path):
+    text = MODEL.replace('stiffness = "STIFFNESS"', 'stiffness = ["1e8*k_u", { expr = "s_k*k(mesh_phase)", '
+                                                    'effect = "ltca" }]') \
+        .replace("TABLE", 'unit = "N/m"\ndomain = "phase"\nx = [0.0, 0.25, 0.5]\nvalues = [1e8, 2e8, 1e8]') \
+        .replace("T = { value", 's_k = { value = 1.0 }\nk_u = { value = 1.0, unit = "N/m" }\nT = { value') \
+        + '[effects.ltca]\nmeaning = "LTCA stiffness"\n'
+    on = _scene(tmp_path, text, {"ltca": True}).model
+    assert [s.name for s in on.schedules] == ["k@mesh"] and len(on.schedules[0].breaks) == 3
+    assert "s_k" in on.parameter_names
+    off = _scene(tmp_path, text, {"ltca": False}).model
+    assert off.schedules == [] and "s_k" not in off.parameter_names
+
+
+def test_a_table_over_a_state_has_a_surface_per_knot(tmp_path):
+    table = 'unit = "N"\ndomain = "um"\nx = [-10.0, 0.0, 10.0, 20.0]\nvalues = [-1000.0, 0.0, 500.0, 2000.0]'
+    text = MODEL.replace('type = "spring"\ndeflection = "x"\nstiffness = "STIFFNESS"',
+                         'type = "force"\ncoordinate = "x"\nvalue = "-k(x)"').replace("TABLE", table)
+    m = _scene(tmp_path, text).model
+    assert [s.name for s in m.switching] == [f"spring.k.knot{j}" for j in range(4)]
+    assert m.schedules == []
+    ext = _scene(tmp_path, text.replace('values = [', 'outside = "extend"\nvalues = [')).model
+    assert [s.name for s in ext.switching] == ["spring.k.knot0", "spring.k.knot1"]  # the interior knots
+
+
+def test_a_two_axis_table_over_phase_and_deflection(tmp_path):
+    table = ('unit = "N/m"\ndomain = ["phase", "um"]\nx = [0.0, 0.5]\ny = [0.0, 10.0, 20.0]\n'
+             'values = [[1e8, 2e8, 3e8], [2e8, 3e8, 4e8]]')
+    m = _scene(tmp_path, MODEL.replace("STIFFNESS", "k(mesh_phase, x)").replace("TABLE", table)).model
+    assert [s.name for s in m.switching] == ["spring.k.y0", "spring.k.y1", "spring.k.y2"]
+    assert [s.name for s in m.schedules] == ["k@mesh"]
+
+
+def test_too_many_knots_over_a_state_are_refused(tmp_path):
+    xs = list(range(200))
+    table = f'unit = "N"\ndomain = "um"\nx = {xs}\nvalues = {xs}'
+    text = MODEL.replace('type = "spring"\ndeflection = "x"\nstiffness = "STIFFNESS"',
+                         'type = "force"\ncoordinate = "x"\nvalue = "-k(x)"').replace("TABLE", table)
+    with pytest.raises(SpecError, match="200 knots .limit 128"):
+        _scene(tmp_path, text).model  # noqa: B018
+
+
+@pytest.mark.parametrize("name, needle", [("for", "keyword"), ("T", "duplicate name 'T'"), ("sin", "reserved")])
+def test_table_names_obey_the_identifier_rule(tmp_path, name, needle):
+    text = MODEL.replace("[tables.k]", f"[tables.{name}]").replace("TABLE", CSV_TABLE)
+    (tmp_path / "k.csv").write_text(GOOD_CSV)
+    (tmp_path / "m.toml").write_text(text)
+    msg = spec_error(tmp_path / "m.toml")
+    assert f"tables.{name}" in msg and needle in msg, msg
+
+
+def test_a_table_read_only_by_an_output_gets_its_schedule(tmp_path):
+    text = MODEL.replace("STIFFNESS", "1e8*k_u").replace("TABLE", CSV_TABLE) \
+        .replace("T = { value", 'k_u = { value = 1.0, unit = "N/m" }\nT = { value') \
+        + '[outputs]\nk_out = { value = "k(mesh_phase)", unit = "N/m" }\n'
+    (tmp_path / "k.csv").write_text(GOOD_CSV)
+    m = _scene(tmp_path, text).model
+    assert [s.name for s in m.schedules] == ["k@mesh"]

@@ -159,14 +159,18 @@ class SymbolicModel(SymbolicDisplay):
         self.rhs = sp.Matrix(list(v) + (list(self.accelerations) if self.accelerations is not None else []))
         self.modal: ModalForm = make_modal(self, self._surface_hints)
         self.switching: list[SwitchingFunction] = self.modal.surfaces
+        self.outputs = self._outputs(ns)
+        # the schedules the equations or the outputs read (an output may call a table the equations do not)
+        clocks = set().union(*(e.free_symbols for e in self.outputs.values()))
+        used = self.modal.used_schedules | {s for s in ns.sched_seg
+                                            if {ns.sched_seg[s], ns.sched_n[s]} & clocks}
         self.schedules: list[ScheduleInfo] = [
             ScheduleInfo(s, ns.schedule_period[s], (sp.Integer(0), *ns.schedule_breaks[s]),
                          ns.sched_n[s], ns.sched_seg[s])
-            for s in [*self.spec.schedules, *ns.tables.hidden] if s in self.modal.used_schedules
+            for s in [*self.spec.schedules, *ns.tables.hidden] if s in used
         ]  # the model's schedules, then those of its tables (gearsym/symbolic/tables.py)
         self.forcing_period = ns.parse(self.spec.forcing_period, "forcing.period") \
             if self.spec.forcing_period else None
-        self.outputs = self._outputs(ns)
         #: dynamic deflection (deflection - error) of every active mesh element, in the final states
         self.mesh_deflections: dict[str, sp.Expr] = dict(self._meshes)
         self._check_final_states(ns)
