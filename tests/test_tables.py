@@ -330,3 +330,18 @@ def test_table_scale_sensitivity_equals_the_reference(systems):
     y, _, _, _ = Reference("linear").run(x0, 5 * T_M)
     got = tr.sensitivities["s_k"][-1]
     assert np.allclose(got, y[6:8], rtol=1e-7, atol=1e-9 * np.abs(y[6:8]).max()), (got, y[6:8])
+
+
+@pytest.mark.parametrize("kind", ["linear", "cubic", "fourier", "grid"])
+def test_generated_c_evaluates_the_reference_interpolant(systems, kind):
+    """The stiffness the generated C evaluates (read back from its right-hand side in contact) equals
+    the reference's k(t) to round-off, also thousands of periods on (the same wrap)."""
+    system = systems[kind]
+    k_ref = _stiffness(kind)
+    rng = np.random.default_rng(7)
+    ts = np.concatenate([rng.uniform(0, 3, 200), rng.uniform(0, 5000, 200)]) * T_M
+    ts = np.concatenate([ts, (np.arange(40) + XK[np.arange(40) % N] + 1e-9) * T_M])  # just past knots
+    dx = 1e-5
+    got = np.array([(F - M * system.rhs(t, [B + dx, 0.0])[1]) / dx for t in ts])
+    want = np.array([float(k_ref(t)) for t in ts])
+    assert np.max(np.abs(got - want) / want) < 1e-11
