@@ -37,16 +37,17 @@ import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from ..errors import SpecError
 from .fields import Ctx, as_table, expr_str, only_keys, string, unit_of
-from .interpolants import Fourier, Pieces, column_interpolant, evaluate, finite, uniform
 from .table_data import Grid, inline_grid, read_csv_grid, resolve_table_file
-from .table_gears import gear_table
 from .units import ONE, Unit
+
+if TYPE_CHECKING:  # numpy and the interpolants are imported when a table is read (`gearsym --version` stays light)
+    import numpy as np
+
+    from .interpolants import Fourier, Pieces
 
 __all__ = ["Axis", "Table", "parse_tables", "INTERPOLATIONS", "MAX_KNOTS", "MAX_COLUMNS"]
 
@@ -150,6 +151,10 @@ class Table:
     def __call__(self, *args: Any) -> np.ndarray:
         """Evaluate the table in Python (SI arguments, a phase in cycles; SI values, without
         ``scale``): the reference of what the generated C computes."""
+        import numpy as np
+
+        from .interpolants import evaluate
+
         if len(args) != len(self.axes):
             raise TypeError(f"table '{self.name}' takes {len(self.axes)} argument(s)")
         cols = [evaluate(f, args[0]) for f in self.interpolants]
@@ -189,6 +194,8 @@ def a_scale(axis: Axis) -> float:
 
 def _linear_across(cols: np.ndarray, y: np.ndarray, a: np.ndarray, outside: str) -> np.ndarray:
     """Linear interpolation across the second axis (``numpy.interp`` where ``outside`` holds)."""
+    import numpy as np
+
     j = np.clip(np.searchsorted(y, a, side="right") - 1, 0, len(y) - 2)
     f0 = np.take_along_axis(cols, j[..., None], -1)[..., 0]
     f1 = np.take_along_axis(cols, (j + 1)[..., None], -1)[..., 0]
@@ -267,6 +274,8 @@ def _grid(ctx: Ctx, name: str, tbl: dict[str, Any], naxes: int) -> tuple[Grid, s
     if sources[0] == "gears":
         if naxes != 1:
             raise ctx.error(f"{where}.domain", "a table from gear geometry has one axis, the mesh phase")
+        from .table_gears import gear_table
+
         x, k, info = gear_table(ctx.path, name, tbl["gears"])
         return (Grid(x, None, [[v] for v in k], ctx.path, lambda i, j: f"phase {x[i]:.6g}"), "gears", None, info)
     return inline_grid(ctx.path, name, tbl, naxes), "inline", None, {}
@@ -406,6 +415,10 @@ class _Checks:
 
     def interpolants(self, axis: Axis, columns, kind: str, period: float | None, outside: str,
                      tolerance: float) -> tuple[Pieces | Fourier, ...]:
+        import numpy as np
+
+        from .interpolants import column_interpolant, finite
+
         x = np.asarray(axis.knots)
         if kind == "fourier":
             self._fourier_ok(x, columns, period)
@@ -419,6 +432,10 @@ class _Checks:
         return tuple(out)
 
     def _fourier_ok(self, x: np.ndarray, columns, period: float | None) -> None:
+        import numpy as np
+
+        from .interpolants import uniform
+
         if period is None:
             raise self.whole("fourier interpolation needs a periodic domain (the mesh phase, or time with "
                              "periodic = true)")
