@@ -397,7 +397,7 @@ class _Checks:
             return 1.0
         if not periodic:
             return None
-        if axis.dims.dims != (0, 0, 1):
+        if axis.dims.dims not in ((0, 0, 1), (0, 0, 0)):  # seconds, or the time of a dimensionless model
             raise self.whole("only a table over time (or the mesh phase) is periodic")
         p = axis.knots[-1] - axis.knots[0]
         if not p > 0:  # pragma: no cover - two increasing knots at least

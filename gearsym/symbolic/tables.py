@@ -156,9 +156,7 @@ class TableLowering:
                                          f"schedule's phase (NAME_phase)")
             return ("phase", sname), sp.Symbol(f"{sname}_phase", real=True)
         a = visit(node)
-        if a == ns.t:
-            if axis.dims.dims != (0, 0, 1):  # pragma: no cover - the unit check refuses it
-                raise self._error(where, f"table '{table.name}' is not over time")
+        if a == ns.t:  # (the unit check made its domain the model's time unit)
             return ("time",), ns.t
         if table.period is not None:
             raise self._error(where, f"table '{table.name}' is periodic in time: its argument must be t")
