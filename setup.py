@@ -20,7 +20,7 @@ DATA = {
     "gearsym.export.templates": ["*.c", "*.h", "*.sh", "*.in"],
     "gearsym.export.templates.fmi2": ["*.h"],
     "gearsym.export.templates.sundials": ["LICENSE", "NOTICE"],
-    **{pkg: ["*.toml"] for pkg in SHIPPED},
+    **{pkg: ["*.toml", "*.csv"] for pkg in SHIPPED},  # models read their tables (CSV) from beside them
 }
 
 packages = find_packages(include=["gearsym", "gearsym.*"])

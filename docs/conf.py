@@ -1,7 +1,7 @@
 """Sphinx configuration of the gearsym documentation (``make docs``: warnings are errors).
 
 The site is built from the numpydoc docstrings (autodoc + numpydoc), the Markdown chapters
-of this folder (MyST), the argparse parser of the CLI (sphinx-argparse) and three guides
+of this folder (MyST), the argparse parser of the CLI (sphinx-argparse) and the guides
 whose code runs during the build (sphinx-gallery: ``guides/*.py`` -> ``auto_guides/``).
 The API page lists every name of ``gearsym.__all__``: it is written here, at build time.
 """

@@ -220,7 +220,8 @@ class Scene(SceneDisplay):
         if dimensionless is None:
             dimensionless = self.dimensionless
         form = self.model_spec.form + ("+dimensionless" if dimensionless else "")
-        key, parts = build_key(model_text, self.resolved.effects, form, derivatives=derivatives)
+        key, parts = build_key(model_text, self.resolved.effects, form, derivatives=derivatives,
+                               data=self.model_spec.data_digest())
         cache = BuildCache(root)
         entry = cache.entry(self.name, key)
         if not force:

@@ -117,7 +117,8 @@ def _path(cache: BuildCache, scene, as_json: bool) -> int:
         from ..codegen.cache import build_key
 
         model_text = Path(scene.model_spec.path).read_text(encoding="utf-8")
-        key, _ = build_key(model_text, scene.resolved.effects, scene.model_spec.form)
+        key, _ = build_key(model_text, scene.resolved.effects, scene.model_spec.form,
+                           data=scene.model_spec.data_digest())
         entry = cache.entry(scene.name, key)
         info.update(scene=scene.name, build=str(entry.directory), key=key,
                     built=cache.lookup(entry, key) is not None)

@@ -150,6 +150,31 @@ def init_files(name: str, source: str | None = None) -> tuple[str, str]:
     return model, scene
 
 
+def _copy_table_files(source: str | None, folder: Path) -> list[Path]:
+    """The table files a shipped model reads (``[tables.NAME] file``), copied beside the new model
+    (an existing file of that name is kept: the model may have been written for it)."""
+    if source is None:
+        return []
+    import shutil
+
+    from ..catalog import shipped_scenes
+    from ..spec.model import load_model
+
+    sc = shipped_scenes()[source]
+    spec = load_model((sc.path.parent / f"../models/{sc.model}.toml").resolve())
+    out = []
+    base = Path(spec.path).resolve().parent
+    for t in spec.tables.values():
+        if t.source == "file" and t.file:
+            rel = Path(t.file).relative_to(base)
+            dest = folder / rel
+            if not dest.exists():
+                dest.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(t.file, dest)
+                out.append(dest)
+    return out
+
+
 def cmd_init(args: argparse.Namespace) -> int:
     """Run ``gearsym init NAME``: write a model and a scene to start from, never overwriting.
 
@@ -191,9 +216,13 @@ def cmd_init(args: argparse.Namespace) -> int:
         for t in written:
             t.unlink(missing_ok=True)
         raise ParameterError(f"init: cannot write {exc.filename}: {exc.strerror}") from None
+    written += _copy_table_files(args.source, targets[0].parent)
     if args.json:
-        print(json.dumps({"model": str(targets[0]), "scene": str(targets[1])}, indent=1))
+        print(json.dumps({"model": str(targets[0]), "scene": str(targets[1]),
+                          "tables": [str(p) for p in written[2:]]}, indent=1))
     else:
+        for t in written[2:]:
+            print(f"wrote {t} (a table the model reads)")
         print(f"wrote {targets[0]}\nwrote {targets[1]}\nnext: gearsym inspect {targets[1]}\n"
               f"      gearsym simulate {targets[1]} --out out/{args.name}")
     return 0

@@ -82,10 +82,13 @@ def inspect_details(m, jacobian: bool = False) -> dict[str, Any]:
     jacobian
         Also the symbolic Jacobian (key ``jacobian``).
     """
-    d = m.dimensionless()
     info: dict[str, Any] = {"jacobian_structure": jacobian_structure(m)}
     if jacobian:
         info["jacobian"] = symbolic_jacobian(m)
+    if m.table_display:  # not derived for tables (SymbolicModel.dimensionless says why)
+        info["dimensionless_form"] = "not derived: the equations use tables (their values carry units)"
+        return info
+    d = m.dimensionless()
     info.update({
         "dimensionless_groups": {k: sp.sstr(v) for k, v in d.definitions.items()},
         "dimensionless_group_values": dict(d.values),
@@ -111,6 +114,9 @@ def print_details(info: dict[str, Any], surfaces: list[str]) -> None:
         print("Jacobian (non-zero entries):")
         for k, v in info["jacobian"].items():
             print(f"  {k} = {v}")
+    if "dimensionless_form" in info:
+        print(f"dimensionless form: {info['dimensionless_form']}")
+        return
     print(f"dimensionless form (t = t_ref*tau, each coordinate its reference times the dimensionless one; "
           f"derived in {info['dimensionless_seconds']:.2f} s):")
     for eq in info["dimensionless_equations"]:

@@ -70,6 +70,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
             for s in m.schedules
         ],
         "forcing_period": sp.sstr(m.forcing_period) if m.forcing_period is not None else None,
+        "tables": {name: t.to_dict(data=True) for name, t in ms.tables.items()},
         "equations": [sp.sstr(e.lhs) + " = " + sp.sstr(e.rhs) for e in m.equations()],
         **inspect_structure(m),
     }
@@ -102,14 +103,37 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         print("modes:")
         for mo in info["modes"]:
             print(f"  {mo['name']}: {mo['condition']}")
+    _print_tables(info["tables"])
     for b in info["breakpoints"]:
-        print(f"breakpoints: schedule {b['schedule']}, period {b['period']}, breaks at {b['breaks']}")
+        breaks = b["breaks"] if len(b["breaks"]) <= 8 else [*b["breaks"][:4], "...", b["breaks"][-1]]
+        print(f"breakpoints: schedule {b['schedule']}, period {b['period']}, {len(b['breaks'])} breaks at "
+              f"{breaks}")
     if info["forcing_period"]:
         print(f"forcing period: {info['forcing_period']}")
     print_details(info, [s.name for s in m.switching])
     if args.latex:
         print(info["latex"])
     return 0
+
+
+def _print_tables(tables: dict) -> None:
+    """One block per table: domain, interpolation, knots, source, range (and what gear geometry gave)."""
+    if not tables:
+        return
+    print("tables:")
+    for name, t in tables.items():
+        domain = ", ".join(t["domain"])
+        knots = " x ".join(map(str, t["knots"]))
+        source = {"file": f"file {t['file']}", "gears": "gear geometry", "inline": "inline"}[t["source"]]
+        extra = f", {t['harmonics']} harmonics" if "harmonics" in t else ""
+        print(f"  {name}({domain}) [{t['unit']}]: {t['interpolation']}{extra}, {knots} knots, from {source}, "
+              f"values {t['min']:.6g} .. {t['max']:.6g}" + (f"  {t['meaning']}" if t["meaning"] else ""))
+        g = t.get("gears")
+        if g:
+            print(f"    gears {g['teeth'][0]}/{g['teeth'][1]}, module {g['module_m'] * 1e3:g} mm, face width "
+                  f"{g['face_width_m'] * 1e3:g} mm: contact ratio {g['contact_ratio']:.6g}, mean {g['mean_N_per_m']:.6g} "
+                  f"N/m (ISO 6336 c_gamma {g['iso6336_c_gamma_N_per_m']:.6g} N/m, ratio "
+                  f"{g['mean_over_iso_c_gamma']:.4f})")
 
 
 def _model_scene(path: Path, model_spec, args):

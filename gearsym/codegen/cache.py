@@ -107,7 +107,7 @@ def _sources_digest() -> str:
 
 
 def build_key(model_text: str, effects: dict, form: str, *, cc: str | None = None,
-              derivatives: bool = False) -> tuple[str, dict]:
+              derivatives: bool = False, data: str = "") -> tuple[str, dict]:
     """The key of a build: SHA-256 over everything that changes the binary.
 
     Parameters
@@ -123,6 +123,9 @@ def build_key(model_text: str, effects: dict, form: str, *, cc: str | None = Non
     derivatives
         The build carries the parameter derivatives (``gs_jacp``, ...) of the
         sensitivities (a separate build: :func:`gearsym.codegen.generate.build_functions`).
+    data
+        The digest of the data the model reads besides its file (its tables:
+        :meth:`gearsym.spec.model.ModelSpec.data_digest`; a changed table file is a new build).
 
     Returns
     -------
@@ -147,6 +150,8 @@ def build_key(model_text: str, effects: dict, form: str, *, cc: str | None = Non
     }
     if derivatives:
         parts["parameter_derivatives"] = True
+    if data:
+        parts["data_sha256"] = data
     key = hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()
     return key, parts
 

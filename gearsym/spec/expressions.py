@@ -13,15 +13,18 @@ import difflib
 import math
 import re
 from collections.abc import Mapping
+from dataclasses import dataclass
 from fractions import Fraction
+from typing import Any
 
 from . import syntax as sx
 from .names import check_symbol_name
 from .syntax import BOUND_FUNCTIONS, CONSTANTS, FUNCTIONS, Expression, ExpressionError
 from .units import ONE, Unit
 
-__all__ = ["BOUND_FUNCTIONS", "CONSTANTS", "FUNCTIONS", "ExpressionError", "Expression", "bound_calls",
-           "check_identifier", "constant_value", "infer_unit", "names_in", "parse", "rename"]
+__all__ = ["BOUND_FUNCTIONS", "CONSTANTS", "FUNCTIONS", "ExpressionError", "Expression", "TableContext",
+           "bound_calls", "check_identifier", "constant_value", "infer_unit", "names_in", "parse", "rename",
+           "table_calls"]
 
 _DIMLESS_ARG = {"sin", "cos", "tan", "exp", "log", "sinh", "cosh", "tanh", "atan", "asin",
                 "acos", "floor"}
@@ -39,8 +42,39 @@ def parse(text: object) -> Expression:
 
 
 def names_in(text: object) -> set[str]:
-    """The variable names an expression uses (functions and constants excluded)."""
-    return {n.id for n in sx.walk(parse(text).body) if isinstance(n, sx.Name) and n.id not in CONSTANTS}
+    """The names an expression uses: variables and the tables it calls (the functions of the
+    language and constants excluded)."""
+    out = set()
+    for n in sx.walk(parse(text).body):
+        if isinstance(n, sx.Name) and n.id not in CONSTANTS:
+            out.add(n.id)
+        elif isinstance(n, sx.Call) and n.func not in FUNCTIONS and n.func not in BOUND_FUNCTIONS:
+            out.add(n.func)
+    return out
+
+
+def table_calls(text: object) -> list[tuple[str, tuple[sx.Node, ...]]]:
+    """The calls of names that are not functions of the language (tables of the model):
+    ``(name, argument nodes)``, in the order written."""
+    return [(n.func, n.args) for n in sx.walk(parse(text).body)
+            if isinstance(n, sx.Call) and n.func not in FUNCTIONS and n.func not in BOUND_FUNCTIONS]
+
+
+@dataclass(frozen=True)
+class TableContext:
+    """What unit inference needs to know of a model's tables.
+
+    Attributes
+    ----------
+    tables
+        Name -> :class:`~gearsym.spec.tables.Table`.
+    phases
+        The phase names of the model's schedules (``NAME_phase``): the arguments a table
+        over the mesh phase takes.
+    """
+
+    tables: Mapping[str, Any]
+    phases: frozenset[str] = frozenset()
 
 
 def check_identifier(name: str) -> str | None:
@@ -107,7 +141,7 @@ class _Eval:
         raise KeyError("not constant")
 
 
-def infer_unit(text: object, units: Mapping[str, Unit]) -> Unit:
+def infer_unit(text: object, units: Mapping[str, Unit], tables: TableContext | None = None) -> Unit:
     """Infer the physical unit of an expression.
 
     Parameters
@@ -116,6 +150,9 @@ def infer_unit(text: object, units: Mapping[str, Unit]) -> Unit:
         The expression.
     units
         Unit of every name the expression may use.
+    tables
+        The model's tables (calls ``k(mesh_phase)`` and bare names ``k`` of tables that
+        declare their arguments); ``None``: no tables.
 
     Raises
     ------
@@ -124,15 +161,16 @@ def infer_unit(text: object, units: Mapping[str, Unit]) -> Unit:
         quotes the offending sub-expression.
     """
     expr = parse(text)
-    return _Dim(units, expr).visit(expr.body)
+    return _Dim(units, expr, tables).visit(expr.body)
 
 
 class _Dim:
     """Units of a checked tree (recursion is bounded by the nesting-depth limit)."""
 
-    def __init__(self, units: Mapping[str, Unit], expr: Expression):
+    def __init__(self, units: Mapping[str, Unit], expr: Expression, tables: TableContext | None = None):
         self.units = units
         self.expr = expr
+        self.tables = tables if tables is not None else TableContext({})
 
     def src(self, node: sx.Node) -> str:
         return self.expr.source(node)
@@ -143,6 +181,8 @@ class _Dim:
         if isinstance(node, sx.Name):
             if node.id in CONSTANTS:
                 return ONE
+            if node.id not in self.units and node.id in self.tables.tables:
+                return self.bare_table(node)
             if node.id not in self.units:
                 close = difflib.get_close_matches(node.id, sorted(self.units), n=1, cutoff=0.6)
                 raise ExpressionError(f"unknown symbol '{node.id}'" + (f"; did you mean '{close[0]}'?" if close else ""))
@@ -200,8 +240,46 @@ class _Dim:
             return ONE
         return a ** Fraction(exp).limit_denominator(1000)
 
+    def bare_table(self, node: sx.Name) -> Unit:
+        """The unit of a table used by its name: its arguments are declared (checked with the table)."""
+        table = self.tables.tables[node.id]
+        if not table.arguments:
+            raise ExpressionError(f"table '{node.id}' is used by its name but declares no arguments: call it "
+                                  f"({node.id}(...)) or declare its arguments (tables.{node.id}.arguments)")
+        return Unit(1.0, table.dims.dims)
+
+    def table_call(self, node: sx.Call) -> Unit:
+        """The unit of a table call, after checking its arguments against the table's domain."""
+        from .syntax import unknown_function
+
+        table = self.tables.tables.get(node.func)
+        if table is None:
+            raise ExpressionError(unknown_function(node.func, self.tables.tables))
+        src = self.src(node)
+        if len(node.args) != len(table.axes):
+            raise ExpressionError(f"table '{node.func}' takes {len(table.axes)} argument"
+                                  f"{'s' if len(table.axes) != 1 else ''} (its domain), got {len(node.args)}: "
+                                  f"'{src}'")
+        for i, (arg, axis) in enumerate(zip(node.args, table.axes)):
+            what = f"argument {i + 1} of table '{node.func}' in '{src}'"
+            if axis.kind == "phase":
+                if not (isinstance(arg, sx.Name) and arg.id in self.tables.phases):
+                    raise ExpressionError(f"{what} must be the phase of a schedule "
+                                          f"({', '.join(sorted(self.tables.phases)) or 'no schedules'}): the table "
+                                          f"is over the mesh phase, got '{self.src(arg)}'")
+                continue
+            if i == 0 and table.period is not None and not (isinstance(arg, sx.Name) and arg.id == "t"):
+                raise ExpressionError(f"{what} must be the time t: the table is periodic in time")
+            u = self.visit(arg)
+            if not u.same_dimension(axis.dims):
+                raise ExpressionError(f"unit mismatch: {what} is [{u.si_string()}], the table's domain is "
+                                      f"{axis.unit} [{axis.dims.si_string()}]")
+        return Unit(1.0, table.dims.dims)
+
     def call(self, node: sx.Call) -> Unit:
         name = node.func
+        if name not in FUNCTIONS and name not in BOUND_FUNCTIONS:
+            return self.table_call(node)
         units = [self.visit(a) for a in node.args]
         if name in BOUND_FUNCTIONS:
             want, result = BOUND_FUNCTIONS[name]

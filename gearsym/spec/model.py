@@ -59,11 +59,12 @@ from .files import read_toml
 from .initial import read_initial
 from .names import check_label, check_symbol_name
 from .reduction import Reduction, parse_reduction
+from .tables import Table, parse_tables
 from .units import Unit
 from .validate import validate_model
 
 __all__ = ["Coordinate", "Derived", "Dimensionless", "Effect", "Element", "Equation", "Group",
-           "ModelSpec", "Parameter", "Reduction", "Schedule", "Term", "load_model", "parse_model"]
+           "ModelSpec", "Parameter", "Reduction", "Schedule", "Table", "Term", "load_model", "parse_model"]
 
 # --------------------------------------------------------------------------- data
 
@@ -214,6 +215,16 @@ class ModelSpec:
     #: ``[algebraic]`` variables and ``[constraints]`` (gearsym/spec/constraints.py)
     algebraic: dict[str, Algebraic] = field(default_factory=dict)
     constraints: dict[str, Constraint] = field(default_factory=dict)
+    #: ``[tables]``: data with a unit and a domain (gearsym/spec/tables.py)
+    tables: dict[str, Table] = field(default_factory=dict)
+
+    def data_digest(self) -> str:
+        """SHA-256 of the data the model reads besides its own file (its tables' numbers): part
+        of the build key, so that a changed table file is a new build."""
+        import hashlib
+
+        parts = [f"{n}:{t.digest}" for n, t in sorted(self.tables.items())]
+        return hashlib.sha256("\n".join(parts).encode()).hexdigest() if parts else ""
 
     def state_names(self) -> list[str]:
         """Names of the states: coordinates, velocities, then algebraic variables.
@@ -231,7 +242,8 @@ class ModelSpec:
 # ------------------------------------------------------------------------ parsing
 
 _TOP = {"model", "coordinates", "parameters", "derived", "effects", "schedules", "elements",
-        "equations", "reduction", "forcing", "initial", "dimensionless", "outputs", "algebraic", "constraints"}
+        "equations", "reduction", "forcing", "initial", "dimensionless", "outputs", "algebraic", "constraints",
+        "tables"}
 _MODEL_KEYS = {"name", "description", "reference", "time_unit", "form", "notes"}
 #: keys every element takes besides the fields of its type (gearsym/spec/elements/)
 _ELEMENT_META = {"type", "coordinate", "effect", "variant", "meaning", "drive_side"}
@@ -284,6 +296,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         parameters[pname] = _parameter(ctx, where, pname, p)
     effects = _effects(ctx, data)
     schedules = _schedules(ctx, data, declare)
+    tables = parse_tables(ctx, data, declare)
     derived = _quantities(ctx, data, "derived", declare, schedules)
     elements = {lname: _element(ctx, lname, el, coordinates, schedules)
                 for lname, el in table(ctx, data, "elements").items()}
@@ -308,7 +321,7 @@ def parse_model(data: dict[str, Any], path: str = "<model>") -> ModelSpec:
         effects=effects, schedules=schedules, elements=elements, equations=equations,
         reduction=reduction, forcing_period=period, initial=initial, dimensionless=dimless,
         notes=string(ctx, meta, "model.notes") or "", outputs=outputs, static=static,
-        algebraic=algebraic, constraints=constraints,
+        algebraic=algebraic, constraints=constraints, tables=tables,
     )
     validate_model(ctx, spec)
     return spec

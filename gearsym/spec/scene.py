@@ -344,6 +344,10 @@ def _used_names(model: ModelSpec, probe: ResolvedScene) -> tuple[set[str], dict[
                 for t in model.derived[n].terms:
                     if probe.is_active(t):
                         new |= ex.names_in(t.expr)
+            if n in model.tables:  # a table's scale, and the arguments its bare name stands for
+                tb = model.tables[n]
+                for e in (*((tb.scale,) if tb.scale else ()), *tb.arguments):
+                    new |= ex.names_in(e)
             if n.endswith("_phase") or n.endswith("_segment"):
                 sname = n.rsplit("_", 1)[0]
                 if sname in model.schedules:

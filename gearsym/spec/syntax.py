@@ -351,8 +351,17 @@ class _Parser:
     def call(self, name: _Tok) -> Node:
         func = name.text
         if func not in FUNCTIONS and func not in BOUND_FUNCTIONS:
-            raise ExpressionError(f"unknown function '{quote(func, 40)}' (known: "
-                                  f"{', '.join(sorted(FUNCTIONS))})")
+            # possibly a table of the model (gearsym/spec/tables.py): the spec layer and the
+            # symbolic layer, which know the model's tables, refuse any other name; a call whose
+            # arguments are not in the language is reported as an unknown function here
+            try:
+                return self._call(name)
+            except ExpressionError:
+                raise ExpressionError(unknown_function(func)) from None
+        return self._call(name)
+
+    def _call(self, name: _Tok) -> Node:
+        func = name.text
         self.advance()  # '('
         self.enter()
         args: list[Node] = []
@@ -389,12 +398,22 @@ class _Parser:
             if not pairs:
                 raise ExpressionError("Piecewise needs at least one (value, condition) pair")
             return self.node(Piecewise, span[0], span[1], tuple(pairs))
+        if func not in ARITY:  # a table call: its number of arguments is checked with the model
+            return self.node(Call, span[0], span[1], func, tuple(args))
         lo, hi = ARITY[func]
         if len(args) < lo or (hi is not None and len(args) > hi):
             want = (f"{lo}" if lo == hi else f"{lo} or {hi}" if hi is not None else f"at least {lo}")
             raise ExpressionError(f"{func}() takes {want} argument{'s' if want != '1' else ''}, got "
                                   f"{len(args)}: '{quote(self.text[span[0]:span[1]])}'")
         return self.node(Call, span[0], span[1], func, tuple(args))
+
+
+def unknown_function(func: str, tables: object = ()) -> str:
+    """The message for a call of a name that is neither a function nor a table."""
+    known = f" (known: {', '.join(sorted(FUNCTIONS))}"
+    tables = sorted(tables)  # type: ignore[call-overload]
+    known += f"; tables: {', '.join(tables)})" if tables else ")"
+    return f"unknown function '{quote(func, 40)}'{known}"
 
 
 # -------------------------------------------------------------- semantics

@@ -18,26 +18,29 @@ if TYPE_CHECKING:
 def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
     """Cross-field checks: symbols, effects, units, circular definitions."""
     units = _base_units(spec)
+    tables = ex.TableContext(spec.tables, frozenset(f"{s}_phase" for s in spec.schedules))
     _check_terms(ctx, spec)
-    _derived_units(ctx, spec, units)
+    _check_tables(ctx, spec, units, tables)
+    _derived_units(ctx, spec, units, tables)
     _check_schedules(ctx, spec, units)
     energy = _Energy(ctx)
-    check = UnitCheck(ctx, spec, lambda terms: _terms_unit(ctx, terms, units), energy.of)
+    check = UnitCheck(ctx, spec, lambda terms: _terms_unit(ctx, terms, units, tables), energy.of)
     for el in spec.elements.values():  # each element type's unit rules (gearsym/spec/elements/)
         element_type(el.type).check_units(el, check)
     tt = spec.time_dims
     for eq in spec.equations.values():
         c = spec.coordinates[eq.coordinate]
         if eq.force:
-            u = _terms_unit(ctx, eq.force, units)
+            u = _terms_unit(ctx, eq.force, units, tables)
             if u is not None:
                 energy.of(f"equations.{eq.coordinate}.force", u * c.dims)
         if eq.mass:
-            u = _terms_unit(ctx, eq.mass, units)
+            u = _terms_unit(ctx, eq.mass, units, tables)
             if u is not None:
                 energy.of(f"equations.{eq.coordinate}.mass", u * (c.dims / tt) ** 2)
     if spec.reduction is not None:
-        red_units = reduction_units(ctx, spec.reduction, spec.elements, lambda terms: _terms_unit(ctx, terms, units))
+        red_units = reduction_units(ctx, spec.reduction, spec.elements,
+                                    lambda terms: _terms_unit(ctx, terms, units, tables))
         for rc in spec.reduction.coordinates:
             units[rc.name] = Unit(1.0, red_units[rc.name].dims)
             units[rc.velocity] = units[rc.name] / spec.time_dims
@@ -54,7 +57,7 @@ def validate_model(ctx: Ctx, spec: ModelSpec) -> None:
             raise ctx.error(f"initial.{k}", f"'{k}' is not a state{did_you_mean(k, spec.state_names())} "
                                             f"(states: {', '.join(spec.state_names())})")
     for o in spec.outputs.values():
-        u = _terms_unit(ctx, o.terms, units)
+        u = _terms_unit(ctx, o.terms, units, tables)
         if o.unit is not None and u is not None:
             declared = unit_of(ctx, f"outputs.{o.name}.unit", o.unit)
             if not u.same_dimension(declared):
@@ -128,11 +131,36 @@ def _check_terms(ctx: Ctx, spec: ModelSpec) -> None:
                                                              f"(effects: {', '.join(spec.effects) or 'none'})")
 
 
-def _derived_units(ctx: Ctx, spec: ModelSpec, units: dict[str, Unit]) -> None:
+def _check_tables(ctx: Ctx, spec: ModelSpec, units: dict[str, Unit], tables: ex.TableContext) -> None:
+    """A table's ``scale`` is a dimensionless expression of the parameters; its ``arguments`` (what
+    its bare name means) fit its domain and use no derived quantity and no bare table name."""
+    for t in spec.tables.values():
+        where = f"tables.{t.name}"
+        if t.scale is not None:
+            bad = sorted(_names(ctx, f"{where}.scale", t.scale) - set(spec.parameters))
+            if bad:
+                raise ctx.error(f"{where}.scale", f"must be an expression of the parameters, not of "
+                                                  f"{', '.join(bad)}")
+            _expect(ctx, f"{where}.scale", t.scale, units, ONE, "dimensionless")
+        if not t.arguments:
+            continue
+        for i, a in enumerate(t.arguments):
+            bad = sorted(n for n in _names(ctx, f"{where}.arguments", a) if n in spec.derived or
+                         (n in spec.tables and n not in {f for f, _ in ex.table_calls(a)}))
+            if bad:
+                raise ctx.error(f"{where}.arguments", f"argument {i + 1} may not use {', '.join(bad)} (derived "
+                                                      f"quantities and bare table names: write the expression)")
+        try:
+            ex.infer_unit(f"{t.name}({', '.join(t.arguments)})", units, tables)
+        except ex.ExpressionError as exc:
+            raise ctx.error(f"{where}.arguments", str(exc)) from None
+
+
+def _derived_units(ctx: Ctx, spec: ModelSpec, units: dict[str, Unit], tables: ex.TableContext) -> None:
     """Units of the derived quantities, in dependency order (a cycle is an error)."""
     for dname in _derived_order(ctx, spec):
         d = spec.derived[dname]
-        u = _terms_unit(ctx, d.terms, units)
+        u = _terms_unit(ctx, d.terms, units, tables)
         if d.unit is not None:
             declared = unit_of(ctx, f"derived.{dname}.unit", d.unit)
             if u is not None and not u.same_dimension(declared):
@@ -255,11 +283,12 @@ def _names(ctx: Ctx, where: str, text: str) -> set[str]:
         raise ctx.error(where, str(exc)) from None
 
 
-def _terms_unit(ctx: Ctx, terms: tuple[Term, ...], units: dict[str, Unit]) -> Unit | None:
+def _terms_unit(ctx: Ctx, terms: tuple[Term, ...], units: dict[str, Unit],
+                tables: ex.TableContext | None = None) -> Unit | None:
     out: Unit | None = None
     for t in terms:
         try:
-            u = ex.infer_unit(t.expr, units)
+            u = ex.infer_unit(t.expr, units, tables)
         except ex.ExpressionError as exc:
             raise ctx.error(t.field, str(exc)) from None
         if out is not None and not out.same_dimension(u):

@@ -81,6 +81,9 @@ class SymbolicModel(SymbolicDisplay):
         self.structured = structured
         ns = Namespace(rs, structured=structured)
         self.ns = ns
+        #: each table written into the equations -> its short form ``k_ltca(mesh_phase)`` (for display:
+        #: ``expr.xreplace(model.table_display)``; gearsym/symbolic/tables.py)
+        self.table_display = ns.tables.display
         self.t = ns.t
         self._surface_hints: list[SwitchingFunction] = []
         q = list(ns.coords.values())
@@ -136,7 +139,9 @@ class SymbolicModel(SymbolicDisplay):
                                     file=self.spec.path, field="reduction")
                 hints.append(replace(h, expr=g))
             self._surface_hints = hints
-            self._meshes = {k: _expand_in_states(d.subs(rr.sub), states, ns.t) for k, d in self._meshes.items()}
+            hide, show = ns.tables.hider()
+            self._meshes = {k: show(_expand_in_states(hide(d.subs(rr.sub)), states, ns.t))
+                            for k, d in self._meshes.items()}
             R = transform_modes(R, rr.A)
         #: rigid-body modes of the final coordinates (columns of coefficients)
         self.rigid_modes = R
@@ -154,14 +159,18 @@ class SymbolicModel(SymbolicDisplay):
         self.rhs = sp.Matrix(list(v) + (list(self.accelerations) if self.accelerations is not None else []))
         self.modal: ModalForm = make_modal(self, self._surface_hints)
         self.switching: list[SwitchingFunction] = self.modal.surfaces
+        self.outputs = self._outputs(ns)
+        # the schedules the equations or the outputs read (an output may call a table the equations do not)
+        clocks = set().union(*(e.free_symbols for e in self.outputs.values()))
+        used = self.modal.used_schedules | {s for s in ns.sched_seg
+                                            if {ns.sched_seg[s], ns.sched_n[s]} & clocks}
         self.schedules: list[ScheduleInfo] = [
             ScheduleInfo(s, ns.schedule_period[s], (sp.Integer(0), *ns.schedule_breaks[s]),
                          ns.sched_n[s], ns.sched_seg[s])
-            for s in self.spec.schedules if s in self.modal.used_schedules
-        ]
+            for s in [*self.spec.schedules, *ns.tables.hidden] if s in used
+        ]  # the model's schedules, then those of its tables (gearsym/symbolic/tables.py)
         self.forcing_period = ns.parse(self.spec.forcing_period, "forcing.period") \
             if self.spec.forcing_period else None
-        self.outputs = self._outputs(ns)
         #: dynamic deflection (deflection - error) of every active mesh element, in the final states
         self.mesh_deflections: dict[str, sp.Expr] = dict(self._meshes)
         self._check_final_states(ns)
@@ -269,7 +278,8 @@ class SymbolicModel(SymbolicDisplay):
                     W = W.xreplace(self._constraint_sub)
                 sub = getattr(self, "_reduction_sub", None)
                 if sub is not None:
-                    W = _expand_in_states(W.subs(sub), states, self.t)
+                    hide, show = self.ns.tables.hider()
+                    W = show(_expand_in_states(hide(W.subs(sub)), states, self.t))
             if not ((W.free_symbols & dynamic) - allowed):
                 out[name] = W
         return out
@@ -386,15 +396,16 @@ class SymbolicModel(SymbolicDisplay):
         return out
 
     def equations(self) -> list[sp.Eq]:
-        """The equations of motion ``M q'' = F`` (one per coordinate)."""
+        """The equations of motion ``M q'' = F`` (one per coordinate); a table is shown as its call
+        (``k_ltca(mesh_phase)``, :attr:`table_display`), not as its pieces."""
         out = []
         for i, qi in enumerate(self.coordinates):
             acc = sp.Symbol(f"{qi}''")
             lhs = sum(self.mass_matrix[i, j] * sp.Symbol(f"{qj}''") for j, qj in enumerate(self.coordinates))
             if self.accelerations is not None and self.mass_matrix[i, i] != 0:
-                out.append(sp.Eq(acc, self.accelerations[i]))
+                out.append(sp.Eq(acc, self.accelerations[i].xreplace(self.table_display)))
             else:
-                out.append(sp.Eq(lhs, self.forces[i]))
+                out.append(sp.Eq(lhs, self.forces[i].xreplace(self.table_display)))
         if self.constraint_rows is not None:  # q_d'' from the accelerations of the kept coordinates
             put = {a: sp.Symbol(f"{v_}'") for a, v_ in zip(self.constrained.accelerations, self.velocities)}
             out += [sp.Eq(r.xreplace(put), 0) for r in self.constraint_rows]
@@ -438,6 +449,7 @@ class SymbolicModel(SymbolicDisplay):
         for i, qi in enumerate(self.coordinates):
             lhs = sp.latex(sp.Symbol(f"\\ddot{{{sp.latex(qi)}}}"))
             rhs = self.accelerations[i] if self.accelerations is not None else self.forces[i]
+            rhs = rhs.xreplace(self.table_display)
             if self.accelerations is None:
                 lhs = sp.latex(sum(self.mass_matrix[i, j] * sp.Symbol(f"\\ddot{{{sp.latex(qj)}}}")
                                    for j, qj in enumerate(self.coordinates)))
@@ -474,6 +486,10 @@ class SymbolicModel(SymbolicDisplay):
         from .dimensionless import dimensionless_form
 
         cached = self.__dict__.get("_dimensionless")
+        if cached is None and self.table_display:
+            raise SpecError("the dimensionless form (its groups) is not derived for equations that use tables: "
+                            "a table's values carry its unit, which the form does not scale yet",
+                            file=self.spec.path, field="tables")
         if cached is None:
             with Budget(what=f"the dimensionless form of model '{self.name}'", file=self.spec.path).active():
                 cached = dimensionless_form(self)

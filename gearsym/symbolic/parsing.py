@@ -24,9 +24,10 @@ from ..spec import syntax as sx
 from ..spec.expressions import BOUND_FUNCTIONS, FUNCTIONS, ExpressionError, names_in, parse
 from ..spec.model import ModelSpec, Term
 from ..spec.scene import ResolvedScene
-from ..spec.syntax import quote
+from ..spec.syntax import quote, unknown_function
 from .budget import check_expression, checkpoint
 from .surfaces import RECORDED_CALLS, Recorder, SurfaceFinder
+from .tables import TableLowering
 
 _SYMPY_FUNCTIONS: dict[str, Callable[..., sp.Basic]] = {
     name: getattr(sp, fn) for name, fn in FUNCTIONS.items() if name != "Piecewise"}
@@ -69,10 +70,12 @@ class Builder:
 
     def __init__(self, names: Mapping[str, sp.Basic],
                  bound: Callable[[str, list[str]], sp.Basic] | None = None,
-                 record: Recorder | None = None):
+                 record: Recorder | None = None,
+                 table: Callable[[sx.Node, Callable[[sx.Node], sp.Basic]], sp.Basic | None] | None = None):
         self.names = names
         self.bound = bound
         self.record = record
+        self.table = table
 
     def build(self, expr: sx.Expression) -> sp.Basic:
         """The sympy object of a checked expression."""
@@ -87,7 +90,10 @@ class Builder:
             if node.id == "E":
                 return sp.E
             if node.id not in self.names:
-                raise ExpressionError(f"unknown symbol '{node.id}'")
+                value = self.table(node, self.visit) if self.table is not None else None
+                if value is None:
+                    raise ExpressionError(f"unknown symbol '{node.id}'")
+                return value
             return self.names[node.id]
         if isinstance(node, sx.Boolean):
             return sp.true if node.value else sp.false
@@ -112,6 +118,11 @@ class Builder:
                 self.record.before(node, tuple(c for _, c in pairs))
             return self._recorded(node, sp.Piecewise(*pairs), ())
         if isinstance(node, sx.Call):
+            if node.func not in FUNCTIONS and node.func not in BOUND_FUNCTIONS:
+                value = self.table(node, self.visit) if self.table is not None else None
+                if value is None:
+                    raise ExpressionError(unknown_function(node.func))
+                return value
             if node.func in BOUND_FUNCTIONS:
                 names = [a.id if isinstance(a, sx.Name) else None for a in node.args]
                 if self.bound is None or any(a is None for a in names):
@@ -257,6 +268,9 @@ class Namespace:
         # the periods and breaks are parsed after the derived quantities, and the
         # placeholders are then replaced (see the end of __init__).
         placeholder = {s: sp.Dummy(f"period_{s}", positive=True) for s in m.schedules}
+        self._placeholder = placeholder
+        #: the model's tables written into the equations (gearsym/symbolic/tables.py)
+        self.tables = TableLowering(self, internal_symbol)
         for s in m.schedules.values():
             self._local[f"{s.name}_phase"] = self.t / placeholder[s.name] - self.sched_n[s.name]
             self._local[f"{s.name}_segment"] = self.sched_seg[s.name]
@@ -280,6 +294,29 @@ class Namespace:
                 self._local[f"{s}_phase"] = self.t / self.schedule_period[s] - self.sched_n[s]
             for name in m.derived:
                 self._local[name] = self._local[name].xreplace(fill)
+            for s in self.tables.hidden:  # hidden schedules of tables called by derived quantities
+                self.schedule_period[s] = self.schedule_period[s].xreplace(fill)
+            self.tables.display = {k.xreplace(fill): v for k, v in self.tables.display.items()}
+
+    def period_of(self, schedule: str) -> sp.Expr:
+        """The period of a schedule (a placeholder while the derived quantities are read)."""
+        return self.schedule_period.get(schedule, self._placeholder.get(schedule))
+
+    def _table(self, node: sx.Node, visit: Callable[[sx.Node], sp.Basic], where: str,
+               record: Recorder | None) -> sp.Basic | None:
+        """A call of a table, or a table's bare name (its declared arguments); ``None``: not a table."""
+        tables = self.rs.model.tables
+        name = node.func if isinstance(node, sx.Call) else node.id  # type: ignore[union-attr]
+        if name not in tables:
+            return None
+        table = tables[name]
+        if isinstance(node, sx.Call):
+            args = node.args
+        else:
+            if not table.arguments:
+                raise ExpressionError(f"table '{name}' is used by its name but declares no arguments")
+            args = tuple(parse(a).body for a in table.arguments)
+        return self.tables.call(table, args, visit, where, record)
 
     def _parameter_only(self, expr: sp.Basic) -> bool:
         """Whether ``expr`` depends on parameters (and parameter-only derived quantities) only."""
@@ -323,7 +360,8 @@ class Namespace:
         try:
             tree = parse(text)
             record = self.surfaces.recorder(tree, where)
-            out = Builder(self._local, self._bound_call, record).build(tree)
+            out = Builder(self._local, self._bound_call, record,
+                          lambda node, visit: self._table(node, visit, where, record)).build(tree)
             check_expression(out, self.rs.model.path, where or None, dynamic=self.surfaces.dynamic)
             if out.has(*_NOT_REAL):
                 raise ExpressionError(f"'{quote(text)}' evaluates to an infinite, undefined or complex "

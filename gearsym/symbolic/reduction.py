@@ -161,6 +161,7 @@ def reduce_model(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: lis
     states = tuple(xs + xds)
     seg_count = {ns.sched_seg[sn]: len(b) + 1 for sn, b in ns.schedule_breaks.items()}
     others = [q[j] for j in kept] + [v[j] for j in kept]
+    hide, show = ns.tables.hider()  # tables of time or parameters stay whole (gearsym/symbolic/tables.py)
     accs, masses = [], []
     for i, c in enumerate(rcs):
         acc = sum(A[i, j] * Q[j, 0] / M[j, j] for j in range(n) if A[i, j] != 0) + sp.diff(S[i], ns.t, 2)
@@ -169,7 +170,7 @@ def reduce_model(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: lis
         # vaishya_singh with every effect off had 787 operations against 122 with the stiffness
         # variation on, whose schedule already kept the blocks)
         sched = True
-        acc = _expand_in_states(acc.subs(sub), states, ns.t, blocks=sched)
+        acc = _expand_in_states(hide(acc.subs(sub)), states, ns.t, blocks=sched)
         acc = _fold_segments(acc, seg_count)
         if acc.has(*others):
             leftover = sorted(str(o) for o in others if acc.has(o))
@@ -186,6 +187,6 @@ def reduce_model(model: SymbolicModel, ns: Namespace, q: list[sp.Symbol], v: lis
             m_eq = sp.simplify(m_eq)
         accs.append((acc, sched))
         masses.append(m_eq)
-    forces = sp.Matrix([_expand_in_states(me * acc, states, ns.t, blocks=sched)
+    forces = sp.Matrix([show(_expand_in_states(me * acc, states, ns.t, blocks=sched))
                         for me, (acc, sched) in zip(masses, accs)])
     return ReductionResult(xs, xds, sp.diag(*masses), forces, sub, A, [q[j] for j in kept], masses, shifts)
