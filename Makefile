@@ -34,9 +34,11 @@ dist: $(STAMP)
 demo: $(STAMP)
 	$(PY) examples/demo.py --out out
 
-# small dense linear algebra is faster (and timing less erratic) without BLAS threads
+# small dense linear algebra is faster (and timing less erratic) without BLAS threads; the
+# test files run on one worker process per core (pytest-xdist; a file's tests stay together,
+# so its module fixtures -- compiled builds -- are made once); the slowest tests are listed
 test: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -q
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -q -n auto --dist loadfile --durations=20
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check gearsym tests benchmarks examples
