@@ -3,19 +3,7 @@
 The core install (casadi, scikit-sundae, numpy, sympy, scipy) derives, compiles,
 simulates, finds orbits and continues them.  The extras add:
 
-============  =====================================  ==========================================
-extra         packages                               needed by
-============  =====================================  ==========================================
-``plots``     matplotlib                             figures: ``--out`` of ``simulate``, ``orbit``,
-                                                     ``continue``, ``bench``
-``maps``      xarray, dask, distributed, matplotlib  ``gearsym map`` (netCDF + heat map)
-``all``       both, and tqdm                         tqdm draws the progress bars (continuation,
-                                                     maps, Lyapunov exponents)
-``notebook``  ``all``, ipykernel, ipywidgets         Jupyter: the widget progress bars
-============  =====================================  ==========================================
-
-``to_xarray()`` / ``to_dataframe()`` of the results need xarray and pandas (``maps``).
-
+============  =====================================  ===================================
 A command that needs a missing extra stops before any work with
 :class:`MissingExtraError` (exit 2): ``gearsym map needs the optional dependencies of
 gearsym[maps] (missing: xarray); install them with: pip install 'gearsym[maps]'``.
@@ -101,7 +89,7 @@ def require_for_command(args: argparse.Namespace) -> None:
         The command needs an extra that is not installed.
     """
     command = getattr(args, "command", None)
-    if command == "map":
-        require("maps", "gearsym map")
+    if command in ("map", "sweep"):
+        require("maps", f"gearsym {command}")
     elif command in ("simulate", "orbit", "continue", "bench") and getattr(args, "out", None):
         require("plots", f"gearsym {command} --out (figures)")

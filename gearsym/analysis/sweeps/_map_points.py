@@ -63,6 +63,8 @@ RESPONSE = {1: "a stable periodic orbit: the response (the values shown are its)
 SEARCH = {0: "the orbit solve itself",
           1: "integration from the solve's start (the previous point's response, or x0), then the solve",
           2: "integration from the unstable orbit perturbed along its unstable direction, then the solve",
+          3: "the longer landing of the coexistence search (or of the lyapunov quantity) from the solve's start, "
+             "then the solve (gearsym.analysis.sweeps._coexist)",
           -1: "not found"}
 
 
