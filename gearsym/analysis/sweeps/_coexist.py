@@ -8,8 +8,10 @@ coexistence search is on (``search``):
 1. **rows** (tasks in parallel, as the map's row tasks): along each row, forward then backward,
    every point starts from the attractors of its neighbour (Newton from its orbits; where there is
    no stable orbit there any more, the landing from its state: where a slow sweep jumps).  The
-   forward pass also runs the map's own row sweep (its 2-D layers).  An attractor continued by
-   Newton from a point is not continued back to it.
+   forward pass also runs the map's own row sweep (its 2-D layers).  Attractors that Newton
+   continued onto each other are one branch: an attractor is not continued to a point that
+   already has one of its branch (there Newton would find that one again); a landing (a jump)
+   joins no branches, so the other side of a fold is still searched.
 2. **starts** (in the same tasks): at every point, the landings from the scene's initial state
    (or ``x0``), the static equilibrium at the point's parameters, the rest state (every state
    zero), before the passes carry what they find along the row; after the passes, ``spread``
@@ -147,15 +149,12 @@ def _spread_states(attractors: Sequence[MapAttractor], n: int) -> list[np.ndarra
     return [lo - 0.5 * w + f * 2.0 * w for f in (np.linspace(0.0, 1.0, n) if n > 1 else [0.5])]
 
 
-def _sweep_attractor(search: PointSearch, r: dict[str, Any], periods: int, guess: np.ndarray | None,
+def _sweep_attractor(search: PointSearch, r: dict[str, Any], orbit: Any, guess: np.ndarray | None,
                      x0: Sequence[float] | None, describe: bool) -> MapAttractor | None:
-    """The attractor of the map's row sweep at a point: its stable response (described when
+    """The attractor of the map's row sweep at a point: its stable response ``orbit`` (described when
     ``describe``), else where the integration from the sweep's state lands."""
     if r["response"] == 1:
-        if not describe:
-            return None
-        orbit = search.solve(np.asarray(r["x0"], float), periods)
-        return None if orbit is None else search.take(orbit, 0)
+        return search.take(orbit, 0) if describe and orbit is not None else None
     start = guess if guess is not None else np.asarray(search.system.x0 if x0 is None else x0, float)
     return search.start(start, 0)
 
@@ -202,12 +201,17 @@ def run_rows(system: CompiledSystem, task: Mapping[str, Any]) -> list[dict[str, 
     n_row, first = int(task["row_length"]), int(task["first_index"])
     records: list[dict[str, Any]] = []
     searches: list[PointSearch] = []
+    prev_sweep: MapAttractor | None = None
     for i, (xv, yv) in enumerate(task["points"]):
         params = {**base, task["xname"]: float(xv), task["yname"]: float(yv)}
         r = map_point(system, params, task["method"], task["periods"], guess, task["want_ptp"], task["options"],
-                      gear=task.get("gear"))
+                      gear=task.get("gear"), keep_orbit=True)
+        orbit = r.pop("orbit", None)
         search = PointSearch(system, params, r["method"], task["options"], opts or SearchOptions(), first + i)
-        a = _sweep_attractor(search, r, int(task["periods"]), guess, x0, opts is not None)
+        a = _sweep_attractor(search, r, orbit, guess, x0, opts is not None)
+        if a is not None and i % n_row and r.get("response_search") == 0 and prev_sweep is not None:
+            a.branches |= prev_sweep.branches  # Newton continued the previous point's response onto it
+        prev_sweep = a
         _promote(r, a, int(task["periods"]), search, task.get("gear"))
         r.update(_lyapunov_fields(r, a, search.T, int(task["periods"])))
         if r["response"] == 1 and r["x0"] is not None and np.all(np.isfinite(r["x0"])):
@@ -218,7 +222,7 @@ def run_rows(system: CompiledSystem, task: Mapping[str, Any]) -> list[dict[str, 
                     search.start(x, how)
             if "rows" in opts.search and i % n_row:
                 for b in list(searches[-1].attractors):
-                    if b.found_by != 0:  # (the row sweep continued the neighbour's response already)
+                    if not search.connected(b):
                         search.follow(b, 1, search.index - 1)
         records.append(r)
         searches.append(search)
@@ -237,7 +241,7 @@ def _backward_and_spread(searches: list[PointSearch], n_row: int, opts: SearchOp
         if "rows" in opts.search:
             for i in range(len(row) - 2, -1, -1):
                 for b in list(row[i + 1].attractors):
-                    if not (b.continued and b.source == row[i].index):
+                    if not row[i].connected(b):
                         row[i].follow(b, 2, row[i + 1].index)
         if "starts" in opts.search:
             for s in row:
@@ -258,7 +262,7 @@ def run_columns(system: CompiledSystem, task: Mapping[str, Any]) -> list[list[di
         for how, order, step in ((3, range(1, n), -1), (4, range(n - 2, -1, -1), +1)):
             for j in order:
                 for b in list(searches[j + step].attractors):
-                    if not (b.continued and b.source == searches[j].index):
+                    if not searches[j].connected(b):
                         searches[j].follow(b, how, searches[j + step].index)
         out.append([{"new": s.new, "notes": s.notes, "stats": s.stats} for s in searches])
         _workers.report(n)

@@ -189,6 +189,10 @@ class MapAttractor:
         The flat grid index of the neighbour it was continued from.
     continued : bool
         Found by Newton from the neighbour's orbit (not by a landing).
+    branches : set of tuple
+        Identities of the branch it is on: its own (grid index, serial number) and those of every
+        attractor of a neighbour that Newton continued onto it (or it onto).  An attractor is not
+        continued to a point that already has one of its branch (:meth:`PointSearch.connected`).
     note : str
         The closed-curve verdict of a non-periodic attractor, or other remarks.
     """
@@ -211,6 +215,7 @@ class MapAttractor:
     source: int | None = None
     continued: bool = False
     note: str = ""
+    branches: set[tuple[int, int]] = field(default_factory=set)
 
     def scale(self) -> np.ndarray:
         """Each state's unit for distances: its range along the attractor (at least 1e-6 of its magnitude)."""
@@ -476,9 +481,15 @@ class PointSearch:
                 return a
         return None
 
+    def connected(self, a: MapAttractor) -> bool:
+        """Whether an attractor here is on ``a``'s branch (Newton joined them): continuing ``a`` here
+        would find it again."""
+        return any(a.branches & b.branches for b in self.attractors)
+
     def _add(self, a: MapAttractor) -> bool:
         if a.kind == PERIODIC and self.known_orbit(a.x0, a.periods) is not None:
             return False
+        a.branches.add((self.index, len(self.attractors)))  # (unique: the list only grows, across phases too)
         self.attractors.append(a)
         self.new.append(a)
         return True
@@ -511,6 +522,7 @@ class PointSearch:
             if orbit is not None:
                 got = self.take(orbit, found_by, source, continued=True)
                 if got is not None:
+                    got.branches |= a.branches  # one branch: Newton joined them
                     return got
         return self.start(a.x0, found_by, source)
 
