@@ -3,7 +3,20 @@
 The core install (casadi, scikit-sundae, numpy, sympy, scipy) derives, compiles,
 simulates, finds orbits and continues them.  The extras add:
 
-============  =====================================  ===================================
+============  =====================================  ==========================================
+extra         packages                               needed by
+============  =====================================  ==========================================
+``plots``     matplotlib                             figures: ``--out`` of ``simulate``, ``orbit``,
+                                                     ``continue``, ``bench``
+``maps``      xarray, dask, distributed, matplotlib  ``gearsym map``, ``gearsym sweep``
+                                                     (netCDF + figures)
+``all``       both, and tqdm                         tqdm draws the progress bars (continuation,
+                                                     maps, sweeps, Lyapunov exponents)
+``notebook``  ``all``, ipykernel, ipywidgets         Jupyter: the widget progress bars
+============  =====================================  ==========================================
+
+``to_xarray()`` / ``to_dataframe()`` of the results need xarray and pandas (``maps``).
+
 A command that needs a missing extra stops before any work with
 :class:`MissingExtraError` (exit 2): ``gearsym map needs the optional dependencies of
 gearsym[maps] (missing: xarray); install them with: pip install 'gearsym[maps]'``.

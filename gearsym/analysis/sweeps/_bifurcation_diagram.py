@@ -35,6 +35,7 @@ import numpy as np
 from ...budget import check_count
 from ...errors import GearsymError, ParameterError
 from ...files import atomic_path, save_figure, write_json
+from ...progress import progress_bar
 from .._inputs import SceneLike, is_scene
 from .._options import resolve_options
 from . import _workers
@@ -48,7 +49,6 @@ from ._map_attractors import (
     closed_curve,
     cycle_period,
 )
-from ._progress import progress_bar
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray as xr

@@ -57,6 +57,7 @@ import numpy as np
 from ...budget import LIMITS, check_count, check_counts, check_orbit_options
 from ...errors import ParameterError
 from ...files import atomic_path, save_figure
+from ...progress import progress_bar
 from ...quantities import map_quantities
 from ...spec.settings import resolve_settings
 from .._inputs import SceneLike, is_scene
@@ -72,7 +73,6 @@ from ..periodic import (
 from . import _coexist, _workers
 from ._coexist_figure import attractor_panels, draw_panels, outline_coexistence
 from ._map_points import EXACT_RTOL, RESPONSE, SEARCH, empty_point, map_point
-from ._progress import progress_bar
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray as xr
@@ -190,7 +190,8 @@ class MapOptions:
         of a nonlinear model), ``"none"``, ``"all"``, a subset of ``rows``, ``columns``, ``starts``, or
         a :class:`~gearsym.analysis.sweeps.SearchOptions`.
     progress : bool or None
-        A progress bar on stderr (``tqdm.auto``, if installed); ``None``: when stderr is a terminal.
+        A progress bar (:func:`gearsym.progress.progress_bar`: ``tqdm.auto``); ``None``: where someone
+        watches (stderr a terminal, or a notebook).
     """
 
     method: str | None = None
@@ -269,7 +270,7 @@ def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Seque
     flat: list[dict[str, Any]] | None = None
     runner = ""
     coexist = None
-    bar = progress_bar(opts.progress, grid.size, f"map {grid.xname} x {grid.yname}")
+    bar = progress_bar(opts.progress, grid.size, f"map {grid.xname} x {grid.yname}", unit="pt")
     try:
         if method in ("auto", "exact") and not want_ptp and not gear:
             flat = _exact_points(system, [dict(base, **{grid.xname: float(xv), grid.yname: float(yv)})
