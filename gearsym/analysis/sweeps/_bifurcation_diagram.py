@@ -208,7 +208,10 @@ def bifurcation_diagram(target: SceneLike | CompiledSystem, param: str, start: f
     n
         Number of values (at least 1).
     options
-        The other settings (:class:`DiagramOptions`), or as keywords (``transient=``, ``samples=``, ...).
+        The other settings (:class:`DiagramOptions`).
+    **keywords
+        Fields of :class:`DiagramOptions` given one by one (``transient=``, ``samples=``, ...); they
+        override ``options``.
 
     Returns
     -------

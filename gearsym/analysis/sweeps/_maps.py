@@ -221,9 +221,11 @@ def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Seque
         always stored, ``peak_to_peak`` when asked for, ``lyapunov`` when asked for or with the
         coexistence search); default: the scene's ``[map]`` table, else ``"max_multiplier"``.
     options
-        The other settings (:class:`MapOptions`); each may be given as a keyword instead
-        (``method=``, ``periods=``, ``params=``, ``dask=``, ``workers=``, ``rows_per_task=``,
-        ``orbit_options=``, ``x0=``, ``search=``, ``progress=``).
+        The other settings (:class:`MapOptions`).
+    **keywords
+        Fields of :class:`MapOptions` given one by one (``method=``, ``periods=``, ``params=``,
+        ``dask=``, ``workers=``, ``rows_per_task=``, ``orbit_options=``, ``x0=``, ``search=``,
+        ``progress=``); they override ``options``.
 
     Returns
     -------
