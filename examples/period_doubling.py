@@ -30,24 +30,20 @@ import numpy as np  # noqa: E402
 
 import gearsym  # noqa: E402
 from gearsym.analysis.continuation import add_legend  # noqa: E402
+from gearsym.analysis.sweeps import bifurcation_diagram  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 FA = 0.4
 RANGE = (0.55, 0.72)
 
 
-def brute_force_diagram(system, values, transient=200, keep=48):
-    """Poincare points of x after a transient, sweeping up from the previous state."""
-    x = system.x0
-    om, pts = [], []
-    for w in values:
-        p = {"Omega": float(w), "Fa": FA}
-        x = system.simulate(periods=transient, x0=x, params=p, rtol=1e-9, atol=1e-11, n_out=2).x_final
-        tr = system.simulate(periods=keep, x0=x, params=p, rtol=1e-9, atol=1e-11, n_out=keep + 1)
-        x = tr.x_final
-        om += [w] * keep
-        pts += list(tr.y[1:, 0])
-    return np.array(om), np.array(pts)
+def brute_force_diagram(system, n, transient=200, keep=48):
+    """Poincare points of x after a transient, sweeping up from the previous state
+    (:func:`gearsym.analysis.sweeps.bifurcation_diagram`, forward only, no Lyapunov exponent)."""
+    ds = bifurcation_diagram(system, "Omega", *RANGE, n, params={"Fa": FA}, directions=("forward",),
+                             transient=transient, samples=keep, lyapunov=False, rtol=1e-9, atol=1e-11, workers=1)
+    pts = ds["poincare"].sel(direction="forward", state="x").values  # (n, keep)
+    return np.repeat(ds["Omega"].values, keep), pts.ravel()
 
 
 def main() -> None:
@@ -77,7 +73,7 @@ def main() -> None:
     (out / "period_doubling.json").write_text(json.dumps(branch.to_dict(), indent=1))
 
     t0 = time.perf_counter()
-    om, pts = brute_force_diagram(system, np.linspace(*RANGE, args.n))
+    om, pts = brute_force_diagram(system, args.n)
     print(f"brute-force bifurcation diagram ({args.n} values): {time.perf_counter() - t0:.1f} s")
 
     fig, (ax, axm) = plt.subplots(2, 1, figsize=(7.2, 6.6), sharex=True, gridspec_kw={"height_ratios": [2.3, 1]})

@@ -76,6 +76,8 @@ LIMITS: dict[str, Limit] = {
     "map_points": Limit(1, 1_000_000, "points of a map (about 1 kB of memory each)"),
     "map_axis": Limit(1, 1_000_000, "points of a map axis"),
     "rows_per_task": Limit(1, 1_000_000, "map rows per task"),
+    "sweep_values": Limit(1, 1_000_000, "parameter values of a brute-force sweep"),
+    "sweep_samples": Limit(2, 1_000_000, "Poincare points kept per parameter value of a sweep"),
     "points_per_period": Limit(2, 100_000, "output points per forcing period"),
     "rounds": Limit(0, 100, "timing rounds"),
     "workers": Limit(1, 1024, "worker processes"),

@@ -8,9 +8,10 @@ extra         packages                               needed by
 ============  =====================================  ==========================================
 ``plots``     matplotlib                             figures: ``--out`` of ``simulate``, ``orbit``,
                                                      ``continue``, ``bench``
-``maps``      xarray, dask, distributed, matplotlib  ``gearsym map`` (netCDF + heat map)
+``maps``      xarray, dask, distributed, matplotlib  ``gearsym map``, ``gearsym sweep``
+                                                     (netCDF + figures)
 ``all``       both, and tqdm                         tqdm draws the progress bars (continuation,
-                                                     maps, Lyapunov exponents)
+                                                     maps, sweeps, Lyapunov exponents)
 ``notebook``  ``all``, ipykernel, ipywidgets         Jupyter: the widget progress bars
 ============  =====================================  ==========================================
 
@@ -101,7 +102,7 @@ def require_for_command(args: argparse.Namespace) -> None:
         The command needs an extra that is not installed.
     """
     command = getattr(args, "command", None)
-    if command == "map":
-        require("maps", "gearsym map")
+    if command in ("map", "sweep"):
+        require("maps", f"gearsym {command}")
     elif command in ("simulate", "orbit", "continue", "bench") and getattr(args, "out", None):
         require("plots", f"gearsym {command} --out (figures)")

@@ -194,8 +194,21 @@ def check_map(args: argparse.Namespace) -> tuple[tuple[str, float, float, int], 
     _count("--harmonics", args.harmonics, 0)
     _tol("--rtol", args.rtol, "rtol")
     _count("--workers", args.workers, 1)
+    _search(getattr(args, "search", None))
     _out(args)
     return xa, ya
+
+
+def _search(text: str | None) -> None:
+    """``--search``: auto, all, none, or a comma-separated list of rows, columns, starts."""
+    if text is None or text in ("auto", "all", "none"):
+        return
+    items = [s.strip() for s in text.split(",")]
+    allowed = ("rows", "columns", "starts")
+    bad = [s for s in items if s not in allowed]
+    if bad or not items:
+        raise ParameterError(f"--search: {', '.join(repr(b) for b in bad) or 'empty'} is not a search; give auto, "
+                             f"all, none or a comma-separated list of {', '.join(allowed)}")
 
 
 def state_list(text: str | None, names: list[str], flag: str) -> list[str] | None:

@@ -21,6 +21,7 @@ from .orbits import cmd_continue, cmd_orbit
 from .quantities import QUANTITY_HELP
 from .simulate import cmd_compile, cmd_export, cmd_simulate
 from .stiffness import add_stiffness_parser
+from .sweep import add_sweep_parser
 from .verbosity import add_verbosity_options
 
 __all__ = ["build_parser"]
@@ -49,6 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_export(sub)
     _add_modes(sub)
     _add_map(sub)
+    add_sweep_parser(sub)
     add_stiffness_parser(sub)
     add_lyapunov_parser(sub)
     add_basins_parser(sub)
@@ -253,14 +255,20 @@ def _add_map(sub: Any) -> None:
                        epilog=examples(
                            ("gearsym map meissner --x a 0 0.5 6 --y T 0.5 6 6 --out meissner_map", "a coarse "
                             "stability chart of the Meissner equation (exact matrix exponentials); map.nc and "
-                            "map.png in meissner_map/ (gearsym[maps])")))
+                            "map.png in meissner_map/ (gearsym[maps])"),
+                           ("gearsym map kahraman_singh --x Omega 0.86 0.88 3 --y Fa 0.05 0.06 2 --quantity "
+                            "rattle_state --workers 1 --out coexist", "the jump region of the benchmark oscillator: "
+                            "two stable responses coexist (in contact and impacting), both listed and counted "
+                            "(n_stable)")))
     scene_args(p)
     p.add_argument("--x", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"),
                    help="horizontal axis: parameter (declared unit), range and number of points")
     p.add_argument("--y", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"), help="vertical axis")
     p.add_argument("--quantity", choices=list(MAP_QUANTITIES),
                    help="what the heat map shows (default: the scene's [map], else max_multiplier); a gear "
-                        "quantity is of the worst mesh (the largest value over the meshes)")
+                        "quantity is of the worst mesh (the largest value over the meshes); lyapunov: the largest "
+                        "Lyapunov exponent of the response (log max|mu| / T of a stable orbit, computed by the "
+                        "variational equations for the attractor reached where there is none)")
     p.add_argument("--method", choices=["auto", "exact", "shooting", "hbm"],
                    help="auto: exact matrix exponentials for piecewise-constant LTV models, else shooting "
                         "(default: the scene's [map], else auto)")
@@ -269,6 +277,15 @@ def _add_map(sub: Any) -> None:
     p.add_argument("--rtol", type=float, help="integrator relative tolerance")
     p.add_argument("--dask", metavar="ADDRESS", help="run on this Dask scheduler (default: local processes)")
     p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
+    p.add_argument("--search", metavar="LIST", default="auto",
+                   help="the search for coexisting responses: rows (continuation along each row, both ways), "
+                        "columns (along each column, both ways), starts (from the initial state, the static "
+                        "equilibrium, the rest state and states spread over the orbits found), as a comma-separated "
+                        "list, or all, none; default auto: all on maps of at most 100 points of a nonlinear model, "
+                        "none otherwise (the cost grows with rows x columns x directions)")
+    p.add_argument("--no-coexist", dest="search", action="store_const", const="none",
+                   help="no search for coexisting responses (--search none)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.add_argument("--out", required=True, help="folder for map.nc and map.png")
     p.set_defaults(func=cmd_map)
 

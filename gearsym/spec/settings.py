@@ -65,9 +65,9 @@ class Setting:
 
 
 _NUM = (int, float)
-#: What a map can show: its own quantities, then the scalar gear quantities (defined in
+#: What a map can show: its own quantities (lyapunov: gearsym.analysis.sweeps), then the scalar gear quantities (defined in
 #: gearsym.quantities; tests/test_quantities.py checks that the two lists agree).
-MAP_QUANTITIES = ("max_multiplier", "peak_to_peak", "rattle_state",
+MAP_QUANTITIES = ("max_multiplier", "peak_to_peak", "rattle_state", "lyapunov",
                   "static_deflection", "static_force", "dte_mean", "dte_rms", "dte_peak_to_peak", "dte_harmonic_1",
                   "dte_harmonic_2", "dte_harmonic_3", "force_mean", "force_rms", "force_min", "force_max",
                   "dynamic_factor", "dynamic_factor_rms", "contact_loss_ratio", "back_contact_ratio", "impact_count",

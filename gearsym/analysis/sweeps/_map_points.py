@@ -63,6 +63,8 @@ RESPONSE = {1: "a stable periodic orbit: the response (the values shown are its)
 SEARCH = {0: "the orbit solve itself",
           1: "integration from the solve's start (the previous point's response, or x0), then the solve",
           2: "integration from the unstable orbit perturbed along its unstable direction, then the solve",
+          3: "the longer landing of the coexistence search (or of the lyapunov quantity) from the solve's start, "
+             "then the solve (gearsym.analysis.sweeps._coexist)",
           -1: "not found"}
 
 
@@ -74,7 +76,8 @@ def empty_point(method: str) -> dict[str, Any]:
 
 
 def map_point(system: CompiledSystem, params: dict[str, float], method: str, periods: float, guess: np.ndarray | None,
-              want_ptp: bool, options: Mapping[str, Any], gear: str | None = None) -> dict[str, Any]:
+              want_ptp: bool, options: Mapping[str, Any], gear: str | None = None, keep_orbit: bool = False
+              ) -> dict[str, Any]:
     """The response at one grid point (module docstring).
 
     Parameters
@@ -96,6 +99,9 @@ def map_point(system: CompiledSystem, params: dict[str, float], method: str, per
     gear
         A gear quantity of the response to compute (:func:`gearsym.quantities.orbit_quantities`: the
         worst mesh), stored under its name (NaN without a stable response).
+    keep_orbit
+        Also return the stable response's :class:`~gearsym.analysis.periodic.PeriodicOrbit` as
+        ``orbit`` (the coexistence search describes it; it is not picklable cheaply: take it out).
 
     Returns
     -------
@@ -135,6 +141,8 @@ def map_point(system: CompiledSystem, params: dict[str, float], method: str, per
         out["response_search"] = 0
     out.update(max_multiplier=orbit.max_multiplier, stability=orbit.stability, response=1, x0=orbit.x0.tolist(),
                rattle_state=-1 if orbit.rattle_state is None else int(orbit.rattle_state))
+    if keep_orbit:
+        out["orbit"] = orbit  # (the caller takes it out before the record leaves the process)
     if want_ptp:
         try:
             out["peak_to_peak"] = orbit.peak_to_peak(0) if method == "hbm" else float(

@@ -57,9 +57,11 @@ import numpy as np
 from ...budget import LIMITS, check_count, check_counts, check_orbit_options
 from ...errors import ParameterError
 from ...files import atomic_path, save_figure
+from ...progress import progress_bar
 from ...quantities import map_quantities
 from ...spec.settings import resolve_settings
 from .._inputs import SceneLike, is_scene
+from .._options import resolve_options
 from ..periodic import (
     ORBIT_METHODS,
     NotPiecewiseConstantError,
@@ -68,7 +70,8 @@ from ..periodic import (
     rigid_state_basis,
     whole_periods,
 )
-from . import _workers
+from . import _coexist, _workers
+from ._coexist_figure import attractor_panels, draw_panels, outline_coexistence
 from ._map_points import EXACT_RTOL, RESPONSE, SEARCH, empty_point, map_point
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -76,7 +79,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from ...system import CompiledSystem
 
-__all__ = ["QUANTITIES", "save_map", "stability_map"]
+__all__ = ["MAP_METHODS", "QUANTITIES", "MapOptions", "save_map", "stability_map"]
 
 _log = logging.getLogger(__name__)
 
@@ -87,6 +90,8 @@ QUANTITIES: dict[str, str] = {
     "max_multiplier": "maximum Floquet multiplier modulus max|mu| (unstable > 1)",
     "peak_to_peak": "peak-to-peak of the first state over the periodic orbit",
     "rattle_state": "0 no contact loss, 1 contact loss only, 2 back-side contact",
+    "lyapunov": "largest Lyapunov exponent of the response (log max|mu| / T of a periodic one; computed for the "
+                "attractor reached where there is none)",
     **{k: f"{v[1]} (the worst mesh)" for k, v in GEAR_QUANTITIES.items()},
 }
 
@@ -125,10 +130,13 @@ def _failed_chunk(task: Mapping[str, Any], message: str) -> list[dict[str, Any]]
 
 
 def _run_tasks(system: CompiledSystem, tasks: list[dict[str, Any]], dask: Any,
-               n_workers: int) -> tuple[list[dict[str, Any]], str]:
+               n_workers: int, progress: Any = None) -> tuple[list[dict[str, Any]], str]:
     """Run the row tasks serially, on local worker processes or on Dask
-    (:func:`gearsym.analysis.sweeps.run_tasks`); the points of a task whose worker died fail."""
-    chunks, runner = _workers.run_tasks(_run_chunk, system, tasks, workers=n_workers, dask=dask)
+    (:func:`gearsym.analysis.sweeps.run_tasks`); the points of a task whose worker died fail.
+    Tasks with the coexistence search or the Lyapunov exponent run :func:`._coexist.run_rows`."""
+    fn = _coexist.run_rows if tasks and (tasks[0].get("coexist") or tasks[0].get("lyapunov")) else _run_chunk
+    chunks, runner = _workers.run_tasks(fn, system, tasks, workers=n_workers, dask=dask, progress=progress,
+                                        weights=[len(t["points"]) for t in tasks])
     flat: list[dict[str, Any]] = []
     for task, chunk in zip(tasks, chunks, strict=True):
         flat += _failed_chunk(task, chunk.message) if isinstance(chunk, _workers.TaskFailure) else chunk
@@ -148,11 +156,58 @@ def _axis(spec: Sequence[Any], what: str) -> tuple[str, np.ndarray]:
     return str(name), np.linspace(lo, hi, n)
 
 
+@dataclass(frozen=True)
+class MapOptions:
+    """Settings of :func:`stability_map` (each also accepted as a keyword).
+
+    Attributes
+    ----------
+    method : str or None
+        ``"auto"``, ``"exact"``, ``"shooting"`` or ``"hbm"`` (module docstring).
+    periods : float or None
+        Orbit period in forcing periods (a positive whole number).
+
+        ``method``, ``periods`` (with the quantity and the ``harmonics`` and ``rtol`` of
+        ``orbit_options``) not given take the values of the scene's ``[map]`` table, else ``"auto"``,
+        1 (one resolution with ``gearsym map``: :func:`gearsym.spec.settings.resolve_settings`).
+    params : mapping or None
+        Further parameter overrides (declared units) for every point.
+    dask : str or distributed.Client or None
+        Scheduler address (``"tcp://host:8786"``) or a ``distributed.Client``: run the tasks on that
+        cluster.  Default: a process pool on all local cores.
+    workers : int or None
+        Local processes (default ``os.cpu_count()``; 1: run in this process).
+    rows_per_task : int or None
+        Grid rows per task (default: enough tasks for 4 per worker).
+    orbit_options : mapping or None
+        Passed to the orbit solver (e.g. ``{"rtol": 1e-9}``, ``{"harmonics": 32}``).
+    x0 : sequence of float or None
+        Initial guess of the orbit at the first point of every row (default: the scene's initial state
+        after a transient); every other point starts from the previous point's response.
+    search : str, sequence, bool, SearchOptions or None
+        The coexistence search (:mod:`gearsym.analysis.sweeps._coexist`): ``"auto"`` (default: every
+        search on maps of at most :data:`~gearsym.analysis.sweeps._coexist.COEXIST_DEFAULT_POINTS` points
+        of a nonlinear model), ``"none"``, ``"all"``, a subset of ``rows``, ``columns``, ``starts``, or
+        a :class:`~gearsym.analysis.sweeps.SearchOptions`.
+    progress : bool or None
+        A progress bar (:func:`gearsym.progress.progress_bar`: ``tqdm.auto``); ``None``: where someone
+        watches (stderr a terminal, or a notebook).
+    """
+
+    method: str | None = None
+    periods: float | None = None
+    params: Mapping[str, float] | None = None
+    dask: Any = None
+    workers: int | None = None
+    rows_per_task: int | None = None
+    orbit_options: Mapping[str, Any] | None = None
+    x0: Sequence[float] | None = None
+    search: Any = "auto"
+    progress: bool | None = None
+
+
 def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Sequence[Any],
-                  quantity: str | None = None, *, method: str | None = None, periods: float | None = None,
-                  params: Mapping[str, float] | None = None, dask: Any = None, workers: int | None = None,
-                  rows_per_task: int | None = None, orbit_options: Mapping[str, Any] | None = None,
-                  x0: Sequence[float] | None = None) -> xr.Dataset:
+                  quantity: str | None = None, options: MapOptions | None = None, **keywords: Any) -> xr.Dataset:
     """Evaluate a stability / response map over two parameters.
 
     Parameters
@@ -162,32 +217,15 @@ def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Seque
     x, y
         ``(NAME, LO, HI, N)``: parameter and grid of each axis (declared units, as ``--set``).
     quantity
-        One of :data:`QUANTITIES` (the one plotted; ``max_multiplier`` and
-        ``rattle_state`` are always stored, ``peak_to_peak`` when asked for).
-    method
-        ``"auto"``, ``"exact"``, ``"shooting"`` or ``"hbm"`` (see module docstring).
-    periods
-        Orbit period in forcing periods (a positive whole number).
-
-        ``quantity``, ``method``, ``periods`` and the ``harmonics`` and ``rtol`` of
-        ``orbit_options`` not given take the values of the scene's ``[map]`` table, else
-        ``"max_multiplier"``, ``"auto"``, 1 (one resolution with ``gearsym map``:
-        :func:`gearsym.spec.settings.resolve_settings`).
-    params
-        Further parameter overrides (declared units) for every point.
-    dask
-        Scheduler address (``"tcp://host:8786"``) or a ``distributed.Client``: run
-        the tasks on that cluster.  Default: a process pool on all local cores.
-    workers
-        Local processes (default ``os.cpu_count()``; 1: run in this process).
-    rows_per_task
-        Grid rows per task (default: enough tasks for 4 per worker).
-    orbit_options
-        Passed to the orbit solver (e.g. ``{"rtol": 1e-9}``, ``{"harmonics": 32}``).
-    x0
-        Initial guess of the orbit at the first point of every row (default: the scene's
-        initial state after a transient); every other point starts from the previous
-        point's response.
+        One of :data:`QUANTITIES` (the one plotted; ``max_multiplier`` and ``rattle_state`` are
+        always stored, ``peak_to_peak`` when asked for, ``lyapunov`` when asked for or with the
+        coexistence search); default: the scene's ``[map]`` table, else ``"max_multiplier"``.
+    options
+        The other settings (:class:`MapOptions`).
+    **keywords
+        Fields of :class:`MapOptions` given one by one (``method=``, ``periods=``, ``params=``,
+        ``dask=``, ``workers=``, ``rows_per_task=``, ``orbit_options=``, ``x0=``, ``search=``,
+        ``progress=``); they override ``options``.
 
     Returns
     -------
@@ -204,18 +242,25 @@ def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Seque
         was found (those are left empty; ``max_multiplier`` and ``stability`` are the
         unstable orbit's), -1 where the solve failed; ``response_search`` says how the
         response was found, ``unstable_max_multiplier`` / ``unstable_rattle_state`` record
-        the unstable orbit found at a point.  Attributes ``n_failed``,
-        ``n_no_stable_response``.
+        the unstable orbit found at a point.  With the coexistence search, every attractor
+        found at each point along the dimension ``attractor`` and ``n_stable``
+        (:mod:`gearsym.analysis.sweeps._coexist`); with the quantity ``lyapunov`` (or the search),
+        ``lyapunov``, ``lyapunov_error``, ``response_kind``.  Attributes ``n_failed``,
+        ``n_no_stable_response``, ``wall_s``, ``points_per_second``, ``orbit_solves``,
+        ``periods_integrated`` (by the searches), ``coexist_search``.
     """
-    check_counts(workers=workers, rows_per_task=rows_per_task)  # bounded work (gearsym.budget)
+    opts = resolve_options(options, MapOptions, keywords, "stability_map")
+    check_counts(workers=opts.workers, rows_per_task=opts.rows_per_task)  # bounded work (gearsym.budget)
     wall = time.perf_counter()
     grid = _Grid.of(x, y)
     scene: Any = target if is_scene(target) else None
     # the scene's [map] table under the caller's values: one resolution with `gearsym map`
     table = (scene.spec.extra if scene is not None else getattr(target, "settings", {})).get("map")
-    quantity, method, periods, orbit_options = _settings(table, quantity, method, periods, orbit_options)
+    quantity, method, periods, orbit_options = _settings(table, quantity, opts.method, opts.periods,
+                                                         opts.orbit_options)
     system = scene.compile() if scene is not None else target
-    base = _check_parameters(system, scene, grid, params)
+    base = _check_parameters(system, scene, grid, opts.params)
+    x0 = opts.x0
     if x0 is not None and np.shape(x0) != (system.generated.nx,):
         raise ParameterError(f"x0 must have {system.generated.nx} entries ({', '.join(system.state_names)}), got "
                              f"shape {np.shape(x0)}")
@@ -223,22 +268,36 @@ def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Seque
     gear = quantity if quantity in GEAR_QUANTITIES else None  # a gear quantity (gearsym.quantities)
     if gear and not system.generated.meshes:
         raise ParameterError(f"quantity '{gear}': model '{system.name}' has no mesh elements")
-    n_workers = int(workers or os.cpu_count() or 1)
+    n_workers = int(opts.workers or os.cpu_count() or 1)
     flat: list[dict[str, Any]] | None = None
     runner = ""
-    if method in ("auto", "exact") and not want_ptp and not gear:
-        flat = _exact_points(system, [dict(base, **{grid.xname: float(xv), grid.yname: float(yv)})
-                                      for yv in grid.ys for xv in grid.xs], periods, required=method == "exact")
-        runner = "vectorised (exact)"
-    if flat is None:
-        tasks = _row_tasks(grid, rows_per_task, n_workers, {
-            "xname": grid.xname, "yname": grid.yname, "method": method, "periods": periods, "want_ptp": want_ptp,
-            "options": dict(orbit_options or {}), "params": base, "x0": None if x0 is None else [float(v) for v in x0],
-            "gear": gear})
-        flat, runner = _run_tasks(system, tasks, dask, n_workers)
-    _log.info("stability map of %s: %d x %d points (%s x %s), %s, %d failed", system.name, len(grid.xs),
-              len(grid.ys), grid.xname, grid.yname, runner, sum(1 for r in flat if r.get("error")))
+    coexist = None
+    bar = progress_bar(opts.progress, grid.size, f"map {grid.xname} x {grid.yname}", unit="pt")
+    try:
+        if method in ("auto", "exact") and not want_ptp and not gear:
+            flat = _exact_points(system, [dict(base, **{grid.xname: float(xv), grid.yname: float(yv)})
+                                          for yv in grid.ys for xv in grid.xs], periods, required=method == "exact")
+            runner = "vectorised (exact)"
+            if flat is not None:
+                _exact_lyapunov(system, flat, grid, base, periods, quantity == "lyapunov")
+                bar(grid.size)
+        if flat is None:
+            forced = system.period(base) is not None
+            if quantity == "lyapunov" and not forced:
+                raise ParameterError("the quantity lyapunov needs a forcing period (the exponents of an autonomous "
+                                     "model: gearsym lyapunov --block-time)")
+            coexist = _coexist.resolve_search(opts.search, grid.size, _coexist.is_linear(system, base)) \
+                if forced else None  # (the search lands on attractors at whole forcing periods)
+            flat, runner = _shooting_points(system, grid, base, quantity, method, periods, orbit_options, x0,
+                                            opts, n_workers, coexist, bar, gear)
+    finally:
+        bar.close()
+    _log.info("stability map of %s: %d x %d points (%s x %s), %s, %d failed, coexistence search %s", system.name,
+              len(grid.xs), len(grid.ys), grid.xname, grid.yname, runner, sum(1 for r in flat if r.get("error")),
+              ",".join(coexist.search) if coexist is not None else "off")
     ds = _dataset(system, flat, grid.xname, grid.xs, grid.yname, grid.ys, want_ptp, gear)
+    ds = _coexist.add_layers(ds, flat, system.state_names, _mesh_names(system), coexist)
+    wall_s = time.perf_counter() - wall
     ds.attrs.update({
         "title": f"{QUANTITIES[quantity]} over {grid.xname} x {grid.yname}",
         "quantity": quantity,
@@ -247,11 +306,55 @@ def stability_map(target: SceneLike | CompiledSystem, x: Sequence[Any], y: Seque
         "periods": float(periods),
         "params_json": json.dumps(base, sort_keys=True),
         "runner": runner,
-        "wall_s": time.perf_counter() - wall,
+        "wall_s": wall_s,
+        "points_per_second": grid.size / max(wall_s, 1e-300),
+        "orbit_solves": int(sum(r.get("search_stats", {}).get("solves", 0) for r in flat)),
+        "periods_integrated": int(sum(r.get("search_stats", {}).get("periods", 0) for r in flat)),
+        "coexist_search": ",".join(coexist.search) if coexist is not None else "none",
         "source": "gearsym.analysis.sweeps.stability_map",
         "stability_rule": "gearsym.analysis.periodic.floquet (neutral band from the monodromy error)",
     })
     return ds
+
+
+def _shooting_points(system: CompiledSystem, grid: _Grid, base: dict[str, float], quantity: str, method: str,
+                     periods: int, orbit_options: dict[str, Any], x0: Sequence[float] | None, opts: MapOptions,
+                     n_workers: int, coexist: Any, bar: Any, gear: str | None = None
+                     ) -> tuple[list[dict[str, Any]], str]:
+    """The points of an orbit-solver map: the row tasks (with the coexistence search's rows and starts
+    when on), then the column tasks of the search."""
+    common = {"xname": grid.xname, "yname": grid.yname, "method": method, "periods": periods,
+              "want_ptp": quantity == "peak_to_peak", "options": dict(orbit_options), "params": base,
+              "x0": None if x0 is None else [float(v) for v in x0], "row_length": len(grid.xs),
+              "coexist": coexist, "lyapunov": quantity == "lyapunov", "gear": gear}
+    if coexist is not None and "columns" in coexist.search and len(grid.ys) > 1:
+        bar.set_total(2 * grid.size)  # one bar over both phases
+    tasks = _row_tasks(grid, opts.rows_per_task, n_workers, common)
+    flat, runner = _run_tasks(system, tasks, opts.dask, n_workers, bar)
+    if coexist is not None and "columns" in coexist.search:
+        bar.describe(f"map {grid.xname} x {grid.yname} (columns)")
+        params = [dict(base, **{grid.xname: float(xv), grid.yname: float(yv)}) for yv in grid.ys for xv in grid.xs]
+        _coexist.column_phase(system, flat, (len(grid.ys), len(grid.xs)), params,
+                              {"method": method, "options": dict(orbit_options), "coexist": coexist},
+                              n_workers, opts.dask, bar)
+    return flat, runner
+
+
+def _exact_lyapunov(system: CompiledSystem, flat: list[dict[str, Any]], grid: _Grid, base: dict[str, float],
+                    periods: int, wanted: bool) -> None:
+    """The largest Lyapunov exponent of a linear system's points (exact path): ``log max|mu| / (k T)``,
+    that of every solution (unbounded where it is positive)."""
+    if not wanted:
+        return
+    for r, (yv, xv) in zip(flat, ((yv, xv) for yv in grid.ys for xv in grid.xs), strict=True):
+        T = system.period({**base, grid.xname: float(xv), grid.yname: float(yv)}) or math.nan
+        mu = float(r["max_multiplier"])
+        r.update(lyapunov=math.log(mu) / (periods * T) if mu > 0 else -math.inf, lyapunov_error=math.nan,
+                 response_kind=0 if r["response"] == 1 else -1)
+
+
+def _mesh_names(system: CompiledSystem) -> list[str]:
+    return list(getattr(system.generated, "meshes", []) or [])
 
 
 @dataclass(frozen=True)
@@ -274,6 +377,11 @@ class _Grid:
         if xname == yname:
             raise ParameterError("the two axes must be different parameters")
         return cls(xname, xs, yname, ys)
+
+    @property
+    def size(self) -> int:
+        """Number of points."""
+        return len(self.xs) * len(self.ys)
 
 
 def _settings(table: Mapping[str, Any] | None, quantity: str | None, method: str | None, periods: float | None,
@@ -322,7 +430,7 @@ def _row_tasks(grid: _Grid, rows_per_task: int | None, n_workers: int, common: d
     tasks = []
     for j0 in range(0, ny, rows_per_task):
         pts = [(float(xv), float(grid.ys[j])) for j in range(j0, min(ny, j0 + rows_per_task)) for xv in grid.xs]
-        tasks.append({"points": pts, **common, "options": dict(common["options"])})
+        tasks.append({"points": pts, **common, "options": dict(common["options"]), "first_index": j0 * len(grid.xs)})
     return tasks
 
 
@@ -459,7 +567,11 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     for ``max_multiplier`` the colour scale is centred on 1 and the boundary of the
     unstable region (the ``stable`` variable of the stability rule) is drawn as a contour.
     Points without a stable periodic response (``response`` 0) are hatched ``//`` and have
-    no response colour (rattle state, peak-to-peak); failed points are hatched ``xx``.
+    no response colour (rattle state, peak-to-peak, Lyapunov exponent); failed points are hatched
+    ``xx``.  A map with the coexistence layers gets more panels in the same figure
+    (:mod:`gearsym.analysis.sweeps._coexist_figure`): the cells with coexisting stable responses are
+    outlined on the heat map, a panel shows how many coexist (non-periodic attractors hatched), and one
+    panel per response index shows each one's ``quantity``.
     """
     import matplotlib
 
@@ -481,7 +593,11 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     resp = ds["response"].values if "response" in ds else None
     if resp is not None and (q in ("rattle_state", "peak_to_peak") or q in GEAR_QUANTITIES):
         Z[resp != 1] = np.nan  # the response's quantity: none where there is no stable response
-    fig, ax = plt.subplots(figsize=(7, 5.2))
+    extra = attractor_panels(ds)
+    ncols = min(3, 1 + extra)
+    nrows = -(-(1 + extra) // ncols)
+    fig = plt.figure(figsize=(7 + 6 * (ncols - 1), 5.2 * nrows))
+    ax = fig.add_subplot(nrows, ncols, 1)
     if q == "max_multiplier":
         zmin, zmax = np.nanmin(Z), np.nanmax(Z)
         lo = min(zmin, 0.999) if np.isfinite(zmin) else 0.5
@@ -494,6 +610,9 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
                 ax.contour(X, Y, st, levels=[0.5], colors="k", linewidths=0.8)
     elif q == "rattle_state":
         pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="viridis", vmin=-1, vmax=2)
+    elif q == "lyapunov" and np.isfinite(Z).any():
+        pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="RdBu_r", norm=TwoSlopeNorm(
+            0.0, min(float(np.nanmin(Z)), -1e-12), max(float(np.nanmax(Z)), 1e-12)))
     else:
         pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="viridis")
     cb = fig.colorbar(pc, ax=ax)
@@ -505,6 +624,9 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     ax.set_xlabel(f"{xname} [{xu}]" if xu and xu != "1" else xname)
     ax.set_ylabel(f"{yname} [{yu}]" if yu and yu != "1" else yname)
     ax.set_title(f"{ds.attrs.get('scene', '')}: {q.replace('_', ' ')}")
+    if extra:
+        outline_coexistence(ax, X, Y, ds["n_stable"].values)
+        draw_panels(fig, [fig.add_subplot(nrows, ncols, 2 + k) for k in range(extra)], ds, q)
     fig.tight_layout()
     png = out / f"{stem}.png"
     save_figure(fig, png, dpi=120)

@@ -24,6 +24,11 @@ the out-of-memory killer) fails that task only: its result is a :class:`TaskFail
 naming the signal, a new worker takes the remaining tasks.  An exception raised by
 ``fn`` is raised again in the parent (with the worker's traceback as a note), as from a
 serial run.  No temporary file or folder is created (pipes only).
+
+Progress: a task function may call :func:`report` (``report(n)``: ``n`` more units of its work
+done); the parent's ``progress`` callback of :func:`run_tasks` receives them as they happen
+(serial runs and local workers; on Dask a task's units arrive when it ends).  When a task ends,
+whatever of its ``weights`` entry it has not reported is reported for it.
 """
 
 from __future__ import annotations
@@ -45,12 +50,28 @@ from typing import Any
 
 from ...errors import GearsymError
 
-__all__ = ["GRACE", "TaskFailure", "WorkerStartError", "run_tasks"]
+__all__ = ["GRACE", "TaskFailure", "WorkerStartError", "report", "run_tasks"]
 
 #: Seconds a stopped worker gets to exit after SIGTERM before it is killed (SIGKILL).
 GRACE = 1.0
 
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+#: Where :func:`report` sends a task's progress (set while a task runs; ``None``: nowhere).
+_REPORT: Callable[[int], None] | None = None
+
+
+def report(n: int = 1) -> None:
+    """Tell the parent that the running task has done ``n`` more units of its work (a no-op when
+    nobody listens: on Dask, or outside :func:`run_tasks`).
+
+    Parameters
+    ----------
+    n
+        Units done since the last call (the task's ``weights`` entry counts them all).
+    """
+    if _REPORT is not None:
+        _REPORT(int(n))
 
 
 @dataclass(frozen=True)
@@ -108,6 +129,7 @@ def _send(conn: Connection, msg: tuple) -> None:
 
 def _worker_main(conn: Connection, lifeline: Connection, parent_pid: int, blob: bytes) -> None:
     """Entry point of a worker process: load ``(fn, shared)``, then run tasks until told to stop."""
+    global _REPORT
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and stops us
     _die_with_parent(parent_pid, lifeline)
     try:
@@ -124,6 +146,7 @@ def _worker_main(conn: Connection, lifeline: Connection, parent_pid: int, blob: 
         if msg is None:
             return
         index, task = msg
+        _REPORT = lambda n, i=index: conn.send(("progress", i, n))  # noqa: E731
         try:
             result = fn(shared, task)
         except BaseException as exc:  # noqa: BLE001 - raised again in the parent
@@ -204,9 +227,8 @@ def _stop_all(workers: list[_Worker], graceful: bool) -> None:
 class _Run:
     """The state of one :func:`run_tasks` call on local processes."""
 
-    def __init__(self, tasks: Sequence[Any], n_workers: int, blob: bytes,
-                 on_result: Callable[[int, Any], None] | None = None) -> None:
-        self.on_result = on_result
+    def __init__(self, tasks: Sequence[Any], n_workers: int, blob: bytes, meter: _Meter) -> None:
+        self.meter = meter
         self.ctx = mp.get_context("spawn")
         self.tasks = tasks
         self.pending = deque(range(len(tasks)))
@@ -235,10 +257,11 @@ class _Run:
         if kind == "ready":
             w.ready = True
             self._next(w)
+        elif kind == "progress":
+            self.meter.add(msg[1], msg[2])
         elif kind == "ok":
             self.results[msg[1]] = msg[2]
-            if self.on_result is not None:
-                self.on_result(msg[1], msg[2])
+            self.meter.done(msg[1], msg[2])
             self._next(w)
         elif kind == "raised":
             exc, tb = msg[2], msg[3]
@@ -268,8 +291,7 @@ class _Run:
                                    f"an 'if __name__ == \"__main__\":' guard)")
         if w.task is not None:
             self.results[w.task] = TaskFailure(w.task, _death(w.proc), w.proc.exitcode)
-            if self.on_result is not None:
-                self.on_result(w.task, self.results[w.task])
+            self.meter.done(w.task, self.results[w.task])
         w.conn.close()
         w.proc.close()
         if self.pending:
@@ -305,9 +327,48 @@ class _Run:
         self.lifeline_r.close()
 
 
+class _Meter:
+    """The progress of the tasks (units reported per task, the rest of its weight when it ends) and
+    the ``on_result`` callback of each finished task."""
+
+    def __init__(self, progress: Callable[[int], None] | None, weights: Sequence[int] | None, n: int,
+                 on_result: Callable[[int, Any], None] | None) -> None:
+        self.progress = progress
+        self.on_result = on_result
+        self.weights = [int(w) for w in weights] if weights is not None else [1] * n
+        self.reported = [0] * n
+
+    def add(self, index: int, n: int) -> None:
+        """``n`` more units of task ``index`` (at most its weight in all)."""
+        n = min(int(n), max(0, self.weights[index] - self.reported[index]))
+        if n > 0 and self.progress is not None:
+            self.reported[index] += n
+            self.progress(n)
+
+    def done(self, index: int, result: Any) -> None:
+        """Task ``index`` finished with ``result``."""
+        self.add(index, self.weights[index] - self.reported[index])
+        if self.on_result is not None:
+            self.on_result(index, result)
+
+
+def _run_serial(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], meter: _Meter) -> list[Any]:
+    global _REPORT
+    saved = _REPORT
+    out = []
+    try:
+        for i, t in enumerate(tasks):
+            _REPORT = lambda n, i=i: meter.add(i, n)  # noqa: E731
+            out.append(fn(shared, t))
+            meter.done(i, out[-1])
+    finally:
+        _REPORT = saved
+    return out
+
+
 def _run_local(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], n_workers: int,
-               on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
-    run = _Run(tasks, n_workers, pickle.dumps((fn, shared)), on_result)
+               meter: _Meter) -> list[Any]:
+    run = _Run(tasks, n_workers, pickle.dumps((fn, shared)), meter)
     graceful = False
     try:
         results = run.loop()
@@ -317,22 +378,19 @@ def _run_local(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any],
         run.close(graceful)
 
 
-def _run_dask(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], dask: Any,
-              on_result: Callable[[int, Any], None] | None = None) -> list[Any]:
-    from distributed import Client
+def _run_dask(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], dask: Any, meter: _Meter
+              ) -> list[Any]:
+    from distributed import Client, as_completed
 
     client = dask if isinstance(dask, Client) else Client(dask)
     try:
-        if on_result is None:
-            return list(client.get_executor().map(_apply, [(fn, shared, t) for t in tasks]))
-        from concurrent.futures import as_completed
-
-        executor = client.get_executor()
-        futures = {executor.submit(_apply, (fn, shared, t)): i for i, t in enumerate(tasks)}
+        futures = client.map(_apply, [(fn, shared, t) for t in tasks], pure=False)
+        where = {f.key: i for i, f in enumerate(futures)}
         results: list[Any] = [None] * len(tasks)
         for f in as_completed(futures):
-            results[futures[f]] = f.result()
-            on_result(futures[f], results[futures[f]])
+            i = where[f.key]
+            results[i] = f.result()  # (raises the task's exception, as the serial run would)
+            meter.done(i, results[i])
         return results
     finally:
         if client is not dask:  # our own Client: close it (Client.shutdown would stop the cluster)
@@ -345,7 +403,9 @@ def _apply(args: tuple[Callable[[Any, Any], Any], Any, Any]) -> Any:
 
 
 def run_tasks(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], *, workers: int = 1,
-              dask: Any = None, on_result: Callable[[int, Any], None] | None = None) -> tuple[list[Any], str]:
+              dask: Any = None, on_result: Callable[[int, Any], None] | None = None,
+              progress: Callable[[int], None] | None = None,
+              weights: Sequence[int] | None = None) -> tuple[list[Any], str]:
     """Compute ``fn(shared, task)`` for every task.
 
     Parameters
@@ -364,6 +424,10 @@ def run_tasks(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], 
         Called in this process with ``(index, result)`` as each task finishes (in the order
         they finish; a progress bar), the result a :class:`TaskFailure` for a task whose local
         worker died.
+    progress
+        Called in this process with the units of work done (module docstring: :func:`report`).
+    weights
+        The units of work of each task (default 1 each).
 
     Returns
     -------
@@ -378,14 +442,10 @@ def run_tasks(fn: Callable[[Any, Any], Any], shared: Any, tasks: Sequence[Any], 
     KeyboardInterrupt
         Ctrl-C or SIGTERM (:class:`gearsym.signals.Terminated`): the workers are stopped first.
     """
+    meter = _Meter(progress, weights, len(tasks), on_result)
     if dask is not None:
-        return _run_dask(fn, shared, tasks, dask, on_result), "dask"
+        return _run_dask(fn, shared, tasks, dask, meter), "dask"
     if workers <= 1 or len(tasks) <= 1:
-        out = []
-        for i, t in enumerate(tasks):
-            out.append(fn(shared, t))
-            if on_result is not None:
-                on_result(i, out[-1])
-        return out, "serial"
+        return _run_serial(fn, shared, tasks, meter), "serial"
     n = min(workers, len(tasks))
-    return _run_local(fn, shared, tasks, n, on_result), f"processes({n})"
+    return _run_local(fn, shared, tasks, n, meter), f"processes({n})"
