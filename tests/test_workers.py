@@ -238,3 +238,36 @@ def test_serial_run_needs_no_process():
     from gearsym.analysis.sweeps import run_tasks
 
     assert run_tasks(raise_on, -1, [1, 2, 3], workers=1) == ([2, 4, 6], "serial")
+
+
+def report_signals(_shared: int, _task: int) -> tuple[list[int], bool]:
+    """A task that reports its worker's blocked signals and whether SIGINT is ignored."""
+    import signal as sg
+
+    return sorted(int(s) for s in sg.pthread_sigmask(sg.SIG_BLOCK, [])), sg.getsignal(sg.SIGINT) == sg.SIG_IGN
+
+
+def _mask_in_child(q) -> None:
+    import signal as sg
+
+    q.put(sorted(int(s) for s in sg.pthread_sigmask(sg.SIG_BLOCK, [])))
+
+
+def test_a_worker_starts_with_ctrl_c_blocked_and_then_ignores_it():
+    """A Ctrl-C to the process group while a worker imports gearsym must not print a
+    KeyboardInterrupt traceback from its start-up: the worker is started with SIGINT and SIGTERM
+    blocked (inherited through fork and exec), and unblocks them once SIGINT is ignored."""
+    import multiprocessing as mp
+    import signal as sg
+
+    from gearsym.analysis.sweeps._workers import _start_blocked, run_tasks
+
+    ctx = mp.get_context("spawn")
+    q = ctx.Queue()
+    p = ctx.Process(target=_mask_in_child, args=(q,))
+    _start_blocked(p)
+    assert int(sg.SIGINT) in q.get(timeout=60) and int(sg.SIGTERM) not in sg.pthread_sigmask(sg.SIG_BLOCK, [])
+    p.join()
+    results, _ = run_tasks(report_signals, 0, [0, 1], workers=2)
+    for blocked, ignored in results:
+        assert ignored and int(sg.SIGINT) not in blocked and int(sg.SIGTERM) not in blocked

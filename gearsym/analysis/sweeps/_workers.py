@@ -131,6 +131,10 @@ def _worker_main(conn: Connection, lifeline: Connection, parent_pid: int, blob: 
     """Entry point of a worker process: load ``(fn, shared)``, then run tasks until told to stop."""
     global _REPORT
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and stops us
+    # started with Ctrl-C and SIGTERM blocked (_start_blocked): a Ctrl-C to the process group
+    # during start-up stayed pending and is now discarded (SIGINT ignored); a pending SIGTERM
+    # from the parent ends us now, as it would have
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STARTUP_BLOCKED)
     _die_with_parent(parent_pid, lifeline)
     try:
         fn, shared = pickle.loads(blob)
@@ -156,6 +160,23 @@ def _worker_main(conn: Connection, lifeline: Connection, parent_pid: int, blob: 
 
 
 # ------------------------------------------------------------------ in the parent
+#: signals blocked while a worker starts (:func:`_start_blocked`)
+_STARTUP_BLOCKED = frozenset({signal.SIGINT, signal.SIGTERM})
+
+
+def _start_blocked(proc: Any) -> None:
+    """Start a worker process with Ctrl-C and SIGTERM blocked in the starting thread: the child
+    inherits the mask through fork and exec, so a Ctrl-C sent to the whole process group (a
+    terminal) while it imports gearsym waits until it has set SIGINT to be ignored instead of
+    printing a KeyboardInterrupt traceback from its start-up; the parent receives any such
+    signal as soon as the start returns (blocked signals stay pending, none is lost)."""
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _STARTUP_BLOCKED)
+    try:
+        proc.start()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 class _Worker:
     """One worker process, its connection and the task it computes."""
 
@@ -163,7 +184,7 @@ class _Worker:
         self.conn, child = ctx.Pipe(duplex=True)
         self.proc = ctx.Process(target=_worker_main, args=(child, lifeline, os.getpid(), blob),
                                 name="gearsym-worker", daemon=True)
-        self.proc.start()
+        _start_blocked(self.proc)
         child.close()
         self.task: int | None = None
         self.ready = False
