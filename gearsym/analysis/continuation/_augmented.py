@@ -47,7 +47,10 @@ from ...errors import ConvergenceError
 from ._bifurcation import tau_branch_point, tau_period_doubling
 from ._orbit_map import MapRun, OrbitMap
 
-__all__ = ["AugEval", "Augmented", "BorderedSingular", "BranchPointSystem", "bordered"]
+__all__ = ["SECTION_MARGIN", "AugEval", "Augmented", "BorderedSingular", "BranchPointSystem", "bordered"]
+
+#: an event closer to the shooting section than this fraction of the period moves the section
+SECTION_MARGIN = 0.02
 
 
 @dataclass
@@ -164,7 +167,8 @@ class Augmented:
         x, lam, ext = self.split(y)
         run = self.omap.run(x, lam)
         F, Jo = self._orbit_rows(x, lam, ext, run)
-        data: dict[str, Any] = {"x_end": run.x_end, "n_events": run.n_events, "S": run.S}
+        data: dict[str, Any] = {"x_end": run.x_end, "n_events": run.n_events, "S": run.S, "event_t": run.event_t,
+                                "t0": self.omap.t0}
         # relative to the size of the monodromy (the integration's error in the test functions is
         # about rtol |M|: strongly unstable orbits have large monodromies); exact where g = 0
         size = max(1.0, float(np.linalg.norm(run.M)))
@@ -202,6 +206,39 @@ class Augmented:
         """The extras of a point for the result (``omega``, ``theta``, ``mu``, ...)."""
         _, _, ext = self.split(y)
         return {name: float(v) for name, v in zip(self.extras, ext, strict=True)}
+
+    # ---------------------------------------------------------------- the section
+    def reanchor(self, y: np.ndarray, ev: AugEval, margin: float = SECTION_MARGIN) -> np.ndarray | None:
+        """Move the shooting section ``t0`` away from the orbit's events when one is within ``margin``
+        of the period from it; the unknowns in the new section, or ``None`` (nothing moved).
+
+        An event at the section makes the period map only once differentiable there (its Jacobian
+        kinks when the event crosses ``t0``: the vector field's Jacobian jumps at a contact), so
+        the test functions built on the monodromy kink and Newton crawls; the curve itself does
+        not depend on the section.  The new section is the middle of the longest event-free part
+        of the period; the state moves along the orbit to it and the borders with the state
+        transition matrix of the shift (so that the orientation of the null vectors, which the
+        signs of the test functions carry, is kept).
+        """
+        x, lam, ext = self.split(y)
+        P, t0 = self.omap.period(lam), self.omap.t0
+        te = np.sort(np.mod(np.asarray(ev.data.get("event_t", []), float) - t0, P))
+        if len(te) == 0 or min(float(te[0]), P - float(te[-1])) >= margin * P:
+            return None
+        pts = np.concatenate([te, [te[0] + P]])
+        k = int(np.argmax(np.diff(pts)))
+        shift = float(0.5 * (pts[k] + pts[k + 1])) % P
+        run = self.omap.run(x, lam, monodromy=True, sens=False, theta=(0.0, shift / P))
+        self.omap.t0 = t0 + shift
+        self.transform(run.M)
+        return np.concatenate([run.x_end, lam, self.shift_extras(ext, shift / P)])
+
+    def transform(self, Phi: np.ndarray) -> None:
+        """Carry the borders to a section moved by the state transition matrix ``Phi``."""
+
+    def shift_extras(self, ext: np.ndarray, dtheta: float) -> np.ndarray:
+        """The extra unknowns in a section moved by ``dtheta`` of the period."""
+        return ext
 
     # ---------------------------------------------------------------- differences
     def _x_step(self, d: np.ndarray) -> float:
@@ -260,6 +297,9 @@ class BorderedSystem(Augmented):
         v, w = ev.data["v"], ev.data["w"]
         self.c = v / np.linalg.norm(v)
         self.b = w / np.linalg.norm(w)
+
+    def transform(self, Phi: np.ndarray) -> None:
+        self.c, self.b = _carry(Phi, self.c, self.b)
 
     def tests(self, y, ev, multipliers) -> dict[str, float]:
         v, w = ev.data["v"], ev.data["w"]
@@ -366,8 +406,19 @@ class BranchPointSystem(Augmented):
             self.C[:self.nx, 0] = c / np.linalg.norm(c)
         self.B = w / np.linalg.norm(w)
 
+    def transform(self, Phi: np.ndarray) -> None:
+        c, self.B = _carry(Phi, self.C[:self.nx, 0], self.B)
+        self.C[:self.nx, 0] = c
+
     def tests(self, y, ev, multipliers) -> dict[str, float]:
         return {"fold_flip": tau_period_doubling(_others(multipliers, 1.0))}
+
+
+def _carry(Phi: np.ndarray, right: np.ndarray, left: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A right null vector carried by ``Phi`` and a left one by ``Phi^-T`` to a moved section (unit)."""
+    r = Phi @ right
+    lft = np.linalg.solve(Phi.T, left)
+    return r / np.linalg.norm(r), lft / np.linalg.norm(lft)
 
 
 def _others(mu: np.ndarray, at: float) -> np.ndarray:

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import ConvergenceError, ParameterError
-from ._augmented import AugEval, Augmented, bordered, null_vectors
+from ._augmented import SECTION_MARGIN, AugEval, Augmented, _carry, bordered, null_vectors
 from ._bifurcation import tau_branch_point, tau_neimark_sacker, tau_period_doubling
 from ._orbit_map import MapRun, OrbitMap
 
@@ -95,6 +95,9 @@ class NeimarkSackerSystem(Augmented):
         v, w = ev.data["v"], ev.data["w"]
         self.c = v / np.linalg.norm(v)
         self.b = w / np.linalg.norm(w)
+
+    def transform(self, Phi: np.ndarray) -> None:
+        self.c, self.b = _carry(Phi.astype(complex), self.c, self.b)
 
     def tests(self, y, ev, multipliers) -> dict[str, float]:
         omega = float(self.split(y)[2][0])
@@ -179,7 +182,8 @@ class GrazingSystem(Augmented):
         h, grads = self._point(t_star, first.x_end, lam, first.sigma_end, want=test_jac)
         R = np.concatenate([second.x_end - x, h])
         data: dict[str, Any] = {"x_end": second.x_end, "n_events": first.n_events + second.n_events,
-                                "t_star": t_star, "x_star": first.x_end}
+                                "t_star": t_star, "x_star": first.x_end, "t0": self.omap.t0,
+                                "event_t": np.concatenate([first.event_t, second.event_t])}
         Jt = None
         if test_jac:
             gx, gt, glam, f = grads
@@ -257,5 +261,11 @@ class GrazingSystem(Augmented):
         theta = float(self.split(y)[2][0]) % 1.0
         return {"theta": theta, "t_touch": float(ev.data["t_star"])}
 
-    def accept(self, y, ev) -> None:
-        pass
+    def shift_extras(self, ext: np.ndarray, dtheta: float) -> np.ndarray:
+        return np.array([(float(ext[0]) - dtheta) % 1.0])
+
+    def reanchor(self, y: np.ndarray, ev: AugEval, margin: float = SECTION_MARGIN) -> np.ndarray | None:
+        """As :meth:`Augmented.reanchor`, the touch counted as an event too (the period is split there)."""
+        data = dict(ev.data)
+        data["event_t"] = np.concatenate([np.asarray(data.get("event_t", []), float), [float(data["t_star"])]])
+        return super().reanchor(y, AugEval(ev.R, ev.J_orbit, ev.J_test, ev.M, data), margin)

@@ -258,7 +258,8 @@ def _first_point(setup: _Setup, kind: str, st: CurveStart, o: CurveOptions) -> t
     errors = []
     for fixed in order:
         try:
-            return aug, tracer, tracer.first(y0, fixed, float(setup.lam0[fixed])), formulation
+            first = tracer.first(y0, fixed, float(setup.lam0[fixed]))
+            return aug, tracer, tracer.reanchored(first), formulation  # (a section away from the events)
         except GearsymError as exc:
             errors.append(f"with {(setup.param, setup.param2)[fixed]} held: {exc}")
             y0 = aug.start(np.concatenate([setup.x0, setup.lam0]))
@@ -280,7 +281,7 @@ def _tests(setup: _Setup, aug: Augmented, y: np.ndarray, ev: Any, o: CurveOption
     n = max(8, int(o.n_dense * setup.periods))
     run = setup.omap.run(x, lam, monodromy=False, sens=False, n_samples=n + 1)
     samples = run.samples[:-1]
-    t = setup.t0 + setup.omap.period(lam) * np.arange(n) / n
+    t = setup.omap.t0 + setup.omap.period(lam) * np.arange(n) / n
     ext: dict[str, tuple[float, float]] = {}
     names = list(setup.system.surface_names)
     if names:
@@ -303,6 +304,7 @@ def _trace(tracer: Tracer, aug: Augmented, first: Node, o: CurveOptions) -> list
     """The legs of the curve from its first point: ``[(leg, "forward" | "backward")]`` (forward: the
     first parameter increasing at the start; the second where the first does not move)."""
     row_scales = tracer.Rs.copy()  # equilibrated at the first point
+    t0_first = aug.omap.t0  # its section
     i = aug.nx
     sign = first.t[i] if abs(first.t[i]) > 1e-6 else first.t[i + 1]
     fwd = 1.0 if sign >= 0 else -1.0
@@ -312,7 +314,8 @@ def _trace(tracer: Tracer, aug: Augmented, first: Node, o: CurveOptions) -> list
         if legs:
             if legs[0][0].stop_reason == "the curve closed on itself":
                 break
-            aug.accept(first.y, first.ev)  # the borders of the first point again
+            aug.omap.t0 = t0_first  # the section and the borders of the first point again
+            aug.accept(first.y, first.ev)
         tracer.Rs = row_scales.copy()
         legs.append((tracer.trace(first, fwd if name == "forward" else -fwd), name))
     return legs
@@ -336,7 +339,7 @@ def _assemble(setup: _Setup, aug: Augmented, legs: list[tuple[Leg, str]], formul
     special_points = [Codim2Point(name, points[i].value, points[i].value2, points[i], i, info)
                       for i, name, info in sorted(specials, key=lambda s: s[0])]
     omap = setup.omap
-    info = {"formulation": formulation, "params": dict(setup.base), "t0": setup.t0, "rtol": omap.rtol,
+    info = {"formulation": formulation, "params": dict(setup.base), "rtol": omap.rtol,
             "atol": omap.atol, "box": [list(b) for b in setup.box],
             "derivatives": _derivatives_note(aug, omap), "n_integrations": omap.n_integrations,
             "n_rejected_steps": sum(leg.n_rejected for leg, _ in legs)}
@@ -362,7 +365,8 @@ def _point(setup: _Setup, aug: Augmented, nd: Node) -> CurvePoint:
         summ = {"fq": floquet(nd.ev.M, setup.omap.rtol), "ext": {}, "max": math.nan, "min": math.nan}
     fq = summ["fq"]
     return CurvePoint(value=float(lam[0]), value2=float(lam[1]), x0=np.asarray(x, float).copy(),
-                      period=setup.omap.period(lam), multipliers=fq.multipliers, stability=fq.stability,
+                      t0=float(nd.ev.data.get("t0", setup.t0)), period=setup.omap.period(lam),
+                      multipliers=fq.multipliers, stability=fq.stability,
                       n_unstable=int(fq.n_unstable), extras=aug.describe(nd.y, nd.ev), max=summ["max"],
                       min=summ["min"], surface_extrema=summ["ext"], n_events=int(nd.ev.data.get("n_events", 0)),
                       residual=float(np.max(np.abs(nd.ev.R / aug.residual_scales()))), iterations=int(nd.iterations))

@@ -64,6 +64,9 @@ class CurvePoint:
         The two parameters (declared units).
     x0 : ndarray
         The orbit's state at ``t0``.
+    t0 : float
+        The time of ``x0`` (the shooting section: moved along the curve away from the orbit's
+        events, see :mod:`gearsym.analysis.continuation._augmented`).
     period : float
         The orbit's period.
     multipliers : ndarray (complex)
@@ -91,6 +94,7 @@ class CurvePoint:
     value: float
     value2: float
     x0: np.ndarray
+    t0: float
     period: float
     multipliers: np.ndarray
     stability: str
@@ -111,7 +115,7 @@ class CurvePoint:
         dict
         """
         return {"value": float(self.value), "value2": float(self.value2), "x0": [float(v) for v in self.x0],
-                "period": float(self.period),
+                "t0": float(self.t0), "period": float(self.period),
                 "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
                 "stability": self.stability, "n_unstable": int(self.n_unstable),
                 **{k: float(v) for k, v in self.extras.items()},
@@ -155,7 +159,7 @@ class Codim2Point:
         dict
         """
         return {"type": self.type, "value": float(self.value), "value2": float(self.value2), "index": int(self.index),
-                "x0": [float(v) for v in self.point.x0],
+                "x0": [float(v) for v in self.point.x0], "t0": float(self.point.t0),
                 "multipliers": [[float(m.real), float(m.imag)] for m in self.point.multipliers],
                 **{k: _jsonable(v) for k, v in self.info.items()}}
 

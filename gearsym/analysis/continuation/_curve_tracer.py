@@ -232,7 +232,29 @@ class Tracer:
                 max(0.6 * h, self.o.ds_min) if it >= 7 else h
             if float(B.t @ A.t) < math.cos(0.5 * self.o.max_angle):
                 h = max(0.7 * h, self.o.ds_min)
-            A = B
+            A = self.reanchored(B)
+
+    def reanchored(self, B: Node) -> Node:
+        """``B`` in a moved shooting section when an event came near the section (:meth:`Augmented.reanchor`);
+        its tangent from the Jacobian there, oriented by the parameters' (and extras') components."""
+        try:
+            y = self.aug.reanchor(B.y, B.ev)
+        except GearsymError:
+            return B  # (the shift's integration failed: keep the section)
+        if y is None:
+            return B
+        ev = self.aug.evaluate(y, test_jac=True)
+        assert ev.J_test is not None
+        J = np.vstack([ev.J_orbit, ev.J_test])
+        t_ref = B.t.copy()
+        t_ref[:self.aug.nx] = 0.0
+        if not np.any(t_ref):
+            t_ref = B.t
+        t = self.tangent(J, t_ref)
+        self.equilibrate(J)
+        tau = self.tests(y, ev) if self.o.detect else {}
+        self.aug.accept(y, ev)
+        return Node(y, ev, t, tau, B.iterations)
 
     def _lam(self, y: np.ndarray) -> np.ndarray:
         return y[self.i_lam:self.i_lam + 2]
@@ -311,7 +333,8 @@ class Tracer:
 
     def _passes(self, A: Node, B: Node, origin: Node) -> bool:
         """The step from ``A`` to ``B`` passes the curve's first point (a closed curve)."""
-        a, b, o = A.y / self.S, B.y / self.S, origin.y / self.S
+        keep = slice(self.aug.nx, None)  # the parameters and extras (the states may be in other sections)
+        a, b, o = (A.y / self.S)[keep], (B.y / self.S)[keep], (origin.y / self.S)[keep]
         d = b - a
         L2 = float(d @ d)
         if L2 == 0:
@@ -319,7 +342,7 @@ class Tracer:
         s = float((o - a) @ d) / L2
         if not 0.0 <= s <= 1.0:
             return False
-        return float(np.linalg.norm(a + s * d - o)) < 0.25 * math.sqrt(L2) and float(origin.t @ A.t) > 0
+        return float(np.linalg.norm(a + s * d - o)) < 0.25 * math.sqrt(L2) and float(origin.t[keep] @ A.t[keep]) > 0
 
     # ---------------------------------------------------------------- detection
     def _detect(self, A: Node, B: Node) -> list[tuple[Node | None, str, dict[str, Any]]]:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -48,6 +48,8 @@ class MapRun:
         parameters), when asked for.
     n_events : int
         Surface crossings in the integrated span.
+    event_t : ndarray
+        Their times.
     sigma_end : ndarray
         Side of each switching surface at the end.
     samples : ndarray or None
@@ -60,6 +62,7 @@ class MapRun:
     n_events: int
     sigma_end: np.ndarray
     samples: np.ndarray | None = None
+    event_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 class OrbitMap:
@@ -237,7 +240,8 @@ class OrbitMap:
 def _run_of(fl, S: np.ndarray | None, n_samples: int) -> MapRun:
     return MapRun(x_end=np.asarray(fl.x_final, float), M=None if fl.monodromy is None else np.asarray(fl.monodromy),
                   S=None if S is None else np.asarray(S, float), n_events=len(fl.event_t),
-                  sigma_end=np.asarray(fl.sigma_final), samples=fl.samples if n_samples > 2 else None)
+                  sigma_end=np.asarray(fl.sigma_final), samples=fl.samples if n_samples > 2 else None,
+                  event_t=np.asarray(fl.event_t, float))
 
 
 def check_params(system: CompiledSystem, param: str, param2: str) -> None:
