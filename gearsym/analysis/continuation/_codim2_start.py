@@ -131,6 +131,9 @@ class CurveStart:
         The branch's forcing periods per orbit and phase.
     surface, side : str or None
         A grazing point's surface and side.
+    info : dict
+        Where the start came from (``from``: ``"branch"`` with the special point's ``index``,
+        ``type`` and ``value``, or ``"guess"``); the curve's ``info["start"]``.
     """
 
     values: dict[str, float]

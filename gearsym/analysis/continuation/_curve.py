@@ -283,6 +283,15 @@ class BifurcationCurve:
     def plot(self, ax: Axes | None = None, stability_map: Any = None, **kwargs: Any) -> Axes:
         """Draw the curve in the ``(param, param2)`` plane (see :func:`plot_curves`).
 
+        Parameters
+        ----------
+        ax
+            Axes to draw into (a new figure if ``None``).
+        stability_map
+            A stability map of the same plane to draw below the curve.
+        **kwargs
+            ``quantity``, ``path``, ``title`` of :func:`plot_curves`.
+
         Returns
         -------
         matplotlib.axes.Axes
