@@ -111,6 +111,33 @@ def test_grazing_curve_is_the_linear_response_touching_the_flank():
     assert max(abs(p.surface_extrema["mesh.drive"][0]) for p in curve.points) < 1e-4
 
 
+def _linear_flip_test(om: float, eps: float, zeta: float) -> float:
+    """det(M + I) of x'' + 2 zeta x' + (1 + eps cos(Omega t)) x = 0 over one forcing period (scipy):
+    the variational equation of every orbit that keeps the drive contact."""
+    def rhs(t, y):
+        k = 1.0 + eps * math.cos(om * t)
+        return [y[1], -k * y[0] - 2 * zeta * y[1], y[3], -k * y[2] - 2 * zeta * y[3]]
+    y = solve_ivp(rhs, (0, 2 * math.pi / om), [1.0, 0.0, 0.0, 1.0], method="DOP853", rtol=1e-12, atol=1e-13).y[:, -1]
+    return float(np.linalg.det(np.array([[y[0], y[2]], [y[1], y[3]]]) + np.eye(2)))
+
+
+def test_grazing_curve_crosses_the_flip_tongue_where_the_linear_orbit_doubles():
+    """eps = 0.4: along the grazing curve the orbit keeps contact, so its multipliers are those of the
+    linear parametric equation (independent of Fm): the curve meets period-doubling curves where that
+    equation has a multiplier -1 -- the two edges of the principal tongue near Omega = 2 (scipy)."""
+    system = gearsym.load_scene(ROOT / "scenes" / "kahraman_singh.toml", eps=0.4).compile()
+    branch = gearsym.continuation(system, "Omega", 0.6, 1.3, params={"Fa": 0.05}, progress=False)
+    i = next(k for k, b in enumerate(branch.bifurcations) if b.type == "grazing")
+    curve = continue_bifurcation(system, None, "Omega", "Fm", 0.5, 2.5, start_from=(branch, i), bounds2=(0.0, 1.0))
+    assert curve.complete, curve.stop_reasons
+    found = sorted(s.value for s in curve.of_type("period_doubling_grazing"))
+    assert [s.info["located"] for s in curve.special_points] == [True] * len(curve.special_points)
+    ref = [brentq(_linear_flip_test, lo, hi, args=(0.4, KS["zeta"]), xtol=1e-13) for lo, hi in ((1.7, 1.95),
+                                                                                               (2.05, 2.3))]
+    assert len(found) == 2
+    assert np.max(np.abs(np.array(found) - ref)) < 1e-6, (found, ref)
+
+
 # ------------------------------------------------------------------ fold: scipy reference
 def _period_map(x0: np.ndarray, p: dict, t0: float) -> tuple[np.ndarray, np.ndarray]:
     """``(x(t0 + T), M)`` of the benchmark oscillator by DOP853 on the state and its variational

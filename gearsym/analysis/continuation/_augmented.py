@@ -168,7 +168,7 @@ class Augmented:
         run = self.omap.run(x, lam)
         F, Jo = self._orbit_rows(x, lam, ext, run)
         data: dict[str, Any] = {"x_end": run.x_end, "n_events": run.n_events, "S": run.S, "event_t": run.event_t,
-                                "t0": self.omap.t0}
+                                "event_surface": run.event_surface, "t0": self.omap.t0}
         # relative to the size of the monodromy (the integration's error in the test functions is
         # about rtol |M|: strongly unstable orbits have large monodromies); exact where g = 0
         size = max(1.0, float(np.linalg.norm(run.M)))

@@ -183,7 +183,8 @@ class GrazingSystem(Augmented):
         R = np.concatenate([second.x_end - x, h])
         data: dict[str, Any] = {"x_end": second.x_end, "n_events": first.n_events + second.n_events,
                                 "t_star": t_star, "x_star": first.x_end, "t0": self.omap.t0,
-                                "event_t": np.concatenate([first.event_t, second.event_t])}
+                                "event_t": np.concatenate([first.event_t, second.event_t]),
+                                "event_surface": np.concatenate([first.event_surface, second.event_surface])}
         Jt = None
         if test_jac:
             gx, gt, glam, f = grads

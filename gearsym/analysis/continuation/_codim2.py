@@ -271,33 +271,71 @@ def _tracer(setup: _Setup, aug: Augmented, o: CurveOptions) -> Tracer:
     settings = TracerSettings(ds=o.ds, ds_min=o.ds_min, ds_max=o.ds_max, max_angle=o.max_angle,
                               max_points=o.max_points, tol=o.tol, max_newton=o.max_newton, locate=o.locate,
                               detect=o.detect)
-    return Tracer(aug, settings, setup.box, lambda y, ev: _tests(setup, aug, y, ev, o), setup.fmt)
+    return Tracer(aug, settings, setup.box, lambda y, ev: _tests(setup, aug, y, ev, o), setup.fmt, explain=_explain)
 
 
 def _tests(setup: _Setup, aug: Augmented, y: np.ndarray, ev: Any, o: CurveOptions) -> dict[str, float]:
-    """The codimension-2 test functions of a point (and its summary for the result, kept in ``ev``)."""
+    """The codimension-2 test functions of a point (and its summary for the result, kept in ``ev``).
+
+    Besides the system's own: the extremum of every switching function over the orbit (a sign
+    change: the curve crosses a grazing curve) and the number of contact events in a period (a
+    change: a local extremum of a switching function crossed zero, a grazing the global extrema
+    do not show); the followed surface of a grazing curve is left out of both.
+    """
     x, lam, _ = aug.split(y)
     fq = floquet(ev.M, setup.omap.rtol)
     n = max(8, int(o.n_dense * setup.periods))
     run = setup.omap.run(x, lam, monodromy=False, sens=False, n_samples=n + 1)
     samples = run.samples[:-1]
     t = setup.omap.t0 + setup.omap.period(lam) * np.arange(n) / n
+    followed = aug.surface if isinstance(aug, GrazingSystem) else None
     ext: dict[str, tuple[float, float]] = {}
+    near: tuple[str, str, float, float] | None = None  # (surface, side, local extremum, its range)
     names = list(setup.system.surface_names)
     if names:
         G = setup.system.switching(t, samples, p=setup.omap.setup(lam)[0]).reshape(n, -1)
         for j, name in enumerate(names):
             g = G[:, j]
             ext[name] = (_periodic_extremum(g, int(np.argmin(g)), 1.0), _periodic_extremum(g, int(np.argmax(g)), -1.0))
+            if name == followed:
+                continue
+            for side, v in _local_extrema(g):
+                if near is None or abs(v) < abs(near[2]):
+                    near = (name, side, v, float(np.ptp(g)))
     y0 = samples[:, 0]
-    ev.data["summary"] = {"fq": fq, "ext": ext, "max": float(np.max(y0)), "min": float(np.min(y0))}
+    ev.data["summary"] = {"fq": fq, "ext": ext, "max": float(np.max(y0)), "min": float(np.min(y0)), "near": near}
     tau = aug.tests(y, ev, fq.multipliers)
     for name, (gmin, gmax) in ext.items():
         for side, v in (("min", gmin), ("max", gmax)):
             if isinstance(aug, GrazingSystem) and (name, side) == (aug.surface, aug.side):
                 continue
             tau[f"grazing|{name}|{side}"] = v
+    skip = names.index(followed) if followed is not None else -1
+    tau["count|events"] = float(sum(1 for k in np.asarray(ev.data.get("event_surface", []), int) if k != skip))
     return tau
+
+
+def _local_extrema(g: np.ndarray) -> list[tuple[str, float]]:
+    """The local minima and maxima of a periodic sequence (parabolic refinement)."""
+    d_prev = g - np.roll(g, 1)
+    d_next = np.roll(g, -1) - g
+    out = []
+    for i in np.nonzero(d_prev * d_next <= 0)[0].tolist():
+        if d_prev[i] < 0 <= d_next[i] or d_prev[i] <= 0 < d_next[i]:
+            out.append(("min", _periodic_extremum(g, i, 1.0)))
+        elif d_prev[i] > 0 >= d_next[i] or d_prev[i] >= 0 > d_next[i]:
+            out.append(("max", _periodic_extremum(g, i, -1.0)))
+    return out
+
+
+def _explain(node: Node) -> str:
+    """Why a curve may not advance past a point: an orbit about to touch a switching surface."""
+    near = (node.ev.data.get("summary") or {}).get("near")
+    if near is None or not abs(near[2]) < 0.02 * max(near[3], 1e-300):
+        return ""
+    name, side, v, _ = near
+    return (f"; there the orbit is within {abs(v):.2g} of touching '{name}' (a local {side} of g): a grazing, "
+            f"where the period map is not smooth")
 
 
 def _trace(tracer: Tracer, aug: Augmented, first: Node, o: CurveOptions) -> list[tuple[Leg, str]]:

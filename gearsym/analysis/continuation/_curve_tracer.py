@@ -105,11 +105,14 @@ class Tracer:
         ``tests(y, ev) -> dict``: the codimension-2 test functions of an accepted point.
     fmt
         Formats ``(lambda_1, lambda_2)`` for messages.
+    explain
+        ``explain(node) -> str``: what to add to the reason when the curve cannot advance past a point.
     """
 
     def __init__(self, aug: Augmented, settings: TracerSettings, box: tuple[tuple[float, float], tuple[float, float]],
-                 tests: Callable[[np.ndarray, AugEval], dict[str, float]], fmt: Callable[[np.ndarray], str]):
-        self.aug, self.o, self.box, self.tests, self.fmt = aug, settings, box, tests, fmt
+                 tests: Callable[[np.ndarray, AugEval], dict[str, float]], fmt: Callable[[np.ndarray], str],
+                 explain: Callable[[Node], str] = lambda node: ""):
+        self.aug, self.o, self.box, self.tests, self.fmt, self.explain = aug, settings, box, tests, fmt, explain
         self.S = np.concatenate([aug.x_scale, aug.lam_scale, aug.extra_scales()])
         self.Rs = aug.residual_scales()
         self.i_lam = aug.nx
@@ -221,7 +224,7 @@ class Tracer:
                 h *= 0.5
                 if h < self.o.ds_min:
                     leg.stop_reason = (f"the curve cannot advance: step size below ds_min={self.o.ds_min:g} at "
-                                       f"{self.fmt(self._lam(A.y))}; last rejection: {exc}")
+                                       f"{self.fmt(self._lam(A.y))}; last rejection: {exc}{self.explain(A)}")
                     return leg
                 continue
             if self._ends(leg, A, B, closing if closing is not None else first):
@@ -354,6 +357,10 @@ class Tracer:
         cache: dict[float, Node] = {0.0: A, sB: B}
         for key, ta in A.tau.items():
             tb = B.tau.get(key, math.nan)
+            if key.startswith("count|"):
+                if math.isfinite(ta) and math.isfinite(tb) and ta != tb:
+                    found.append(self._locate_count(A, B, key, sB, cache))
+                continue
             floor = NOISY.get(key, 0.0)
             if not (math.isfinite(ta) and math.isfinite(tb)) or ta == 0 or tb == 0 or (ta > 0) == (tb > 0):
                 continue
@@ -404,10 +411,40 @@ class Tracer:
         info["value_of_test_function"] = float(nd.tau.get(key, math.nan))
         return s, nd, name, info
 
+    def _locate_count(self, A: Node, B: Node, key: str, sB: float, cache: dict[float, Node]
+                      ) -> tuple[float, Node | None, str, dict[str, Any]]:
+        """Bisection on a count that changed between ``A`` and ``B`` (the contact events: a local
+        extremum of a switching function crossed zero): ``(sigma, node, type, info)``."""
+        name = self._special_name(key)
+        wA = A.y / self.S
+        a, b, left, right = 0.0, sB, A, B
+        counts = [int(A.tau[key]), int(B.tau[key])]
+        reason = ""
+        while self.o.locate and abs(b - a) > max(1e-9, 1e-5 * abs(sB)):
+            c = 0.5 * (a + b)
+            try:
+                y, ev, it, J = self.correct(A.y + (c / sB) * (B.y - A.y), A.t, float(A.t @ wA) + c)
+            except GearsymError as exc:
+                reason = f"the bisection stopped: {exc}"
+                break
+            nd = Node(y, ev, self.tangent(J, A.t), self.tests(y, ev), it)
+            if nd.tau.get(key) == A.tau[key]:
+                a, left = c, nd
+            else:
+                b, right = c, nd
+        info = self._info(key, not reason and self.o.locate, left, right, reason or (
+            "" if self.o.locate else "location not asked for"))
+        info.update(events=counts, nonsmooth=True)
+        if not info["located"]:
+            return sB, None, name, info
+        if right is B:
+            right = Node(B.y.copy(), B.ev, B.t, B.tau, B.iterations)
+        return b, right, name, info
+
     def _special_name(self, key: str) -> str:
         if key == "resonance":
             return "resonance_1_1" if self.aug.kind == "fold" else "resonance_1_2"
-        if key.startswith("grazing|"):
+        if key.startswith(("grazing|", "count|")):
             return "double_grazing" if self.aug.kind == "grazing" else f"{self.aug.kind}_grazing"
         return key
 

@@ -48,8 +48,8 @@ class MapRun:
         parameters), when asked for.
     n_events : int
         Surface crossings in the integrated span.
-    event_t : ndarray
-        Their times.
+    event_t, event_surface : ndarray
+        Their times and surfaces (indices).
     sigma_end : ndarray
         Side of each switching surface at the end.
     samples : ndarray or None
@@ -63,6 +63,7 @@ class MapRun:
     sigma_end: np.ndarray
     samples: np.ndarray | None = None
     event_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    event_surface: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
 
 
 class OrbitMap:
@@ -241,7 +242,7 @@ def _run_of(fl, S: np.ndarray | None, n_samples: int) -> MapRun:
     return MapRun(x_end=np.asarray(fl.x_final, float), M=None if fl.monodromy is None else np.asarray(fl.monodromy),
                   S=None if S is None else np.asarray(S, float), n_events=len(fl.event_t),
                   sigma_end=np.asarray(fl.sigma_final), samples=fl.samples if n_samples > 2 else None,
-                  event_t=np.asarray(fl.event_t, float))
+                  event_t=np.asarray(fl.event_t, float), event_surface=np.asarray(fl.event_surface, int))
 
 
 def check_params(system: CompiledSystem, param: str, param2: str) -> None:
