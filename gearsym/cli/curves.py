@@ -59,6 +59,7 @@ def _check(args: argparse.Namespace) -> None:
     if args.guess is not None and args.follow is None:
         raise ParameterError("--guess needs --follow (the type of the curve)")
     for flag, bad in (("--switch", args.switch is not None), ("--harmonics", args.harmonics is not None),
+                      ("--quantity", getattr(args, "quantity", None) is not None),
                       ("--method hbm", args.method == "hbm"), ("--segments > 1", (args.segments or 1) > 1)):
         if bad:
             raise ParameterError(f"{flag} does not apply to bifurcation curves (single shooting with the monodromy)")

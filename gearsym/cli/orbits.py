@@ -10,8 +10,8 @@ from ..errors import ConvergenceError, ParameterError
 from ..inspection import branch_mesh_figure, print_branch_meshes, print_meshes, print_trivial
 from . import checks
 from .checks import emit, load, unit_suffix
-from .quantities import add_branch_quantity, check_quantities, print_quantities, quantity_values
 from .curves import cmd_continue_curve, wants_curve
+from .quantities import add_branch_quantity, check_quantities, print_quantities, quantity_values
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
 if TYPE_CHECKING:  # pragma: no cover

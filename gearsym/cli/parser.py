@@ -12,8 +12,8 @@ from .benchmark import cmd_bench
 from .cache import add_cache_parser
 from .catalog import add_catalog_parsers
 from .checks import GearsymArgumentParser, scene_args
-from .helptext import HelpFormatter, examples
 from .curves import add_curve_arguments
+from .helptext import HelpFormatter, examples
 from .inspect_model import cmd_inspect
 from .lyapunov import add_lyapunov_parser
 from .maps import cmd_map
