@@ -135,7 +135,9 @@ def test_grazing_curve_crosses_the_flip_tongue_where_the_linear_orbit_doubles():
     ref = [brentq(_linear_flip_test, lo, hi, args=(0.4, KS["zeta"]), xtol=1e-13) for lo, hi in ((1.7, 1.95),
                                                                                                (2.05, 2.3))]
     assert len(found) == 2
-    assert np.max(np.abs(np.array(found) - ref)) < 1e-6, (found, ref)
+    # (measured 3e-7 and 2e-11: at the touch the integration may cross the flank and back by its own
+    # error, a free flight of ~sqrt(rtol) that moves the multipliers of the touching orbit)
+    assert np.max(np.abs(np.array(found) - ref)) < 2e-6, (found, ref)
 
 
 # ------------------------------------------------------------------ fold: scipy reference
