@@ -69,6 +69,9 @@ def test_curve_drawn_over_a_map(capsys, branch_json, tmp_path):
     rc, out, err = _run(capsys, *CURVE, "--start-from", f"{branch_json}:6", "--out", tmp_path / "p",
                         "--map", tmp_path / "other.nc")
     assert rc == 2 and "--map: the stability map's axes ('c', 'q') are not the curves' parameters (q, a)" in err
+    rc, out, err = _run(capsys, *CURVE, "--start-from", f"{branch_json}:6", "--out", tmp_path / "p",
+                        "--map", tmp_path / "map.nc", "--map-quantity", "n_stable")
+    assert rc == 2 and "--map: the stability map has no variable 'n_stable' (have: max_multiplier)" in err
 
 
 def test_curve_that_stops_early_exits_1_with_the_reason(capsys, branch_json):

@@ -42,6 +42,8 @@ def add_curve_arguments(p: argparse.ArgumentParser) -> None:
                         "(forward) or decreasing (backward)")
     g.add_argument("--map", metavar="MAP.nc", help="draw the curve over this stability map of the same plane "
                    "(gearsym map --out writes map.nc); with --out")
+    g.add_argument("--map-quantity", metavar="NAME", help="the map's variable drawn below the curve (default: "
+                   "n_stable, the number of coexisting stable responses, where the map has it, else max_multiplier)")
 
 
 def wants_curve(args: argparse.Namespace) -> bool:
@@ -70,6 +72,8 @@ def _check(args: argparse.Namespace) -> None:
         raise ParameterError(f"--from2 must be below --to2, got {args.start2:g} .. {args.stop2:g}")
     if args.map and not args.out:
         raise ParameterError("--map draws the curve over a map into --out: give --out")
+    if args.map_quantity and not args.map:
+        raise ParameterError("--map-quantity names a variable of --map: give --map")
     if args.map and not Path(args.map).is_file():
         raise ParameterError(f"--map: no such file '{args.map}'")
 
@@ -163,8 +167,9 @@ def _write(curve: Any, args: argparse.Namespace, scene: str, data: dict[str, Any
             ds = xr.load_dataset(args.map)
         except (OSError, ValueError) as exc:
             raise ParameterError(f"--map: cannot read '{args.map}' as a netCDF map: {exc}") from None
+    quantity = args.map_quantity or ("n_stable" if ds is not None and "n_stable" in ds else "max_multiplier")
     try:
-        plot_curves([curve], stability_map=ds, path=out / "curve.png",
+        plot_curves([curve], stability_map=ds, quantity=quantity, path=out / "curve.png",
                     title=f"{scene}: {curve.type.replace('_', ' ')} curve")
     except ValueError as exc:
         raise ParameterError(f"--map: {exc}") from None

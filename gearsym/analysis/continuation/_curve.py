@@ -319,7 +319,8 @@ def plot_curves(curves: Sequence[BifurcationCurve], stability_map: Any = None, a
     ax
         Axes to draw into (a new figure if ``None``).
     quantity
-        The map's variable to show (``max_multiplier`` on a scale centred on 1).
+        The map's variable to show (``max_multiplier`` on a scale centred on 1; a count such as
+        ``n_stable``, the coexisting stable responses, one colour per value).
     path
         Save the figure there (PNG) and close it.
     title
@@ -372,6 +373,7 @@ def plot_curves(curves: Sequence[BifurcationCurve], stability_map: Any = None, a
 
 def _draw_map(ax: Axes, ds: Any, xname: str, yname: str, quantity: str) -> None:
     """The map's ``quantity`` as a heat map with the axes of the curves."""
+    import matplotlib.pyplot as plt
     from matplotlib.colors import TwoSlopeNorm
 
     if quantity not in getattr(ds, "data_vars", {}):
@@ -388,6 +390,11 @@ def _draw_map(ax: Axes, ds: Any, xname: str, yname: str, quantity: str) -> None:
         lo = min(float(np.nanmin(Z)), 0.999) if np.isfinite(Z).any() else 0.5
         hi = max(float(np.nanmax(Z)), 1.001) if np.isfinite(Z).any() else 1.5
         pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="RdBu_r", norm=TwoSlopeNorm(1.0, lo, hi), zorder=1)
+    elif np.issubdtype(np.asarray(da.values).dtype, np.integer):  # counts, codes: one colour per value
+        Z = np.where(Z < 0, np.nan, Z)
+        top = int(np.nanmax(Z)) if np.isfinite(Z).any() else 1
+        pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap=plt.get_cmap("viridis", top + 1), vmin=-0.5,
+                           vmax=top + 0.5, zorder=1)
     else:
         pc = ax.pcolormesh(X, Y, Z, shading="nearest", cmap="viridis", zorder=1)
     ax.figure.colorbar(pc, ax=ax).set_label(quantity.replace("_", " "))
