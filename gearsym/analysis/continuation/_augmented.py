@@ -3,7 +3,7 @@
 A bifurcation curve in two parameters ``lambda = (lambda_1, lambda_2)`` is the solution set of
 the shooting residual ``F(x0, lambda) = phi(t0 + P(lambda), t0, x0; lambda) - x0 = 0`` together
 with one scalar test function that vanishes at the bifurcation (Govaerts 2000; Kuznetsov,
-*Elements of Applied Bifurcation Theory*, 10.2; the formulation of BifurcationKit's
+*Elements of Applied Bifurcation Theory*; the formulation of BifurcationKit's
 ``MinAugFold`` / ``MinAugPD``): with ``A`` the matrix that is singular there (``M - I`` at a fold,
 ``M + I`` at a period doubling, ``M`` the monodromy with saltation) and two border vectors
 ``b``, ``c``,
@@ -33,7 +33,8 @@ system above is singular.  The curve is continued as the singularity of the exte
 ``E = [M - I, S_k]`` (``S_k = dF/dlambda_k``, ``n x (n+1)``) -- a two-dimensional kernel, two test
 functions ``g_1, g_2`` from ``[[E, B], [C^T, 0]] [V; G] = [0; I_2]`` -- with the unfolding
 ``F + mu B = 0`` (``mu`` an extra unknown, zero on the curve) that makes the system regular
-(Govaerts 2000, 7.6: the branch point continued in two parameters with a symmetry).
+(as for branch points of systems with a symmetry: Govaerts, *Numerical Methods for Bifurcations of
+Dynamical Equilibria*, 2000).
 """
 
 from __future__ import annotations

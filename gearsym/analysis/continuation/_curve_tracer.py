@@ -116,7 +116,6 @@ class Tracer:
         self.S = np.concatenate([aug.x_scale, aug.lam_scale, aug.extra_scales()])
         self.Rs = aug.residual_scales()
         self.i_lam = aug.nx
-        self._Jt: np.ndarray | None = None
 
     # ---------------------------------------------------------------- corrector
     def correct(self, y_guess: np.ndarray, row: np.ndarray, target: float) -> tuple[np.ndarray, AugEval, int, np.ndarray]:
