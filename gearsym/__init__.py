@@ -39,6 +39,10 @@ _EXPORTS: dict[str, str] = {
     "continuation": ".analysis.continuation",
     "switch_period_doubling": ".analysis.continuation",
     "ContinuationOptions": ".analysis.continuation",
+    "continue_bifurcation": ".analysis.continuation",
+    "BifurcationCurve": ".analysis.continuation",
+    "CurveOptions": ".analysis.continuation",
+    "CurveStart": ".analysis.continuation",
     "ShootingOptions": ".analysis.periodic",
     "PeriodicOrbit": ".analysis.periodic",
     "HarmonicBalanceOptions": ".analysis.periodic",
@@ -70,21 +74,26 @@ _EXPORTS: dict[str, str] = {
 }
 
 __all__ = [
-    "BasinOptions", "BasinResult", "Bifurcation", "Branch", "BranchPoint", "CompileError", "ContinuationOptions",
-    "ConvergenceError", "Event", "GearQuantities", "GearsymError", "HarmonicBalanceOptions", "LyapunovOptions",
-    "LyapunovResult", "ModalAnalysis", "ParameterError", "PeriodicOrbit", "Scene", "ShootingOptions",
-    "SimulateOptions", "SimulationError", "SpecError", "System", "Trajectory", "__version__", "basins",
-    "continuation", "gear_quantities", "harmonic_balance", "load_scene", "lyapunov_exponents", "mesh_deflections",
-    "modal_analysis", "stability_map", "switch_period_doubling",
+    "BasinOptions", "BasinResult", "Bifurcation", "BifurcationCurve", "Branch", "BranchPoint", "CompileError",
+    "ContinuationOptions", "ConvergenceError", "CurveOptions", "CurveStart", "Event", "GearQuantities",
+    "GearsymError", "HarmonicBalanceOptions", "LyapunovOptions", "LyapunovResult", "ModalAnalysis",
+    "ParameterError", "PeriodicOrbit", "Scene", "ShootingOptions", "SimulateOptions", "SimulationError",
+    "SpecError", "System", "Trajectory", "__version__", "basins", "continuation", "continue_bifurcation",
+    "gear_quantities", "harmonic_balance", "load_scene", "lyapunov_exponents", "mesh_deflections", "modal_analysis",
+    "stability_map", "switch_period_doubling",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
     from .analysis.continuation import (
         Bifurcation,
+        BifurcationCurve,
         Branch,
         BranchPoint,
         ContinuationOptions,
+        CurveOptions,
+        CurveStart,
         continuation,
+        continue_bifurcation,
         switch_period_doubling,
     )
     from .analysis.linear import ModalAnalysis, modal_analysis

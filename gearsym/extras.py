@@ -104,5 +104,7 @@ def require_for_command(args: argparse.Namespace) -> None:
     command = getattr(args, "command", None)
     if command in ("map", "sweep"):
         require("maps", f"gearsym {command}")
+    elif command == "continue" and getattr(args, "map", None):
+        require("maps", "gearsym continue --map")
     elif command in ("simulate", "orbit", "continue", "bench") and getattr(args, "out", None):
         require("plots", f"gearsym {command} --out (figures)")

@@ -10,6 +10,7 @@ from ..errors import ConvergenceError, ParameterError
 from ..inspection import branch_mesh_figure, print_branch_meshes, print_meshes, print_trivial
 from . import checks
 from .checks import emit, load, unit_suffix
+from .curves import cmd_continue_curve, wants_curve
 from .quantities import add_branch_quantity, check_quantities, print_quantities, quantity_values
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (`gearsym --version` stays light)
@@ -80,6 +81,8 @@ def cmd_continue(args: argparse.Namespace) -> int:
 
     checks.check_continue(args)
     quantity = (check_quantities([args.quantity], "--quantity") or [None])[0] if args.quantity else None
+    if wants_curve(args):  # --follow / --param2 / --start-from / --guess: a curve in two parameters
+        return cmd_continue_curve(args)
     scene = load(args)
     name = args.param
     spec_p = scene.model_spec.parameters.get(name)

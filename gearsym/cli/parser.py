@@ -12,6 +12,7 @@ from .benchmark import cmd_bench
 from .cache import add_cache_parser
 from .catalog import add_catalog_parsers
 from .checks import GearsymArgumentParser, scene_args
+from .curves import add_curve_arguments
 from .helptext import HelpFormatter, examples
 from .inspect_model import cmd_inspect
 from .lyapunov import add_lyapunov_parser
@@ -149,13 +150,17 @@ def _add_bench(sub: Any) -> None:
 def _add_continue(sub: Any) -> None:
     """The ``gearsym continue`` subcommand."""
     p = sub.add_parser("continue", help="continue periodic orbits in one parameter (branch, folds, period "
-                       "doubling, Neimark-Sacker, grazing)",
+                       "doubling, Neimark-Sacker, grazing), or a bifurcation curve in two (--follow, --param2)",
                        epilog=examples(
                            ("gearsym continue kahraman_singh --param Omega --from 0.5 --to 1.5 --no-progress",
                             "the frequency response of the backlash oscillator through its jump: folds and "
                             "grazings located"),
                            ("gearsym continue kahraman_singh --param Omega --from 0.5 --to 0.8 --json",
-                            "the branch (points, multipliers, special points) as JSON")))
+                            "the branch (points, multipliers, special points) as JSON"),
+                           ("gearsym continue kahraman_singh --param Omega --from 0.5 --to 1.3 --param2 Fa --from2 0 "
+                            "--to2 0.2 --follow fold --guess 0.8356,0.05 --x0 1.11,0.193", "the fold curve of the "
+                            "frequency response in (Omega, Fa) from a guess near its fold: both folds and the cusp "
+                            "where they meet (--start-from BRANCH.json:INDEX starts at a branch's special point)")))
     scene_args(p)
     p.add_argument("--param", required=True, help="the parameter to vary")
     p.add_argument("--from", dest="start", type=float, required=True,
@@ -181,7 +186,9 @@ def _add_continue(sub: Any) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.add_argument("--quantity", metavar="NAME", help="plot this gear quantity along the branch (response.png) and "
                    "give each point's gear quantities in the JSON (one more integration per point): " + QUANTITY_HELP)
-    p.add_argument("--out", help="folder for branch.json, response.png, multipliers.png")
+    p.add_argument("--out", help="folder for branch.json, response.png, multipliers.png (a curve: curve.json, "
+                   "curve.png)")
+    add_curve_arguments(p)
     p.set_defaults(func=cmd_continue)
 
 
