@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from gearsym.budget import check_count, check_counts
 from gearsym.engine.driver import INDEX_MAX, METHODS, Engine, _ptr
 from gearsym.engine.errors import EngineABIError, EngineInputError
+from gearsym.engine.run_settings import RunSettings, settings_from_keywords
 from gearsym.engine.sim_args import GsSimArgs
 from gearsym.integrators import DEFAULT_METHOD, EXPLICIT
 
@@ -80,9 +80,9 @@ def _bind(engine: Engine) -> Any:
     return fn
 
 
-def run_batch(engine: Engine, x0s: Any, p: Any, t0: float, t_end: float, t_out: Any = None, *,
-              sigma0s: Any = None, method: str | None = None, rtol: float = 1e-8, atol: float = 1e-10,
-              atol_vec: Any = None, max_step: float = 0.0, max_steps: int = 0, max_events: int = 0) -> BatchResult:
+def run_batch(engine: Engine, x0s: Any, p: Any, t0: float, t_end: float, t_out: Any = None,
+              settings: RunSettings | None = None, *, sigma0s: Any = None, atol_vec: Any = None,
+              **keywords: Any) -> BatchResult:
     """Integrate ``n`` initial states from ``t0`` to ``t_end`` in one C call.
 
     Parameters
@@ -100,8 +100,14 @@ def run_batch(engine: Engine, x0s: Any, p: Any, t0: float, t_end: float, t_out: 
     sigma0s
         Side (+1/-1) of each switching surface at ``t0`` per state, shape (n, nsw) (default:
         from the signs of the switching functions), e.g. the ``sigma_final`` of a previous batch.
-    method, rtol, atol, atol_vec, max_step, max_steps, max_events
-        As for :meth:`gearsym.engine.driver.Engine.run` (per run); ``atol_vec`` has nx entries.
+    settings
+        The run settings of every state (:class:`~gearsym.engine.run_settings.RunSettings`: ``method``,
+        ``rtol``, ``atol``, ``max_step``, ``max_steps``, ``max_events``; default: the registry's method
+        for explicit models, as :meth:`gearsym.engine.driver.Engine.run` otherwise).
+    atol_vec
+        Absolute tolerance per state (nx entries).
+    **keywords
+        Fields of ``settings`` to replace (``method="adams"``, ``rtol=1e-9``, ...).
 
     Returns
     -------
@@ -115,11 +121,11 @@ def run_batch(engine: Engine, x0s: Any, p: Any, t0: float, t_end: float, t_out: 
     KeyboardInterrupt
         Ctrl-C during the batch (checked between runs and within each).
     """
-    method = method or DEFAULT_METHOD[EXPLICIT]  # the registry's default for explicit models
-    if method not in METHODS:
-        raise EngineInputError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
-    check_count("max_steps", max_steps, low=0)
-    check_counts(max_events=max_events)
+    if settings is None and "method" not in keywords:  # the registry's default for explicit models
+        keywords = {"method": DEFAULT_METHOD[EXPLICIT], **keywords}
+    s = settings_from_keywords(settings, keywords)  # checks the method and the counts
+    method, rtol, atol, max_step, max_steps, max_events = (s.method, s.rtol, s.atol, s.max_step, s.max_steps,
+                                                           s.max_events)
     nx, nsw = engine.nx, engine.nsw
     X = np.ascontiguousarray(np.asarray(x0s, dtype=float))
     if X.ndim != 2 or X.shape[1] != nx:
