@@ -44,12 +44,13 @@ extensions = [
     "gearsym_docs",
 ]
 root_doc = "index"
-exclude_patterns = ["_build", "_inventories", "_ext", "gallery", "performance", "guides/GALLERY_HEADER.rst",
+exclude_patterns = ["_build", "_inventories", "_ext", "_static", "gallery", "performance", "guides/GALLERY_HEADER.rst",
                     "auto_guides/*.ipynb", "auto_guides/*.py", "auto_guides/*.zip", "auto_guides/*.json",
                     "**.ipynb_checkpoints"]
 myst_heading_anchors = 3
 myst_enable_extensions = ["dollarmath", "amsmath"]
 nitpicky = True
+smartquotes_action = "qe"   # quotes and ellipses only: "--option" stays two hyphens (the CLI examples)
 nitpick_ignore = [
     ("py:class", "tqdm.tqdm"),   # tqdm's documentation is not built with Sphinx: there is no inventory to link to
 ]

@@ -32,14 +32,11 @@ import types
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from docutils import nodes
-from sphinx.application import Sphinx
-from sphinx.util import logging
-from sphinx.util.nodes import make_refnode
-
-logger = logging.getLogger(__name__)
+if TYPE_CHECKING:   # the plan and the page helpers import without Sphinx (tests/test_docs_api.py)
+    from docutils import nodes
+    from sphinx.application import Sphinx
 
 HERE = Path(__file__).resolve().parent
 DOCS = HERE.parent
@@ -297,6 +294,8 @@ def _suffix(env: Any, target: str) -> str | None:
 
 def resolve(app: Sphinx, env: Any, node: nodes.Element, contnode: nodes.Element) -> nodes.Element | None:
     """missing-reference: resolve a Python reference the way Python would find the object."""
+    from sphinx.util.nodes import make_refnode
+
     if node.get("refdomain") != "py":
         return None
     target = node["reftarget"].lstrip("~.")
