@@ -70,6 +70,9 @@ def test_top_level_names_are_documented_at_the_top(plan):
     assert "__version__" not in top.own
     # e.g. the continuation face re-exports Branch: documented (and linked) as gearsym.Branch
     assert plan.modules["gearsym.analysis.continuation"].aliases["Branch"] == "gearsym.Branch"
+    # gearsym.analysis gathers its kinds' names: they are documented in the kind
+    assert plan.modules["gearsym.analysis"].aliases["shoot"] == "gearsym.analysis.periodic.shoot"
+    assert plan.modules["gearsym.analysis"].own == ["KINDS"]
 
 
 def test_gallery_figures_are_on_the_site():

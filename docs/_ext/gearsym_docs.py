@@ -3,11 +3,12 @@
 * **API pages.** A line ``<!-- module NAME -->`` in a page of ``docs/api/`` becomes the
   reference of module ``NAME``: its docstring and every public name (``__all__``, or the public
   classes and functions it defines when it has none).  An object is documented once, at its
-  *home*: the first module, in the order of the API pages, that lists it (``gearsym`` first);
-  every other public name of the same object is an alias, listed under "Also importable here"
-  and registered with the Python domain (so ``gearsym.analysis.continuation.Branch`` links to
-  ``gearsym.Branch`` and appears in ``objects.inv``).  :func:`api_plan` computes the homes;
-  ``tests/test_docs_api.py`` checks that every public name has one.
+  *home* (the top-level package when it lists it, else the first module of the API pages
+  that lists it, ``gearsym.analysis``'s kinds before ``gearsym.analysis``: :func:`api_plan`);
+  every other public name of the same object is an alias, listed under "Also importable
+  here" and registered with the Python domain (so
+  ``gearsym.analysis.continuation.Branch`` links to ``gearsym.Branch`` and appears in
+  ``objects.inv``).  ``tests/test_docs_api.py`` checks that every public name has a home.
 * **References.** A cross-reference the Python domain cannot resolve is looked up as Python
   does: relative to the module and class it is written in, and to the module the docstring
   comes from.  The object found links to where it is documented (a private module to the
@@ -42,6 +43,8 @@ HERE = Path(__file__).resolve().parent
 DOCS = HERE.parent
 PLACEHOLDER = re.compile(r"^<!-- module (\S+) -->$", re.M)
 PRIMITIVE = (int, float, complex, str, bytes, bool, type(None))
+#: modules that gather the names of their subpackages: an object they list is documented in its subpackage
+GATHERING = {"gearsym.analysis"}
 #: the base classes whose members the API pages leave out of a class's members
 NOT_INHERITED = "BaseException, Exception, tuple, dict, list, object, float, int, str, Enum, IntEnum"
 
@@ -98,21 +101,32 @@ def api_pages(docs: Path = DOCS) -> list[str]:
 
 
 def api_plan(docs: Path = DOCS) -> ApiPlan:
-    """The modules of the API pages and the home of every public object (the first module listing it)."""
+    """The modules of the API pages and the home of every public object.
+
+    The home of an object listed by several modules: ``gearsym`` when the top-level package
+    lists it (the typical path), else the first module in page order that is not one of
+    :data:`GATHERING` (a kind's face rather than ``gearsym.analysis``, which gathers them).
+    """
     modules: dict[str, ModulePlan] = {}
-    homes: dict[Any, str] = {}
+    listed: dict[Any, list[tuple[str, str, Any]]] = {}
     for page in api_pages(docs):
         for name in PLACEHOLDER.findall((docs / f"{page}.md").read_text()):
             module = importlib.import_module(name)
-            plan = modules.setdefault(name, ModulePlan(name, page))
+            modules.setdefault(name, ModulePlan(name, page))
             for attr in public_names(module):
                 obj = getattr(module, attr)
-                key = _key(obj, f"{name}.{attr}")
-                if key in homes:
-                    plan.aliases[attr] = homes[key]
-                else:
-                    homes[key] = f"{name}.{attr}"
-                    plan.own.append(attr)
+                listed.setdefault(_key(obj, f"{name}.{attr}"), []).append((name, attr, obj))
+    homes: dict[Any, str] = {}
+    for key, places in listed.items():
+        top = [p for p in places if p[0] == "gearsym"]
+        own = [p for p in places if p[0] not in GATHERING]
+        home = (top or own or places)[0]
+        homes[key] = f"{home[0]}.{home[1]}"
+        for module, attr, _ in places:
+            if (module, attr) == home[:2]:
+                modules[module].own.append(attr)
+            else:
+                modules[module].aliases[attr] = homes[key]
     return ApiPlan(modules, homes)
 
 
