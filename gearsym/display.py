@@ -12,9 +12,9 @@ says so), as everywhere in gearsym's API.  An xarray variable or coordinate carr
 ``attrs["units_convention"]`` says this once more.  A pandas frame carries the same in
 ``df.attrs["units"]`` (column -> unit) and ``df.attrs["params"]``.
 
-Every dataset written by :meth:`to_xarray` has only netCDF-safe attributes (numbers, strings,
-1-D number arrays: ``True``/``False`` as 1/0, ``None`` as ``""``, mappings as JSON), so
-``ds.to_netcdf(path)`` works with every engine, scipy's netCDF-3 included
+Every dataset written by a ``to_xarray()`` method (:meth:`TrajectoryDisplay.to_xarray`, ...)
+has only netCDF-safe attributes (numbers, strings, 1-D number arrays: ``True``/``False`` as
+1/0, ``None`` as ``""``, mappings as JSON), so ``ds.to_netcdf(path)`` works with every engine, scipy's netCDF-3 included
 (:func:`netcdf_engine`).
 
 xarray and pandas come with ``gearsym[maps]`` (:mod:`gearsym.extras`); the reprs need neither.

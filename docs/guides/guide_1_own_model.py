@@ -130,13 +130,24 @@ scene = gearsym.load_scene(folder / "scenes" / "pair_on_shafts.toml")
 # The derived equations
 # ---------------------
 # ``scene.model`` is the symbolic model: sympy expressions you can inspect, print as
-# LaTeX, or differentiate.  The backlash is a ``Piecewise`` with two switching surfaces
-# (drive flank ``mesh.drive``, back flank ``mesh.back``): the generated code evaluates
-# one smooth branch per contact mode, and the integrator changes the mode exactly at a
-# root of the surface.
-for eq in scene.model.equations():
-    print(eq)
+# LaTeX, or differentiate.  Shown here (and in a notebook) it typesets the equation of
+# motion that sympy derived for the reduced coordinate ``x`` and the switching functions
+# of the contact surfaces (``model.latex()`` gives the same as text).  The backlash is a
+# ``Piecewise`` with two switching surfaces (drive flank ``mesh.drive``, back flank
+# ``mesh.back``): the generated code evaluates one smooth branch per contact mode, and
+# the integrator changes the mode exactly at a root of the surface.
 print([s.name for s in scene.model.switching])
+scene.model
+
+# %%
+# The dimensionless form
+# ----------------------
+# gearsym also derives the model's dimensionless form: time in units of the inverse
+# natural frequency of the mean mesh stiffness, the deflection in units of the half
+# backlash (the contact surfaces are at ``x = 1`` and ``x = -1``), and the groups that
+# remain -- here the stiffness variation, the damping, the frequency ratio and the load
+# -- each with its definition and its value at the scene's parameters.
+scene.model.dimensionless()
 
 # %%
 # Compile, and the static start

@@ -88,7 +88,7 @@ def run_batch(engine: Engine, x0s: Any, p: Any, t0: float, t_end: float, t_out: 
     Parameters
     ----------
     engine
-        The loaded model (:attr:`gearsym.system.System.engine`).
+        The loaded model (:attr:`gearsym.System.engine`).
     x0s
         Initial states, shape (n, nx).
     p

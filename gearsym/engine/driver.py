@@ -354,7 +354,7 @@ class Engine:
             On Ctrl-C (SIGINT) during the integration, within a few thousand
             right-hand side evaluations (calls from the main thread; see
             :mod:`gearsym.engine.interrupt`); likewise :class:`~gearsym.engine.interrupt.Terminated`
-            on SIGTERM inside :func:`~gearsym.engine.interrupt.sigterm_interrupts`.
+            on SIGTERM inside :func:`~gearsym.signals.sigterm_interrupts`.
         """
         if keywords:
             if not SENSITIVITY_KEYWORDS.keys().isdisjoint(keywords):

@@ -184,7 +184,7 @@ class BasinResult(BasinDisplay):
     (:attr:`dataset`), ``to_dataframe()`` one row per attractor (:mod:`gearsym.display`).
 
     States (the grid, :attr:`base`, the attractors' points) are in the system's own variables, as
-    :attr:`gearsym.system.System.x0`.
+    :attr:`gearsym.System.x0`.
 
     Attributes
     ----------
