@@ -97,13 +97,13 @@ def test_a_reported_orbit_closes_under_the_reference(ks):
 def test_a_converged_state_that_does_not_return_is_not_reported(ks, monkeypatch):
     """A Newton iteration that reports convergence at a state 1e-4 off the orbit (a solver that
     lies): the verification integration finds that the state does not return."""
-    real = shooting.shoot_in_c
+    real = shooting.ShootingProblem.solve
 
-    def lying(*a, **kw):
-        out = real(*a, **kw)
-        return dataclasses.replace(out, x=out.x + np.array([1e-4, 0.0])) if out.converged else out
+    def lying(self, X):
+        run = real(self, X)
+        return dataclasses.replace(run, X=run.X + np.array([1e-4, 0.0])) if run.converged else run
 
-    monkeypatch.setattr(shooting, "shoot_in_c", lying)
+    monkeypatch.setattr(shooting.ShootingProblem, "solve", lying)
     with pytest.raises(ConvergenceError, match="does not return"):
         ks.periodic_orbit()
     o = ks.periodic_orbit(raise_on_failure=False)
@@ -143,17 +143,17 @@ def test_a_corrector_that_returns_a_state_that_does_not_return_stops_the_branch(
     """The corrector in C returns a point 1e-4 off the orbit it integrated beyond Omega = 0.65:
     the point's verification (the plain run of its samples) rejects it and the branch ends
     incomplete instead of reporting it."""
-    real = Continuer._correct_in_c
+    real = Continuer.correct
 
-    def lying(self, z, row, target, t_ref=None):
-        out = real(self, z, row, target, t_ref)
-        if out is not None and out[0][-1] > 0.65:
+    def lying(self, z, row, target, Flam=None, t_ref=None):
+        out = real(self, z, row, target, Flam, t_ref)
+        if out[0][-1] > 0.65:
             zz = out[0].copy()
             zz[0] += 1e-4
             return zz, out[1], out[2]
         return out
 
-    monkeypatch.setattr(Continuer, "_correct_in_c", lying)
+    monkeypatch.setattr(Continuer, "correct", lying)
     br = continuation(ks, "Omega", 0.6, 0.7, progress=False)
     assert not br.complete and "does not return" in br.stop_reason
     assert br.values.max() <= 0.65 + 1e-12
