@@ -169,13 +169,15 @@ class Continuer:
         z = np.asarray(z_guess, float).copy()
         res = self.res
         corrector = self._corrector(float(z[-1]))
-        every = bool(getattr(res, "flam_with_residual", lambda lam: False)(float(z[-1])))
         anchored = self.__dict__["_n_anchor"] > 0
         last: list[Evaluation] = []
+        every: list[bool] = []  # (decided at the first evaluation in Python: it costs a period gradient)
 
         def evaluate(zz: np.ndarray, first: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, Any]:
             lam = float(zz[-1])
-            ev = res.evaluate(zz[:-1], lam, dlam=every or (first and Flam is None))
+            if not every:
+                every.append(bool(getattr(res, "flam_with_residual", lambda lam: False)(float(z[-1]))))
+            ev = res.evaluate(zz[:-1], lam, dlam=every[0] or (first and Flam is None))
             last[:] = [ev]
             flam = ev.Flam if ev.Flam is not None else (Flam if first else None)
             return ev.R, ev.Fu, flam, self.scaled_anchor(lam) if anchored else None
