@@ -348,12 +348,21 @@ typedef struct gs_orbit_flow {
   gs_isolation iso;
   double* g0_out;
   int     g0_ok;
+  /* converged: the orbit's verification (gearsym.analysis.periodic._verification): one plain run */
+  /* per segment (no variational equations, a fresh solver) from the converged X_i over            */
+  /* [s_i, s_{i+1}] with the iteration's method, tolerances and max_step; NULL: not made           */
+  double* verify_ends;  /* [segments * nx] out: the state at s_{i+1} of segment i's run            */
+  int     verify_ok;    /* out: 1 made, 0 not made, -1 a run failed (its status, message, time)   */
+  int     verify_status;
+  double  verify_t_reached;
+  char    verify_msg[1024]; /* out: as gs_sim_args.errmsg                                          */
 } gs_orbit_flow;
 
 /* Shooting's Newton (nw->kind = GS_NEWTON_ORBIT) with the run described by `a` (method,
  * tolerances, max_step, budgets, want_monodromy = 1, n_out = n_amp samples, y_out, x_final,
  * event log): answers nw's requests by one run per segment until the iteration ends or a
- * request is handed back (f->handback).  Call gs_newton_start / gs_newton_restart first.
+ * request is handed back (f->handback); once converged, the verification runs (verify_ends).
+ * Call gs_newton_start / gs_newton_restart first.
  * Returns 0, or GS_ERR_INTERRUPTED. */
 int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_newton* nw, gs_orbit_flow* f);
 

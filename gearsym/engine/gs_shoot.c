@@ -219,6 +219,55 @@ static int orbit_eval(gs_workspace* ws, gs_sim_args* a, gs_newton* nw, gs_orbit_
   return 0;
 }
 
+/* The verification of the converged orbit X = nw->z (gs_orbit_flow.verify_ends): for each
+ * segment one run without the variational equations from X_i over [s_i, s_{i+1}] (output at its
+ * two ends, as System.flow(..., monodromy=False, n_samples=2) makes it; the events are not
+ * logged: the orbit's are the last evaluation's), its end state into verify_ends.  A failed run
+ * ends it with verify_ok = -1 and the run's status, message and stop time.  Returns
+ * GS_ERR_INTERRUPTED or 0. */
+static int orbit_verify(gs_workspace* ws, gs_sim_args* a, gs_newton* nw, gs_orbit_flow* f) {
+  int N = nw->segments, nx = nw->nx, i, rc = 0;
+  double ends[2];
+  gs_sim_args keep;
+  memcpy(&keep, a, sizeof(keep));
+  f->verify_ok = 0;
+  for (i = 0; i < N; ++i) {
+    ends[0] = f->s[i];
+    ends[1] = f->s[i + 1];
+    a->t0 = ends[0];
+    a->t_end = ends[1];
+    a->x0 = nw->z + (size_t)i * nx;
+    a->want_monodromy = 0;
+    a->monodromy = NULL;
+    a->n_out = 2;
+    a->t_out = ends;
+    a->ev_t = NULL;
+    a->ev_surface = NULL;
+    a->ev_dir = NULL;
+    a->ev_speed = NULL;
+    a->max_events_out = 0;
+    rc = gs_simulate_ws(ws, a);
+    f->n_runs++;
+    if (rc == GS_ERR_INTERRUPTED) break;
+    if (rc) {
+      f->verify_ok = -1;
+      f->verify_status = rc;
+      f->verify_t_reached = a->t_reached;
+      snprintf(f->verify_msg, sizeof(f->verify_msg), "%s", a->errmsg);
+      rc = 0;
+      break;
+    }
+    memcpy(f->verify_ends + (size_t)i * nx, a->x_final, sizeof(double) * (size_t)nx);
+  }
+  if (!rc && f->verify_ok == 0) f->verify_ok = 1;
+  keep.n_events = a->n_events;
+  keep.t_reached = a->t_reached;
+  memcpy(a, &keep, sizeof(keep));
+  a->status = GS_OK;
+  a->errmsg[0] = '\0';
+  return rc;
+}
+
 int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_newton* nw, gs_orbit_flow* f) {
   int rc, nx;
   if (!a || !nw || !f) return GS_ERR_INPUT;
@@ -226,6 +275,9 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_newton* nw, gs_orbit_flow* 
   f->mult.ok = 0;
   f->iso.ok = 0;
   f->g0_ok = 0;
+  f->verify_ok = 0;
+  f->verify_status = 0;
+  f->verify_msg[0] = '\0';
   if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
   if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
   nx = ws->U.nx;
@@ -255,5 +307,7 @@ int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_newton* nw, gs_orbit_flow* 
       f->g0_ok = gs_eval(ws, GS_EVAL_SW, 1, &f->s[0], nw->z, a->p, NULL, f->g0_out, msg, (int)sizeof(msg)) == 0;
     }
   }
+  if (nw->outcome == GS_NEWTON_CONVERGED && f->verify_ends && orbit_verify(ws, a, nw, f) == GS_ERR_INTERRUPTED)
+    return set_err(a, GS_ERR_INTERRUPTED, "interrupted");
   return 0;
 }

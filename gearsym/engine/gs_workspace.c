@@ -84,6 +84,9 @@ static const gs_abi_entry gs_abi_table[] = {
     GS_ABI_FIELD(gs_orbit_flow, events_needed), GS_ABI_FIELD(gs_orbit_flow, n_runs),
     GS_ABI_FIELD(gs_orbit_flow, t_reached), GS_ABI_FIELD(gs_orbit_flow, mult), GS_ABI_FIELD(gs_orbit_flow, iso),
     GS_ABI_FIELD(gs_orbit_flow, g0_out), GS_ABI_FIELD(gs_orbit_flow, g0_ok),
+    GS_ABI_FIELD(gs_orbit_flow, verify_ends), GS_ABI_FIELD(gs_orbit_flow, verify_ok),
+    GS_ABI_FIELD(gs_orbit_flow, verify_status), GS_ABI_FIELD(gs_orbit_flow, verify_t_reached),
+    GS_ABI_FIELD(gs_orbit_flow, verify_msg),
     /* gs_corrector_flow */
     GS_ABI_FIELD(gs_corrector_flow, segments), GS_ABI_FIELD(gs_corrector_flow, nd),
     GS_ABI_FIELD(gs_corrector_flow, periods), GS_ABI_FIELD(gs_corrector_flow, t0),

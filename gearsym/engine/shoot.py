@@ -40,8 +40,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from .driver import Engine
 
 __all__ = ["OUTCOMES", "CorrectOutcome", "Corrector", "CorrectorFlow", "OrbitSamples", "SampleStats",
-           "ShootOutcome", "ShootSettings", "Shooter", "c_method", "correct_in_c", "lapack_pointers", "shoot_in_c",
-           "shooter_for"]
+           "ShootOutcome", "ShootSettings", "Shooter", "VerifyRuns", "c_method", "correct_in_c", "lapack_pointers",
+           "shoot_in_c", "shooter_for"]
 
 #: ``gs_orbit_flow.handback`` / ``gs_corrector_flow.handback``.
 _HANDBACK_EVENTS, _HANDBACK_CALLER = 1, 2
@@ -155,6 +155,27 @@ class ShootSettings:
 
 
 @dataclass(frozen=True)
+class VerifyRuns:
+    """A converged orbit's verification runs, made in the C call that solved it (one plain run
+    per segment, no variational equations, from the converged segment start states: what
+    :func:`gearsym.analysis.periodic._verification.segment_closure` integrates).
+
+    Attributes
+    ----------
+    starts : ndarray, shape (segments, nx)
+        The states the runs started from (the orbit's segment start states).
+    ends : ndarray or None
+        Each run's end state, same shape; ``None`` when a run failed.
+    error : str
+        The failed run's error, as the engine raises it (empty when they ran).
+    """
+
+    starts: np.ndarray
+    ends: np.ndarray | None
+    error: str = ""
+
+
+@dataclass(frozen=True)
 class ShootOutcome:
     """Where shooting's Newton ended (:meth:`Shooter.solve` / :meth:`Shooter.restart`).
 
@@ -191,6 +212,8 @@ class ShootOutcome:
         driver (``None`` where not).
     n_runs : int
         Integrations made by this call.
+    verification : VerifyRuns or None
+        Converged: the verification runs (``None`` where not made).
     """
 
     converged: bool
@@ -212,6 +235,7 @@ class ShootOutcome:
     isolation: tuple[float, float, np.ndarray] | None = None
     g0: np.ndarray | None = None
     n_runs: int = 0
+    verification: VerifyRuns | None = None
 
     def error(self) -> EngineError:
         """The engine's error of the failed evaluation (``EVAL_FAILED``), as its run raises it."""
@@ -258,6 +282,8 @@ class Shooter:
         self.g0 = np.empty(engine.nsw)
         if engine.nsw:
             f.g0_out = self.g0.ctypes.data
+        self.verify_ends = np.empty((N, nx))
+        f.verify_ends = self.verify_ends.ctypes.data
         self.fref = C.byref(f)
 
     def solve(self, engine: Engine, X0: np.ndarray, p: np.ndarray, times: np.ndarray,
@@ -301,7 +327,20 @@ class Shooter:
                             core.z.reshape(N, nx).copy(), int(nw.iterations), float(nw.residual), float(nw.relative),
                             core.scale.copy(), core.history(), monos, _events(self.events, int(f.n_events)),
                             core.message, int(nw.eval_status), float(f.t_reached),
-                            self.mult.read() if one else None, iso, g0, n_runs)
+                            self.mult.read() if one else None, iso, g0, n_runs, self._verification(converged))
+
+    def _verification(self, converged: bool) -> VerifyRuns | None:
+        """The verification runs of a converged orbit (made after its convergence, same call)."""
+        f = self.f
+        ok = int(f.verify_ok)
+        if not converged or ok == 0:
+            return None
+        X = self.core.z.reshape(self.N, self.nx).copy()
+        if ok == 1:
+            return VerifyRuns(X, self.verify_ends.copy())
+        err = error_for_status(int(f.verify_status), f.verify_msg.decode("utf-8", errors="replace"),
+                               float(f.verify_t_reached))
+        return VerifyRuns(X, None, str(err))
 
 
 def shooter_for(engine: Engine, settings: ShootSettings | None = None, **keywords: Any) -> Shooter:

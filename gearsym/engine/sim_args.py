@@ -190,6 +190,11 @@ class GsOrbitFlow(C.Structure):
         ("iso", GsIsolation),
         ("g0_out", _PD),
         ("g0_ok", C.c_int),
+        ("verify_ends", _PD),
+        ("verify_ok", C.c_int),
+        ("verify_status", C.c_int),
+        ("verify_t_reached", C.c_double),
+        ("verify_msg", C.c_char * 1024),
     ]
 
 

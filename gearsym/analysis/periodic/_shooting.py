@@ -55,7 +55,7 @@ import numpy as np
 
 from ...budget import check_shooting, check_step_budget
 from ...engine.newton import EVAL_FAILED, MAX_ITER, NONFINITE, NOTES, SINGULAR, STALLED
-from ...engine.shoot import ShootOutcome, ShootSettings, shooter_for
+from ...engine.shoot import ShootOutcome, ShootSettings, VerifyRuns, shooter_for
 from ...errors import ConvergenceError, GearsymError, ParameterError
 from ...integrators import default_method
 from .._options import check_tolerances, resolve_options
@@ -65,7 +65,7 @@ from ._options import ShootingOptions
 from ._orbit import PeriodicOrbit, SolvedOrbit, finish_orbit
 from ._problems import log_events, segment_times
 from ._stability import rigid_anchor_rows, rigid_state_basis
-from ._verification import orbit_period, segment_closure
+from ._verification import orbit_period, runs_closure, segment_closure
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
@@ -150,7 +150,8 @@ def shoot(system: CompiledSystem, period: float | None = None, periods: float = 
               "relative_residual": newton.relative_residual, "state_scales": problem.scale.tolist(),
               "isolation": verdict.isolation.to_dict() if verdict.isolation is not None else None})
     return _verified(orbit, problem.s, problem.pvec, method=o.method, max_step=problem.max_step,
-                     raise_on_failure=o.raise_on_failure)
+                     raise_on_failure=o.raise_on_failure,
+                     runs=newton.fast.verification if newton.fast is not None else None)
 
 
 @dataclass
@@ -441,16 +442,22 @@ class ShootingProblem:
 
 
 def _verified(orbit: PeriodicOrbit, times: np.ndarray, p: np.ndarray, *, method: str | None, max_step: float,
-              raise_on_failure: bool) -> PeriodicOrbit:
+              raise_on_failure: bool, runs: VerifyRuns | None = None) -> PeriodicOrbit:
     """A converged orbit after its verification by one plain integration over its period
     (:func:`~gearsym.analysis.periodic._verification.segment_closure`, recorded in ``info["verification"]``):
-    unchanged when it passes, else not converged (raised with ``raise_on_failure``)."""
+    unchanged when it passes, else not converged (raised with ``raise_on_failure``).  ``runs``: those
+    integrations, made in the C call that solved the orbit; they count when they started from the
+    orbit's segment states (else the orbit is integrated here)."""
     if not orbit.converged or orbit.system is None:
         return orbit
     info = orbit.info
-    c = segment_closure(orbit.system, orbit.segment_states, times, p, rtol=info["rtol"], atol=info["atol"],
-                        tol=info["tol"], amplification=orbit.max_multiplier, method=method,
-                        max_step=max_step or None, amplitude=np.asarray(info["state_scales"]))
+    kw = {"rtol": info["rtol"], "atol": info["atol"], "tol": info["tol"], "amplification": orbit.max_multiplier}
+    amplitude = np.asarray(info["state_scales"])
+    if runs is not None and np.array_equal(runs.starts, orbit.segment_states):
+        c = runs_closure(runs.starts, runs.ends, runs.error, amplitude, **kw)
+    else:
+        c = segment_closure(orbit.system, orbit.segment_states, times, p, method=method, max_step=max_step or None,
+                            amplitude=amplitude, **kw)
     info["verification"] = c.to_dict()
     if c.ok:
         return orbit
