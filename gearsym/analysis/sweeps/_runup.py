@@ -159,7 +159,13 @@ class RunupOptions:
         read_settings("runup", given, _option_error)
 
     def given(self) -> dict[str, Any]:
-        """The settings given, keyed as in the scene's ``[runup]`` table."""
+        """The settings, keyed as in the scene's ``[runup]`` table.
+
+        Returns
+        -------
+        dict
+            Every setting but ``mesh_periods`` (``None``: not given).
+        """
         return {_TOML_KEYS.get(f.name, f.name): getattr(self, f.name) for f in fields(self)
                 if f.name != "mesh_periods"}
 
@@ -252,17 +258,15 @@ def _settings(system: CompiledSystem, opts: RunupOptions) -> dict[str, Any]:
     sim = resolve_settings("simulate", system.defaults, rtol=s["rtol"], atol=s["atol"], method=s["method"])
     s["rtol"], s["atol"], s["method"] = float(sim["rtol"]), float(sim["atol"]), sim["method"]
     s["max_steps"] = int(s["max_steps"] or sim["max_steps"] or 0)
-    missing = [f"'{_option(k)}'" for k in ("parameter", "from", "to") if s[k] is None]
+    missing = [k for k in ("parameter", "from", "to") if s[k] is None]
     if s["duration"] is None and s["rate"] is None:
-        missing.append("'duration' or 'rate'")
+        missing.append("duration or rate")
     if missing:
-        raise ParameterError(f"runup needs {', '.join(missing)} (options of runup(), --param / --from / --to / "
-                             "--duration of `gearsym runup`, or the scene's [runup] table)")
+        raise ParameterError(f"runup needs the speed parameter, its start and stop values, and the ramp's duration "
+                             f"or rate (missing: {', '.join(missing)}): parameter=, start=, stop=, duration= or "
+                             "rate= of runup(); --param, --from, --to, --duration or --rate of `gearsym runup`; or "
+                             "parameter, from, to, duration or rate in the scene's [runup] table")
     return s
-
-
-def _option(key: str) -> str:
-    return {v: k for k, v in _TOML_KEYS.items()}.get(key, key)
 
 
 def _plan(system: CompiledSystem, opts: RunupOptions, params: dict[str, float]) -> _Plan:
@@ -290,6 +294,7 @@ def _plan(system: CompiledSystem, opts: RunupOptions, params: dict[str, float]) 
     signal = _signal_name(system, s["signal"], meshes)
     settings = {k: s[k] for k in ("rtol", "atol", "method", "max_steps", "settle", "samples_per_period", "bins",
                                   "orders", "modes", "profile")}
+    settings["method"] = s["method"] or _default_method(system)
     settings["sweep_rate_ratio"] = abs(ramp.rate) / min(abs(w0), abs(w1)) ** 2
     plan = _Plan(name, index, unit, start, stop, duration, ramp, p0, params, T0, meshes, periods0, cycles, signal,
                  np.empty(0), math.nan, 0, np.empty(0), settings, _engine(system, index, notes), notes)
@@ -450,7 +455,7 @@ def _integrate(system: CompiledSystem, plan: _Plan, x0: Sequence[float] | None) 
     x = np.asarray(system.x0 if x0 is None else x0, float)
     if x.shape != (system.generated.nx,):
         raise ParameterError(f"x0 must have {system.generated.nx} entries ({', '.join(system.state_names)})")
-    run_kw = {"method": s["method"] or _default_method(system), "rtol": s["rtol"], "atol": s["atol"],
+    run_kw = {"method": s["method"], "rtol": s["rtol"], "atol": s["atol"],
               "max_steps": s["max_steps"], "max_step": s["max_step"]}
     sigma = None
     if s["settle"]:

@@ -133,17 +133,41 @@ class RunupResult:
         return float(self.frequencies[1] - self.frequencies[0])
 
     def mesh_frequency(self, mesh: str, speed: np.ndarray | float) -> np.ndarray:
-        """Order-1 frequency of ``mesh`` at ``speed`` (declared unit): proportional to it."""
+        """Order-1 frequency of a mesh at a speed: proportional to the speed.
+
+        Parameters
+        ----------
+        mesh
+            One of :attr:`meshes`.
+        speed
+            Speed(s) in the declared unit.
+
+        Returns
+        -------
+        ndarray
+            The frequency (:attr:`frequency_unit`).
+        """
         return self.mesh_frequency0[self.meshes.index(mesh)] * np.asarray(speed, float) / self.start
 
     def order_frequency(self) -> np.ndarray:
-        """Frequency of every mesh order in every bin, shape (meshes, orders, bins)."""
+        """Frequency of every mesh order in every bin (at :attr:`order_speed`).
+
+        Returns
+        -------
+        ndarray, shape (meshes, orders, bins)
+        """
         k = np.arange(1, self.order_amplitude.shape[1] + 1)
         return self.mesh_frequency0[:, None, None] * k[None, :, None] * (self.order_speed / self.start)[None, None, :]
 
     def peaks(self) -> list[dict[str, Any]]:
-        """The largest amplitude of every mesh order over the run: where (speed) and at which
-        frequency, one entry per mesh and order."""
+        """The largest amplitude of every mesh order over the run.
+
+        Returns
+        -------
+        list of dict
+            One per mesh and order: ``mesh``, ``order``, ``amplitude``, ``speed`` (where it
+            is largest) and ``frequency`` (of the order there).
+        """
         out = []
         F = self.order_frequency()
         for i, m in enumerate(self.meshes):
@@ -157,8 +181,14 @@ class RunupResult:
         return out
 
     def crossings(self) -> list[dict[str, Any]]:
-        """Where a mesh order's line crosses a natural frequency within the run: the expected
-        resonances (speed, frequency), from the natural frequencies at the start speed."""
+        """Where a mesh order's line crosses a natural frequency within the run: the resonances
+        to expect (from the natural frequencies at the start speed).
+
+        Returns
+        -------
+        list of dict
+            ``mesh``, ``order``, ``mode`` (index), ``frequency`` and ``speed`` of each crossing.
+        """
         out = []
         if not self.natural_frequencies.size:
             return out
@@ -182,14 +212,18 @@ class RunupResult:
     def to_xarray(self) -> xr.Dataset:
         """The run-up as one :class:`xarray.Dataset` (units and meanings in the attributes).
 
+        Returns
+        -------
+        xarray.Dataset
+
         Dimensions ``time`` (the samples), ``state``, ``angle`` (the angle-domain samples),
-        ``bin`` (the speed bins, coordinate ``bin_speed``), ``frequency``, ``mesh``, ``order``,
-        ``mode_speed``, ``mode``, ``break``, ``event``.
+        ``bin`` (the speed bins, coordinate ``bin_speed``), ``frequency``, and where they are not
+        empty ``mesh`` and ``order`` (the order tracks), ``mode_speed`` and ``mode`` (the
+        natural frequencies), ``break`` (the breakpoints), ``event`` (the switching events).
         """
         import xarray as xr
 
         fu, tu = self.frequency_unit, self.time_unit or ""
-        nf = self.natural_frequencies
         coords = {
             "time": ("time", self.t, {"units": tu, "long_name": "time from the start of the ramp"}),
             "state": ("state", list(self.state_names)),
@@ -197,12 +231,7 @@ class RunupResult:
             "bin_speed": ("bin", self.bin_speed, {"units": self.unit, "long_name": f"{self.parameter} at the bin"}),
             "bin_time": ("bin", self.bin_time, {"units": tu}),
             "frequency": ("frequency", self.frequencies, {"units": fu}),
-            "mesh": ("mesh", list(self.meshes)),
-            "order": ("order", np.arange(1, self.order_amplitude.shape[1] + 1)),
-            "mode_speed": ("mode_speed", self.mode_speeds, {"units": self.unit}),
-            "mode": ("mode", np.arange(nf.shape[1] if nf.ndim == 2 else 0)),
         }
-        brk = np.asarray(self.break_times if self.break_times is not None else [], float)
         data = {
             "speed": ("time", self.speed, {"units": self.unit, "long_name": self.parameter}),
             "phase_time": ("time", self.phase_time, {"units": tu, "long_name": "tau(t): time at the start speed "
@@ -212,16 +241,25 @@ class RunupResult:
             "angle_signal": ("angle", self.angle_signal, {"long_name": self.signal_name}),
             "spectrum": (("bin", "frequency"), self.spectra, {"long_name": f"amplitude spectrum of {self.signal_name}",
                                                               "units": "signal units"}),
-            "order_amplitude": (("mesh", "order", "bin"), self.order_amplitude, {"units": "signal units"}),
-            "order_frequency": (("mesh", "order", "bin"), self.order_frequency(), {"units": fu}),
-            "order_speed": ("bin", self.order_speed, {"units": self.unit}),
-            "mesh_frequency0": ("mesh", self.mesh_frequency0, {"units": fu, "long_name": "order 1 at the start"}),
-            "natural_frequency": (("mode_speed", "mode"), nf.reshape(len(self.mode_speeds), -1), {"units": fu}),
-            "break_time": ("break", brk, {"units": tu}),
-            "event_time": ("event", np.asarray(self.event_times, float), {"units": tu}),
-            "event_surface": ("event", np.asarray(self.event_surfaces, dtype=str)),
-            "event_direction": ("event", np.asarray(self.event_directions, dtype=np.int32)),
         }
+        # (a dimension of length 0 is left out: scipy's netCDF-3 reader cannot read it back)
+        if self.meshes:
+            coords["mesh"] = ("mesh", list(self.meshes))
+            coords["order"] = ("order", np.arange(1, self.order_amplitude.shape[1] + 1))
+            data["order_amplitude"] = (("mesh", "order", "bin"), self.order_amplitude, {"units": "signal units"})
+            data["order_frequency"] = (("mesh", "order", "bin"), self.order_frequency(), {"units": fu})
+            data["order_speed"] = ("bin", self.order_speed, {"units": self.unit})
+            data["mesh_frequency0"] = ("mesh", self.mesh_frequency0, {"units": fu, "long_name": "order 1 at the start"})
+        if self.natural_frequencies.size:
+            coords["mode_speed"] = ("mode_speed", self.mode_speeds, {"units": self.unit})
+            coords["mode"] = ("mode", np.arange(self.natural_frequencies.shape[1]))
+            data["natural_frequency"] = (("mode_speed", "mode"), self.natural_frequencies, {"units": fu})
+        if self.break_times is not None and len(self.break_times):
+            data["break_time"] = ("break", np.asarray(self.break_times, float), {"units": tu})
+        if len(self.event_times):
+            data["event_time"] = ("event", np.asarray(self.event_times, float), {"units": tu})
+            data["event_surface"] = ("event", np.asarray(self.event_surfaces, dtype=str))
+            data["event_direction"] = ("event", np.asarray(self.event_directions, dtype=np.int32))
         attrs = {"scene": self.scene, "parameter": self.parameter, "unit": self.unit, "start": self.start,
                  "stop": self.stop, "duration": self.duration, "rate": self.rate, "time_unit": tu,
                  "frequency_unit": fu, "signal": self.signal_name, "window": self.window,
@@ -232,7 +270,14 @@ class RunupResult:
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
     def to_dict(self) -> dict[str, Any]:
-        """A JSON-ready summary (no sample arrays): the ramp, statistics, peaks, crossings."""
+        """A JSON-ready summary (no sample arrays).
+
+        Returns
+        -------
+        dict
+            The ramp, statistics, the natural frequencies at the start, :meth:`peaks`,
+            :meth:`crossings`, the settings and the notes.
+        """
         nf0 = self.natural_frequencies[0] if self.natural_frequencies.size else np.empty(0)
         return {"scene": self.scene, "parameter": self.parameter, "unit": self.unit, "from": self.start,
                 "to": self.stop, "duration": self.duration, "rate": self.rate, "time_unit": self.time_unit,
@@ -244,11 +289,23 @@ class RunupResult:
                            for i, m in enumerate(self.meshes)},
                 "natural_frequencies": [float(f) for f in nf0 if math.isfinite(f)],
                 "peaks": self.peaks(), "crossings": self.crossings(),
-                "settings": {k: _attr(v) for k, v in self.settings.items()}, "notes": list(self.notes)}
+                "settings": {k: v.item() if isinstance(v, np.generic) else v for k, v in self.settings.items()},
+                "notes": list(self.notes)}
 
     def save(self, out_dir: str | Path) -> list[Path]:
         """Write ``runup.nc`` (:meth:`to_xarray`), ``campbell.png``, ``waterfall.png`` and, with
-        meshes, ``orders.png`` into ``out_dir``; returns the files."""
+        meshes, ``orders.png``.
+
+        Parameters
+        ----------
+        out_dir
+            The folder (made if needed).
+
+        Returns
+        -------
+        list of Path
+            The files written.
+        """
         from ._maps import _netcdf_engine
 
         out = Path(out_dir)
@@ -264,7 +321,17 @@ class RunupResult:
     # ------------------------------------------------------------ figures
     def plot_campbell(self, path: str | Path) -> Path:
         """The Campbell diagram: frequency against speed, colour the amplitude (log scale), the
-        mesh orders (dashed) and the natural frequencies (dotted) overlaid."""
+        mesh orders (dashed) and the natural frequencies (dotted) overlaid.
+
+        Parameters
+        ----------
+        path
+            The image file to write.
+
+        Returns
+        -------
+        Path
+        """
         plt = _pyplot()
         from matplotlib.colors import LogNorm
 
@@ -282,8 +349,19 @@ class RunupResult:
         return _finish(fig, path)
 
     def plot_waterfall(self, path: str | Path, decades: float = 3.0) -> Path:
-        """The waterfall: one amplitude spectrum per speed bin, stacked along the speed axis
-        (heights logarithmic over ``decades`` below the largest amplitude)."""
+        """The waterfall: one amplitude spectrum per speed bin, stacked along the speed axis.
+
+        Parameters
+        ----------
+        path
+            The image file to write.
+        decades
+            Heights are logarithmic over this many decades below the largest amplitude.
+
+        Returns
+        -------
+        Path
+        """
         plt = _pyplot()
         fig, ax = plt.subplots(figsize=(7.5, 6.0))
         top = float(np.max(self.spectra)) or 1.0
@@ -304,7 +382,17 @@ class RunupResult:
 
     def plot_orders(self, path: str | Path) -> Path:
         """The order tracks: the amplitude of each mesh order against speed, the crossings with
-        the natural frequencies marked."""
+        the natural frequencies marked.
+
+        Parameters
+        ----------
+        path
+            The image file to write.
+
+        Returns
+        -------
+        Path
+        """
         plt = _pyplot()
         fig, ax = plt.subplots(figsize=(7.5, 4.8))
         for i, m in enumerate(self.meshes):
