@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ..errors import ParameterError
 from ..budget import check_count
+from ..errors import ParameterError
 from .checks import _nonnegative, _out, _positive, _tol, emit, load, scene_args
 from .helptext import examples
 
