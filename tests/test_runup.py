@@ -287,3 +287,75 @@ def test_cli_runup_takes_speeds_with_units(tmp_path, capsys):
 def test_cli_runup_bad_input_exits_2(argv, match, capsys):
     assert main(["runup", str(SCENE), *argv]) == 2
     assert match in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------ IDA, event speeds
+@pytest.fixture(scope="module")
+def coupled():
+    """The DAE pair with a rigidly coupled load (IDA) and its ODE twin (CVODE), one ramp each."""
+    kw = {"parameter": "omega", "start": 16000.0, "stop": 22000.0, "duration": 0.01, "bins": 6, "modes": False,
+          "rtol": 1e-10, "atol": 1e-15}
+    dae = gearsym.load_scene("spur_pair_coupled_load").compile()
+    ode = gearsym.load_scene(DATA / "spur_pair_coupled_load_ode_scene.toml").compile()
+    return ode, gearsym.runup(dae, **kw), gearsym.runup(ode, **kw)
+
+
+def test_a_ramp_on_ida_equals_the_ramp_on_cvode_of_the_ode_twin(coupled):
+    ode, a, b = coupled
+    assert len(a.event_times) == len(b.event_times) > 20  # contact loss once per mesh cycle
+    np.testing.assert_allclose(a.event_times, b.event_times, rtol=0, atol=1e-11)
+    for j in range(len(ode.state_names)):
+        assert np.max(np.abs(a.states[:, j] - b.states[:, j])) <= 1e-7 * np.ptp(b.states[:, j])
+
+
+def test_event_speeds_are_the_time_derivative_of_g_along_the_ramp(coupled):
+    # the switching functions depend on the speed through the phase of e(t): the engine's event
+    # speed (gs_ramp.c eval_swdt) against a central difference of g(t, x(t)) along the run
+    ode, _, b = coupled
+    i = ode.param_names.index("omega")
+    ramp = SpeedRamp(i, 16000.0, 6000.0 / 0.01)
+    h = 1e-9
+    te = b.event_times[:6]
+    t_out = np.sort(np.concatenate([te - h, te + h]))
+    p = ode.param_vector({"omega": 16000.0})
+    eng = ode.derivative_engine()
+    run = eng.run(ode.x0, p, 0.0, 0.01, t_out, method="bdf", rtol=1e-10, atol=1e-15,
+                  max_step=b.settings["max_step"], ramp=ramp)
+    g = eng.evaluate("sw", t_out, run.y, p, ramp=ramp)
+    surfaces = ode.surface_names
+    for k, t in enumerate(te):
+        j = surfaces.index(b.event_surfaces[k])
+        fd = (g[2 * k + 1, j] - g[2 * k, j]) / (2 * h)
+        assert b.event_speeds[k] == pytest.approx(fd, rel=1e-4), (t, b.event_speeds[k], fd)
+
+
+def test_event_speeds_include_the_speed_dependence_outside_the_phase(tmp_path):
+    # a clearance whose size follows the speed (g = x - b(t) with b = b_m (1 + cos(w_m t)/5) n/n_ref):
+    # dg/dt = v - db/dt has a part a * dg/dn at fixed phase, which the engine takes from gs_swp
+    model = (DATA / "runup_pair.toml").read_text().replace(
+        'backlash = { expr = "b_m", effect = "backlash" }',
+        'backlash = { expr = "b_m*(1 + cos(w_m*t)/5)*n/n_ref", effect = "backlash" }').replace(
+        "[parameters]", '[parameters]\nn_ref = { value = 5000.0, unit = "rpm", meaning = "reference speed" }')
+    (tmp_path / "m.toml").write_text(model)
+    (tmp_path / "s.toml").write_text('[scene]\nmodel = "m.toml"\n[effects]\nbacklash = true\n'
+                                     '[parameters]\nF_m = 50.0\ne_a = 20.0\n[simulate]\natol = 1e-16\n')
+    system = gearsym.load_scene(tmp_path / "s.toml").compile()
+    D = 0.02
+    res = gearsym.runup(system, parameter="n", start=5000.0, stop=9000.0, duration=D, bins=4, modes=False,
+                        rtol=1e-10, atol=1e-16)
+    assert any("build with parameter derivatives" in n for n in res.notes)
+    assert len(res.event_times) >= 4
+    i = system.param_names.index("n")
+    ramp = SpeedRamp(i, 5000.0 * RPM, 4000.0 * RPM / D)
+    h = 1e-9
+    te = res.event_times[:4]
+    t_out = np.sort(np.concatenate([te - h, te + h]))
+    p = system.param_vector({"n": 5000.0})
+    eng = system.derivative_engine()
+    run = eng.run(system.x0, p, 0.0, D, t_out, method=res.settings["method"], rtol=1e-10, atol=1e-16,
+                  max_step=res.settings["max_step"], ramp=ramp)
+    g = eng.evaluate("sw", t_out, run.y, p, ramp=ramp)
+    for k in range(len(te)):
+        j = system.surface_names.index(res.event_surfaces[k])
+        fd = (g[2 * k + 1, j] - g[2 * k, j]) / (2 * h)
+        assert res.event_speeds[k] == pytest.approx(fd, rel=1e-4), (k, res.event_speeds[k], fd)

@@ -31,25 +31,25 @@ def add_runup_parser(sub: Any) -> None:
              "to lower speed, impacts spread the spectrum): sp_runup/runup.nc (trajectory, spectra, order "
              "tracks), campbell.png, waterfall.png, orders.png (gearsym[maps])")))
     scene_args(p)
-    p.add_argument("--param", help="the speed parameter (default: the scene's [runup] parameter)")
-    p.add_argument("--from", dest="start", help="its value at the start, in its declared unit, or with a unit "
+    p.add_argument("--param", metavar="NAME", help="the speed parameter (default: the scene's [runup] parameter)")
+    p.add_argument("--from", dest="start", metavar="A", help="its value at the start, in its declared unit, or with a unit "
                    "('3000 rpm')")
-    p.add_argument("--to", dest="stop", help="its value at the end (below --from: a run-down)")
-    p.add_argument("--duration", type=float, help="length of the ramp (the model's time unit)")
-    p.add_argument("--rate", type=float, help="instead of --duration: the ramp's slope |to - from| / duration "
+    p.add_argument("--to", dest="stop", metavar="B", help="its value at the end (below --from: a run-down)")
+    p.add_argument("--duration", type=float, metavar="T", help="length of the ramp (the model's time unit)")
+    p.add_argument("--rate", type=float, metavar="R", help="instead of --duration: the ramp's slope |to - from| / duration "
                    "(declared unit per time unit)")
-    p.add_argument("--signal", help="what is recorded: mesh_deflection[NAME] or a state (default: the first mesh's "
+    p.add_argument("--signal", metavar="mesh_deflection[MESH]|STATE", help="what is recorded: mesh_deflection[NAME] or a state (default: the first mesh's "
                    "dynamic deflection)")
-    p.add_argument("--settle", type=float, help="forcing periods at the start speed before the ramp (default 0)")
-    p.add_argument("--bins", type=int, help="speed bins: short-time spectra along the run (default 60)")
-    p.add_argument("--orders", type=int, help="mesh orders tracked and drawn (default 3)")
-    p.add_argument("--samples-per-period", type=int, help="samples per period of the fastest mesh at the highest "
+    p.add_argument("--settle", type=float, metavar="N", help="forcing periods at the start speed before the ramp (default 0)")
+    p.add_argument("--bins", type=int, metavar="N", help="speed bins: short-time spectra along the run (default 60)")
+    p.add_argument("--orders", type=int, metavar="K", help="mesh orders tracked and drawn (default 3)")
+    p.add_argument("--samples-per-period", type=int, metavar="N", help="samples per period of the fastest mesh at the highest "
                    "speed (default 16)")
     p.add_argument("--no-modes", action="store_true", help="skip the natural frequencies (modal analysis)")
     p.add_argument("--rtol", type=float, help="relative tolerance (default: the scene's, else 1e-8)")
     p.add_argument("--atol", type=float, help="absolute tolerance (default: the scene's, else 1e-10)")
-    p.add_argument("--max-steps", type=int, help="limit on internal integrator steps")
-    p.add_argument("--out", help="folder for runup.nc and the PNG figures")
+    p.add_argument("--max-steps", type=int, metavar="N", help="limit on internal integrator steps")
+    p.add_argument("--out", metavar="DIR", help="folder for runup.nc and the PNG figures")
     p.set_defaults(func=cmd_runup)
 
 

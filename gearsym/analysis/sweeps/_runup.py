@@ -524,7 +524,8 @@ def _result(system: CompiledSystem, plan: _Plan, res: RunResult, angle: RunResul
         order_amplitude=orders, order_speed=speed_of(np.asarray(plan.ramp.time_at_phase(t_ord))),
         mode_speeds=mode_speeds, natural_frequencies=natural, break_times=res.break_times,
         event_times=np.asarray(events.t), event_surfaces=[names[int(j)] for j in events.surface],
-        event_directions=np.asarray(events.direction), stats=dict(res.stats), settings=dict(s),
+        event_directions=np.asarray(events.direction), event_speeds=np.asarray(events.speed), stats=dict(res.stats),
+        settings=dict(s),
         params={**system.run_params(plan.params)}, notes=list(plan.notes))
 
 
@@ -546,13 +547,16 @@ def _natural_frequencies(system: CompiledSystem, plan: _Plan) -> tuple[np.ndarra
 
     speeds = np.array([plan.start, 0.5 * (plan.start + plan.stop), plan.stop])
     found: list[np.ndarray] = []
+    failed: dict[str, list[str]] = {}
     for v in speeds:
         try:
             f = np.asarray(modal_analysis(system, {**plan.params, plan.name: float(v)}).frequencies_hz, float)
         except GearsymError as exc:
-            plan.notes.append(f"no natural frequencies at {plan.name} = {v:g}: {exc}")
+            failed.setdefault(str(exc), []).append(f"{v:g}")
             f = np.empty(0)
         found.append(f[np.isfinite(f) & (f > 0)])
+    for why, at in failed.items():
+        plan.notes.append(f"no natural frequencies at {plan.name} = {', '.join(at)}: {why}")
     n = max((len(f) for f in found), default=0)
     out = np.full((len(speeds), n), math.nan)
     for i, f in enumerate(found):

@@ -71,8 +71,10 @@ class RunupResult:
         Positive natural frequencies there (NaN padded).
     break_times : ndarray or None
         The scheduled breakpoints the integrator stopped at.
-    event_times, event_surfaces, event_directions
-        The switching events (contact loss, impacts).
+    event_times, event_surfaces, event_directions, event_speeds
+        The switching events (contact loss, impacts): time, surface, direction of the
+        crossing (+1: g from - to +), and ``dg/dt`` along the flow there (for a contact
+        surface the closing speed of the flanks, with the ramp's time dependence).
     stats, settings, params : dict
         Integrator statistics; the settings used (tolerances, bins, ...; ``sweep_rate_ratio``
         ``|d speed/dt| / speed^2`` in SI, the relative size of the terms a ramp leaves out);
@@ -111,6 +113,7 @@ class RunupResult:
     event_times: np.ndarray
     event_surfaces: list[str]
     event_directions: np.ndarray
+    event_speeds: np.ndarray
     stats: dict[str, Any] = field(default_factory=dict)
     settings: dict[str, Any] = field(default_factory=dict)
     params: dict[str, float] = field(default_factory=dict)
@@ -260,6 +263,7 @@ class RunupResult:
             data["event_time"] = ("event", np.asarray(self.event_times, float), {"units": tu})
             data["event_surface"] = ("event", np.asarray(self.event_surfaces, dtype=str))
             data["event_direction"] = ("event", np.asarray(self.event_directions, dtype=np.int32))
+            data["event_speed"] = ("event", np.asarray(self.event_speeds, float), {"long_name": "dg/dt at the event"})
         attrs = {"scene": self.scene, "parameter": self.parameter, "unit": self.unit, "start": self.start,
                  "stop": self.stop, "duration": self.duration, "rate": self.rate, "time_unit": tu,
                  "frequency_unit": fu, "signal": self.signal_name, "window": self.window,
