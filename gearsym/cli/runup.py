@@ -36,7 +36,7 @@ def add_runup_parser(sub: Any) -> None:
                    "('3000 rpm')")
     p.add_argument("--to", dest="stop", metavar="B", help="its value at the end (below --from: a run-down)")
     p.add_argument("--duration", type=float, metavar="T", help="length of the ramp (the model's time unit)")
-    p.add_argument("--rate", type=float, metavar="R", help="instead of --duration: the ramp's slope |to - from| / duration "
+    p.add_argument("--rate", type=float, metavar="R", help="instead of --duration: the ramp's slope, abs(to - from) / duration "
                    "(declared unit per time unit)")
     p.add_argument("--signal", metavar="mesh_deflection[MESH]|STATE", help="what is recorded: mesh_deflection[NAME] or a state (default: the first mesh's "
                    "dynamic deflection)")

@@ -43,7 +43,7 @@ takes of a time function inside a ``[reduction]`` definition (the inertial term 
 of ``models/spur_pair_torsional.toml``): a second derivative of :math:`h(\theta(t))` is
 :math:`\Omega^2 h'' + \dot\Omega h'`, of which the ramp keeps the first term; the second is
 smaller by :math:`|\dot\Omega| / \Omega^2` (``|rate| / speed^2`` in the model's time unit, a
-quantity :attr:`RunupResult.settings` reports as ``sweep_rate_ratio``; 1e-4 for a
+quantity the result's ``settings`` report as ``sweep_rate_ratio``; 1e-4 for a
 test-rig run-up through a 3 kHz mesh resonance in half a second).  First derivatives (a
 damper on a time-varying deflection) are exact.
 

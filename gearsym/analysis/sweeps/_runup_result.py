@@ -27,9 +27,9 @@ __all__ = ["RunupResult"]
 class RunupResult:
     """A run-up (:func:`gearsym.analysis.sweeps.runup`).
 
-    Units: the speed in the declared unit of its parameter (:attr:`unit`); times in the
-    model's time unit (:attr:`time_unit`: ``"s"``, or ``"1"`` for a dimensionless model);
-    frequencies in cycles per time unit (Hz for ``"s"``: :attr:`frequency_unit`); states,
+    Units: the speed in the declared unit of its parameter (``unit``); times in the
+    model's time unit (``time_unit``: ``"s"``, or ``"1"`` for a dimensionless model);
+    frequencies in cycles per time unit (Hz for ``"s"``: ``frequency_unit``); states,
     the signal and the amplitudes in the model's units (SI for a dimensional model: m or rad
     for a mesh deflection).
 
@@ -55,7 +55,7 @@ class RunupResult:
     frequencies : ndarray
         Frequencies of the spectra.
     spectra : ndarray, shape (bins, frequencies)
-        Amplitude spectra (Hann window of length :attr:`window`).
+        Amplitude spectra (Hann window of length ``window``).
     window : float
         Length of a spectrum's window (time unit); its frequency resolution is ``1 / window``.
     meshes : list of str
@@ -141,19 +141,19 @@ class RunupResult:
         Parameters
         ----------
         mesh
-            One of :attr:`meshes`.
+            One of ``meshes``.
         speed
             Speed(s) in the declared unit.
 
         Returns
         -------
         ndarray
-            The frequency (:attr:`frequency_unit`).
+            The frequency (``frequency_unit``).
         """
         return self.mesh_frequency0[self.meshes.index(mesh)] * np.asarray(speed, float) / self.start
 
     def order_frequency(self) -> np.ndarray:
-        """Frequency of every mesh order in every bin (at :attr:`order_speed`).
+        """Frequency of every mesh order in every bin (at ``order_speed``).
 
         Returns
         -------
@@ -213,7 +213,7 @@ class RunupResult:
 
     # ------------------------------------------------------------ export
     def to_xarray(self) -> xr.Dataset:
-        """The run-up as one :class:`xarray.Dataset` (units and meanings in the attributes).
+        """The run-up as one ``xarray.Dataset`` (units and meanings in the attributes).
 
         Returns
         -------

@@ -53,7 +53,7 @@ def speed_bins(n: int, bins: int) -> tuple[np.ndarray, int]:
     Raises
     ------
     ParameterError
-        Windows shorter than :data:`MIN_WINDOW` samples.
+        Windows shorter than ``MIN_WINDOW`` samples.
     """
     L = int(2 * n // (bins + 1)) // 2 * 2
     if L < MIN_WINDOW:
