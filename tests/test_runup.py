@@ -258,6 +258,20 @@ def test_the_dataset_round_trips_through_netcdf(steep, tmp_path):
         np.testing.assert_array_equal(ds["order_amplitude"].values, steep.order_amplitude)
         assert ds.attrs["parameter"] == "n" and ds.attrs["unit"] == "rpm" and ds["frequency"].attrs["units"] == "Hz"
         assert ds["bin_speed"].attrs["units"] == "rpm"
+        assert list(ds["state_unit"].values) == ["m", "m/s"] and ds["signal"].attrs["units"] == "model units (SI)"
+        assert ds.attrs["param_F_m_units"] == "N" and "param_n" not in ds.attrs  # the ramped speed is no constant
+
+
+def test_displays(steep):
+    pytest.importorskip("pandas")
+    df = steep.to_dataframe()
+    assert list(df.columns) == ["time", "speed", "mesh_order1", "mesh_order2", "mesh_order3"] and len(df) == 8
+    np.testing.assert_array_equal(df["mesh_order1"].values, steep.order_amplitude[0, 0])
+    assert df.attrs["units"]["speed"] == "rpm"
+    page = steep._repr_html_()
+    assert page.startswith('<div class="gearsym-repr"><b>RunupResult</b>') and "n 5000 -&gt; 11000 rpm" in page
+    assert repr(steep) == ("RunupResult(runup_pair: n 5000 -> 11000 rpm in 0.05 s, 3667 samples, 8 speed bins, "
+                           "signal mesh_deflection[mesh])")
 
 
 def test_cli_runup_json_and_files(tmp_path, capsys):

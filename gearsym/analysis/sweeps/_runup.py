@@ -237,7 +237,7 @@ def runup(target: CompiledSystem | Any, options: RunupOptions | None = None, *,
         The integration failed.
     """
     system = as_system(target, "runup")
-    time_unit = (getattr(system, "state_units", None) or {}).get("t") or None
+    time_unit = (getattr(system, "state_units", None) or {}).get("t") or None  # (a System has them)
     opts = resolve_options(options, RunupOptions, overrides, "runup")
     plan = _plan(system, opts, dict(params or {}))
     res, angle = _integrate(system, plan, x0)
@@ -514,10 +514,13 @@ def _result(system: CompiledSystem, plan: _Plan, res: RunResult, angle: RunResul
     mode_speeds, natural = _natural_frequencies(system, plan) if s["modes"] else (np.empty(0), np.empty((0, 0)))
     events = res.events
     names = system.surface_names
+    units = dict(getattr(system, "state_units", None) or {})
+    params = {k: v for k, v in system.run_params(plan.params).items() if k != plan.name}
     return RunupResult(
         scene=system.name, parameter=plan.name, unit=plan.unit, start=plan.start, stop=plan.stop,
         duration=plan.duration, time_unit=time_unit, t=t, speed=speed_of(t), phase_time=np.asarray(tau(t)),
-        states=res.y, state_names=list(system.state_names), signal=x, signal_name=plan.signal,
+        states=res.y, state_names=list(system.state_names), state_units=units, signal=x, signal_name=plan.signal,
+        signal_unit=units.get(plan.signal, "model units (SI)"),
         angle_phase_time=np.arange(len(xa)) * plan.dtau, angle_signal=xa, bin_time=t_mid, bin_speed=speed_of(t_mid),
         frequencies=freqs, spectra=spectra, window=L * dt, meshes=list(plan.meshes),
         mesh_frequency0=np.array([1.0 / plan.mesh_periods0[m] for m in plan.meshes]),
@@ -526,7 +529,7 @@ def _result(system: CompiledSystem, plan: _Plan, res: RunResult, angle: RunResul
         event_times=np.asarray(events.t), event_surfaces=[names[int(j)] for j in events.surface],
         event_directions=np.asarray(events.direction), event_speeds=np.asarray(events.speed), stats=dict(res.stats),
         settings=dict(s),
-        params={**system.run_params(plan.params)}, notes=list(plan.notes))
+        params=params, param_units={k: system.units.unit(k) for k in params}, notes=list(plan.notes))
 
 
 def _declared_speed(plan: _Plan):

@@ -15,6 +15,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ...display import UNITS_CONVENTION, RunupDisplay, netcdf_attrs, netcdf_engine
+from ...extras import require
 from ...files import atomic_path
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -24,7 +26,7 @@ __all__ = ["RunupResult"]
 
 
 @dataclass(frozen=True, eq=False)
-class RunupResult:
+class RunupResult(RunupDisplay):
     """A run-up (:func:`gearsym.analysis.sweeps.runup`).
 
     Units: the speed in the declared unit of its parameter (``unit``); times in the
@@ -46,8 +48,11 @@ class RunupResult:
         phase time ``tau(t)`` (the time at constant start speed with the same phase).
     states : ndarray, shape (len(t), n_states)
     state_names : list of str
-    signal, signal_name
-        The recorded signal at ``t`` and what it is.
+    state_units : dict
+        State name -> its unit (``"t"`` -> the time unit).
+    signal, signal_name, signal_unit
+        The recorded signal at ``t``, what it is and its unit (a state's, or ``"model units
+        (SI)"`` for a mesh deflection: the unit of the mesh's deflection expression).
     angle_phase_time, angle_signal : ndarray
         The signal at equal steps of the phase time (the angle domain).
     bin_time, bin_speed : ndarray
@@ -75,10 +80,10 @@ class RunupResult:
         The switching events (contact loss, impacts): time, surface, direction of the
         crossing (+1: g from - to +), and ``dg/dt`` along the flow there (for a contact
         surface the closing speed of the flanks, with the ramp's time dependence).
-    stats, settings, params : dict
+    stats, settings, params, param_units : dict
         Integrator statistics; the settings used (tolerances, bins, ...; ``sweep_rate_ratio``
         ``|d speed/dt| / speed^2`` in SI, the relative size of the terms a ramp leaves out);
-        the other parameter values (declared units).
+        the other parameter values (declared units) and their units.
     notes : list of str
     """
 
@@ -94,8 +99,10 @@ class RunupResult:
     phase_time: np.ndarray
     states: np.ndarray
     state_names: list[str]
+    state_units: dict[str, str]
     signal: np.ndarray
     signal_name: str
+    signal_unit: str
     angle_phase_time: np.ndarray
     angle_signal: np.ndarray
     bin_time: np.ndarray
@@ -117,6 +124,7 @@ class RunupResult:
     stats: dict[str, Any] = field(default_factory=dict)
     settings: dict[str, Any] = field(default_factory=dict)
     params: dict[str, float] = field(default_factory=dict)
+    param_units: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
 
     # ------------------------------------------------------------ derived
@@ -224,12 +232,14 @@ class RunupResult:
         empty ``mesh`` and ``order`` (the order tracks), ``mode_speed`` and ``mode`` (the
         natural frequencies), ``break`` (the breakpoints), ``event`` (the switching events).
         """
+        require("maps", "RunupResult.to_xarray")
         import xarray as xr
 
         fu, tu = self.frequency_unit, self.time_unit or ""
         coords = {
             "time": ("time", self.t, {"units": tu, "long_name": "time from the start of the ramp"}),
             "state": ("state", list(self.state_names)),
+            "state_unit": ("state", [self.state_units.get(n, "") for n in self.state_names]),
             "angle": ("angle", self.angle_phase_time, {"units": tu, "long_name": "phase time of the angle samples"}),
             "bin_speed": ("bin", self.bin_speed, {"units": self.unit, "long_name": f"{self.parameter} at the bin"}),
             "bin_time": ("bin", self.bin_time, {"units": tu}),
@@ -239,8 +249,8 @@ class RunupResult:
             "speed": ("time", self.speed, {"units": self.unit, "long_name": self.parameter}),
             "phase_time": ("time", self.phase_time, {"units": tu, "long_name": "tau(t): time at the start speed "
                                                                               "with the same phase"}),
-            "states": (("time", "state"), self.states, {"units": "model units (SI)"}),
-            "signal": ("time", self.signal, {"long_name": self.signal_name, "units": "model units (SI)"}),
+            "states": (("time", "state"), self.states, {"long_name": "the states (units: state_unit)"}),
+            "signal": ("time", self.signal, {"long_name": self.signal_name, "units": self.signal_unit}),
             "angle_signal": ("angle", self.angle_signal, {"long_name": self.signal_name}),
             "spectrum": (("bin", "frequency"), self.spectra, {"long_name": f"amplitude spectrum of {self.signal_name}",
                                                               "units": "signal units"}),
@@ -268,10 +278,12 @@ class RunupResult:
                  "stop": self.stop, "duration": self.duration, "rate": self.rate, "time_unit": tu,
                  "frequency_unit": fu, "signal": self.signal_name, "window": self.window,
                  "notes": "; ".join(self.notes)}
-        attrs.update({f"setting_{k}": _attr(v) for k, v in self.settings.items()})
-        attrs.update({f"stat_{k}": _attr(v) for k, v in self.stats.items()})
-        attrs.update({f"param_{k}": _attr(v) for k, v in self.params.items()})
-        return xr.Dataset(data, coords=coords, attrs=attrs)
+        attrs["units_convention"] = UNITS_CONVENTION
+        attrs.update({f"setting_{k}": v for k, v in self.settings.items()})
+        attrs.update({f"stat_{k}": v for k, v in self.stats.items()})
+        attrs.update({f"param_{k}": v for k, v in self.params.items()})
+        attrs.update({f"param_{k}_units": u for k, u in self.param_units.items()})
+        return xr.Dataset(data, coords=coords, attrs=netcdf_attrs(attrs))
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready summary (no sample arrays).
@@ -310,13 +322,11 @@ class RunupResult:
         list of Path
             The files written.
         """
-        from ._maps import _netcdf_engine
-
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         nc = out / "runup.nc"
         with atomic_path(nc) as tmp:
-            self.to_xarray().to_netcdf(tmp, engine=_netcdf_engine())
+            self.to_xarray().to_netcdf(tmp, engine=netcdf_engine())
         files = [nc, self.plot_campbell(out / "campbell.png"), self.plot_waterfall(out / "waterfall.png")]
         if self.meshes:
             files.append(self.plot_orders(out / "orders.png"))
@@ -441,19 +451,6 @@ class RunupResult:
                     continue
                 xy = (f, self.mode_speeds) if vertical else (self.mode_speeds, f)
                 ax.plot(*xy, ls=":", lw=1.2, color="C1", zorder=4)
-
-
-def _attr(v: Any) -> Any:
-    """A value netCDF and JSON both take."""
-    if v is None:
-        return ""
-    if isinstance(v, bool):
-        return int(v)
-    if isinstance(v, (int, float, str)):
-        return v
-    if isinstance(v, (np.integer, np.floating)):
-        return v.item()
-    return str(v)
 
 
 def _pyplot() -> Any:
