@@ -50,6 +50,7 @@ def add_runup_parser(sub: Any) -> None:
     p.add_argument("--atol", type=float, help="absolute tolerance (default: the scene's, else 1e-10)")
     p.add_argument("--max-steps", type=int, metavar="N", help="limit on internal integrator steps")
     p.add_argument("--out", metavar="DIR", help="folder for runup.nc and the PNG figures")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.set_defaults(func=cmd_runup)
 
 
@@ -94,7 +95,7 @@ def cmd_runup(args: argparse.Namespace) -> int:
              "signal": args.signal, "settle": args.settle, "bins": args.bins, "orders": args.orders,
              "samples_per_period": args.samples_per_period, "modes": False if args.no_modes else None,
              "rtol": args.rtol, "atol": args.atol, "max_steps": args.max_steps}
-    res = runup(scene, **{k: v for k, v in given.items() if v is not None})
+    res = runup(scene, progress=False if args.no_progress else None, **{k: v for k, v in given.items() if v is not None})
     info = res.to_dict()
     if args.out:
         info["files"] = [str(f) for f in res.save(args.out)]

@@ -62,7 +62,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -70,6 +70,7 @@ import numpy as np
 from ...budget import check_output_grid, check_step_budget
 from ...engine.ramp import SpeedRamp
 from ...errors import GearsymError, ParameterError
+from ...progress import progress_bar
 from ...quantities import mesh_order_periods
 from ...spec.settings import read_settings, resolve_settings
 from .._inputs import as_system
@@ -89,6 +90,9 @@ _TOML_KEYS = {"start": "from", "stop": "to"}
 _SCALING_TOL = 1e-9
 #: Relative tolerance of the periodicity check of the generated functions.
 _PERIODIC_TOL = 1e-7
+#: Engine calls the ramp is integrated in (the steps of the progress bar; always this many, so
+#: that a run with a bar and one without give the same numbers).
+CHUNKS = 32
 
 
 @dataclass(frozen=True)
@@ -205,7 +209,7 @@ class _Plan:
 
 def runup(target: CompiledSystem | Any, options: RunupOptions | None = None, *,
           params: Mapping[str, float] | None = None, x0: Sequence[float] | None = None,
-          **overrides: Any) -> RunupResult:
+          progress: bool | None = False, **overrides: Any) -> RunupResult:
     """A run-up (or run-down) of a speed parameter with its waterfall (module docstring).
 
     Parameters
@@ -220,6 +224,9 @@ def runup(target: CompiledSystem | Any, options: RunupOptions | None = None, *,
     x0
         The state at the start (of the settling periods, else of the ramp); default: the
         scene's initial state.
+    progress
+        A progress bar of the integration (:func:`gearsym.progress.progress_bar`: ``tqdm.auto``;
+        ``None``: where someone watches).
     **overrides
         Fields of :class:`RunupOptions` (``parameter="omega", start=1e4, stop=3e4,
         duration=0.5``), overriding ``options``.
@@ -240,7 +247,7 @@ def runup(target: CompiledSystem | Any, options: RunupOptions | None = None, *,
     time_unit = (getattr(system, "state_units", None) or {}).get("t") or None  # (a System has them)
     opts = resolve_options(options, RunupOptions, overrides, "runup")
     plan = _plan(system, opts, dict(params or {}))
-    res, angle = _integrate(system, plan, x0)
+    res, angle = _integrate(system, plan, x0, progress)
     return _result(system, plan, res, angle, time_unit)
 
 
@@ -448,9 +455,11 @@ def _grids(system: CompiledSystem, plan: _Plan) -> None:
 
 
 # ------------------------------------------------------------------ running
-def _integrate(system: CompiledSystem, plan: _Plan, x0: Sequence[float] | None) -> tuple[RunResult, RunResult]:
-    """Settle (constant start speed), then the ramp with both grids; returns the ramp's run and
-    a view of it on the angle grid."""
+def _integrate(system: CompiledSystem, plan: _Plan, x0: Sequence[float] | None,
+               progress: bool | None) -> tuple[RunResult, RunResult]:
+    """Settle (constant start speed), then the ramp with both grids, in :data:`CHUNKS` engine
+    calls (the progress bar's steps; the state and the surface sides carried over); returns
+    the ramp's run and a view of it on the angle grid."""
     s = plan.settings
     x = np.asarray(system.x0 if x0 is None else x0, float)
     if x.shape != (system.generated.nx,):
@@ -458,22 +467,44 @@ def _integrate(system: CompiledSystem, plan: _Plan, x0: Sequence[float] | None) 
     run_kw = {"method": s["method"], "rtol": s["rtol"], "atol": s["atol"],
               "max_steps": s["max_steps"], "max_step": s["max_step"]}
     sigma = None
-    if s["settle"]:
-        t_start = -float(s["settle"]) * plan.T0
-        pre = plan.engine.run(x, plan.p0, t_start, 0.0, np.array([0.0]), **run_kw)
-        x, sigma = pre.x_final, (pre.sigma_final if system.generated.nsw else None)
     t_all = np.concatenate([plan.grid, plan.angle_t])
     order = np.argsort(t_all, kind="stable")
-    n_breaks = sum((int(math.ceil(float(plan.ramp.phase_time(plan.duration)) / P)) + 2) * len(c)
-                   for P, c in system.schedule_table(plan.p0))
-    res = plan.engine.run(x, plan.p0, 0.0, plan.duration, t_all[order], sigma0=sigma, ramp=plan.ramp,
-                          break_log=n_breaks, **run_kw)
+    t_sorted = t_all[order]
+    edges = np.linspace(0.0, plan.duration, CHUNKS + 1)
+    table = system.schedule_table(plan.p0)
+    runs = []
+    with progress_bar(progress, CHUNKS + (1 if s["settle"] else 0), f"run-up of {plan.name}", unit="chunk") as bar:
+        if s["settle"]:
+            pre = plan.engine.run(x, plan.p0, -float(s["settle"]) * plan.T0, 0.0, np.array([0.0]), **run_kw)
+            x, sigma = pre.x_final, (pre.sigma_final if system.generated.nsw else None)
+            bar()
+        for k in range(CHUNKS):
+            lo = 0 if k == 0 else int(np.searchsorted(t_sorted, edges[k], side="right"))
+            hi = int(np.searchsorted(t_sorted, edges[k + 1], side="right")) if k < CHUNKS - 1 else len(t_sorted)
+            span = float(plan.ramp.phase_time(edges[k + 1]) - plan.ramp.phase_time(edges[k]))
+            n_breaks = sum((int(math.ceil(span / P)) + 2) * len(c) for P, c in table)
+            res = plan.engine.run(x, plan.p0, float(edges[k]), float(edges[k + 1]), t_sorted[lo:hi], sigma0=sigma,
+                                  ramp=plan.ramp, break_log=n_breaks, **run_kw)
+            runs.append(res)
+            x, sigma = res.x_final, (res.sigma_final if system.generated.nsw else None)
+            bar()
+    res = _joined(runs)
     y = np.empty_like(res.y)
     y[order] = res.y
     n = len(plan.grid)
-    from dataclasses import replace
-
     return replace(res, t=plan.grid, y=y[:n]), replace(res, t=plan.angle_t, y=y[n:])
+
+
+def _joined(runs: list[RunResult]) -> RunResult:
+    """One run of consecutive engine runs: outputs, events and breakpoints in order, counts summed."""
+    ev = [r.events for r in runs]
+    events = type(ev[0])(t=np.concatenate([e.t for e in ev]), surface=np.concatenate([e.surface for e in ev]),
+                         direction=np.concatenate([e.direction for e in ev]),
+                         speed=np.concatenate([e.speed for e in ev]))
+    stats = {k: sum(int(r.stats.get(k, 0)) for r in runs) for k in runs[0].stats}
+    brk = np.concatenate([r.break_times for r in runs if r.break_times is not None] or [np.empty(0)])
+    return replace(runs[-1], t=np.concatenate([r.t for r in runs]), y=np.concatenate([r.y for r in runs]),
+                   events=events, stats=stats, break_times=brk)
 
 
 def _default_method(system: CompiledSystem) -> str:
