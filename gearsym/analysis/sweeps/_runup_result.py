@@ -451,6 +451,8 @@ class RunupResult(RunupDisplay):
                     continue
                 xy = (f, self.mode_speeds) if vertical else (self.mode_speeds, f)
                 ax.plot(*xy, ls=":", lw=1.2, color="C1", zorder=4)
+                ax.annotate(f"mode {j}: {f[0]:.5g} {self.frequency_unit}", (xy[0][0], xy[1][0]), fontsize=7,
+                            color="C1", zorder=5)
 
 
 def _pyplot() -> Any:
