@@ -80,8 +80,9 @@ __all__ = [
     "BasinOptions", "BasinResult", "Bifurcation", "BifurcationCurve", "Branch", "BranchPoint", "CompileError",
     "ContinuationOptions", "ConvergenceError", "CurveOptions", "CurveStart", "Event", "GearQuantities",
     "GearsymError", "HarmonicBalanceOptions", "LyapunovOptions", "LyapunovResult", "ModalAnalysis",
-    "ParameterError", "PeriodicOrbit", "RunupOptions", "RunupResult", "Scene", "ShootingOptions", "SimulateOptions", "SimulationError",
-    "SpecError", "System", "Trajectory", "__version__", "basins", "continuation", "continue_bifurcation",
+    "ParameterError", "PeriodicOrbit", "RunupOptions", "RunupResult", "Scene", "ShootingOptions", "SimulateOptions",
+    "SimulationError", "SpecError", "System", "Trajectory", "__version__", "basins", "continuation",
+    "continue_bifurcation",
     "gear_quantities", "harmonic_balance", "load_scene", "lyapunov_exponents", "mesh_deflections", "modal_analysis",
     "runup", "stability_map", "switch_period_doubling",
 ]
