@@ -57,6 +57,9 @@ _EXPORTS: dict[str, str] = {
     "BasinOptions": ".analysis.sweeps",
     "BasinResult": ".analysis.sweeps",
     "basins": ".analysis.sweeps",
+    "RunupOptions": ".analysis.sweeps",
+    "RunupResult": ".analysis.sweeps",
+    "runup": ".analysis.sweeps",
     "CompileError": ".errors",
     "ConvergenceError": ".errors",
     "GearsymError": ".errors",
@@ -77,10 +80,11 @@ __all__ = [
     "BasinOptions", "BasinResult", "Bifurcation", "BifurcationCurve", "Branch", "BranchPoint", "CompileError",
     "ContinuationOptions", "ConvergenceError", "CurveOptions", "CurveStart", "Event", "GearQuantities",
     "GearsymError", "HarmonicBalanceOptions", "LyapunovOptions", "LyapunovResult", "ModalAnalysis",
-    "ParameterError", "PeriodicOrbit", "Scene", "ShootingOptions", "SimulateOptions", "SimulationError",
-    "SpecError", "System", "Trajectory", "__version__", "basins", "continuation", "continue_bifurcation",
+    "ParameterError", "PeriodicOrbit", "RunupOptions", "RunupResult", "Scene", "ShootingOptions", "SimulateOptions",
+    "SimulationError", "SpecError", "System", "Trajectory", "__version__", "basins", "continuation",
+    "continue_bifurcation",
     "gear_quantities", "harmonic_balance", "load_scene", "lyapunov_exponents", "mesh_deflections", "modal_analysis",
-    "stability_map", "switch_period_doubling",
+    "runup", "stability_map", "switch_period_doubling",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -109,8 +113,11 @@ if TYPE_CHECKING:  # pragma: no cover
         BasinResult,
         LyapunovOptions,
         LyapunovResult,
+        RunupOptions,
+        RunupResult,
         basins,
         lyapunov_exponents,
+        runup,
         stability_map,
     )
     from .errors import (

@@ -37,15 +37,16 @@ _EXPORTS: dict[str, str] = {
     "Bifurcation": "continuation", "switch_period_doubling": "continuation",
     "modal_analysis": "linear", "classify_planetary": "linear", "ModalAnalysis": "linear",
     "stability_map": "sweeps", "save_map": "sweeps", "lyapunov_exponents": "sweeps", "basins": "sweeps",
+    "runup": "sweeps", "RunupOptions": "sweeps", "RunupResult": "sweeps",
 }
 #: the kinds of analysis (subpackages)
 KINDS = ("periodic", "continuation", "linear", "sweeps")
 
 __all__ = [
     "KINDS", "Bifurcation", "Branch", "BranchPoint", "ContinuationOptions", "HarmonicBalanceOptions", "ModalAnalysis",
-    "PeriodicOrbit", "ShootingOptions",
+    "PeriodicOrbit", "RunupOptions", "RunupResult", "ShootingOptions",
     "basins", "classify_planetary", "harmonic_balance", "lyapunov_exponents", "mesh_deflections", "modal_analysis",
-    "periodic_orbit", "save_map", "shoot",
+    "periodic_orbit", "runup", "save_map", "shoot",
     "stability_map", "switch_period_doubling",
 ]
 
@@ -61,7 +62,7 @@ if TYPE_CHECKING:  # pragma: no cover
         periodic_orbit,
         shoot,
     )
-    from .sweeps import basins, lyapunov_exponents, save_map, stability_map
+    from .sweeps import RunupOptions, RunupResult, basins, lyapunov_exponents, runup, save_map, stability_map
 
 
 def __getattr__(name: str) -> object:

@@ -11,6 +11,9 @@ orbit and classified non-periodic attractor at each point: :class:`SearchOptions
 :func:`run_tasks`, the process pool (or Dask cluster) every sweep runs its tasks on
 (:class:`TaskFailure`, :class:`WorkerStartError`, :func:`report` of a task's progress).
 
+:func:`runup` (a linear ramp of a speed parameter, exact in the engine, with its waterfall,
+Campbell diagram and mesh-order tracks: :class:`RunupOptions`, :class:`RunupResult`).
+
 :func:`basins` (basins of attraction over a grid of two states: :class:`BasinOptions`,
 :class:`BasinResult`, the labels :data:`UNRESOLVED`, :data:`UNBOUNDED`, :data:`FAILED`, and the
 :class:`Attractor` table, its :data:`KINDS`).  Brute-force bifurcation diagrams:
@@ -44,12 +47,14 @@ from ._lyapunov import (
 from ._map_attractors import ATTRACTOR_KINDS, FOUND_BY, SEARCHES, MapAttractor, SearchOptions, closed_curve
 from ._map_points import RESPONSE, SEARCH, map_point
 from ._maps import MAP_METHODS, QUANTITIES, MapOptions, save_map, stability_map
+from ._runup import RunupOptions, runup
+from ._runup_result import RunupResult
 from ._workers import TaskFailure, WorkerStartError, report, run_tasks
 
 __all__ = ["ATTRACTOR_KINDS", "COEXIST_DEFAULT_POINTS", "DIRECTIONS", "FAILED", "FOUND_BY", "KINDS", "MAP_METHODS",
            "QUANTITIES", "RESPONSE", "SEARCH", "SEARCHES", "UNBOUNDED", "UNRESOLVED", "Attractor", "BasinOptions",
            "BasinResult", "DiagramOptions", "LyapunovOptions", "LyapunovResult", "MapAttractor", "MapOptions",
-           "SearchOptions", "TaskFailure", "WorkerStartError", "basins", "batch_errors", "bifurcation_diagram",
-           "closed_curve", "diagram_summary", "format_estimate", "kaplan_yorke", "lyapunov_exponents", "map_point",
-           "report", "run_tasks", "save_bifurcation_diagram", "save_map", "stability_map", "weighted_average",
-           "window"]
+           "RunupOptions", "RunupResult", "SearchOptions", "TaskFailure", "WorkerStartError", "basins", "batch_errors",
+           "bifurcation_diagram", "closed_curve", "diagram_summary", "format_estimate", "kaplan_yorke",
+           "lyapunov_exponents", "map_point", "report", "run_tasks", "runup", "save_bifurcation_diagram", "save_map",
+           "stability_map", "weighted_average", "window"]
