@@ -20,11 +20,18 @@ Campbell diagram and mesh-order tracks: :class:`RunupOptions`, :class:`RunupResu
 :func:`bifurcation_diagram` (:class:`DiagramOptions`, :func:`save_bifurcation_diagram`,
 :func:`diagram_summary`).  Sweeps may import the periodic-orbit and the linear analysis, never
 continuation.
+
+Basins, maps and diagrams recognise attractors by one set of rules
+(``gearsym.analysis.sweeps._attractor_id``): the period of a sequence of Poincare points, the
+units of a distance between states, the kinds of attractor (:data:`ATTRACTOR_KINDS` by code,
+:data:`KINDS` by name -- periodic, quasi-periodic, chaotic, unclassified -- one criterion each),
+when two orbits are the same, and the description of a stable orbit.
 """
 
 from __future__ import annotations
 
-from ._attractors import KINDS, Attractor
+from ._attractor_id import ATTRACTOR_KINDS, KINDS, closed_curve
+from ._attractors import Attractor
 from ._basins import FAILED, UNBOUNDED, UNRESOLVED, BasinOptions, BasinResult, basins
 from ._bifurcation_diagram import (
     DIRECTIONS,
@@ -44,7 +51,7 @@ from ._lyapunov import (
     weighted_average,
     window,
 )
-from ._map_attractors import ATTRACTOR_KINDS, FOUND_BY, SEARCHES, MapAttractor, SearchOptions, closed_curve
+from ._map_attractors import FOUND_BY, SEARCHES, MapAttractor, SearchOptions
 from ._map_points import RESPONSE, SEARCH, map_point
 from ._maps import MAP_METHODS, QUANTITIES, MapOptions, save_map, stability_map
 from ._runup import RunupOptions, runup
