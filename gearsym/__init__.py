@@ -57,6 +57,11 @@ _EXPORTS: dict[str, str] = {
     "BasinOptions": ".analysis.sweeps",
     "BasinResult": ".analysis.sweeps",
     "basins": ".analysis.sweeps",
+    "RunupOptions": ".analysis.sweeps",
+    "RunupResult": ".analysis.sweeps",
+    "runup": ".analysis.sweeps",
+    "DiagramOptions": ".analysis.sweeps",
+    "bifurcation_diagram": ".analysis.sweeps",
     "CompileError": ".errors",
     "ConvergenceError": ".errors",
     "GearsymError": ".errors",
@@ -75,12 +80,13 @@ _EXPORTS: dict[str, str] = {
 
 __all__ = [
     "BasinOptions", "BasinResult", "Bifurcation", "BifurcationCurve", "Branch", "BranchPoint", "CompileError",
-    "ContinuationOptions", "ConvergenceError", "CurveOptions", "CurveStart", "Event", "GearQuantities",
-    "GearsymError", "HarmonicBalanceOptions", "LyapunovOptions", "LyapunovResult", "ModalAnalysis",
-    "ParameterError", "PeriodicOrbit", "Scene", "ShootingOptions", "SimulateOptions", "SimulationError",
-    "SpecError", "System", "Trajectory", "__version__", "basins", "continuation", "continue_bifurcation",
-    "gear_quantities", "harmonic_balance", "load_scene", "lyapunov_exponents", "mesh_deflections", "modal_analysis",
-    "stability_map", "switch_period_doubling",
+    "ContinuationOptions", "ConvergenceError", "CurveOptions", "CurveStart", "DiagramOptions", "Event",
+    "GearQuantities", "GearsymError", "HarmonicBalanceOptions", "LyapunovOptions", "LyapunovResult",
+    "ModalAnalysis", "ParameterError", "PeriodicOrbit", "RunupOptions", "RunupResult", "Scene", "ShootingOptions",
+    "SimulateOptions", "SimulationError", "SpecError", "System", "Trajectory", "__version__", "basins",
+    "bifurcation_diagram", "continuation", "continue_bifurcation", "gear_quantities", "harmonic_balance",
+    "load_scene", "lyapunov_exponents", "mesh_deflections", "modal_analysis", "runup", "stability_map",
+    "switch_period_doubling",
 ]
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -107,10 +113,15 @@ if TYPE_CHECKING:  # pragma: no cover
     from .analysis.sweeps import (
         BasinOptions,
         BasinResult,
+        DiagramOptions,
         LyapunovOptions,
         LyapunovResult,
+        RunupOptions,
+        RunupResult,
         basins,
+        bifurcation_diagram,
         lyapunov_exponents,
+        runup,
         stability_map,
     )
     from .errors import (

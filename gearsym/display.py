@@ -38,7 +38,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["UNITS_CONVENTION", "BasinDisplay", "BifurcationDisplay", "BranchDisplay", "GearQuantitiesDisplay",
            "MeshQuantitiesDisplay", "BranchPointDisplay", "DimensionlessDisplay",
-           "LyapunovDisplay", "ModalDisplay", "OrbitDisplay", "SceneDisplay", "SymbolicDisplay", "SystemDisplay",
+           "LyapunovDisplay", "ModalDisplay", "OrbitDisplay", "RunupDisplay", "SceneDisplay", "SymbolicDisplay",
+           "SystemDisplay",
            "TrajectoryDisplay", "fmt", "html_card", "names_list", "netcdf_attrs", "netcdf_engine", "params_text"]
 
 #: The sentence every dataset and frame carries (``attrs["units_convention"]``).
@@ -741,6 +742,50 @@ class LyapunovDisplay:
                  "periods": float(r.periods), "time": float(r.time), "kaplan_yorke": float(r.kaplan_yorke),
                  **{f"param_{k}": float(v) for k, v in r.params.items()}}
         return xr.Dataset(data, attrs=netcdf_attrs(attrs))
+
+
+class RunupDisplay:
+    """HTML and the table of :class:`gearsym.RunupResult` (its ``repr`` and ``to_xarray`` are its own)."""
+
+    def _repr_html_(self) -> str:
+        r: Any = self
+        fu = r.frequency_unit
+        peaks = html_table(("mesh", "order", "largest amplitude", f"at {r.parameter} [{r.unit}]", f"frequency [{fu}]"),
+                           [(p["mesh"], p["order"], fmt(p["amplitude"], 4), fmt(p["speed"]), fmt(p["frequency"]))
+                            for p in r.peaks()])
+        cross = html_table(("mesh", "order", "mode", f"frequency [{fu}]", f"{r.parameter} [{r.unit}]"),
+                           [(c["mesh"], c["order"], c["mode"], fmt(c["frequency"]), fmt(c["speed"]))
+                            for c in r.crossings()])
+        rows = [("ramp", f"{r.parameter} {fmt(r.start)} -> {fmt(r.stop)} {r.unit} in {fmt(r.duration)} "
+                         f"{r.time_unit or ''}"),
+                ("signal", r.signal_name), ("spectra", f"{len(r.bin_speed)} speed bins, resolution "
+                                                      f"{fmt(r.resolution, 4)} {fu}"),
+                ("steps, breakpoints, events", f"{r.stats.get('n_steps')}, {r.stats.get('n_breaks')}, "
+                                               f"{r.stats.get('n_events')}")]
+        return html_card("RunupResult", r.scene, rows, [("mesh-order peaks", peaks), ("order x natural-frequency "
+                                                                                     "crossings", cross)])
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """One row per speed bin: its time and speed, and the amplitude of every mesh order.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``time``, ``speed`` and ``<mesh>_order<k>``; ``df.attrs["units"]`` gives
+            each column's unit.
+        """
+        pd = _pandas("RunupResult.to_dataframe")
+        r: Any = self
+        cols = {"time": r.bin_time, "speed": r.bin_speed}
+        for i, m in enumerate(r.meshes):
+            for k in range(r.order_amplitude.shape[1]):
+                cols[f"{m}_order{k + 1}"] = r.order_amplitude[i, k]
+        df = pd.DataFrame(cols)
+        df.index.name = "bin"
+        df.attrs.update({"parameter": r.parameter, "params": dict(r.params),
+                         "units": {"time": r.time_unit or "", "speed": r.unit,
+                                   **{c: "signal units" for c in cols if c not in ("time", "speed")}}})
+        return df
 
 
 class BasinDisplay:

@@ -8,8 +8,8 @@ extra         packages                               needed by
 ============  =====================================  ==========================================
 ``plots``     matplotlib                             figures: ``--out`` of ``simulate``, ``orbit``,
                                                      ``continue``, ``bench``
-``maps``      xarray, dask, distributed, matplotlib  ``gearsym map``, ``gearsym sweep``
-                                                     (netCDF + figures)
+``maps``      xarray, dask, distributed, matplotlib  ``gearsym map``, ``gearsym sweep``,
+                                                     ``runup --out`` (netCDF + figures)
 ``all``       both, and tqdm                         tqdm draws the progress bars (continuation,
                                                      maps, sweeps, Lyapunov exponents)
 ``notebook``  ``all``, ipykernel, ipywidgets         Jupyter: the widget progress bars
@@ -108,3 +108,5 @@ def require_for_command(args: argparse.Namespace) -> None:
         require("maps", "gearsym continue --map")
     elif command in ("simulate", "orbit", "continue", "bench") and getattr(args, "out", None):
         require("plots", f"gearsym {command} --out (figures)")
+    elif command == "runup" and getattr(args, "out", None):
+        require("maps", "gearsym runup --out (netCDF and figures)")

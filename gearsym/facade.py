@@ -172,7 +172,7 @@ class Scene(SceneDisplay):
         values = {k: self.resolved.values[k] for k in gen.input_names}
         system = System(gen, values, self.initial_state(), self.spec.simulate, self.name,
                         ParameterUnits.of_model(self.model_spec), self.resolved.rules,
-                        {k: v for k, v in self.spec.extra.items() if k in ("orbit", "continue", "map")},
+                        {k: v for k, v in self.spec.extra.items() if k in ("orbit", "continue", "map", "runup")},
                         state_units(self.model_spec))
         system.derivative_build = _DerivativeBuild(self, generated_dir, gen.dimensionless)
         if self.resolved.static:  # [initial] static = true: start from the static equilibrium

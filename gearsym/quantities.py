@@ -116,8 +116,8 @@ if TYPE_CHECKING:  # pragma: no cover
 _log = logging.getLogger(__name__)
 
 __all__ = ["QUANTITIES", "GearQuantities", "MeshQuantities", "branch_quantities", "gear_quantities", "map_quantities",
-           "orbit_gear_quantities", "orbit_quantities", "parse_quantity", "periodic_quantities", "planet_sets",
-           "planet_sets_of"]
+           "mesh_order_periods", "orbit_gear_quantities", "orbit_quantities", "parse_quantity", "periodic_quantities",
+           "planet_sets", "planet_sets_of"]
 
 #: The scalar quantities of a mesh: name -> (unit, meaning); ``dte_harmonic_<h>`` (mesh order
 #: ``h``) besides.  Units: ``deflection`` / ``force`` / ``velocity`` of the mesh (module docstring).
@@ -458,7 +458,7 @@ def gear_quantities(system: System, trajectory: Trajectory, *, window: tuple[flo
     D = system.mesh_deflections(t, Y, p)
     W = _forces(system, t, Y, p, None, notes)
     static = _static(system, params, p, t, notes)
-    periods = _mesh_periods(system, p, names, T, mesh_periods)
+    periods = mesh_order_periods(system, p, names, T, mesh_periods)
     contact = _contact(system, trajectory, p, Y[0], ts, te)
     sets = dict(planet_sets) if planet_sets is not None else planet_sets_of(names)
     unknown = [m for s in sets.values() for m in s if m not in names]
@@ -579,9 +579,33 @@ def _static(system: System, params: Mapping[str, float], p: np.ndarray, t: np.nd
     return xs, d_win, w @ d_nodes, None if W_nodes is None else w @ W_nodes
 
 
-def _mesh_periods(system: System, p: np.ndarray, names: Sequence[str], T: float,
-                  given: Mapping[str, float] | None) -> dict[str, float]:
-    """The period of mesh order 1 of every mesh (module docstring)."""
+def mesh_order_periods(system: System, p: np.ndarray, names: Sequence[str], T: float,
+                       given: Mapping[str, float] | None = None) -> dict[str, float]:
+    """The period of mesh order 1 of every mesh (the rule of the module docstring).
+
+    Parameters
+    ----------
+    system
+        The compiled system.
+    p
+        Parameter vector (SI).
+    names
+        The meshes.
+    T
+        The forcing period at ``p``.
+    given
+        Mesh name -> its period, overriding the rule.
+
+    Returns
+    -------
+    dict
+        Mesh name -> the period of its order 1 (time unit).
+
+    Raises
+    ------
+    ParameterError
+        A given period of an unknown mesh, or not positive.
+    """
     given = dict(given or {})
     for nm in given:
         if nm not in names:

@@ -8,7 +8,8 @@
 * :mod:`gearsym.analysis.linear`: linear analysis (modes about the static equilibrium, the
   structure of planetary modes);
 * :mod:`gearsym.analysis.sweeps`: sweeps and global dynamics (stability / response maps,
-  Lyapunov exponents, basins of attraction, the process pool they run on).
+  Lyapunov exponents, basins of attraction, brute-force bifurcation diagrams, the process pool
+  they run on).
 
 The kinds import one another in one direction only (``tests/test_import_graph.py`` checks it):
 continuation may import the periodic-orbit analysis; sweeps may import the periodic-orbit and
@@ -37,15 +38,16 @@ _EXPORTS: dict[str, str] = {
     "Bifurcation": "continuation", "switch_period_doubling": "continuation",
     "modal_analysis": "linear", "classify_planetary": "linear", "ModalAnalysis": "linear",
     "stability_map": "sweeps", "save_map": "sweeps", "lyapunov_exponents": "sweeps", "basins": "sweeps",
+    "runup": "sweeps", "RunupOptions": "sweeps", "RunupResult": "sweeps", "bifurcation_diagram": "sweeps",
 }
 #: the kinds of analysis (subpackages)
 KINDS = ("periodic", "continuation", "linear", "sweeps")
 
 __all__ = [
     "KINDS", "Bifurcation", "Branch", "BranchPoint", "ContinuationOptions", "HarmonicBalanceOptions", "ModalAnalysis",
-    "PeriodicOrbit", "ShootingOptions",
-    "basins", "classify_planetary", "harmonic_balance", "lyapunov_exponents", "mesh_deflections", "modal_analysis",
-    "periodic_orbit", "save_map", "shoot",
+    "PeriodicOrbit", "RunupOptions", "RunupResult", "ShootingOptions",
+    "basins", "bifurcation_diagram", "classify_planetary", "harmonic_balance", "lyapunov_exponents",
+    "mesh_deflections", "modal_analysis", "periodic_orbit", "runup", "save_map", "shoot",
     "stability_map", "switch_period_doubling",
 ]
 
@@ -61,7 +63,16 @@ if TYPE_CHECKING:  # pragma: no cover
         periodic_orbit,
         shoot,
     )
-    from .sweeps import basins, lyapunov_exponents, save_map, stability_map
+    from .sweeps import (
+        RunupOptions,
+        RunupResult,
+        basins,
+        bifurcation_diagram,
+        lyapunov_exponents,
+        runup,
+        save_map,
+        stability_map,
+    )
 
 
 def __getattr__(name: str) -> object:

@@ -20,6 +20,7 @@ from .maps import cmd_map
 from .modes import cmd_modes
 from .orbits import cmd_continue, cmd_orbit
 from .quantities import QUANTITY_HELP
+from .runup import add_runup_parser
 from .simulate import cmd_compile, cmd_export, cmd_simulate
 from .stiffness import add_stiffness_parser
 from .sweep import add_sweep_parser
@@ -55,6 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_stiffness_parser(sub)
     add_lyapunov_parser(sub)
     add_basins_parser(sub)
+    add_runup_parser(sub)
     add_cache_parser(sub)
     add_catalog_parsers(sub)
     for p in sub.choices.values():  # every subcommand, whoever registered it

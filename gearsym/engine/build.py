@@ -99,6 +99,7 @@ DRIVER_C_FILES: tuple[str, ...] = (
     "gs_correct.c",
     "gs_newton.c",
     "gs_batch.c",
+    "gs_ramp.c",
 )
 #: Files of this package whose bytes change the binary of every build.
 _DRIVER_FILES = (*DRIVER_C_FILES, "gs_driver.h", "gs_internal.h", "gs_model_abi.h", "sundials7.h", "build.py")

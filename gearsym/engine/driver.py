@@ -20,6 +20,7 @@ import numpy as np
 from gearsym.budget import check_matrix
 from gearsym.engine import interrupt as _interrupt
 from gearsym.engine.errors import EngineABIError, EngineInputError, error_for_status
+from gearsym.engine.ramp import SpeedRamp
 from gearsym.engine.run_settings import (
     SENSITIVITY_KEYWORDS,
     RunSettings,
@@ -32,14 +33,15 @@ from gearsym.engine.sim_args import (
     GsMultipliers,
     GsNewton,
     GsOrbitFlow,
+    GsRamp,
     GsSimArgs,
 )
 from gearsym.errors import ParameterError
 from gearsym.integrators import INTEGRATION_METHODS, LINEAR_SOLVERS, NONLINEAR
 
 __all__ = ["EVAL_FUNCTIONS", "Engine", "GsSimArgs", "LINEAR_SOLVERS", "METHODS", "NONLINEAR", "RunResult",
-           "RunSettings", "SensitivityRequest", "c_layout", "check_mirrors", "check_solver_size", "load_engine",
-           "mirror_layout"]
+           "RunSettings", "SensitivityRequest", "SpeedRamp", "c_layout", "check_mirrors", "check_solver_size",
+           "load_engine", "mirror_layout"]
 
 #: Status of a run stopped by SIGINT (gs_driver.h).
 GS_ERR_INTERRUPTED = -8
@@ -108,6 +110,8 @@ class RunResult:
     sensitivity, sensitivity_out
         ``d x(t_end) / d lambda_s`` (nx, n_sens; total when ``t_end`` moves) and at the fixed
         output times (n_out, nx, n_sens), or None.
+    break_times
+        The scheduled breakpoints reached, in order (with ``break_log``), or None.
     """
 
     t: np.ndarray
@@ -120,6 +124,7 @@ class RunResult:
     t_reached: float = math.nan
     sensitivity: np.ndarray | None = None
     sensitivity_out: np.ndarray | None = None
+    break_times: np.ndarray | None = None
 
 
 def _ptr(a: np.ndarray | None) -> int | None:
@@ -232,7 +237,8 @@ class Engine:
         """Number of mesh deflections (``gs_mesh``; 0 for a model without meshes)."""
         return int(self._lib.gs_n_meshes(self._ws()))
 
-    def evaluate(self, function: str, t: Any, x: Any, p: Any, sigma: Any = None) -> np.ndarray:
+    def evaluate(self, function: str, t: Any, x: Any, p: Any, sigma: Any = None, *,
+                 ramp: SpeedRamp | None = None) -> np.ndarray:
         """Evaluate a generated function at many points, in the driver's mode there.
 
         Parameters
@@ -256,6 +262,9 @@ class Engine:
         sigma
             Sides (+1/-1) of the switching surfaces at each point, shape (n, nsw);
             default: from the signs of the switching functions (``g >= 0`` -> +1).
+        ramp
+            A speed ramp (:class:`~gearsym.engine.ramp.SpeedRamp`): each point at the time
+            and speed the ramped run has there (``gs_eval_ramp``).
 
         Returns
         -------
@@ -281,8 +290,14 @@ class Engine:
                  "dae_jac": self.nx * nd}[function]
         out = np.empty((n, max(k, 1)))
         msg = C.create_string_buffer(256)
-        rc = self._lib.gs_eval(self._ws(), code, n, _ptr(ta), _ptr(xa), _ptr(pa) if pa.shape[0] else None,
-                               _ptr(sg), _ptr(out), msg, 256)
+        if ramp is None:
+            rc = self._lib.gs_eval(self._ws(), code, n, _ptr(ta), _ptr(xa), _ptr(pa) if pa.shape[0] else None,
+                                   _ptr(sg), _ptr(out), msg, 256)
+        else:
+            if not hasattr(self._lib, "gs_eval_ramp"):
+                raise EngineInputError(f"{self.path} has no gs_eval_ramp (built by an older gearsym); rebuild it")
+            rc = self._lib.gs_eval_ramp(self._ws(), code, n, _ptr(ta), _ptr(xa), _ptr(pa) if pa.shape[0] else None,
+                                        _ptr(sg), C.byref(self._c_ramp(ramp)), _ptr(out), msg, 256)
         if rc != 0:
             raise EngineInputError(msg.value.decode(errors="replace"))
         out = out[:, :k]
@@ -298,9 +313,15 @@ class Engine:
             f"nsched={self.nsched}, implicit={self.implicit}, SUNDIALS {self.sundials_version})"
         )
 
+    def _c_ramp(self, ramp: SpeedRamp) -> GsRamp:
+        """The C struct of a speed ramp (its index checked)."""
+        if not 0 <= ramp.index < self.np:
+            raise EngineInputError(f"speed ramp: parameter index {ramp.index} outside [0, {self.np})")
+        return GsRamp(1, int(ramp.index), float(ramp.t0), float(ramp.speed0), float(ramp.rate))
+
     def run(self, x0: Any, p: Any, t0: float, t_end: float, t_out: Any = None, settings: RunSettings | None = None,
             *, sigma0: Any = None, atol_vec: Any = None, sensitivities: SensitivityRequest | None = None,
-            **keywords: Any) -> RunResult:
+            ramp: SpeedRamp | None = None, break_log: int = 0, **keywords: Any) -> RunResult:
         """Integrate the model from ``t0`` to ``t_end`` in one C call.
 
         Parameters
@@ -336,6 +357,12 @@ class Engine:
             the span's derivatives, whether at the output times too
             (:class:`~gearsym.engine.run_settings.SensitivityRequest`; see ``gs_driver.c`` for
             the equations and jumps).
+        ramp
+            A speed ramp (:class:`~gearsym.engine.ramp.SpeedRamp`, ``gs_ramp.c``): the speed
+            parameter runs linearly and the model's time functions and schedules run on its
+            phase (no monodromy, no sensitivities with it).
+        break_log
+            Capacity of the breakpoint log (:attr:`RunResult.break_times`; 0: none).
         **keywords
             The fields of :class:`~gearsym.engine.run_settings.RunSettings` (``method="adams",
             rtol=1e-10, want_monodromy=True, ...``; they override those of ``settings``) and,
@@ -381,10 +408,12 @@ class Engine:
         sens = None if sensitivities is None else self._sensitivity_input(sensitivities)
         av = None if atol_vec is None else self._atol_vec_input(atol_vec, c.want_monodromy, sens)
         cap = c.max_events_out
+        extra = {"ramp": None if ramp is None else self._c_ramp(ramp), "break_log": max(int(break_log), 0)}
         while True:
             res = self._run_once(x0a, pa, float(t0), float(t_end), tout, c.method, c.rtol, c.atol, sig,
                                  c.want_monodromy, c.max_steps, c.max_step, c.init_step, c.max_events,
-                                 c.storm_events, c.storm_window, cap, c.nonlinear, c.linear_solver, av, sens)
+                                 c.storm_events, c.storm_window, cap, c.nonlinear, c.linear_solver, av, sens,
+                                 **extra)
             if isinstance(res, int):  # event log too small: rerun with the exact size
                 cap = res
                 continue
@@ -425,8 +454,8 @@ class Engine:
             raise EngineInputError(f"atol_vec has {av.shape[0]} entries, need {want}")
         return av
 
-    def _run_once(self, *args: Any) -> RunResult | int:
-        a, buf = self._prepare(*args)
+    def _run_once(self, *args: Any, **extra: Any) -> RunResult | int:
+        a, buf = self._prepare(*args, **extra)
         self._call(self._lib.gs_simulate_ws, a)
         return self._result(a, buf)
 
@@ -453,6 +482,8 @@ class Engine:
         linsol=0,
         av=None,
         sens=None,
+        ramp: GsRamp | None = None,
+        break_log: int = 0,
     ) -> tuple[GsSimArgs, dict[str, Any]]:
         """The argument struct of one run and the numpy buffers it points at."""
         nx, nsw = self.nx, self.nsw
@@ -466,7 +497,7 @@ class Engine:
             "y": np.empty((n_out, nx)), "x_final": np.empty(nx), "sigma_final": np.zeros(max(nsw, 1)),
             "mono": np.empty((nx, nx)) if mono else None, "ev_t": np.empty(cap),
             "ev_s": np.empty(cap, dtype=np.intc), "ev_d": np.empty(cap, dtype=np.intc), "ev_v": np.empty(cap),
-            "cap": cap, "s_final": None, "s_out": None}
+            "cap": cap, "s_final": None, "s_out": None, "brk": np.empty(break_log) if break_log else None}
         a = GsSimArgs()
         a.method = method
         a.rtol, a.atol, a.t0, a.t_end = rtol, atol, t0, t_end
@@ -492,6 +523,10 @@ class Engine:
             _ptr(buf["ev_d"]),
             _ptr(buf["ev_v"]),
         )
+        if ramp is not None:
+            a.ramp = ramp
+        if break_log:
+            a.max_breaks_out, a.brk_t = break_log, _ptr(buf["brk"])
         if sens is not None:
             sdir, ns, dt0, dt1, want_out = sens
             buf["s_final"] = np.empty((nx, ns))
@@ -554,6 +589,7 @@ class Engine:
             t_reached=float(a.t_reached),
             sensitivity=own(buf["s_final"]),
             sensitivity_out=own(buf["s_out"]),
+            break_times=None if buf.get("brk") is None else buf["brk"][: min(int(a.n_breaks), buf["brk"].size)].copy(),
         )
 
 
@@ -606,6 +642,21 @@ def check_solver_size(nx: int, nd: int, monodromy: bool, n_sens: int = 0, nonlin
         check_matrix(nA, cols, f"{what}: Newton's {'dense' if dense else 'block-diagonal'} matrix", change)
     except ParameterError as exc:
         raise EngineInputError(str(exc)) from None
+
+
+def _newton_signatures(lib: Any) -> None:
+    """The signatures of THE Newton iteration (gs_newton.c) and its C evaluators (absent from
+    objects built before them)."""
+    for name, args in (("gs_shoot_ws", [C.c_void_p, C.POINTER(GsSimArgs), C.c_void_p]),
+                       ("gs_correct_ws", [C.c_void_p, C.POINTER(GsSimArgs), C.c_void_p]),
+                       ("gs_newton_work_size", [C.c_void_p]), ("gs_newton_tangent", [C.c_void_p])):
+        if hasattr(lib, name):
+            getattr(lib, name).restype = C.c_int
+            getattr(lib, name).argtypes = args
+    for name in ("gs_newton_start", "gs_newton_restart", "gs_newton_next"):
+        if hasattr(lib, name):
+            getattr(lib, name).restype = None
+            getattr(lib, name).argtypes = [C.c_void_p]
 
 
 def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
@@ -696,17 +747,11 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
     lib.gs_eval.restype = C.c_int
     lib.gs_eval.argtypes = [C.c_void_p, C.c_int, C.c_int, C.c_void_p, C.c_void_p, C.c_void_p, C.c_void_p,
                             C.c_void_p, C.c_char_p, C.c_int]
-    # THE Newton iteration (gs_newton.c) and its C evaluators (absent from objects built before them)
-    for name, args in (("gs_shoot_ws", [C.c_void_p, C.POINTER(GsSimArgs), C.c_void_p]),
-                       ("gs_correct_ws", [C.c_void_p, C.POINTER(GsSimArgs), C.c_void_p]),
-                       ("gs_newton_work_size", [C.c_void_p]), ("gs_newton_tangent", [C.c_void_p])):
-        if hasattr(lib, name):
-            getattr(lib, name).restype = C.c_int
-            getattr(lib, name).argtypes = args
-    for name in ("gs_newton_start", "gs_newton_restart", "gs_newton_next"):
-        if hasattr(lib, name):
-            getattr(lib, name).restype = None
-            getattr(lib, name).argtypes = [C.c_void_p]
+    if hasattr(lib, "gs_eval_ramp"):
+        lib.gs_eval_ramp.restype = C.c_int
+        lib.gs_eval_ramp.argtypes = [C.c_void_p, C.c_int, C.c_int, C.c_void_p, C.c_void_p, C.c_void_p, C.c_void_p,
+                                     C.POINTER(GsRamp), C.c_void_p, C.c_char_p, C.c_int]
+    _newton_signatures(lib)
     for fn, struct, mirror in (("gs_sizeof_args", "gs_sim_args", GsSimArgs),
                                ("gs_sizeof_newton", "gs_newton", GsNewton),
                                ("gs_sizeof_orbit_flow", "gs_orbit_flow", GsOrbitFlow),
@@ -788,7 +833,8 @@ def _mirrors() -> dict[str, type[C.Structure]]:
     """C struct name -> its ctypes mirror (read from this module when called, so that a test
     may replace a mirror)."""
     return {"gs_sim_args": GsSimArgs, "gs_newton": GsNewton, "gs_orbit_flow": GsOrbitFlow,
-            "gs_corrector_flow": GsCorrectorFlow, "gs_multipliers": GsMultipliers, "gs_isolation": GsIsolation}
+            "gs_corrector_flow": GsCorrectorFlow, "gs_multipliers": GsMultipliers, "gs_isolation": GsIsolation,
+            "gs_ramp": GsRamp}
 
 
 def check_mirrors(layout: dict[str, list[Field]], path: Path | str = "",

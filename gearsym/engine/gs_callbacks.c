@@ -95,18 +95,20 @@ int gs_call(gs_ud* ud, const gs_fn* fn, const double** in, int n_in, double* out
 
 int eval_rhs(gs_ud* ud, double t, const double* x, const double* m, double* out) {
   const double* in[4];
-  in[0] = &t;
+  double s;
+  in[2] = model_args(ud, t, &s); /* (t, p), or the speed ramp's (gs_ramp.c) */
+  in[0] = &s;
   in[1] = x;
-  in[2] = ud->np ? ud->p : ud->dummy;
   in[3] = ud->nm ? m : ud->dummy;
   return gs_call(ud, &ud->rhs, in, 4, out);
 }
 
 static int eval_jac(gs_ud* ud, double t, const double* x, const double* m, double* out) {
   const double* in[4];
-  in[0] = &t;
+  double s;
+  in[2] = model_args(ud, t, &s);
+  in[0] = &s;
   in[1] = x;
-  in[2] = ud->np ? ud->p : ud->dummy;
   in[3] = ud->nm ? m : ud->dummy;
   return gs_call(ud, &ud->jac, in, 4, out);
 }
@@ -115,10 +117,11 @@ static int eval_jac(gs_ud* ud, double t, const double* x, const double* m, doubl
 static int eval_resfn(gs_ud* ud, const gs_fn* fn, double t, const double* x, const double* xd, const double* m,
                       double* out) {
   const double* in[5];
-  in[0] = &t;
+  double s;
+  in[3] = model_args(ud, t, &s);
+  in[0] = &s;
   in[1] = x;
   in[2] = xd;
-  in[3] = ud->np ? ud->p : ud->dummy;
   in[4] = ud->nm ? m : ud->dummy;
   return gs_call(ud, fn, in, 5, out);
 }
@@ -130,10 +133,11 @@ static int eval_res(gs_ud* ud, double t, const double* x, const double* xd, cons
 static int eval_resjac(gs_ud* ud, double t, const double* x, const double* xd, const double* m, double cj,
                        double* out) {
   const double* in[6];
-  in[0] = &t;
+  double s;
+  in[3] = model_args(ud, t, &s);
+  in[0] = &s;
   in[1] = x;
   in[2] = xd;
-  in[3] = ud->np ? ud->p : ud->dummy;
   in[4] = ud->nm ? m : ud->dummy;
   in[5] = &cj;
   return gs_call(ud, &ud->resjac, in, 6, out);
@@ -141,10 +145,11 @@ static int eval_resjac(gs_ud* ud, double t, const double* x, const double* xd, c
 
 int eval_swfn(gs_ud* ud, const gs_fn* fn, double t, const double* x, double* out) {
   const double* in[3];
+  double s;
   if (fn->nrow * fn->ncol == 0) return 0;
-  in[0] = &t;
+  in[2] = model_args(ud, t, &s);
+  in[0] = &s;
   in[1] = x;
-  in[2] = ud->np ? ud->p : ud->dummy;
   return gs_call(ud, fn, in, 3, out);
 }
 

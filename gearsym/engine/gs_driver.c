@@ -225,6 +225,9 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
   ud->nvc = nvc; /* mono * nd + ns (nd = nx without algebraic variables): solver_sizes */
   ud->nA = nA;   /* nx * (1 + nvc) */
   ud->p = a->p;
+  if ((rc = ramp_setup(ud, a)) != 0) return rc; /* a speed ramp (gs_ramp.c), or none */
+  if (a->max_breaks_out < 0 || (a->max_breaks_out > 0 && !a->brk_t))
+    return set_err(a, GS_ERR_INPUT, "bad breakpoint log (max_breaks_out=%d)", a->max_breaks_out);
   ud->intr_fd = (a->check_interrupt && a->interrupt_fd >= 0) ? a->interrupt_fd : -1;
   ud->intr_mask = a->check_interrupt;
   ud->interrupted = 0; /* per call (the workspace outlives an interrupted run) */
@@ -245,7 +248,7 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
   {
     const double* in[1];
     int off = 0;
-    in[0] = np ? a->p : ud->dummy;
+    in[0] = ramp_schedule_params(ud, np ? a->p : ud->dummy); /* (with a ramp: at its speed0) */
     if (nsched_total > 0 && gs_call(ud, &ud->sched, in, 1, sched_s)) return set_err(a, GS_ERR_INPUT, "gs_sched failed");
     for (k = 0; k < nsched; ++k) {
       double P = sched_s[off];
@@ -263,6 +266,7 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
     SD.nb = nb;
     SD.off = sched_off;
     SD.s = sched_s;
+    SD.ramp = &ud->ramp;
     if (ud->ns && nsched_total > 0 && gs_call(ud, &ud->schedp, in, 1, ws->sched_sp))
       return set_err(a, GS_ERR_INPUT, "gs_schedp failed");
   }
@@ -448,7 +452,10 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
 
     if (t >= tb - tiny) {
       /* scheduled breakpoint reached: new interval, new schedule mode */
-      if (is_break) a->n_breaks++;
+      if (is_break) {
+        if (a->n_breaks < a->max_breaks_out) a->brk_t[a->n_breaks] = tb;
+        a->n_breaks++;
+      }
       t = tb;
       if (is_break && ud->ns) {
         /* the vector field jumps at t_b(p): S+ = S- + (f- - f+) dt_b/dlambda */
@@ -584,7 +591,7 @@ int gs_simulate_ws(gs_workspace* ws, gs_sim_args* a) {
         set_err(a, GS_ERR_SOLVER, "GetRootInfo failed: %s", slv_flagname(S, flag));
         goto done;
       }
-      if (eval_swfn(ud, &ud->swx, t, yv, ud->G) || eval_swfn(ud, &ud->swt, t, yv, ud->gt)) {
+      if (eval_swfn(ud, &ud->swx, t, yv, ud->G) || eval_swdt(ud, t, yv, ud->gt)) {
         set_err(a, GS_ERR_NONFINITE, "gs_swx/gs_swt failed at the event t=%.17g", t);
         goto done;
       }

@@ -44,6 +44,25 @@
                                    /* ((n + n^2)^2 with the monodromy: small n only)   */
 #define GS_LINSOL_BLOCKDIAG 2      /* monodromy: one n x n LU for all n + 1 blocks     */
 
+/* A speed ramp (gs_ramp.c): the parameter p[index] (the speed) runs linearly,
+ *     Omega(t) = speed0 + rate (t - t0),
+ * and the model's periodic time functions run on its phase theta(t) = speed0 t0 +
+ * int_t0^t Omega = speed0 tau(t), tau(t) = t + rate (t - t0)^2 / (2 speed0) (the phase time:
+ * the time at constant speed speed0 with the same phase).  The generated functions are
+ * called with the time s(t) = theta(t) / Omega(t) and p[index] = Omega(t), so a time
+ * function of the form h(Omega t, Omega) (a phase proportional to the speed, any
+ * dependence of its amplitude on the speed) becomes h(theta(t), Omega(t)); the schedules
+ * (periods proportional to 1 / speed) are evaluated on tau(t), and their breakpoints are
+ * the exact roots t_b of tau(t_b) = (n + c_i) P_k(speed0), a quadratic.  The caller
+ * checks that the model's time functions are of that form (gearsym.analysis.runup). */
+typedef struct gs_ramp {
+  int    on;               /* 1: the ramp is on (0: every other field is ignored)   */
+  int    index;            /* the speed parameter p[index]                          */
+  double t0;               /* start of the ramp: Omega(t0) = speed0, tau(t0) = t0   */
+  double speed0;           /* nonzero; Omega keeps its sign over [t0, t_end]        */
+  double rate;             /* d Omega / dt                                          */
+} gs_ramp;
+
 typedef struct gs_sim_args {
   /* ---- inputs ---- */
   int     method;          /* GS_METHOD_*                                           */
@@ -105,6 +124,12 @@ typedef struct gs_sim_args {
                            /* d x(t_end(lambda)) / d lambda_s (includes f dt_end)   */
   double* sens_out;        /* [n_out*nx*n_sens] d x(t_out[k]) / d lambda_s at fixed */
                            /* output times, [k][i][s] (may be NULL)                 */
+  /* ---- speed ramp (no monodromy, no sensitivities with it) ---- */
+  gs_ramp ramp;            /* zeroed: no ramp                                       */
+  /* ---- the breakpoint log ---- */
+  int     max_breaks_out;  /* capacity of brk_t (0: no log)                         */
+  double* brk_t;           /* [max_breaks_out] the scheduled breakpoints reached, in */
+                           /* order (n_breaks of them; the first max_breaks_out kept) */
 } gs_sim_args;
 
 /* Integrate.  Returns args->status. */
@@ -158,6 +183,11 @@ int gs_n_meshes(gs_workspace* ws);
 #define GS_EVAL_DAE_JAC 7
 int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p, const double* sigma,
             double* out, char* msg, int len);
+/* gs_eval along a speed ramp: each point evaluated at s(t_i) with p[ramp->index] =
+ * Omega(t_i), the schedule cycle and segment from tau(t_i) (see gs_ramp); ramp NULL or
+ * off: gs_eval. */
+int gs_eval_ramp(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p,
+                 const double* sigma, const gs_ramp* ramp, double* out, char* msg, int len);
 
 /* Check the SUNDIALS runtime: version >= 7 and 32-bit sunindextype.  Writes the
  * version string (e.g. "7.9.0") or the problem into msg.  Returns 0 if OK. */

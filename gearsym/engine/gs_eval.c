@@ -74,7 +74,8 @@ int gs_n_meshes(gs_workspace* ws) {
   return ws->n_mesh_fn;
 }
 
-/* Schedule part of the mode at time t (n_k, seg_k) from the schedule vector s. */
+/* Schedule part of the mode at time t (n_k, seg_k) from the schedule vector s (on the speed
+ * ramp's clock when ud->ramp is on). */
 static void sched_modes_at(gs_workspace* ws, const double* s, double t, double* m) {
   gs_ud* ud = &ws->U;
   int k, off = 0;
@@ -85,6 +86,7 @@ static void sched_modes_at(gs_workspace* ws, const double* s, double t, double* 
     sd.nb = &nbk;
     sd.off = &zero;
     sd.s = s + off;
+    sd.ramp = &ud->ramp;
     sched_mode_at(&sd, 0, t, &m[2 * k], &m[2 * k + 1]);
     off += 1 + nbk;
   }
@@ -92,6 +94,27 @@ static void sched_modes_at(gs_workspace* ws, const double* s, double t, double* 
 
 int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p, const double* sigma,
             double* out, char* msg, int len) {
+  return gs_eval_ramp(ws, fn, n, t, x, p, sigma, NULL, out, msg, len);
+}
+
+/* Make `ramp` (NULL: none) the workspace's for one gs_eval_ramp call.  Returns 0 or -1 with a
+ * message. */
+static int eval_ramp_setup(gs_ud* ud, const double* p, const gs_ramp* ramp, char* msg, int len) {
+  ud->ramp.on = 0;
+  if (!ramp || !ramp->on) return 0;
+  if (ramp->index < 0 || ramp->index >= ud->np || !isfinite(ramp->t0) || !isfinite(ramp->speed0) ||
+      !isfinite(ramp->rate) || ramp->speed0 == 0.0) {
+    snprintf(msg, (size_t)len, "bad speed ramp (index %d, t0 %g, speed0 %g, rate %g)", ramp->index, ramp->t0,
+             ramp->speed0, ramp->rate);
+    return -1;
+  }
+  ud->ramp = *ramp;
+  memcpy(ud->pw, p, sizeof(double) * (size_t)ud->np);
+  return 0;
+}
+
+int gs_eval_ramp(gs_workspace* ws, int fn, int n, const double* t, const double* x, const double* p,
+                 const double* sigma, const gs_ramp* ramp, double* out, char* msg, int len) {
   gs_ud* ud;
   int i, j, nx, nsw, nout;
   double* m;
@@ -139,18 +162,20 @@ int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, c
     return -1;
   }
   ud->p = p; /* eval_swfn reads the parameters from ud */
+  if (eval_ramp_setup(ud, p, ramp, msg, len)) return -1;
   s = ws->sched_s;
   if (ws->nsched_total > 0) {
-    in[0] = ud->np ? p : ud->dummy;
+    in[0] = ramp_schedule_params(ud, ud->np ? p : ud->dummy);
     if (gs_call(ud, &ud->sched, in, 1, s)) {
       snprintf(msg, (size_t)len, "gs_sched failed");
+      ud->ramp.on = 0;
       return -1;
     }
   }
   m = ud->m_alt;
   for (i = 0; i < n; ++i) {
     const double* xi = x + (size_t)i * nx;
-    double ti = t[i];
+    double ti = t[i], si;
     if (fn == GS_EVAL_SW) {
       if (eval_swfn(ud, &ud->sw, ti, xi, out + (size_t)i * nsw)) goto fail;
       continue;
@@ -173,14 +198,16 @@ int gs_eval(gs_workspace* ws, int fn, int n, const double* t, const double* x, c
       if (eval_dae_point(ud, ti, xi, m, out + (size_t)i * nout, fn == GS_EVAL_DAE_JAC)) goto fail;
       continue;
     }
-    in[0] = &ti;
+    in[2] = model_args(ud, ti, &si); /* (t_i, p), or the speed ramp's (gs_ramp.c) */
+    in[0] = &si;
     in[1] = xi;
-    in[2] = ud->np ? p : ud->dummy;
     in[3] = ud->nm ? m : ud->dummy;
     if (gs_call(ud, f, in, 4, out + (size_t)i * nout)) goto fail;
   }
+  ud->ramp.on = 0;
   return 0;
 fail:
+  ud->ramp.on = 0;
   snprintf(msg, (size_t)len, "evaluation of %s failed at point %d%s", f ? f->name : "the mode", i,
            fn == GS_EVAL_DAE || fn == GS_EVAL_DAE_JAC ? " (solving for the derivatives and algebraic variables)" : "");
   return -1;

@@ -8,26 +8,27 @@
  * Schedules
  * -------------------------------------------------------------------------- */
 
-/* Next breakpoint strictly after t + tiny for schedule k. */
+/* Next breakpoint strictly after t + tiny for schedule k: the next (n + c_i) P_k on the
+ * schedules' clock (t, or a speed ramp's phase time: sched_clock, gs_ramp.c), as a time. */
 static double sched_next_break(const gs_sched_data* sd, int k, double t, double tiny) {
   double P = sd->s[sd->off[k]];
   const double* c = sd->s + sd->off[k] + 1;
-  double n = floor(t / P), best = INFINITY;
+  double n = floor(sched_clock(sd, t) / P), best = INFINITY;
   int cyc, i;
   for (cyc = -1; cyc <= 1; ++cyc) {
     for (i = 0; i < sd->nb[k]; ++i) {
-      double tb = (n + cyc + c[i]) * P;
+      double tb = sched_time_at_clock(sd, (n + cyc + c[i]) * P);
       if (tb > t + tiny && tb < best) best = tb;
     }
   }
-  if (!(best < INFINITY)) best = (n + 2.0) * P; /* unreachable with c_0 = 0 */
+  if (!(best < INFINITY)) best = sched_time_at_clock(sd, (n + 2.0) * P); /* unreachable with c_0 = 0 */
   return best;
 }
 
 void sched_mode_at(const gs_sched_data* sd, int k, double t, double* n_out, double* seg_out) {
   double P = sd->s[sd->off[k]];
   const double* c = sd->s + sd->off[k] + 1;
-  double u = t / P, n = floor(u), frac = u - n;
+  double u = sched_clock(sd, t) / P, n = floor(u), frac = u - n;
   int i, seg = 0;
   for (i = 0; i < sd->nb[k]; ++i)
     if (c[i] <= frac) seg = i;
@@ -227,7 +228,7 @@ int resolve_zero_surfaces(gs_ud* ud, gs_evlog* L, double t, double* yv, const do
     for (j = 0; j < nsw; ++j)
       if (ud->g[j] == 0.0) break;
     if (j == nsw) return 0;
-    if (eval_swfn(ud, &ud->swx, t, yv, ud->G) || eval_swfn(ud, &ud->swt, t, yv, ud->gt) ||
+    if (eval_swfn(ud, &ud->swx, t, yv, ud->G) || eval_swdt(ud, t, yv, ud->gt) ||
         eval_xdot(ud, t, yv, ud->m, xd_guess, ud->f3))
       return set_err(L->a, GS_ERR_NONFINITE, "model evaluation failed on a switching surface at t=%.17g", t);
     memcpy(ud->f2, ud->f3, sizeof(double) * (size_t)nx); /* flow in the current mode */

@@ -113,6 +113,8 @@ typedef struct {
   int blockdiag;   /* block-diagonal linear solver of the variational system */
   int use_ida;
   const double* p;
+  gs_ramp ramp;    /* speed ramp of the current call (gs_ramp.c; ramp.on = 0: none) */
+  double* pw;      /* [np] the parameters with the ramped speed (ramp on)     */
   double* m;       /* current mode vector [nm]                               */
   double* m_alt;   /* scratch mode vector [nm]                               */
   double dummy[1]; /* non-NULL pointer for empty inputs                      */
@@ -170,12 +172,14 @@ typedef struct {
   char flagname[64];
 } gs_solver;
 
-/* Schedules: the breakpoint times t = (n + c_i) P_k of every schedule k. */
+/* Schedules: the breakpoint times t = (n + c_i) P_k of every schedule k (with a speed
+ * ramp: the times where the phase time tau(t) is (n + c_i) P_k, gs_ramp.c). */
 typedef struct {
   int nsched;
   const int* nb;
   const int* off; /* offset of [P_k, c_0..] in s */
   const double* s;
+  const gs_ramp* ramp; /* NULL or off: the schedules run on t */
 } gs_sched_data;
 
 /* The event log of one run (gs_events.c). */
@@ -290,6 +294,28 @@ static inline size_t sens_offset(const gs_ud* ud) {
  * Functions shared between the driver's files (hidden: not part of the API)
  * -------------------------------------------------------------------------- */
 #pragma GCC visibility push(hidden)
+
+/* gs_ramp.c: the speed ramp -- every place where the model's time and the schedules'
+ * clock differ from the integrator's time t */
+double ramp_speed(const gs_ramp* r, double t);
+double ramp_phase_time(const gs_ramp* r, double t);
+double ramp_time_at_phase(const gs_ramp* r, double tau);
+const double* ramp_model_args(gs_ud* ud, double t, double* s);
+const double* ramp_schedule_params(gs_ud* ud, const double* p);
+double sched_clock(const gs_sched_data* sd, double t);
+double sched_time_at_clock(const gs_sched_data* sd, double c);
+int ramp_setup(gs_ud* ud, gs_sim_args* a);
+int eval_swdt(gs_ud* ud, double t, const double* x, double* out);
+
+/* The time s and parameters p the generated functions get at the integrator's time t:
+ * (t, p) without a ramp; (theta(t)/Omega(t), p with the ramped speed) with one. */
+static inline const double* model_args(gs_ud* ud, double t, double* s) {
+  if (!ud->ramp.on) {
+    *s = t;
+    return ud->np ? ud->p : ud->dummy;
+  }
+  return ramp_model_args(ud, t, s);
+}
 
 /* gs_util.c */
 int set_err(gs_sim_args* a, int status, const char* fmt, ...) __attribute__((format(printf, 3, 4)));

@@ -17,7 +17,8 @@ int gs_sizeof_corrector_flow(void) { return (int)sizeof(gs_corrector_flow); }
  * the right size but not the right offsets.  kind: 'd' double, 'i' int, 'l' long,
  * 'p' pointer, 'a' char array, 's' struct. */
 #define GS_ABI_KIND(X) \
-  _Generic((X), double: 'd', int: 'i', long: 'l', char*: 'a', gs_multipliers: 's', gs_isolation: 's', default: 'p')
+  _Generic((X), double: 'd', int: 'i', long: 'l', char*: 'a', gs_multipliers: 's', gs_isolation: 's', gs_ramp: 's', \
+           default: 'p')
 #define GS_ABI_FIELD(T, F) \
   {#T, #F, (long)offsetof(T, F), (long)sizeof(((T*)0)->F), GS_ABI_KIND(((T*)0)->F)}
 typedef struct {
@@ -45,7 +46,11 @@ static const gs_abi_entry gs_abi_table[] = {
     GS_ABI_FIELD(gs_sim_args, n_breaks), GS_ABI_FIELD(gs_sim_args, n_reinit), GS_ABI_FIELD(gs_sim_args, status),
     GS_ABI_FIELD(gs_sim_args, errmsg), GS_ABI_FIELD(gs_sim_args, n_sens), GS_ABI_FIELD(gs_sim_args, sens_dir),
     GS_ABI_FIELD(gs_sim_args, sens_dt0), GS_ABI_FIELD(gs_sim_args, sens_dt1), GS_ABI_FIELD(gs_sim_args, sens_final),
-    GS_ABI_FIELD(gs_sim_args, sens_out),
+    GS_ABI_FIELD(gs_sim_args, sens_out), GS_ABI_FIELD(gs_sim_args, ramp), GS_ABI_FIELD(gs_sim_args, max_breaks_out),
+    GS_ABI_FIELD(gs_sim_args, brk_t),
+    /* gs_ramp */
+    GS_ABI_FIELD(gs_ramp, on), GS_ABI_FIELD(gs_ramp, index), GS_ABI_FIELD(gs_ramp, t0), GS_ABI_FIELD(gs_ramp, speed0),
+    GS_ABI_FIELD(gs_ramp, rate),
     /* gs_multipliers */
     GS_ABI_FIELD(gs_multipliers, lapack_dgebal), GS_ABI_FIELD(gs_multipliers, lapack_dgesdd),
     GS_ABI_FIELD(gs_multipliers, lapack_dgeev), GS_ABI_FIELD(gs_multipliers, rtol),
@@ -303,6 +308,7 @@ void gs_ws_free(gs_workspace* ws) {
   free(ws->sched_sp);
   free(ud->Fp);
   free(ud->Gp);
+  free(ud->pw);
   free(ws);
 }
 
@@ -450,9 +456,10 @@ int ws_model_setup(gs_workspace* ws, gs_sim_args* a) {
   ws->sched_sp = (double*)calloc((size_t)ws->nsched_total * np + 1, sizeof(double));
   ud->Fp = (double*)calloc((size_t)nx * np + 1, sizeof(double));
   ud->Gp = (double*)calloc((size_t)nsw * np + 1, sizeof(double));
+  ud->pw = (double*)calloc((size_t)np + 1, sizeof(double));
   if (!ud->arg || !ud->resp || !ud->iw || !ud->w || !ud->nzbuf || !ud->m || !ud->m_alt || !ud->J || !ud->J2 ||
       !ud->f || !ud->f2 || !ud->f3 || !ud->xs || !ud->ypc || !ud->g || !ud->G || !ud->gt || !ud->rootsfound || !ud->rootdir || !ws->nb ||
-      !ws->sched_off || !ws->sched_s || !ws->sched_sp || !ud->Fp || !ud->Gp)
+      !ws->sched_off || !ws->sched_s || !ws->sched_sp || !ud->Fp || !ud->Gp || !ud->pw)
     return set_err(a, GS_ERR_INPUT, "out of memory");
 
   for (k = 0; k < nsched; ++k) ws->nb[k] = info[6 + k];

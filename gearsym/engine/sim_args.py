@@ -11,12 +11,24 @@ from __future__ import annotations
 
 import ctypes as C
 
-__all__ = ["GsCorrectorFlow", "GsIsolation", "GsMultipliers", "GsNewton", "GsOrbitFlow", "GsSimArgs"]
+__all__ = ["GsCorrectorFlow", "GsIsolation", "GsMultipliers", "GsNewton", "GsOrbitFlow", "GsRamp", "GsSimArgs"]
 
 # Pointer members are declared c_void_p (same layout as double*/int*) so that
 # numpy buffers can be passed as plain addresses (fast: no ctypes casts).
 _PD = C.c_void_p
 _PI = C.c_void_p
+
+
+class GsRamp(C.Structure):
+    """ctypes mirror of ``struct gs_ramp`` (gs_driver.h: a speed ramp); keep in sync."""
+
+    _fields_ = [
+        ("on", C.c_int),
+        ("index", C.c_int),
+        ("t0", C.c_double),
+        ("speed0", C.c_double),
+        ("rate", C.c_double),
+    ]
 
 
 class GsSimArgs(C.Structure):
@@ -73,6 +85,10 @@ class GsSimArgs(C.Structure):
         ("sens_dt1", _PD),
         ("sens_final", _PD),
         ("sens_out", _PD),
+        # speed ramp, breakpoint log
+        ("ramp", GsRamp),
+        ("max_breaks_out", C.c_int),
+        ("brk_t", _PD),
     ]
 
 

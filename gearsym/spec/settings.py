@@ -1,4 +1,4 @@
-"""The analysis settings of a scene: ``[simulate]``, ``[orbit]``, ``[continue]``, ``[map]``.
+"""The analysis settings of a scene: ``[simulate]``, ``[orbit]``, ``[continue]``, ``[map]``, ``[runup]``.
 
 One definition of every setting (its type, range and default) and one resolution, used by
 the command line and the Python API alike, so that one scene gives one answer:
@@ -20,6 +20,9 @@ table           settings
 ``[continue]``  ``periods``, ``method``, ``segments``, ``harmonics``, ``switch``, ``ds_max``,
                 ``max_points``, ``rtol``, ``atol``, ``tol``
 ``[map]``       ``periods``, ``method``, ``quantity``, ``harmonics``, ``rtol``
+``[runup]``     ``parameter``, ``from``, ``to``, ``duration`` or ``rate``, ``profile``, ``signal``,
+                ``settle``, ``samples_per_period``, ``bins``, ``orders``, ``modes``, ``rtol``,
+                ``atol``, ``method``, ``max_steps`` (:mod:`gearsym.analysis.sweeps`: a run-up)
 =============== ================================================================================
 
 A default of ``None`` means "the solver's own default" (or, for ``periods`` / ``t_end`` of
@@ -120,6 +123,24 @@ SETTINGS: dict[str, dict[str, Setting]] = {
         "harmonics": _COUNT0,
         "rtol": _RTOL,
     },
+    "runup": {  # a linear ramp of a speed parameter (gearsym.analysis.sweeps.runup)
+        "parameter": Setting((str,)),
+        "from": Setting(_NUM),
+        "to": Setting(_NUM),
+        "duration": Setting(_NUM, None, "positive"),
+        "rate": Setting(_NUM, None, "positive"),
+        "profile": Setting((str,), "linear", None, ("linear",)),
+        "signal": Setting((str,)),
+        "settle": Setting(_NUM, 0, "nonnegative"),
+        "samples_per_period": Setting((int,), 16, "count"),
+        "bins": Setting((int,), 60, "count"),
+        "orders": Setting((int,), 3, "count"),
+        "modes": Setting((bool,), True),
+        "rtol": _RTOL,
+        "atol": _TOL,
+        "method": Setting((str,), None, None, method_names()),
+        "max_steps": Setting((int,), 0, "count0"),
+    },
 }
 
 #: Settings that belong to one orbit method only (dropped for the other).
@@ -185,6 +206,8 @@ def read_settings(section: str, table: Any, error: Callable[[str, str], SpecErro
             raise error(f"{section}.{k}", problem)
     if section == "simulate" and "periods" in table and "t_end" in table:
         raise error("simulate.t_end", "give one of periods and t_end (the horizon in forcing periods, or a time)")
+    if section == "runup" and "duration" in table and "rate" in table:
+        raise error("runup.rate", "give one of duration and rate (the ramp's length in time, or its slope)")
     return dict(table)
 
 

@@ -1,34 +1,40 @@
-"""Attractors of a forced system found from landing states, and the neighbourhood test of a basin.
+"""Attractors of a forced system found from landing states (basins of attraction).
 
 Used by :mod:`gearsym.analysis.sweeps._basins`.  An attractor is described by its **Poincare points**:
 the states at the basin's phase ``t0 + i T`` of the forcing period (the ``k`` points of a
-period-``k`` orbit, in order; a cloud of points for a non-periodic attractor).
+period-``k`` orbit, in order; a cloud of points for a non-periodic attractor).  The rules --
+units, period detection, kinds, neighbourhoods, descriptions -- are those every sweep shares
+(:mod:`gearsym.analysis.sweeps._attractor_id`); this module applies them to a landing.
 
 :func:`identify` turns a *landing* (a state reached after a long transient) into an
 :class:`Attractor`:
 
-1. the landing is integrated ``2 max_period + 8`` more periods and the smallest ``k`` whose
-   Poincare points repeat (to ``1e-3`` of their range) is its period guess;
+1. the landing is integrated ``2 max_period + 8`` more periods; when more than half of its last
+   Poincare points lie in the neighbourhood of a known attractor it is that one
+   (:meth:`~gearsym.analysis.sweeps._attractor_id.Table.landing`); else its period guess is the
+   smallest ``k`` whose Poincare points repeat
+   (:func:`~gearsym.analysis.sweeps._attractor_id.settled_period`, to
+   :data:`~gearsym.analysis.sweeps._attractor_id.REPEAT_TOL` of each state's range);
 2. with a guess, the periodic orbit is shot (:func:`gearsym.analysis.periodic.periodic_orbit`,
    ``periods = k``, from the landing, at the phase ``t0``); it is the attractor when Newton
-   converges to an **asymptotically stable** orbit that passes through the landing (its
-   Poincare points within the neighbourhood radius of the last samples) -- an orbit that is
-   unstable, neutral or elsewhere is not what the trajectory approaches.  A period that
-   divides ``k`` is found from the orbit's own Poincare points;
-3. otherwise the attractor is **non-periodic**: its Poincare section is ``cloud`` points of
-   a further integration, and its largest Lyapunov exponent
-   (:func:`gearsym.analysis.sweeps.lyapunov_exponents`) decides the kind: ``"chaotic"``
-   (positive beyond its error), ``"quasi-periodic"`` (zero within its error) or
-   ``"long-period"`` (negative: the trajectory converges, but to no orbit of period at most
-   ``max_period`` that the shooting found).
+   converges to a **stable** orbit (asymptotically stable or neutral) that passes through the
+   landing (its Poincare points within the neighbourhood radius of the last sample) -- an
+   orbit that is unstable or elsewhere is not what the trajectory approaches.  A shorter period
+   ``d | k`` of its Poincare points is the period-``d`` orbit
+   (:func:`~gearsym.analysis.sweeps._attractor_id.stable_attractor`);
+3. otherwise the attractor is **non-periodic**: its Poincare section is ``cloud`` points of a
+   further integration, and its largest Lyapunov exponent
+   (:func:`gearsym.analysis.sweeps.lyapunov_exponents`) and section decide the kind
+   (:func:`~gearsym.analysis.sweeps._attractor_id.classify_exponent`): ``"chaotic"``,
+   ``"quasi-periodic"`` or ``"unclassified"``.
 
-The **neighbourhood** of an attractor (:class:`Table`): a state ``x`` is in it when
-``max_i |x_i - P_i| / s_i <= r`` for one of its Poincare points ``P``, with ``s_i`` the
-attractor's size in state ``i`` (its peak-to-peak over the continuous trajectory, at least
-1e-3 of the state's magnitude) and ``r`` the relative radius (``radius``, 0.05 by default;
-for a non-periodic attractor at least twice the typical gap between its cloud points).
-Neighbourhoods of different attractors never overlap: a radius is cut to a quarter of the
-distance (in the attractor's units) to the nearest Poincare point of another attractor.
+The **neighbourhood** of an attractor (:class:`~gearsym.analysis.sweeps._attractor_id.Table`): a state
+``x`` is in it when ``max_i |x_i - P_i| / s_i <= r`` for one of its Poincare points ``P``, with
+``s_i`` the attractor's scale in state ``i`` (its peak-to-peak, at least 1e-3 of the state's
+magnitude) and ``r`` the relative radius (``radius``, 0.05 by default; for a non-periodic
+attractor at least twice the median gap between its cloud points).  Neighbourhoods of
+different attractors never overlap: a radius is cut to a quarter of the distance (in the
+attractor's units) to the nearest Poincare point of another attractor.
 """
 
 from __future__ import annotations
@@ -41,28 +47,26 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...errors import GearsymError
-from ..periodic import periodic_orbit
+from ..periodic import PeriodicOrbit, periodic_orbit
+from ._attractor_id import (
+    KIND_CODES,
+    KINDS,
+    REPEAT_TOL,
+    Table,
+    cloud_radius,
+    describe_response,
+    relative_distances,
+    settled_period,
+    stable_attractor,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem as System
 
-__all__ = ["KINDS", "Attractor", "Table", "detect_period", "identify"]
+__all__ = ["KINDS", "Attractor", "Context", "Table", "identify", "table_of"]
 
-#: Kinds of attractors.
-KINDS: dict[str, str] = {
-    "periodic": "stable periodic orbit (shooting converged, asymptotically stable)",
-    "quasi-periodic": "non-periodic, largest Lyapunov exponent zero within its error",
-    "chaotic": "non-periodic, largest Lyapunov exponent positive beyond its error",
-    "long-period": "converging (largest Lyapunov exponent negative) but no orbit of period <= max_period found",
-}
-#: Smallest size of an attractor in a state, relative to the state's magnitude on it.
-SIZE_FLOOR = 1e-3
-#: Poincare points repeat (period detection) when they agree to this fraction of their range.
-REPEAT_TOL = 1e-3
-#: Output samples per forcing period of the dense integrations (amplitudes).
+#: Output samples per forcing period of the landing's integration (its period and scale).
 DENSE = 32
-#: A non-periodic attractor settles a trajectory after this many times ``hits`` points in its region.
-CLOUD_HITS = 4
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,7 +78,9 @@ class Attractor:
     index : int
         Its label in the basin map.
     kind : str
-        One of :data:`KINDS`.
+        One of :data:`KINDS`: ``"periodic"``, ``"quasi-periodic"``, ``"chaotic"``, ``"unclassified"``
+        (the names of the codes 0-3 of :data:`~gearsym.analysis.sweeps.ATTRACTOR_KINDS`; criteria in
+        :mod:`gearsym.analysis.sweeps._attractor_id`).
     period : int or None
         Forcing periods of a periodic orbit (``None`` for the other kinds).
     points : ndarray, shape (k, nx)
@@ -83,9 +89,10 @@ class Attractor:
     minimum, maximum : ndarray, shape (nx,)
         Range of each state along the attractor: of a periodic orbit from 1024 samples per forcing
         period refined by parabolic interpolation (:meth:`PeriodicOrbit.extrema`), of a non-periodic
-        attractor from :data:`DENSE` samples per period along its cloud's integration.
+        attractor from 32 samples per period along its cloud's integration.
     scale : ndarray, shape (nx,)
-        Its size per state (the unit of the neighbourhood test, module docstring).
+        Its size per state (the unit of the neighbourhood test, module docstring;
+        :func:`~gearsym.analysis.sweeps._attractor_id.state_scale`).
     radius : float
         Relative radius of its neighbourhood (before the cut against other attractors).
     rattle_state : int or None
@@ -96,8 +103,8 @@ class Attractor:
     stability : str
         The orbit's stability verdict (periodic; ``""`` otherwise).
     lyapunov, lyapunov_error : float
-        Largest Lyapunov exponent and its error (non-periodic; for a periodic orbit
-        ``log(max_multiplier) / (period T)`` and 0).
+        Largest Lyapunov exponent and its error (for a periodic orbit ``log(max_multiplier) / (period T)``
+        and its error from the multiplier's tolerance).
     seed : int
         The grid cell whose trajectory found it.
     x0 : ndarray, shape (nx,)
@@ -126,6 +133,11 @@ class Attractor:
     def x0(self) -> np.ndarray:
         """The first Poincare point."""
         return self.points[0]
+
+    @property
+    def code(self) -> int:
+        """The kind's code (a key of :data:`~gearsym.analysis.sweeps.ATTRACTOR_KINDS`)."""
+        return KIND_CODES[self.kind]
 
     @property
     def amplitude(self) -> np.ndarray:
@@ -158,117 +170,26 @@ def _finite(v: float) -> float | None:
     return float(v) if math.isfinite(v) else None
 
 
-# ------------------------------------------------------------------ neighbourhoods
-@dataclass(frozen=True)
-class Table:
-    """The Poincare points of the known attractors, for the neighbourhood test (module docstring).
+def table_of(attractors: Sequence[Attractor], nx: int, hits: int = 3) -> Table:
+    """The neighbourhood table of a basin's attractors (labels: their indices, in order).
 
-    Attributes
+    Parameters
     ----------
-    points : ndarray, shape (K, nx)
-        Every attractor's Poincare points, stacked.
-    owner : ndarray of int, shape (K,)
-        The attractor of each point.
-    inv_scale : ndarray, shape (K, nx)
-        ``1 / scale`` of the point's attractor.
-    radius : ndarray, shape (K,)
-        The neighbourhood radius of the point's attractor (after the cut against the others).
-    hits : ndarray of int, shape (A,)
-        Consecutive Poincare points in each attractor's neighbourhood that settle a trajectory on
-        it: ``hits`` for a periodic orbit, :data:`CLOUD_HITS` times that for a non-periodic one
-        (a transient may cross the region of a cloud for a few periods).
+    attractors
+        The attractors, ``attractors[i].index == i``.
+    nx
+        Number of states.
+    hits
+        Consecutive Poincare points that settle a trajectory on a periodic attractor.
+
+    Returns
+    -------
+    Table
     """
-
-    points: np.ndarray
-    owner: np.ndarray
-    inv_scale: np.ndarray
-    radius: np.ndarray
-    hits: np.ndarray
-
-    @classmethod
-    def of(cls, attractors: Sequence[Attractor], nx: int, hits: int = 3) -> Table:
-        """The table of ``attractors`` (radii cut so that no two neighbourhoods overlap; ``hits``
-        consecutive points settle a trajectory on a periodic orbit)."""
-        need = np.array([hits if a.kind == "periodic" else CLOUD_HITS * hits for a in attractors], dtype=int)
-        if not attractors:
-            z = np.zeros((0, nx))
-            return cls(z, np.zeros(0, int), z.copy(), np.zeros(0), need)
-        radii = effective_radii(attractors)
-        pts = np.vstack([a.points for a in attractors])
-        owner = np.concatenate([np.full(len(a.points), a.index) for a in attractors])
-        inv = np.vstack([np.broadcast_to(1.0 / a.scale, a.points.shape) for a in attractors])
-        rad = np.concatenate([np.full(len(a.points), r) for a, r in zip(attractors, radii, strict=True)])
-        return cls(pts, owner, inv, rad, need)
-
-    def as_arrays(self) -> dict[str, np.ndarray]:
-        """Plain arrays (what a worker process gets)."""
-        return {"points": self.points, "owner": self.owner, "inv_scale": self.inv_scale, "radius": self.radius,
-                "hits": self.hits}
-
-    def match(self, X: np.ndarray, values: int = 4_000_000) -> np.ndarray:
-        """The attractor whose neighbourhood holds each state, or -1.
-
-        Parameters
-        ----------
-        X
-            States, shape (m, nx).
-        values
-            Differences computed at once (memory: 8 bytes each): states are compared in blocks
-            of ``values / (K nx)``.
-
-        Returns
-        -------
-        ndarray of int, shape (m,)
-            The attractor's index (the nearest in units of its radius when several), or -1.
-        """
-        m = X.shape[0]
-        out = np.full(m, -1, dtype=int)
-        if m == 0 or self.points.shape[0] == 0:
-            return out
-        block = max(1, values // max(self.points.size, 1))
-        for s in range(0, m, block):
-            D = np.max(np.abs(X[s:s + block, None, :] - self.points[None, :, :]) * self.inv_scale[None, :, :],
-                       axis=2) / self.radius[None, :]
-            j = np.argmin(D, axis=1)
-            inside = D[np.arange(D.shape[0]), j] <= 1.0
-            out[s:s + block][inside] = self.owner[j[inside]]
-        return out
-
-
-def effective_radii(attractors: Sequence[Attractor]) -> list[float]:
-    """Each attractor's radius, cut to a quarter of its distance to the nearest point of another."""
-    radii = []
-    for a in attractors:
-        r = a.radius
-        for b in attractors:
-            if b is a:
-                continue
-            d = np.max(np.abs(a.points[:, None, :] - b.points[None, :, :]) / a.scale, axis=2)
-            r = min(r, 0.25 * float(np.min(d)))
-        radii.append(r)
-    return radii
-
-
-def table_from_arrays(arrays: Mapping[str, np.ndarray]) -> Table:
-    """The inverse of :meth:`Table.as_arrays`."""
-    return Table(np.asarray(arrays["points"], float), np.asarray(arrays["owner"], int),
-                 np.asarray(arrays["inv_scale"], float), np.asarray(arrays["radius"], float),
-                 np.asarray(arrays["hits"], int))
+    return Table.build([(a.points, a.scale, a.radius, a.kind == "periodic") for a in attractors], nx, hits)
 
 
 # ------------------------------------------------------------------ identification
-def detect_period(Q: np.ndarray, max_period: int, scale: np.ndarray, tol: float = REPEAT_TOL) -> int | None:
-    """The smallest ``k <= max_period`` with ``Q[j] == Q[j - k]`` (to ``tol`` times ``scale``, the size
-    of the motion in each state) over the second half of the Poincare points ``Q`` (shape (L, nx)),
-    or None."""
-    L = Q.shape[0]
-    h = L // 2
-    for k in range(1, min(max_period, h) + 1):
-        if np.max(np.abs(Q[h:] - Q[h - k:L - k]) / scale) <= tol:
-            return k
-    return None
-
-
 @dataclass(frozen=True)
 class Context:
     """What :func:`identify` needs besides the landing: the system and the basin's settings."""
@@ -300,14 +221,6 @@ def _integrate(ctx: Context, x: np.ndarray, periods: int, sigma: np.ndarray | No
     return res.y, res
 
 
-def size_of(samples: np.ndarray) -> np.ndarray:
-    """The size of an attractor per state from samples along it (module docstring)."""
-    mag = np.max(np.abs(samples), axis=0)
-    top = float(np.max(mag)) if mag.size else 1.0
-    floor = SIZE_FLOOR * np.maximum(mag, 1e-12 * max(top, np.finfo(float).tiny))
-    return np.maximum(np.ptp(samples, axis=0), np.maximum(floor, np.finfo(float).tiny))
-
-
 def identify(ctx: Context, x: np.ndarray, sigma: np.ndarray | None, index: int, seed: int,
              known: Sequence[Attractor], hits: int) -> Attractor | None:
     """The attractor a landing state lies on (module docstring), or None when it is one of ``known``.
@@ -325,8 +238,8 @@ def identify(ctx: Context, x: np.ndarray, sigma: np.ndarray | None, index: int, 
     known
         Attractors found before.
     hits
-        Consecutive Poincare points in a known attractor's neighbourhood that make the landing
-        one of ``known``.
+        Consecutive Poincare points in a known periodic attractor's neighbourhood that settle a
+        trajectory on it (:class:`~gearsym.analysis.sweeps._attractor_id.Table`).
 
     Returns
     -------
@@ -339,20 +252,17 @@ def identify(ctx: Context, x: np.ndarray, sigma: np.ndarray | None, index: int, 
     """
     L = 2 * ctx.max_period + 8
     Y, _ = _integrate(ctx, x, L, sigma, per_period=DENSE)
-    Q = Y[DENSE::DENSE]
-    table = Table.of(known, x.shape[0], hits)
-    lab = table.match(Q[-hits:])
-    if lab.size and lab[0] >= 0 and np.all(lab == lab[0]):
+    if table_of(known, x.shape[0], hits).landing(Y[DENSE::DENSE], hits) >= 0:
         return None
-    k = detect_period(Q, ctx.max_period, size_of(Y[(L // 2) * DENSE:]))
-    if k is not None:
-        att = _periodic(ctx, Q, k, index, seed)
+    k = settled_period(Y, DENSE, ctx.max_period, REPEAT_TOL)
+    if k:
+        att = _periodic(ctx, Y[-1], k, index, seed)
         if att is not None:
             return att
-    return _non_periodic(ctx, Q[-1], index, seed, k)
+    return _non_periodic(ctx, Y[-1], index, seed, k)
 
 
-def _shoot(ctx: Context, x: np.ndarray, k: int) -> Any:
+def _shoot(ctx: Context, x: np.ndarray, k: int) -> PeriodicOrbit | None:
     """The periodic orbit of ``k`` forcing periods from ``x`` at ``t0``, or None (no convergence)."""
     try:
         return periodic_orbit(ctx.system, periods=k, x0=x, params=ctx.params, method="shooting", t0=ctx.t0,
@@ -361,63 +271,30 @@ def _shoot(ctx: Context, x: np.ndarray, k: int) -> Any:
         return None
 
 
-def _periodic(ctx: Context, Q: np.ndarray, k: int, index: int, seed: int) -> Attractor | None:
-    """The stable period-``k`` orbit through the landing's Poincare points ``Q``, or None."""
-    orbit = _shoot(ctx, Q[-1], k)
-    if orbit is None or orbit.stability != "asymptotically_stable":
+def _periodic(ctx: Context, x: np.ndarray, k: int, index: int, seed: int) -> Attractor | None:
+    """The stable period-``k`` orbit through the landing's last Poincare point ``x``, or None."""
+    desc = stable_attractor(_shoot(ctx, x, k), ctx.T, lambda y, d: _shoot(ctx, y, d))
+    if desc is None:
         return None
-    Y, _ = _integrate(ctx, np.asarray(orbit.x0, float), k, per_period=DENSE)
-    points = Y[:-1:DENSE][:k]
-    scale = size_of(Y)
-    for j in range(1, k):  # a shorter period (k a multiple of it): shoot that one
-        if k % j == 0 and np.max(np.abs(points[j] - points[0]) / scale) <= REPEAT_TOL:
-            return _periodic(ctx, Q, j, index, seed)
     # the orbit must be what the trajectory approaches: the landing near one of its points
-    d = np.min(np.max(np.abs(Q[-1][None, :] - points) / scale, axis=1))
-    if d > ctx.radius:
+    if float(np.min(relative_distances(x, desc.points, 1.0 / desc.scale))) > ctx.radius:
         return None
-    mm = float(np.max(np.abs(orbit.multipliers))) if len(orbit.multipliers) else 0.0
-    lyap = math.log(mm) / (k * ctx.T) if mm > 0 else -math.inf
-    ext = np.array([orbit.extrema(i) for i in range(points.shape[1])])  # refined from 1024 samples per period
-    return Attractor(index=index, kind="periodic", period=int(k), points=points, minimum=ext[:, 0],
-                     maximum=ext[:, 1], scale=scale, radius=ctx.radius, rattle_state=orbit.rattle_state,
-                     max_multiplier=mm, stability=orbit.stability, lyapunov=lyap, lyapunov_error=0.0, seed=seed,
+    orbit = desc.orbit
+    return Attractor(index=index, kind="periodic", period=desc.period, points=desc.points, minimum=desc.minimum,
+                     maximum=desc.maximum, scale=desc.scale, radius=ctx.radius, rattle_state=desc.rattle_state,
+                     max_multiplier=desc.max_multiplier, stability=desc.stability, lyapunov=desc.lyapunov,
+                     lyapunov_error=desc.lyapunov_error, seed=seed,
                      info={"iterations": int(orbit.iterations), "residual": float(orbit.residual),
                            "multipliers": [[float(m.real), float(m.imag)] for m in orbit.multipliers]})
 
 
-def _non_periodic(ctx: Context, x: np.ndarray, index: int, seed: int, k_guess: int | None) -> Attractor:
-    """A non-periodic attractor from a landing: its cloud, rattle state and largest Lyapunov exponent."""
-    from ..periodic import rattle_state
-    from ._lyapunov import LyapunovOptions, lyapunov_exponents
-
-    system = ctx.system
-    n = max(int(ctx.cloud), 8)
-    traj = system.simulate(x0=x, t0=ctx.t0, t_end=ctx.t0 + n * ctx.T, n_out=n * DENSE + 1, params=ctx.params,
-                           rtol=ctx.rtol, atol=float(np.min(ctx.atol)), method=ctx.method)
-    Y = traj.y
-    cloud = Y[:-1:DENSE][:n]
-    scale = size_of(Y)
-    rattle = rattle_state(traj, system=system, steady_fraction=1.0) if system.generated.contact_surfaces else None
-    # the gap between neighbouring cloud points: the neighbourhood must bridge it
-    from scipy.spatial import cKDTree
-
-    gaps, _ = cKDTree(cloud / scale).query(cloud / scale, k=2, p=np.inf)  # each point's nearest other point
-    radius = max(ctx.radius, 2.0 * float(np.median(gaps[:, 1])))
-    # the state at a multiple of the forcing period (the exponents' runs start at t = 0)
-    phase_left = (math.ceil(ctx.t0 / ctx.T) * ctx.T - ctx.t0) if ctx.t0 % ctx.T else 0.0
-    x_start = Y[-1]
-    if phase_left > 0:
-        x_start = system.flow(Y[-1], ctx.t0 + n * ctx.T, ctx.t0 + n * ctx.T + phase_left, ctx.p,
-                              rtol=ctx.rtol, atol=ctx.atol, monodromy=False, method=ctx.method).x_final
-    lyo = LyapunovOptions(periods=ctx.lyapunov_periods, transient=0, exponents=1, rtol=ctx.rtol,
-                          method=ctx.method)
-    res = lyapunov_exponents(system, ctx.params, lyo, x0=x_start)
-    lam, err = float(res.exponents[0]), float(res.errors[0])
-    tol = max(err, 1e-4 / ctx.T)
-    kind = "chaotic" if lam > tol else ("long-period" if lam < -tol else "quasi-periodic")
-    return Attractor(index=index, kind=kind, period=None, points=cloud, minimum=np.min(Y, axis=0),
-                     maximum=np.max(Y, axis=0), scale=scale, radius=radius, rattle_state=rattle, seed=seed,
-                     lyapunov=lam, lyapunov_error=err,
-                     info={"lyapunov_periods": ctx.lyapunov_periods, "lyapunov_converged": bool(res.converged),
-                           "period_guess": k_guess, "cloud": n})
+def _non_periodic(ctx: Context, x: np.ndarray, index: int, seed: int, k_guess: int) -> Attractor:
+    """A non-periodic attractor from a landing: its cloud, rattle state, largest Lyapunov exponent and kind."""
+    tol = {"rtol": ctx.rtol, "atol": float(np.min(ctx.atol))}
+    d = describe_response(ctx.system, ctx.params, x, ctx.T, t0=ctx.t0, points=max(int(ctx.cloud), 8),
+                          lyapunov_periods=ctx.lyapunov_periods, tolerances=tol, method=ctx.method)
+    kind = next(name for name, code in KIND_CODES.items() if code == d.kind)
+    return Attractor(index=index, kind=kind, period=None, points=d.points, minimum=d.minimum, maximum=d.maximum,
+                     scale=d.scale, radius=cloud_radius(d.points, d.scale, ctx.radius), rattle_state=d.rattle_state,
+                     seed=seed, lyapunov=d.lyapunov, lyapunov_error=d.lyapunov_error,
+                     info={**d.info, "period_guess": k_guess or None, "cloud": len(d.points), "note": d.note})

@@ -10,12 +10,13 @@ The run:
 1. **Discovery.**  ``seeds`` cells spread over the grid are integrated ``transient`` forcing
    periods (one C call for all of them: :func:`gearsym.engine.batch.run_batch`); each landing
    that is not on a known attractor is identified (:func:`~gearsym.analysis.sweeps._attractors.identify`):
-   a periodic orbit is shot from it and kept when it is asymptotically stable and passes
-   through the landing; else the attractor is non-periodic (quasi-periodic, chaotic or
-   long-period, by its largest Lyapunov exponent) and its Poincare section is kept.
+   a periodic orbit is shot from it and kept when it is stable and passes through the landing;
+   else the attractor is non-periodic (chaotic, quasi-periodic or unclassified, by its largest
+   Lyapunov exponent and its Poincare section: the rules every sweep shares,
+   :mod:`gearsym.analysis.sweeps._attractor_id`) and its Poincare section is kept.
 2. **Settling.**  Every cell is integrated ``chunk`` forcing periods per C call, its Poincare
    point (the state at ``t0 + i T``) checked after every period against the neighbourhoods of
-   the known attractors (:class:`~gearsym.analysis.sweeps._attractors.Table`: a distance relative to
+   the known attractors (:class:`~gearsym.analysis.sweeps._attractor_id.Table`: a distance relative to
    each attractor's size, any of its ``k`` phases); a cell is settled, with that attractor's
    label, after ``hits`` consecutive Poincare points in one neighbourhood (four times that for
    a non-periodic attractor, whose region a transient may cross), so most cells cost a few
@@ -62,12 +63,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...budget import LIMITS, check_count
-from ...display import BasinDisplay
+from ...display import BasinDisplay, netcdf_engine
 from ...errors import GearsymError, ParameterError
 from ...integrators import check_method, default_method, get_method
 from ...progress import progress_bar
 from .._inputs import SceneLike, as_system
-from ._attractors import KINDS, Attractor, Context, Table, identify, table_from_arrays
+from ._attractor_id import KINDS, Table
+from ._attractors import Attractor, Context, identify, table_of
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray as xr
@@ -358,7 +360,7 @@ class BasinResult(BasinDisplay):
         out.mkdir(parents=True, exist_ok=True)
         files = [out / f"{stem}.nc", out / f"{stem}.json", out / f"{stem}.png"]
         with atomic_path(files[0]) as tmp:
-            self.dataset.to_netcdf(tmp, engine=_netcdf_engine())
+            self.dataset.to_netcdf(tmp, engine=netcdf_engine())
         write_json(files[1], self.as_dict())
         fig, ax = plt.subplots(figsize=(7.5, 5.6))
         self.plot(ax)
@@ -604,7 +606,7 @@ class _Run:
         """Continue the ``pending`` cells up to ``periods`` more periods (tasks on the workers)."""
         from ._workers import TaskFailure, run_tasks
 
-        table = Table.of(self.attractors, self.x.shape[1], self.opts.hits).as_arrays()
+        table = table_of(self.attractors, self.x.shape[1], self.opts.hits).as_arrays()
         parallel = (self.workers > 1 or self.dask is not None) and pending.size >= MIN_PARALLEL
         n_tasks = max(math.ceil(pending.size / MAX_BLOCK), (16 if self.dask is not None else 4 * self.workers)
                       if parallel else 1)
@@ -647,7 +649,7 @@ def settle_block(system: System, task: Mapping[str, Any]) -> dict[str, Any]:
     """
     from ...engine.batch import run_batch
 
-    table = table_from_arrays(task["table"])
+    table = Table.from_arrays(task["table"])
     X = np.array(task["x"], dtype=float)
     m, nx = X.shape
     sig = None if task["sigma"] is None else np.array(task["sigma"], dtype=float)
@@ -709,19 +711,6 @@ def settle_block(system: System, task: Mapping[str, Any]) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------ dataset and figure
-_KIND_CODES = {k: i for i, k in enumerate(KINDS)}
-
-
-def _netcdf_engine() -> str:
-    """netCDF4 or h5netcdf when installed, else scipy's netCDF-3 writer."""
-    import importlib.util
-
-    for engine, module in (("netcdf4", "netCDF4"), ("h5netcdf", "h5netcdf")):
-        if importlib.util.find_spec(module) is not None:
-            return engine
-    return "scipy"
-
-
 def _dataset(r: BasinResult) -> xr.Dataset:
     import xarray as xr
 
@@ -742,7 +731,7 @@ def _dataset(r: BasinResult) -> xr.Dataset:
                     "description": f"index into the attractor dimension; {legend}"}),
          "periods": ((r.y_state, r.x_state), r.periods.astype(np.int32),
                      {"long_name": "forcing periods integrated until the cell settled"}),
-         "attractor_kind": (("attractor",), per(lambda a: _KIND_CODES[a.kind], np.int32),
+         "attractor_kind": (("attractor",), per(lambda a: a.code, np.int32),
                             {"flag_values": list(range(len(KINDS))), "flag_meanings": " ".join(KINDS)}),
          "attractor_period": (("attractor",), per(lambda a: a.period or 0, np.int32),
                               {"long_name": "forcing periods of a periodic orbit (0: not periodic)"}),

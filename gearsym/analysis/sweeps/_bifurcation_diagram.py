@@ -7,10 +7,14 @@ then jumps): at each value the state is integrated ``transient`` forcing periods
 forcing periods sampled once per period (the Poincare section at forcing phase 0), and the largest
 Lyapunov exponent of where it is (:func:`gearsym.analysis.sweeps.lyapunov_exponents`, one exponent over
 ``lyapunov_periods``; optional).  The section points repeat after ``k`` periods for a period-``k``
-response (``period``: the smallest ``k <= max_k`` with ``max |P_n - P_{n-k}| <= settle_tol`` of each
-state's range over the last ``k`` points, 0 for none), and a non-periodic response is classified as
-the maps classify it (:mod:`gearsym.analysis.sweeps._map_attractors`: chaotic for a positive exponent
-beyond its error, quasi-periodic for a zero one with the section on one curve).
+response (``period``: the smallest ``k <= max_k`` whose section points repeat after ``k`` periods to
+``settle_tol`` of each state's range over the second half of the samples, 0 for none), and a
+non-periodic response is classified as every sweep classifies it
+(:func:`~gearsym.analysis.sweeps._attractor_id.classify_exponent`: chaotic for a positive exponent
+beyond its error, quasi-periodic for a zero one with the section on one curve, else not classified;
+without the exponent, not classified).  Both rules are those of the basins and the maps
+(:mod:`gearsym.analysis.sweeps._attractor_id`); a diagram's period is not verified by an orbit solve,
+so its tolerance is stricter by default (1e-4 against 1e-3).
 
 The two directions are two tasks of :func:`gearsym.analysis.sweeps.run_tasks` (two local processes,
 or a Dask cluster); each value of a direction is one unit of the progress bar.
@@ -33,22 +37,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...budget import check_count
+from ...display import netcdf_engine
 from ...errors import GearsymError, ParameterError
 from ...files import atomic_path, save_figure, write_json
 from ...progress import progress_bar
 from .._inputs import SceneLike, is_scene
 from .._options import resolve_options
 from . import _workers
+from ._attractor_id import ATTRACTOR_KINDS, PERIODIC, UNCLASSIFIED, classify_exponent, settled_period
 from ._lyapunov import lyapunov_exponents
-from ._map_attractors import (
-    ATTRACTOR_KINDS,
-    CHAOTIC,
-    PERIODIC,
-    QUASI_PERIODIC,
-    UNCLASSIFIED,
-    closed_curve,
-    cycle_period,
-)
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray as xr
@@ -59,6 +56,11 @@ __all__ = ["DIRECTIONS", "DiagramOptions", "bifurcation_diagram", "diagram_summa
 
 #: The directions of a sweep.
 DIRECTIONS = ("forward", "backward")
+#: The kinds of a value (:data:`~gearsym.analysis.sweeps.ATTRACTOR_KINDS`; a diagram's period is not verified by an
+#: orbit solve) and the failed code.
+_KIND_LEGEND = "; ".join(f"{k} {v}" for k, v in {**ATTRACTOR_KINDS, PERIODIC: "periodic (the section repeats after "
+                                                  "period forcing periods; no orbit solve verifies it)"}.items()
+                         ) + "; -1 failed"
 
 
 @dataclass(frozen=True)
@@ -133,21 +135,15 @@ class DiagramOptions:
 
 
 # ------------------------------------------------------------------ one direction (a task)
-def _classify(P: np.ndarray, Y: np.ndarray, lam: float, err: float, T: float, opts: DiagramOptions) -> tuple[int, int]:
-    """``(period, kind)`` of one value from its section points ``P`` and the dense samples ``Y``."""
-    scale = np.maximum(np.ptp(Y, axis=0), 1e-9 * np.max(np.abs(Y), axis=0))
-    pos = scale[scale > 0]
-    scale = np.where(scale > 0, scale, float(np.min(pos)) if pos.size else 1.0)
-    k = cycle_period(P, scale, opts.max_k, opts.settle_tol, None)
+def _classify(Y: np.ndarray, per: int, lam: float, err: float, T: float, opts: DiagramOptions) -> tuple[int, int]:
+    """``(period, kind)`` of one value from its dense samples ``Y`` (``per`` per forcing period, ``Y[0]`` at a
+    whole period) and its largest exponent (module docstring)."""
+    k = settled_period(Y, per, opts.max_k, opts.settle_tol)
     if k:
         return k, PERIODIC
     if not math.isfinite(lam):
         return 0, UNCLASSIFIED
-    if lam > 2 * err and lam * T > 0.01:
-        return 0, CHAOTIC
-    if abs(lam) <= max(2 * err, 0.01 / T) and closed_curve(P):
-        return 0, QUASI_PERIODIC
-    return 0, UNCLASSIFIED
+    return 0, classify_exponent(lam, err, T, Y[per::per])[0]
 
 
 def _value(system: CompiledSystem, params: dict[str, float], x: np.ndarray, opts: DiagramOptions,
@@ -165,7 +161,7 @@ def _value(system: CompiledSystem, params: dict[str, float], x: np.ndarray, opts
         ly = lyapunov_exponents(system, params, x0=Y[-1], periods=opts.lyapunov_periods, transient=0, exponents=1,
                                 progress=False, **({"rtol": tol["rtol"]} if "rtol" in tol else {}))
         lam, err = float(ly.exponents[0]), float(ly.errors[0])
-    k, kind = _classify(P, Y, lam, err, T, opts)
+    k, kind = _classify(Y, per, lam, err, T, opts)
     return {"section": P, "lyapunov": lam, "lyapunov_error": err, "period": k, "kind": kind, "x": Y[-1].copy(),
             "error": ""}
 
@@ -260,7 +256,7 @@ def bifurcation_diagram(target: SceneLike | CompiledSystem, param: str, start: f
                      "values_per_second": len(tasks) * len(values) / max(wall_s, 1e-300),
                      "transient": opts.transient, "samples": opts.samples, "lyapunov_periods": opts.lyapunov_periods
                      if opts.lyapunov else 0, "max_k": opts.max_k, "settle_tol": opts.settle_tol,
-                     "kinds": "; ".join(f"{k} {v}" for k, v in ATTRACTOR_KINDS.items()) + "; -1 failed",
+                     "kinds": _KIND_LEGEND,
                      "source": "gearsym.analysis.sweeps.bifurcation_diagram"})
     return ds
 
@@ -290,21 +286,11 @@ def _dataset(system: CompiledSystem, param: str, values: np.ndarray, opts: Diagr
          "lyapunov": (dims, lam, {"long_name": "largest Lyapunov exponent (per unit of the system's time)"}),
          "lyapunov_error": (dims, err, {"long_name": "its 95 % error"}),
          "period": (dims, per, {"long_name": "period of the section in forcing periods (0: none of at most max_k)"}),
-         "kind": (dims, kind, {"long_name": "; ".join(f"{k} {v}" for k, v in ATTRACTOR_KINDS.items()) + "; -1 failed"})},
+         "kind": (dims, kind, {"long_name": _KIND_LEGEND})},
         coords={"direction": list(opts.directions), param: (param, values, {"units": system.units.unit(param) or "SI"}),
                 f"{param}_si": (param, si), "state": list(system.state_names)})
     ds.attrs.update({"n_failed": int(np.sum(kind < 0)), "errors": "\n".join(errors)})
     return ds
-
-
-def _netcdf_engine() -> str:
-    for eng, mod in (("netcdf4", "netCDF4"), ("h5netcdf", "h5netcdf")):
-        try:
-            __import__(mod)
-            return eng
-        except ImportError:
-            continue
-    return "scipy"
 
 
 def diagram_summary(ds: xr.Dataset) -> dict[str, Any]:
@@ -364,7 +350,7 @@ def save_bifurcation_diagram(ds: xr.Dataset, out_dir: str | Path, state: str | N
     out.mkdir(parents=True, exist_ok=True)
     nc, js, png = out / f"{stem}.nc", out / f"{stem}.json", out / f"{stem}.png"
     with atomic_path(nc) as tmp:
-        ds.to_netcdf(tmp, engine=_netcdf_engine())
+        ds.to_netcdf(tmp, engine=netcdf_engine())
     write_json(js, diagram_summary(ds))
     param = str(ds.attrs["param"])
     v = ds[param].values

@@ -49,16 +49,9 @@ import numpy as np
 
 from ...errors import GearsymError, ParameterError
 from . import _workers
-from ._map_attractors import (
-    ATTRACTOR_KINDS,
-    FOUND_BY,
-    PERIODIC,
-    SEARCHES,
-    MapAttractor,
-    PointSearch,
-    SearchOptions,
-)
-from ._map_points import map_point
+from ._attractor_id import ATTRACTOR_KINDS, CHAOTIC, PERIODIC, QUASI_PERIODIC
+from ._map_attractors import FOUND_BY, SEARCHES, MapAttractor, PointSearch, SearchOptions
+from ._map_points import is_linear, map_point
 
 if TYPE_CHECKING:  # pragma: no cover
     import xarray as xr
@@ -101,21 +94,6 @@ def resolve_search(search: Any, n_points: int, linear: bool) -> SearchOptions | 
     if not all(isinstance(s, str) for s in items):
         raise ParameterError(f"search must be 'auto', 'none', 'all' or a list of {', '.join(SEARCHES)}; got {search!r}")
     return SearchOptions(search=tuple(s for s in items if s)) if any(items) else None
-
-
-def is_linear(system: CompiledSystem, params: Mapping[str, float]) -> bool:
-    """No switching surfaces and a Jacobian that does not depend on the state (at 8 times of the
-    forcing period, the initial state against twice it plus one): a linear model."""
-    gen = system.generated
-    if gen.nsw or gen.implicit:
-        return False
-    p = system.param_vector(params)
-    T = system.period(params) or 1.0
-    t = T * np.arange(8) / 8
-    X = np.tile(np.asarray(system.x0, float), (8, 1))
-    J1 = system.engine.evaluate("jac", t, X, p)
-    J2 = system.engine.evaluate("jac", t, 2 * X + 1.0, p)
-    return bool(np.all(np.abs(J1 - J2) <= 1e-12 * np.maximum(1.0, np.abs(J1))))
 
 
 # ------------------------------------------------------------------ the row tasks
@@ -378,6 +356,6 @@ def add_layers(ds: xr.Dataset, records: list[dict[str, Any]], state_names: Seque
     n_st = ds["n_stable"].values
     ds.attrs.update({"coexist_search": ",".join(coexist.search), "n_coexisting": int(np.sum(n_st >= 2)),
                      "max_stable": int(np.max(n_st)) if n_st.size else 0,
-                     "n_chaotic": int(np.sum(np.any(kinds == 2, axis=2))),
-                     "n_quasi_periodic": int(np.sum(np.any(kinds == 1, axis=2)))})
+                     "n_chaotic": int(np.sum(np.any(kinds == CHAOTIC, axis=2))),
+                     "n_quasi_periodic": int(np.sum(np.any(kinds == QUASI_PERIODIC, axis=2)))})
     return ds

@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ._attractor_id import CHAOTIC, PERIODIC, QUASI_PERIODIC, UNCLASSIFIED
+
 if TYPE_CHECKING:  # pragma: no cover
     import xarray as xr
 
@@ -26,7 +28,8 @@ __all__ = ["MAX_PANELS", "NONPERIODIC_HATCHES", "attractor_panels", "draw_panels
 #: Most per-response panels drawn.
 MAX_PANELS = 3
 #: Hatch of each non-periodic kind (:data:`gearsym.analysis.sweeps.ATTRACTOR_KINDS`).
-NONPERIODIC_HATCHES = {2: ("..", "chaotic"), 1: ("oo", "quasi-periodic"), 3: ("++", "non-periodic, not classified")}
+NONPERIODIC_HATCHES = {CHAOTIC: ("..", "chaotic"), QUASI_PERIODIC: ("oo", "quasi-periodic"),
+                       UNCLASSIFIED: ("++", "non-periodic, not classified")}
 #: The attractor variable drawn for each map quantity.
 _PER_ATTRACTOR = {"rattle_state": "attractor_rattle_state", "max_multiplier": "attractor_max_multiplier",
                   "peak_to_peak": "attractor_peak_to_peak", "lyapunov": "attractor_lyapunov"}
@@ -108,7 +111,7 @@ def draw_panels(fig: Any, axes: list[Any], ds: xr.Dataset, quantity: str) -> Non
     for j, ax in enumerate(axes[1:]):
         Z = ds[var].values[:, :, j].astype(float)
         if var != "attractor_lyapunov":
-            Z[kinds[:, :, j] != 0] = np.nan  # an orbit's quantity: none for a non-periodic attractor
+            Z[kinds[:, :, j] != PERIODIC] = np.nan  # an orbit's quantity: none for a non-periodic attractor
         elif np.isfinite(Z).any():
             Z[~np.isfinite(Z)] = np.nan
         kw: dict[str, Any] = {"vmin": -1, "vmax": 2} if var == "attractor_rattle_state" else {}
@@ -119,7 +122,7 @@ def draw_panels(fig: Any, axes: list[Any], ds: xr.Dataset, quantity: str) -> Non
             kw = {"norm": TwoSlopeNorm(0.0, min(lo, -1e-12), max(hi, 1e-12)), "cmap": "RdBu_r"}
         pc = ax.pcolormesh(X, Y, Z, shading="nearest", **({"cmap": "viridis"} | kw))
         fig.colorbar(pc, ax=ax).set_label(var.replace("attractor_", "").replace("_", " "))
-        _hatch_kinds(ax, X, Y, np.where(kinds[:, :, j] > 0, kinds[:, :, j], -1))
+        _hatch_kinds(ax, X, Y, np.where(kinds[:, :, j] > PERIODIC, kinds[:, :, j], -1))
         _mark_periods(ax, X, Y, ds["attractor_periods"].values[:, :, j])
         ax.set_title(f"response {j + 1} at each point")
         _labels(ax, ds, xname, yname)

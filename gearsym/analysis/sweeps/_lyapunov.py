@@ -94,6 +94,7 @@ from ...integrators import INTEGRATION_METHODS, default_method
 from ...progress import progress_bar
 from .._options import resolve_options
 from ..periodic import ERROR_FACTOR, rigid_state_basis
+from ._scales import sample_scale
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
@@ -695,14 +696,10 @@ def _setup(system: CompiledSystem, p: np.ndarray, params: Mapping[str, float] | 
 
 
 def _tangent_scales(samples: np.ndarray) -> np.ndarray:
-    """The unit of each state in the tangent space: half its peak-to-peak range along the transient
-    (for an oscillation ``x`` and ``v = x'`` in these units trace a circle, not a flat ellipse), at
-    least 1e-3 of its largest magnitude; a state that stays at 0 takes the smallest other unit."""
-    y = np.asarray(samples, float)
-    half = 0.5 * (np.max(y, axis=0) - np.min(y, axis=0))
-    sc = np.maximum(half, 1e-3 * np.max(np.abs(y), axis=0))
-    pos = sc[np.isfinite(sc) & (sc > 0)]
-    return np.where(np.isfinite(sc) & (sc > 0), sc, float(np.min(pos)) if pos.size else 1.0)
+    """The unit of each state in the tangent space: half its scale along the transient
+    (:func:`~gearsym.analysis.sweeps._scales.sample_scale`: its peak-to-peak, at least 1e-3 of its
+    magnitude), so that for an oscillation ``x`` and ``v = x'`` trace a circle, not a flat ellipse."""
+    return 0.5 * sample_scale(samples)
 
 
 def _align(run: _Run, Q: np.ndarray, b: float, unit: float, opts: LyapunovOptions) -> tuple[np.ndarray, float, float]:

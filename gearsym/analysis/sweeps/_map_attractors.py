@@ -13,40 +13,44 @@ response in permanent contact and an impacting one at the same speed and load).
 **Landing** (:func:`land`): the state is integrated in blocks of :attr:`SearchOptions.block`
 forcing periods, at most :attr:`SearchOptions.land_periods`, and sampled once per forcing
 period (the Poincare section at the forcing phase 0).  It has *settled on a period-k cycle*
-when the last ``k`` section points repeat after ``k`` periods,
-``max_n |P_n - P_{n-k}| <= settle_tol`` (each state over its range along the block; rigid-body
-directions projected out), for the smallest such ``k <= max_k``.  The orbit of ``k`` forcing
-periods is then solved by Newton from the landing state.
+when its Poincare points repeat after ``k`` periods to :attr:`SearchOptions.settle_tol` of each
+state's range over the second half of the block (rigid-body directions projected out), for the
+smallest such ``k <= max_k`` (:func:`~gearsym.analysis.sweeps._attractor_id.settled_period`, the
+rule every sweep shares).  The orbit of ``k`` forcing periods is then solved by Newton from
+the landing state.
 
 **Periodic attractors.**  Every orbit is verified by the orbit solver (one independent
 integration over its period) and kept only if stable: ``asymptotically_stable`` (every
 non-trivial Floquet multiplier inside the unit circle beyond its tolerance) or ``neutral``
 (one on the circle within the monodromy's error; :mod:`gearsym.analysis.periodic._stability`).
 An unstable orbit is never an attractor.  An orbit solved over ``k`` periods whose section
-points repeat after ``d | k`` periods is the period-``d`` orbit (solved again over ``d``).
-Its largest Lyapunov exponent is ``log max|mu| / (k T)`` (exact: the Floquet multipliers).
+points repeat after ``d | k`` periods is the period-``d`` orbit (solved again over ``d``) when
+that one is stable.  Its largest Lyapunov exponent is ``log max|mu| / (k T)`` (exact: the
+Floquet multipliers).  The description (section points, extrema, peak-to-peaks, rattle states)
+is :func:`~gearsym.analysis.sweeps._attractor_id.describe_orbit`.
 
 **Two orbits are the same** when they have the same period ``k`` and the state of one is within
 :data:`SAME_ORBIT` of one of the ``k`` section points of the other (the phase shift of a
 period-``k`` orbit), each state measured over its range along the known orbit.
 
-**Non-periodic attractors** (the landing did not settle): classified from the largest Lyapunov
-exponent ``lambda`` (:func:`gearsym.analysis.sweeps.lyapunov_exponents`, one exponent over
-:attr:`SearchOptions.lyapunov_periods` forcing periods, with its 95 % error ``e``) and the
-Poincare section (:attr:`SearchOptions.section_points` points):
+**Non-periodic attractors** (the landing did not settle): classified by the rules every sweep
+shares (:func:`~gearsym.analysis.sweeps._attractor_id.classify_exponent`) from the largest
+Lyapunov exponent ``lambda`` (:func:`gearsym.analysis.sweeps.lyapunov_exponents`, one exponent
+over :attr:`SearchOptions.lyapunov_periods` forcing periods, with its 95 % error ``e``) and the
+Poincare section (:attr:`SearchOptions.section_points` points), with the zero band
+``z = max(e, zero_rate / T)`` (:attr:`SearchOptions.zero_rate` per forcing period):
 
-* **chaotic**: ``lambda > 2 e`` and ``lambda T > zero_rate`` (a positive exponent beyond its
-  error and above :attr:`SearchOptions.zero_rate` per forcing period);
-* **quasi-periodic**: ``|lambda| <= max(2 e, zero_rate / T)`` (zero within its error) and the
-  section points lie on one curve (:func:`closed_curve`: the graph joining every section point to
-  its two nearest neighbours is connected; a cloud or a chaotic attractor's layered section falls
-  apart into many pieces);
+* **chaotic**: ``lambda > z`` (positive beyond its error);
+* **quasi-periodic**: ``|lambda| <= z`` (zero within its error) and the section points lie on
+  one curve (:func:`closed_curve`: the graph joining every section point to its two nearest
+  neighbours is connected; a cloud or a chaotic attractor's layered section falls apart into
+  many pieces);
 * otherwise **not classified** (e.g. a negative exponent: an orbit of more than ``max_k``
   periods, or a transient longer than the landing).
 
-None of them is ever reported as a periodic orbit.  A non-periodic landing whose end state
-lies in the box of the section points of a known non-periodic attractor (widened by 10 % of
-its size) is that attractor (not classified again).
+None of them is ever reported as a periodic orbit.  A non-periodic landing is a known
+non-periodic attractor when more than half of its last Poincare points lie in that attractor's
+neighbourhood (:meth:`~gearsym.analysis.sweeps._attractor_id.Table.landing`; not classified again).
 """
 
 from __future__ import annotations
@@ -59,24 +63,37 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...errors import GearsymError, ParameterError
-from ..periodic import PeriodicOrbit, mesh_deflections, periodic_orbit, rigid_state_basis
-from ._lyapunov import lyapunov_exponents
+from ..periodic import PeriodicOrbit, periodic_orbit, rigid_state_basis
+from ._attractor_id import (
+    ATTRACTOR_KINDS,
+    CHAOTIC,
+    PERIODIC,
+    QUASI_PERIODIC,
+    REPEAT_TOL,
+    SAME_ORBIT,
+    STABLE,
+    UNCLASSIFIED,
+    ZERO_RATE,
+    Table,
+    closed_curve,
+    cloud_radius,
+    cycle_period,
+    describe_response,
+    relative_distances,
+    settled_period,
+    stable_attractor,
+    state_scale,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
 
-__all__ = ["CHAOTIC", "FOUND_BY", "ATTRACTOR_KINDS", "PERIODIC", "QUASI_PERIODIC", "SAME_ORBIT", "SEARCHES", "UNCLASSIFIED",
-           "MapAttractor", "Landing", "PointSearch", "SearchOptions", "closed_curve", "cycle_period", "land"]
+__all__ = ["ATTRACTOR_KINDS", "CHAOTIC", "FOUND_BY", "PERIODIC", "QUASI_PERIODIC", "SAME_ORBIT", "SEARCHES",
+           "UNCLASSIFIED", "Landing", "MapAttractor", "PointSearch", "SearchOptions", "closed_curve", "cycle_period",
+           "land"]
 
-PERIODIC, QUASI_PERIODIC, CHAOTIC, UNCLASSIFIED = 0, 1, 2, 3
-#: The kinds of attractor (codes of the map's ``attractor_kind`` and ``response_kind``).
-ATTRACTOR_KINDS: dict[int, str] = {
-    PERIODIC: "stable periodic orbit (asymptotically stable or neutral, verified)",
-    QUASI_PERIODIC: "quasi-periodic (largest Lyapunov exponent zero within its error, Poincare points on one "
-                    "curve)",
-    CHAOTIC: "chaotic (largest Lyapunov exponent positive beyond its error)",
-    UNCLASSIFIED: "non-periodic, not classified (no cycle of at most max_k periods settled; neither test holds)",
-}
+#: The relative neighbourhood radius of a non-periodic attractor at least (a landing on it).
+RADIUS = 0.05
 #: How an attractor was found (the map's ``attractor_found_by``).
 FOUND_BY: dict[int, str] = {
     0: "the row sweep of the map (its response)",
@@ -92,9 +109,6 @@ FOUND_BY: dict[int, str] = {
 #: The searches of a coexistence map: continuation along the rows (both ways), along the columns
 #: (both ways), and the starting states.
 SEARCHES = ("rows", "columns", "starts")
-#: Two periodic orbits of the same period are one when a state of one is within this fraction of
-#: each state's range (along the known orbit) of a section point of the other.
-SAME_ORBIT = 1e-4
 
 
 @dataclass(frozen=True)
@@ -120,7 +134,7 @@ class SearchOptions:
     lyapunov_periods : int
         Forcing periods of the Lyapunov exponent of a non-periodic attractor.
     zero_rate : float
-        An exponent is zero when ``|lambda| T`` is below this (per forcing period) or within twice its error.
+        An exponent is zero when ``|lambda| T`` is below this (per forcing period) or within its error.
     """
 
     search: tuple[str, ...] = SEARCHES
@@ -128,10 +142,10 @@ class SearchOptions:
     land_periods: int = 400
     block: int = 50
     max_k: int = 8
-    settle_tol: float = 1e-3
+    settle_tol: float = REPEAT_TOL
     section_points: int = 200
     lyapunov_periods: int = 400
-    zero_rate: float = 0.01
+    zero_rate: float = ZERO_RATE
 
     def __post_init__(self) -> None:
         bad = [s for s in self.search if s not in SEARCHES]
@@ -218,10 +232,9 @@ class MapAttractor:
     branches: set[tuple[int, int]] = field(default_factory=set)
 
     def scale(self) -> np.ndarray:
-        """Each state's unit for distances: its range along the attractor (at least 1e-6 of its magnitude)."""
-        s = np.maximum(self.hi - self.lo, 1e-6 * np.maximum(np.abs(self.lo), np.abs(self.hi)))
-        pos = s[s > 0]
-        return np.where(s > 0, s, float(np.min(pos)) if pos.size else 1.0)
+        """Each state's unit for distances: its range along the attractor, at least 1e-3 of its magnitude
+        (:func:`~gearsym.analysis.sweeps._attractor_id.state_scale`)."""
+        return state_scale(self.lo, self.hi)
 
     def order_key(self) -> tuple[Any, ...]:
         """The order of the attractors at a point: periodic ones first by rattle state, period and
@@ -253,62 +266,6 @@ class Landing:
     section: np.ndarray
     periods: int
     note: str = ""
-
-
-def _project(d: np.ndarray, V: np.ndarray | None) -> np.ndarray:
-    """``d`` (a vector or rows of vectors) without its components along the rigid-body directions ``V``."""
-    if V is None:
-        return d
-    D = np.atleast_2d(d)
-    out = D - (V @ np.linalg.lstsq(V, D.T, rcond=None)[0]).T
-    return out if np.ndim(d) > 1 else out[0]
-
-
-def _extremum(y: np.ndarray, sign: float) -> float:
-    """The largest (``sign`` +1) or least (-1) value of one period of samples (``y[-1]`` is ``y[0]``
-    again), refined by a parabola through the extreme sample and its neighbours."""
-    z = sign * np.asarray(y[:-1], float)
-    i = int(np.argmax(z))
-    a, b, c = z[i - 1], z[i], z[(i + 1) % len(z)]
-    den = a - 2 * b + c
-    return float(sign * (b - 0.125 * (c - a) ** 2 / den)) if den < 0 else float(sign * b)
-
-
-def _peak_to_peak(y: np.ndarray) -> float:
-    """Peak-to-peak of one period of samples (:func:`_extremum`)."""
-    return _extremum(y, 1.0) - _extremum(y, -1.0)
-
-
-def cycle_period(P: np.ndarray, scale: np.ndarray, max_k: int, tol: float, V: np.ndarray | None = None) -> int:
-    """The period of a sequence of section points.
-
-    Parameters
-    ----------
-    P
-        Section points, shape (n + 1, nx).
-    scale
-        Each state's unit.
-    max_k
-        Longest period tried.
-    tol
-        The largest difference accepted, in those units.
-    V
-        Rigid-body directions projected out of the differences (or ``None``).
-
-    Returns
-    -------
-    int
-        The smallest ``k <= max_k`` with ``max |P_n - P_{n-k}| / scale <= tol`` over the last ``k``
-        points, 0 if none.
-    """
-    n = len(P) - 1
-    for k in range(1, max_k + 1):
-        if n - 2 * k + 1 < 0:
-            break
-        d = _project(P[n - k + 1:] - P[n - 2 * k + 1: n - k + 1], V) / scale
-        if np.all(np.isfinite(d)) and float(np.max(np.abs(d))) <= tol:
-            return k
-    return 0
 
 
 def land(system: CompiledSystem, params: Mapping[str, float], x: np.ndarray, opts: SearchOptions,
@@ -356,56 +313,10 @@ def land(system: CompiledSystem, params: Mapping[str, float], x: np.ndarray, opt
         P = Y[::per]
         x = Y[-1].copy()
         done += m
-        scale = np.maximum(np.ptp(Y, axis=0), 1e-9 * np.max(np.abs(Y), axis=0))
-        pos = scale[scale > 0]
-        scale = np.where(scale > 0, scale, float(np.min(pos)) if pos.size else 1.0)
-        k = cycle_period(P, scale, opts.max_k, opts.settle_tol, V)
+        k = settled_period(Y, per, opts.max_k, opts.settle_tol, V)
         if k:
             return Landing(k, x, P, done)
     return Landing(0, x, P, done, f"no cycle of at most {opts.max_k} forcing periods settled in {done} periods")
-
-
-def closed_curve(points: np.ndarray) -> bool:
-    """Whether Poincare points lie on one curve (the section of a quasi-periodic response, an invariant
-    closed curve) rather than a cloud or the layers of a chaotic attractor.
-
-    The points are centred and each state divided by its standard deviation (constant states are
-    dropped); every point is joined to its two nearest neighbours.  Points along one curve, sampled
-    densely enough, make this graph connected; a cloud, or the separate layers of a chaotic
-    attractor's section, fall apart into many pieces (uniform random points in a square: about one
-    piece per fifteen points; the Henon attractor's 300 points: 37 pieces; an irrational rotation
-    on a circle: one).
-
-    Parameters
-    ----------
-    points
-        Shape (n, nx), n at least 16 distinct points.
-
-    Returns
-    -------
-    bool
-    """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    X = np.asarray(points, float)
-    X = X[np.all(np.isfinite(X), axis=1)]
-    if len(X) < 16:
-        return False
-    sd = np.std(X, axis=0)
-    keep = sd > 1e-12 * max(float(np.max(sd)), 1e-300)
-    if not keep.any():
-        return False
-    X = (X[:, keep] - X[:, keep].mean(axis=0)) / sd[keep]
-    X = np.unique(np.round(X, 9), axis=0)
-    n = len(X)
-    if n < 16:
-        return False  # a finite set of points: an orbit of many periods, not a curve
-    _, idx = cKDTree(X).query(X, k=3)
-    A = coo_matrix((np.ones(2 * n), (np.repeat(np.arange(n), 2), idx[:, 1:].ravel())), shape=(n, n))
-    n_comp, _ = connected_components(A, directed=False)
-    return bool(n_comp == 1)
 
 
 class PointSearch:
@@ -467,19 +378,19 @@ class PointSearch:
         for a in self.attractors:
             if a.kind != PERIODIC or a.periods != k:
                 continue
-            d = _project(np.asarray(x, float)[None, :] - a.section, self.V) / a.scale()[None, :]
-            if float(np.min(np.max(np.abs(d), axis=1))) <= tol:
+            if float(np.min(relative_distances(x, a.section, 1.0 / a.scale(), self.V))) <= tol:
                 return a
         return None
 
-    def _nonperiodic_known(self, x: np.ndarray) -> MapAttractor | None:
-        for a in self.attractors:
-            if a.kind == PERIODIC:
-                continue
-            widen = 0.1 * (a.hi - a.lo)
-            if np.all(x >= a.lo - widen) and np.all(x <= a.hi + widen):
-                return a
-        return None
+    def _nonperiodic_known(self, section: np.ndarray) -> MapAttractor | None:
+        """The known non-periodic attractor a landing's Poincare points are on (:meth:`Table.landing`), or ``None``."""
+        clouds = [a for a in self.attractors if a.kind != PERIODIC]
+        if not clouds:
+            return None
+        table = Table.build([(a.section, a.scale(), cloud_radius(a.section, a.scale(), RADIUS), False)
+                             for a in clouds], section.shape[1])
+        i = table.landing(section)
+        return clouds[i] if i >= 0 else None
 
     def connected(self, a: MapAttractor) -> bool:
         """Whether an attractor here is on ``a``'s branch (Newton joined them): continuing ``a`` here
@@ -497,7 +408,7 @@ class PointSearch:
     def take(self, orbit: PeriodicOrbit, found_by: int, source: int | None = None, continued: bool = False
              ) -> MapAttractor | None:
         """Record a verified orbit if it is stable and new; the attractor it is (new or known), or ``None``."""
-        if orbit.stability not in ("asymptotically_stable", "neutral"):
+        if orbit.stability not in STABLE:
             return None
         k = int(round(orbit.periods))
         known = self.known_orbit(orbit.x0, k)
@@ -547,7 +458,7 @@ class PointSearch:
         if not np.all(np.isfinite(landing.x)):
             self.notes.append(f"{FOUND_BY[found_by]}: {landing.note}")
             return None
-        known = self._nonperiodic_known(landing.x)
+        known = self._nonperiodic_known(landing.section)
         if known is not None:
             return known
         a = classify(self, landing, found_by, source)
@@ -558,71 +469,38 @@ class PointSearch:
 
 def describe_orbit(search: PointSearch, orbit: PeriodicOrbit, found_by: int, source: int | None,
                    continued: bool) -> MapAttractor | None:
-    """A stable orbit as an :class:`MapAttractor`: section points, ranges, peak-to-peaks (first state and
-    each mesh's deflection), rattle states; the period-``d`` orbit if its section repeats after ``d | k``."""
-    system = search.system
-    k = int(round(orbit.periods))
-    per = 128
+    """A stable orbit as a :class:`MapAttractor` (:func:`~gearsym.analysis.sweeps._attractor_id.stable_attractor`:
+    section points, extrema, peak-to-peaks of the first state and of each mesh's deflection, rattle
+    states; the period-``d`` orbit if its section repeats after ``d | k`` and that one is stable)."""
     try:
-        tr = orbit.trajectory(n_out=per * k + 1)
+        d = stable_attractor(orbit, search.T, search.solve, search.V)
     except GearsymError as exc:
         search.notes.append(f"the orbit's trajectory failed: {str(exc)[:200]}")
         return None
-    Y = np.asarray(tr.y, float)
-    section = Y[:-1:per][:k]
-    lo, hi = Y.min(axis=0), Y.max(axis=0)
-    a = MapAttractor(PERIODIC, k, np.asarray(orbit.x0, float), section, lo, hi)
-    for d in (d for d in range(1, k) if k % d == 0):
-        diff = _project(section[d:] - section[:-d], search.V) / a.scale()[None, :]
-        if float(np.max(np.abs(diff))) <= SAME_ORBIT:
-            shorter = search.solve(orbit.x0, d)
-            if shorter is None or shorter.stability not in ("asymptotically_stable", "neutral"):
-                return None
-            return describe_orbit(search, shorter, found_by, source, continued)
-    meshes = mesh_deflections(system, tr.t, Y, search.params)
-    mu = float(orbit.max_multiplier)
-    tol = orbit.multiplier_tolerances
-    a.max_multiplier = mu
-    a.stability = 0 if orbit.stability == "asymptotically_stable" else 1
-    a.rattle_state = -1 if orbit.rattle_state is None else int(orbit.rattle_state)
-    a.mesh_rattle = {str(m): int(v) for m, v in orbit.rattle_states.items()}
-    a.peak_to_peak = _peak_to_peak(Y[:, 0])
-    a.mesh_peak_to_peak = {str(m): _peak_to_peak(d) for m, d in meshes.items()}
-    a.lyapunov = math.log(mu) / float(orbit.period) if mu > 0 else -math.inf
-    a.lyapunov_error = float(tol[0]) / (mu * float(orbit.period)) if len(tol) and mu > 0 else math.nan
-    a.found_by, a.source, a.continued = found_by, source, continued
-    return a
+    if d is None:
+        return None
+    return MapAttractor(PERIODIC, d.period, np.asarray(d.orbit.x0, float), d.points, d.minimum, d.maximum,
+                        max_multiplier=d.max_multiplier, stability=0 if d.stability == "asymptotically_stable" else 1,
+                        rattle_state=-1 if d.rattle_state is None else d.rattle_state, mesh_rattle=dict(d.mesh_rattle),
+                        peak_to_peak=float(d.amplitude[0]), mesh_peak_to_peak=dict(d.mesh_peak_to_peak),
+                        lyapunov=d.lyapunov, lyapunov_error=d.lyapunov_error, found_by=found_by, source=source,
+                        continued=continued)
 
 
 def classify(search: PointSearch, landing: Landing, found_by: int, source: int | None) -> MapAttractor | None:
     """A non-periodic landing as a quasi-periodic, chaotic or unclassified :class:`MapAttractor` (module
-    docstring): its Poincare section and its largest Lyapunov exponent."""
-    system, params, opts, T = search.system, search.params, search.opts, search.T
-    n = opts.section_points
-    per = 8
+    docstring; :func:`~gearsym.analysis.sweeps._attractor_id.describe_response`): its Poincare section and its
+    largest Lyapunov exponent."""
+    opts = search.opts
     try:
-        tr = system.simulate(t_end=n * T, x0=landing.x, n_out=per * n + 1, params=params, **search.tolerances)
-        Y = np.asarray(tr.y, float)
-        lyap = lyapunov_exponents(system, params, x0=landing.x, periods=opts.lyapunov_periods, transient=0,
-                                  exponents=1, progress=False,
-                                  **({"rtol": search.tolerances["rtol"]} if "rtol" in search.tolerances else {}))
+        d = describe_response(search.system, search.params, landing.x, search.T, points=opts.section_points,
+                              lyapunov_periods=opts.lyapunov_periods, tolerances=search.tolerances,
+                              zero_rate=opts.zero_rate)
     except GearsymError as exc:
         search.notes.append(f"{FOUND_BY[found_by]}: the non-periodic response could not be classified "
                             f"({str(exc)[:200]})")
         return None
-    section = Y[per::per]
-    search.stats["periods"] += n + opts.lyapunov_periods
-    lam, err = float(lyap.exponents[0]), float(lyap.errors[0])
-    curve = closed_curve(section)
-    if lam > 2 * err and lam * T > opts.zero_rate:
-        kind = CHAOTIC
-    elif abs(lam) <= max(2 * err, opts.zero_rate / T) and curve:
-        kind = QUASI_PERIODIC
-    else:
-        kind = UNCLASSIFIED
-    a = MapAttractor(kind, 0, section[-1].copy(), section, Y.min(axis=0), Y.max(axis=0),
-                  lyapunov=lam, lyapunov_error=err, found_by=found_by, source=source,
-                  note=f"Poincare section: {'one curve' if curve else 'not one curve'} ({n} points); "
-                       f"largest exponent {lam:.4g} +- {err:.2g} ({lam * T:.3g} per forcing period)")
-    a.peak_to_peak = float(np.ptp(Y[:, 0]))
-    return a
+    search.stats["periods"] += opts.section_points + opts.lyapunov_periods
+    return MapAttractor(d.kind, 0, d.points[-1].copy(), d.points, d.minimum, d.maximum, lyapunov=d.lyapunov,
+                        lyapunov_error=d.lyapunov_error, found_by=found_by, source=source, note=d.note,
+                        peak_to_peak=float(d.maximum[0] - d.minimum[0]))

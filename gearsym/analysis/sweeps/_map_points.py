@@ -39,11 +39,12 @@ from ..periodic import (
     periodic_orbit,
     rigid_state_basis,
 )
+from ._attractor_id import sample_scale
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
 
-__all__ = ["EXACT_RTOL", "RESPONSE", "SEARCH", "SEARCH_PERIODS", "map_point"]
+__all__ = ["EXACT_RTOL", "RESPONSE", "SEARCH", "SEARCH_PERIODS", "is_linear", "map_point"]
 
 #: Smallest relative error assigned to an exact (matrix-exponential) monodromy in the stability
 #: rule; the estimate is :meth:`~gearsym.analysis.periodic.PiecewiseLTV.rounding_error`.
@@ -217,7 +218,7 @@ def _stable_response(system: CompiledSystem, params: dict[str, float], method: s
                      ) -> tuple[PeriodicOrbit | None, int, list[str]]:
     """Search the stable response where the orbit found is unstable: ``(orbit, how, notes)``
     (``how`` a key of :data:`SEARCH`; ``notes`` why each start gave none)."""
-    if _linear(system, params, unstable):
+    if is_linear(system, params, unstable.x0, unstable.t0, unstable.period):
         return None, -1, ["a linear system has one periodic orbit, and it is unstable"]
     starts: list[tuple[int, np.ndarray]] = []
     kicks = _unstable_kicks(unstable)
@@ -261,8 +262,7 @@ def _settled(system: CompiledSystem, params: dict[str, float], unstable: Periodi
     except GearsymError as exc:
         return None, f"the integration failed ({exc})"
     Y = np.asarray(tr.y, float)
-    size = np.maximum(np.ptp(Y, axis=0), np.max(np.abs(Y), axis=0) * 1e-6) + 1e-300
-    step = np.max(np.abs(np.diff(Y, axis=0)) / size, axis=1)
+    step = np.max(np.abs(np.diff(Y, axis=0)) / sample_scale(Y), axis=1)
     if not np.all(np.isfinite(step)):
         return None, "the integration diverged"
     if step[-1] <= SETTLED or step[-1] <= 0.5 * step[-6]:
@@ -297,16 +297,33 @@ def _unstable_kicks(orbit: PeriodicOrbit, size: float = 1e-3) -> list[np.ndarray
     return [x0 + d, x0 - d]
 
 
-def _linear(system: CompiledSystem, params: dict[str, float], orbit: PeriodicOrbit) -> bool:
-    """No switching surfaces and a Jacobian that does not depend on the state (at 8 times of the
-    period, the orbit's state against twice it plus one): a linear system, one periodic orbit."""
+def is_linear(system: CompiledSystem, params: Mapping[str, float], x: np.ndarray | None = None, t0: float = 0.0,
+              span: float | None = None) -> bool:
+    """A linear model: no switching surfaces and a Jacobian that does not depend on the state (at 8 times
+    over ``span`` from ``t0``, the state ``x`` against twice it plus one).  It has one periodic orbit.
+
+    Parameters
+    ----------
+    system
+        The compiled system.
+    params
+        Parameter values (declared units).
+    x
+        The state compared (default: the system's initial state).
+    t0, span
+        The times (default: over one forcing period, or 1 without one).
+
+    Returns
+    -------
+    bool
+    """
     gen = system.generated
     if gen.nsw or gen.implicit:
         return False
     p = system.param_vector(params)
-    x = np.asarray(orbit.x0, float)
-    t = orbit.t0 + orbit.period * np.arange(8) / 8
-    X = np.tile(x, (8, 1))
+    h = span if span is not None else (system.period(params) or 1.0)
+    t = t0 + h * np.arange(8) / 8
+    X = np.tile(np.asarray(system.x0 if x is None else x, float), (8, 1))
     J1 = system.engine.evaluate("jac", t, X, p)
     J2 = system.engine.evaluate("jac", t, 2 * X + 1.0, p)
     return bool(np.all(np.abs(J1 - J2) <= 1e-12 * np.maximum(1.0, np.abs(J1))))

@@ -55,6 +55,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...budget import LIMITS, check_count, check_counts, check_orbit_options
+from ...display import netcdf_engine
 from ...errors import ParameterError
 from ...files import atomic_path, save_figure
 from ...progress import progress_bar
@@ -549,16 +550,6 @@ def _hatch(ax: Any, X: np.ndarray, Y: np.ndarray, response: np.ndarray) -> None:
         ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.85)
 
 
-def _netcdf_engine() -> str:
-    for eng, mod in (("netcdf4", "netCDF4"), ("h5netcdf", "h5netcdf")):
-        try:
-            __import__(mod)
-            return eng
-        except ImportError:
-            continue
-    return "scipy"
-
-
 def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, stem: str = "map"
              ) -> list[Path]:
     """Write ``<stem>.nc`` (netCDF) and ``<stem>.png`` (heat map) into ``out_dir``.
@@ -583,7 +574,7 @@ def save_map(ds: xr.Dataset, out_dir: str | Path, quantity: str | None = None, s
     out.mkdir(parents=True, exist_ok=True)
     nc = out / f"{stem}.nc"
     with atomic_path(nc) as tmp:
-        ds.to_netcdf(tmp, engine=_netcdf_engine())
+        ds.to_netcdf(tmp, engine=netcdf_engine())
     q = quantity or str(ds.attrs.get("quantity", "max_multiplier"))
     if q not in ds:
         raise ParameterError(f"the map has no variable '{q}' (have: {', '.join(ds.data_vars)})")
