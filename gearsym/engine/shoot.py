@@ -8,7 +8,8 @@ in one driver call per solve:
   ``phi(s_{i+1}; s_i, X_i) - X_{i+1}`` of single or multiple shooting, one integration with the
   monodromy per segment (CVODE, or IDA for implicit models and DAEs), the amplitude of the
   samples for the state scales; the orbit's multipliers, isolation and switching functions at
-  its start once it converged (one segment);
+  its start once it converged (one segment), and its verification runs (one plain integration
+  per segment from the converged states, :class:`VerifyRuns`);
 * :class:`Corrector` / :func:`correct_in_c`: the continuation's corrector (``gs_correct_ws``):
   the residual in the differential states with the exact ``F_lambda`` (the parameter
   sensitivity in the same integration), single or multiple shooting, DAEs; the corrected
@@ -371,7 +372,8 @@ def shooter_for(engine: Engine, settings: ShootSettings | None = None, **keyword
 def shoot_in_c(engine: Engine, X0: np.ndarray, p: np.ndarray, times: np.ndarray,
                settings: ShootSettings | None = None, *, anchor: np.ndarray | None = None,
                **keywords: Any) -> ShootOutcome:
-    """Shooting's Newton for ``phi(s_{i+1}; s_i, X_i) = X_{i+1}`` (cyclically) in one driver call.
+    """Shooting's Newton for ``phi(s_{i+1}; s_i, X_i) = X_{i+1}`` (cyclically) in one driver call
+    (with a converged orbit's verification runs, :attr:`ShootOutcome.verification`).
 
     Parameters
     ----------

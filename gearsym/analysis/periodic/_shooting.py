@@ -108,8 +108,8 @@ def shoot(system: CompiledSystem, period: float | None = None, periods: float = 
     -------
     PeriodicOrbit
         Verified before it is returned: one integration over its period without the
-        variational equations must close (:mod:`gearsym.analysis.periodic._verification`;
-        ``info["verification"]``).
+        variational equations (made in the C call that solved it) must close
+        (:mod:`gearsym.analysis.periodic._verification`; ``info["verification"]``).
 
     Raises
     ------
