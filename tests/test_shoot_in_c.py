@@ -157,6 +157,35 @@ def test_every_solve_and_correction_runs_the_one_iteration(ks, monkeypatch, capl
     assert msgs and set(msgs) == {f"continuation corrector: residuals evaluated in Python: {why}"}
 
 
+def test_a_correction_in_c_is_one_driver_call(ks, monkeypatch):
+    """A correction whose residuals the C evaluator makes is one driver call (gs_correct_ws),
+    with nothing else in C per point: the choice of F_lambda's source for Python evaluations
+    (a period gradient, gs_eval_period_grad) is made only when Python evaluates (it was made at
+    every correction: twice main's C calls per continuation)."""
+    ks.derivative_engine()
+    eng = ks._derivative_engine
+    lib, calls = eng._lib, []
+
+    class Spy:
+        def __getattr__(self, name):
+            fn = getattr(lib, name)
+            if not name.startswith(("gs_correct", "gs_simulate", "gs_eval", "gs_shoot")):
+                return fn
+
+            def spied(*args):
+                calls.append(name)
+                return fn(*args)
+
+            return spied
+
+    monkeypatch.setattr(eng, "_lib", Spy())
+    br = gearsym.continuation(ks, "Omega", 0.6, 0.7, progress=False)
+    monkeypatch.undo()
+    assert br.complete and br.info["corrector"] == "C" and len(br.points) > 10
+    assert calls.count("gs_correct_ws") >= len(br.points)
+    assert calls.count("gs_eval_period_grad") <= 2 and len(set(calls) - {"gs_correct_ws", "gs_eval_period_grad"}) == 0
+
+
 def test_a_residual_handed_back_to_python_is_reported_and_logged(ks, monkeypatch, caplog):
     """The C evaluator that cannot evaluate a request (here every one: its parameter direction made
     NaN) hands it to the problem's own evaluation; the same iteration goes on, the branch equals the
