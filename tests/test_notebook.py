@@ -4,8 +4,9 @@ interpreter, and every display in it is short and readable.
 The kernel is this interpreter (a kernel spec written into a temporary folder, so no installed
 ``python3`` kernel of another environment is picked up); the notebook loads a shipped scene,
 shows its equations (``_repr_latex_``), compiles, simulates, plots, finds the periodic orbit,
-continues it (with a progress bar), draws a small map, computes the natural modes, converts
-results to xarray / pandas and round-trips one through netCDF.  The cells are tagged with what
+continues it (with a progress bar), draws a small map, computes the natural modes, runs a
+run-up (its HTML card and order tracks), converts results to xarray / pandas and round-trips
+one through netCDF.  The cells are tagged with what
 they promise: ``html`` (a ``text/html`` output), ``latex`` (``text/latex``), ``gearsym-repr``
 (a gearsym object whose text repr is at most :data:`MAX_REPR` characters), ``progress`` (a
 progress bar drawn in the notebook).

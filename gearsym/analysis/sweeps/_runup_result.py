@@ -215,8 +215,11 @@ class RunupResult(RunupDisplay):
         return out
 
     def __repr__(self) -> str:
-        return (f"RunupResult({self.scene}: {self.parameter} {self.start:g} -> {self.stop:g} {self.unit} in "
-                f"{self.duration:g} {self.time_unit or ''}, {len(self.t)} samples, {len(self.bin_speed)} speed bins, "
+        def unit(u: str | None) -> str:  # a dimensionless value carries no unit
+            return f" {u}" if u and u != "1" else ""
+
+        return (f"RunupResult({self.scene}: {self.parameter} {self.start:g} -> {self.stop:g}{unit(self.unit)} in "
+                f"{self.duration:g}{unit(self.time_unit)}, {len(self.t)} samples, {len(self.bin_speed)} speed bins, "
                 f"signal {self.signal_name})")
 
     # ------------------------------------------------------------ export
