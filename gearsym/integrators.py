@@ -3,21 +3,22 @@
 Every integration method gearsym offers is one frozen :class:`IntegrationMethod` entry of
 :data:`INTEGRATION_METHODS`: which SUNDIALS integrator runs it (CVODE or IDA), its linear
 multistep family, the model forms it is offered for, the nonlinear iterations and linear
-solvers that apply, what it supports (variational equations, parameter sensitivities, the
-shooting Newton and the continuation corrector in C) and the ``GS_METHOD_*`` code of
+solvers that apply, what it supports (variational equations, parameter sensitivities) and the
+``GS_METHOD_*`` code of
 ``gs_driver.h`` that selects the integrator in C.  Everything that names, checks or lists
 methods reads this registry:
 
-* the engine's C call (:meth:`gearsym.engine.driver.Engine.run`, the Newton iterations of
-  :mod:`gearsym.engine.shoot`): the C codes of a method and of its settings;
+* the engine's C call (:meth:`gearsym.engine.driver.Engine.run`, the evaluators of THE Newton
+  iteration in :mod:`gearsym.engine.shoot`): the C codes of a method and of its settings (the
+  iteration runs in C with every method: its evaluations are the driver's runs);
 * :meth:`gearsym.System.simulate` / :meth:`~gearsym.System.flow`: the default method of a
   model form and the checks of a requested one;
 * a scene's ``[simulate] method`` (:mod:`gearsym.spec.settings`) and ``gearsym simulate
   --method``: the names;
 * the exported C program and FMU (:mod:`gearsym.export.model_info`): a table of the names,
   codes and iterations, compiled into ``gs_export_data.h``;
-* the analysis: the predicates :func:`supports_c_shooting`, :func:`supports_c_corrector`, ...,
-  so that no analysis module names a method.
+* the analysis: the predicates :func:`supports_monodromy`, :func:`supports_sensitivities`,
+  :func:`default_method`, so that no analysis module names a method.
 
 The module is data and checks only (it imports nothing of gearsym but :mod:`gearsym.errors` and
 :mod:`gearsym.options`), so the lowest layer that reads a method name, the scene's settings, may
@@ -37,7 +38,7 @@ from .options import did_you_mean
 
 __all__ = ["DEFAULT_METHOD", "EXPLICIT", "IMPLICIT", "INTEGRATION_METHODS", "LINEAR_SOLVERS", "NONLINEAR",
            "IntegrationMethod", "by_code", "check_method", "default_method", "get_method", "method_names",
-           "supports_c_corrector", "supports_c_shooting", "supports_monodromy", "supports_sensitivities"]
+           "supports_monodromy", "supports_sensitivities"]
 
 #: The model forms: ``x' = f(t, x, p)`` and the residual (mass-matrix, DAE) form.
 EXPLICIT, IMPLICIT = "explicit", "implicit"
@@ -73,12 +74,11 @@ class IntegrationMethod:
     linear_solvers : tuple of str
         Newton's linear solvers that apply (names of :data:`LINEAR_SOLVERS`; empty: no Newton).
     monodromy : bool
-        The variational equations (the monodromy with saltation matrices) are integrated.
+        The variational equations (the monodromy with saltation matrices) are integrated:
+        shooting (its Newton matrix) and the Floquet multipliers need them.
     sensitivities : bool
-        Forward parameter sensitivities with event-time terms are integrated.
-    c_shooting, c_corrector : bool
-        The shooting Newton / the continuation corrector may run in C with it
-        (:func:`gearsym.engine.shoot.shoot_in_c`, :func:`gearsym.engine.shoot.correct_in_c`).
+        Forward parameter sensitivities with event-time terms are integrated: the
+        continuation's exact ``F_lambda`` (its residuals evaluated in C) needs them.
     summary : str
         One line for help texts and the documentation.
     """
@@ -92,8 +92,6 @@ class IntegrationMethod:
     linear_solvers: tuple[str, ...]
     monodromy: bool
     sensitivities: bool
-    c_shooting: bool
-    c_corrector: bool
     summary: str
 
     def nonlinear_code(self, requested: str = "auto") -> int:
@@ -136,17 +134,17 @@ _CVODE_LINEAR = ("dense", "blockdiag")
 #: Every integration method, in the order the documentation and the messages list them.
 INTEGRATION_METHODS: Mapping[str, IntegrationMethod] = MappingProxyType({m.name: m for m in (
     IntegrationMethod("adams", "CVODE", "Adams-Moulton", 1, (EXPLICIT,), ("newton", "fixedpoint"), _CVODE_LINEAR,
-                      monodromy=True, sensitivities=True, c_shooting=True, c_corrector=True,
+                      monodromy=True, sensitivities=True,
                       summary="CVODE, Adams-Moulton orders 1-12, modified Newton with the analytic Jacobian "
                               "(non-stiff models: fewer, more accurate steps)"),
     IntegrationMethod("bdf", "CVODE", "BDF", 0, (EXPLICIT,), ("newton", "fixedpoint"), _CVODE_LINEAR,
-                      monodromy=True, sensitivities=True, c_shooting=True, c_corrector=True,
+                      monodromy=True, sensitivities=True,
                       summary="CVODE, BDF orders 1-5, modified Newton with the analytic Jacobian (stiff models)"),
     IntegrationMethod("ida", "IDA", "BDF", 2, (IMPLICIT,), ("newton",), _CVODE_LINEAR,
-                      monodromy=True, sensitivities=True, c_shooting=False, c_corrector=False,
+                      monodromy=True, sensitivities=True,
                       summary="IDA, BDF orders 1-5 on the residual F(t, x, x') = 0 (implicit and DAE models)"),
     IntegrationMethod("adams_fixedpoint", "CVODE", "Adams-Moulton", 1, (EXPLICIT,), ("fixedpoint",), (),
-                      monodromy=True, sensitivities=True, c_shooting=True, c_corrector=True,
+                      monodromy=True, sensitivities=True,
                       summary="CVODE, Adams-Moulton with the fixed-point (functional) iteration: no Jacobian and "
                               "no linear algebra (large non-stiff models)"),
 )})
@@ -223,16 +221,6 @@ def check_method(name: str, implicit: bool) -> IntegrationMethod:
 def _supports(name: str | None, flag: str) -> bool:
     m = INTEGRATION_METHODS.get(name) if isinstance(name, str) else None
     return bool(m is not None and getattr(m, flag))
-
-
-def supports_c_shooting(name: str | None) -> bool:
-    """Whether the shooting Newton may run in C with method ``name`` (False for unknown names)."""
-    return _supports(name, "c_shooting")
-
-
-def supports_c_corrector(name: str | None) -> bool:
-    """Whether the continuation corrector may run in C with method ``name`` (False for unknown names)."""
-    return _supports(name, "c_corrector")
 
 
 def supports_sensitivities(name: str | None) -> bool:

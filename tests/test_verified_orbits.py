@@ -97,18 +97,70 @@ def test_a_reported_orbit_closes_under_the_reference(ks):
 def test_a_converged_state_that_does_not_return_is_not_reported(ks, monkeypatch):
     """A Newton iteration that reports convergence at a state 1e-4 off the orbit (a solver that
     lies): the verification integration finds that the state does not return."""
-    real = shooting.shoot_in_c
+    real = shooting.ShootingProblem.solve
 
-    def lying(*a, **kw):
-        out = real(*a, **kw)
-        return dataclasses.replace(out, x=out.x + np.array([1e-4, 0.0])) if out.converged else out
+    def lying(self, X):
+        run = real(self, X)
+        return dataclasses.replace(run, X=run.X + np.array([1e-4, 0.0])) if run.converged else run
 
-    monkeypatch.setattr(shooting, "shoot_in_c", lying)
+    monkeypatch.setattr(shooting.ShootingProblem, "solve", lying)
     with pytest.raises(ConvergenceError, match="does not return"):
         ks.periodic_orbit()
     o = ks.periodic_orbit(raise_on_failure=False)
     assert not o.converged and not o.info["verification"]["ok"]
     assert np.max(_return_defect(o.x0, o.period)) > 1e-5  # the reference agrees: no orbit
+
+
+@pytest.mark.parametrize("segments", [1, 3])
+def test_the_verification_integration_runs_in_the_solves_c_call(ks, monkeypatch, segments):
+    """The verification integration of a shooting orbit (issue 24) is made in the C call that
+    solved it (issue 26: no second driver call per solve), and it is the integration
+    ``segment_closure`` makes through ``System.flow``: the same closure; the orbit closes under
+    the scipy reference."""
+    from gearsym.analysis.periodic._verification import segment_closure
+
+    x0 = ks.periodic_orbit().x0
+    calls: list[str] = []
+    lib = ks.engine._lib
+
+    class Spy:
+        def __getattr__(self, name):
+            fn = getattr(lib, name)
+            if not name.startswith(("gs_simulate", "gs_shoot", "gs_correct")):
+                return fn
+
+            def spied(*args):
+                calls.append(name)
+                return fn(*args)
+
+            return spied
+
+    monkeypatch.setattr(ks.engine, "_lib", Spy())
+    o = ks.periodic_orbit(x0=x0, transient=0, segments=segments)
+    monkeypatch.undo()
+    assert o.converged and calls.count("gs_shoot_ws") == 1 and calls[-1] == "gs_shoot_ws"
+    v = o.info["verification"]
+    times = o.t0 + o.period * np.arange(segments + 1) / segments
+    c = segment_closure(ks, o.segment_states, times, ks.param_vector(), rtol=o.info["rtol"], atol=o.info["atol"],
+                        tol=o.info["tol"], amplification=o.max_multiplier,
+                        amplitude=np.asarray(o.info["state_scales"]))
+    assert v["ok"] and c.ok and v["state"] == c.state
+    assert v["residual"] == pytest.approx(c.residual, rel=1e-9, abs=0.0)
+    assert v["relative"] == pytest.approx(c.relative, rel=1e-9, abs=0.0)
+    assert np.max(_return_defect(o.x0, o.period)) < 1e-8
+
+
+def test_a_failed_verification_run_is_reported_as_a_failed_verification():
+    """A verification run that failed (its error, made in the solve's C call) is a failed
+    verification naming the error, as a failed ``System.flow`` is."""
+    from gearsym.analysis.periodic._verification import runs_closure
+
+    c = runs_closure(np.zeros((1, 2)), None, "too much work at t=1.5", np.ones(2), rtol=1e-9, atol=1e-12, tol=1e-8)
+    assert not c.ok and c.relative == math.inf and c.error == "too much work at t=1.5"
+    assert c.message() == "the verification integration over one period failed: too much work at t=1.5"
+    ok = runs_closure(np.array([[1.0, 2.0]]), np.array([[1.0 + 1e-12, 2.0]]), "", np.array([1.0, 2.0]), rtol=1e-9,
+                      atol=1e-12, tol=1e-8)
+    assert ok.ok and ok.residual == pytest.approx(1e-12, rel=1e-3) and ok.state == 0
 
 
 def test_fixed_harmonics_that_do_not_close_are_no_orbit(ks):
@@ -143,17 +195,17 @@ def test_a_corrector_that_returns_a_state_that_does_not_return_stops_the_branch(
     """The corrector in C returns a point 1e-4 off the orbit it integrated beyond Omega = 0.65:
     the point's verification (the plain run of its samples) rejects it and the branch ends
     incomplete instead of reporting it."""
-    real = Continuer._correct_in_c
+    real = Continuer.correct
 
-    def lying(self, z, row, target, t_ref=None):
-        out = real(self, z, row, target, t_ref)
-        if out is not None and out[0][-1] > 0.65:
+    def lying(self, z, row, target, Flam=None, t_ref=None):
+        out = real(self, z, row, target, Flam, t_ref)
+        if out[0][-1] > 0.65:
             zz = out[0].copy()
             zz[0] += 1e-4
             return zz, out[1], out[2]
         return out
 
-    monkeypatch.setattr(Continuer, "_correct_in_c", lying)
+    monkeypatch.setattr(Continuer, "correct", lying)
     br = continuation(ks, "Omega", 0.6, 0.7, progress=False)
     assert not br.complete and "does not return" in br.stop_reason
     assert br.values.max() <= 0.65 + 1e-12

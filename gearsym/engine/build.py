@@ -97,6 +97,7 @@ DRIVER_C_FILES: tuple[str, ...] = (
     "gs_eval.c",
     "gs_shoot.c",
     "gs_correct.c",
+    "gs_newton.c",
     "gs_batch.c",
     "gs_ramp.c",
 )

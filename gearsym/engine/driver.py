@@ -27,7 +27,15 @@ from gearsym.engine.run_settings import (
     SensitivityRequest,
     settings_from_keywords,
 )
-from gearsym.engine.sim_args import GsCorrectArgs, GsIsolation, GsMultipliers, GsRamp, GsShootArgs, GsSimArgs
+from gearsym.engine.sim_args import (
+    GsCorrectorFlow,
+    GsIsolation,
+    GsMultipliers,
+    GsNewton,
+    GsOrbitFlow,
+    GsRamp,
+    GsSimArgs,
+)
 from gearsym.errors import ParameterError
 from gearsym.integrators import INTEGRATION_METHODS, LINEAR_SOLVERS, NONLINEAR
 
@@ -636,6 +644,21 @@ def check_solver_size(nx: int, nd: int, monodromy: bool, n_sens: int = 0, nonlin
         raise EngineInputError(str(exc)) from None
 
 
+def _newton_signatures(lib: Any) -> None:
+    """The signatures of THE Newton iteration (gs_newton.c) and its C evaluators (absent from
+    objects built before them)."""
+    for name, args in (("gs_shoot_ws", [C.c_void_p, C.POINTER(GsSimArgs), C.c_void_p]),
+                       ("gs_correct_ws", [C.c_void_p, C.POINTER(GsSimArgs), C.c_void_p]),
+                       ("gs_newton_work_size", [C.c_void_p]), ("gs_newton_tangent", [C.c_void_p])):
+        if hasattr(lib, name):
+            getattr(lib, name).restype = C.c_int
+            getattr(lib, name).argtypes = args
+    for name in ("gs_newton_start", "gs_newton_restart", "gs_newton_next"):
+        if hasattr(lib, name):
+            getattr(lib, name).restype = None
+            getattr(lib, name).argtypes = [C.c_void_p]
+
+
 def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
                 build_key: str | None = None) -> Engine:
     """Load a model + driver shared object and check it and the SUNDIALS runtime.
@@ -728,13 +751,11 @@ def load_engine(so_path: str | os.PathLike[str], *, sha256: str | None = None,
         lib.gs_eval_ramp.restype = C.c_int
         lib.gs_eval_ramp.argtypes = [C.c_void_p, C.c_int, C.c_int, C.c_void_p, C.c_void_p, C.c_void_p, C.c_void_p,
                                      C.POINTER(GsRamp), C.c_void_p, C.c_char_p, C.c_int]
-    for name in ("gs_shoot_ws", "gs_correct_ws"):  # Newton in C (absent from objects built before them)
-        if hasattr(lib, name):
-            getattr(lib, name).restype = C.c_int
-            getattr(lib, name).argtypes = [C.c_void_p, C.POINTER(GsSimArgs), C.c_void_p]
+    _newton_signatures(lib)
     for fn, struct, mirror in (("gs_sizeof_args", "gs_sim_args", GsSimArgs),
-                               ("gs_sizeof_shoot_args", "gs_shoot_args", GsShootArgs),
-                               ("gs_sizeof_correct_args", "gs_correct_args", GsCorrectArgs)):
+                               ("gs_sizeof_newton", "gs_newton", GsNewton),
+                               ("gs_sizeof_orbit_flow", "gs_orbit_flow", GsOrbitFlow),
+                               ("gs_sizeof_corrector_flow", "gs_corrector_flow", GsCorrectorFlow)):
         if not hasattr(lib, fn):  # (the Newton structs' checks are absent from objects built before them)
             continue
         getattr(lib, fn).restype, getattr(lib, fn).argtypes = C.c_int, []
@@ -811,8 +832,9 @@ def mirror_layout(mirror: type[C.Structure]) -> list[Field]:
 def _mirrors() -> dict[str, type[C.Structure]]:
     """C struct name -> its ctypes mirror (read from this module when called, so that a test
     may replace a mirror)."""
-    return {"gs_sim_args": GsSimArgs, "gs_shoot_args": GsShootArgs, "gs_correct_args": GsCorrectArgs,
-            "gs_multipliers": GsMultipliers, "gs_isolation": GsIsolation, "gs_ramp": GsRamp}
+    return {"gs_sim_args": GsSimArgs, "gs_newton": GsNewton, "gs_orbit_flow": GsOrbitFlow,
+            "gs_corrector_flow": GsCorrectorFlow, "gs_multipliers": GsMultipliers, "gs_isolation": GsIsolation,
+            "gs_ramp": GsRamp}
 
 
 def check_mirrors(layout: dict[str, list[Field]], path: Path | str = "",

@@ -195,28 +195,22 @@ int gs_check_abi(char* msg, int len);
 
 /* sizeof(gs_sim_args), so that the Python side can verify its ctypes layout. */
 int gs_sizeof_args(void);
-int gs_sizeof_shoot_args(void);   /* sizeof(gs_shoot_args): the ctypes mirror's check */
-int gs_sizeof_correct_args(void); /* sizeof(gs_correct_args) */
+int gs_sizeof_newton(void);        /* sizeof(gs_newton): the ctypes mirror's check */
+int gs_sizeof_orbit_flow(void);    /* sizeof(gs_orbit_flow) */
+int gs_sizeof_corrector_flow(void);/* sizeof(gs_corrector_flow) */
 
 /* The layout of the argument structs (gs_sim_args, gs_multipliers, gs_isolation,
- * gs_shoot_args, gs_correct_args), one field per index i = 0, 1, ...: the struct's and
+ * gs_newton, gs_orbit_flow, gs_corrector_flow), one field per index i = 0, 1, ...: the struct's and
  * the field's names, offsetof, sizeof and kind ('d' double, 'i' int, 'l' long, 'p'
  * pointer, 'a' char array, 's' struct), so that the Python side verifies its ctypes
  * mirrors field by field (two swapped fields of one size keep the struct's size).
  * Returns 0, or -1 past the last field. */
 int gs_abi_field(int i, const char** type, const char** field, long* offset, long* size, int* kind);
 
-/* ---- Newton's method for a periodic orbit, in C (see gs_shoot_ws in gs_driver.c) ---- */
-#define GS_SHOOT_CONVERGED        0
-#define GS_SHOOT_GAVE_UP_DECREASE 1  /* a full step did not decrease the residual (damping) */
-#define GS_SHOOT_GAVE_UP_ITER     2  /* max_iter steps taken                               */
-#define GS_SHOOT_GAVE_UP_SINGULAR 3  /* a (nearly) singular Newton matrix                  */
-#define GS_SHOOT_GAVE_UP_RUN      4  /* an integration after the first failed              */
-#define GS_SHOOT_GAVE_UP_EVENTS   5  /* more events than the event log holds               */
-/* ---- multipliers of a monodromy, computed by the Newton iterations in C once they converge ---- */
+/* ---- multipliers of a monodromy, computed by the orbit solvers in C once they converge ---- */
 /* With the three LAPACK routines given (scipy's cython_lapack dgebal, dgesdd, dgeev: C functions */
 /* taking Fortran's arguments): the multipliers and their tolerances as                           */
-/* gearsym.analysis.stability.multiplier_tolerances computes them (balance, 2-norm, delta = 100   */
+/* gearsym.analysis.periodic.multiplier_tolerances computes them (balance, 2-norm, delta = 100    */
 /* max(rtol, eps) max(1, |M|), eigenvalue condition numbers from the left and right vectors);     */
 /* unsorted, LAPACK's order.  Any routine failing leaves ok = 0 (Python computes them then).     */
 typedef struct gs_multipliers {
@@ -231,9 +225,7 @@ typedef struct gs_multipliers {
   int     ok;           /* out: 1 when the three arrays hold them                            */
 } gs_multipliers;
 
-#define GS_SHOOT_GAVE_UP_OTHER    6  /* a non-finite residual                              */
-
-/* ---- is the converged orbit isolated?  (gearsym.analysis.isolation.isolation without trivial ---- */
+/* ---- is the converged orbit isolated?  (gearsym.analysis.periodic.isolation without trivial --- */
 /* directions): in the variables scaled by the orbit's state magnitudes d (entries that are not  */
 /* finite and > 0 count as 1), Ms = D^-1 M D; `norm` is the 2-norm of Ms, `sigma` the smallest    */
 /* singular value of Ms - I and direction = d * v its right singular vector (dgesdd, the routine  */
@@ -246,101 +238,222 @@ typedef struct gs_isolation {
   int     ok;           /* out: 1 when the three outputs hold them                          */
 } gs_isolation;
 
-typedef struct gs_shoot_args {
-  double  tol;          /* converged: max_i |R_i| / scale_i <= tol (or the noise rules)     */
-  double  scale_floor;  /* scale_i = max(max_k |x_i(t_out[k])|, 1e-9 max_j(...), floor)    */
-  double  pivot_tol;    /* give up when min |u_kk| <= pivot_tol * max(1, max |u_kk|)        */
-  int     max_iter;     /* Newton steps allowed                                            */
-  double* x;            /* [nx] in: the guess; out: the last iterate (the orbit's state)     */
-  double* scale;        /* [nx] out: the scales of the last evaluation                      */
-  double* hist_abs;     /* [max_iter + 1] out: max |R| of each accepted evaluation           */
-  double* hist_rel;     /* [max_iter + 1] out: max |R_i| / scale_i                           */
-  int     n_hist;       /* out: evaluations recorded                                       */
-  int     iterations;   /* out: Newton steps accepted (s->x is the last accepted iterate)   */
-  int     note;         /* out: 0 residual <= tol; 1 full step below tol, residual <= 100 tol; */
-                        /* 2 a last step below 10 tol applied without integrating           */
-  int     outcome;      /* out: GS_SHOOT_*                                                  */
-  gs_multipliers mult;  /* the multipliers of the last evaluation's monodromy when converged */
-  gs_isolation iso;     /* its isolation, in the scales s->scale, when converged            */
-  double* g0_out;       /* [nsw] out (NULL: not wanted): the switching functions at        */
-                        /* (t0, x) of the converged orbit, as gs_eval gives them            */
-  int     g0_ok;        /* out: 1 when g0_out holds them                                    */
-} gs_shoot_args;
+/* ==========================================================================================
+ * THE damped Newton iteration of the periodic-orbit solvers (gs_newton.c), written once:
+ * shooting's Newton on F(X) = 0 (GS_NEWTON_ORBIT) and the continuation's pseudo-arclength
+ * corrector on F(u, lambda) = 0 plus row . (z / S) = target (GS_NEWTON_CORRECTOR).
+ *
+ * Reverse communication: the iteration never integrates.  gs_newton_start() sets
+ * request = GS_NEWTON_EVALUATE and z_eval; the caller evaluates the problem there, writes
+ * R, J (, Flam, amplitude) and eval_status, sets answered = 1 and calls gs_newton_next(),
+ * which makes the next request or ends (request = GS_NEWTON_DONE, see outcome).  The C
+ * evaluators (gs_shoot_ws: the shooting residual over the flow; gs_correct_ws: the
+ * continuation's) answer in the same C call; the analysis answers (in Python) what they do
+ * not evaluate (harmonic balance, ...).  All arrays are the caller's.
+ * ========================================================================================== */
+#define GS_NEWTON_ORBIT      0   /* unknowns X (segments x nx), F_i = phi_i(X_i) - X_{i+1}     */
+#define GS_NEWTON_CORRECTOR  1   /* unknowns z = (u, lambda): F(u, lambda) = 0 and the row      */
 
-/* Newton on x(t_end; t0, x) = x with the run described by `a` (want_monodromy = 1, an output
- * grid of >= 2 samples whose magnitudes give the scales, x0 ignored: s->x is the start).
- * After a converged outcome the run buffers of `a` (x_final, monodromy, events, y_out)
- * hold the last evaluation.  Returns 0 (see s->outcome) or the status of a failed first
- * run (or of an interrupt). */
-int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s);
+#define GS_NEWTON_DONE       0   /* request: the iteration ended (outcome)                      */
+#define GS_NEWTON_EVALUATE   1   /* request: evaluate at z_eval                                 */
 
-/* ---- the continuation's pseudo-arclength corrector, in C (see gs_correct_ws in gs_driver.c) ---- */
-typedef struct gs_correct_args {
-  int     nx;           /* states (the unknowns are z = (x, lambda), nx + 1)               */
-  double* z;            /* [nx+1] in: the predicted point; out: the corrected one          */
-  const double* row;    /* [nx+1] the constraint row . (z / S) = target                    */
+#define GS_NEWTON_CONVERGED   0
+#define GS_NEWTON_DIVERGED    1  /* the residual fell by less than diverge_ratio (corrector)    */
+#define GS_NEWTON_MAX_ITER    2  /* max_iter steps taken                                        */
+#define GS_NEWTON_SINGULAR    3  /* the Newton step is not finite                               */
+#define GS_NEWTON_EVAL_FAILED 4  /* an evaluation that had to succeed failed (eval_status,      */
+                                 /* eval_msg): the start, or the corrector's last damped trial  */
+#define GS_NEWTON_STALLED     5  /* no damped step reduces the residual (eval_msg: the last     */
+                                 /* failed trial's message, if any)                             */
+#define GS_NEWTON_NONFINITE   6  /* a non-finite residual                                       */
+
+/* history entry kinds (orbit) */
+#define GS_NEWTON_H_START     0  /* the evaluation at the start                                */
+#define GS_NEWTON_H_STEP      1  /* an accepted step                                           */
+#define GS_NEWTON_H_RESTART   2  /* the evaluation at a restart (gs_newton_restart)            */
+#define GS_NEWTON_H_FLOOR     3  /* converged at the integration's noise floor                 */
+
+typedef struct gs_newton {
+  /* ---- the problem and the policy (in) ---- */
+  int     kind;           /* GS_NEWTON_ORBIT or GS_NEWTON_CORRECTOR                           */
+  int     n;              /* unknowns: segments * nx (orbit), nu + 1 (corrector)             */
+  int     nr;             /* residual rows: n (orbit), nu (corrector)                        */
+  int     nx;             /* orbit: states per segment (the amplitude's and the scale's size) */
+  int     segments;       /* orbit: J holds the segment monodromies M_i (nx x nx each)        */
+  int     max_iter;       /* Newton steps allowed (over restarts)                            */
+  double  tol;
+  double  min_damping;    /* the step is halved from 1 down to min_damping ...                */
+  double  decrease;       /* ... until the norm falls below (1 - decrease * damping) r ...    */
+  double  accept_below;   /* ... or below accept_below ...                                    */
+  int     accept_last;    /* ... or (1) the smallest damping is taken anyway                   */
+  int     apply_final_step; /* a step below the tolerance is added without an evaluation     */
+  double  diverge_ratio;  /* > 0: after two steps, end when r > diverge_ratio r_prev ...      */
+  double  diverge_floor;  /* ... and r > diverge_floor                                        */
+  double  trunc_level;    /* orbit: singular values of the scaled Jacobian below             */
+                          /* trunc_level * max(1, its largest) are dropped from the step      */
+  double  scale_floor;    /* orbit: scale_i = max(amplitude_i, 1e-9 max_j amplitude_j,        */
+                          /* scale_floor) (all 1 if the amplitude is not finite)              */
+  const double* row;      /* corrector: [n] the constraint row . (z / S) = target            */
   double  target;
-  const double* S;      /* [nx+1] scales of the unknowns                                   */
-  const double* Rs;     /* [nx] scales of the residual rows                                */
-  double  tol;          /* converged: max |R_i| / Rs_i <= tol (or a step below tol with    */
-                        /* the residual below 100 tol), constraint within 1e-9             */
-  int     max_iter;     /* Newton steps allowed                                            */
-  double  min_damping;  /* smallest damping tried (halving from 1)                         */
-  double  periods;      /* orbit period = periods * T(p)                                   */
-  double  lam0;         /* p(lambda) = p0 + (lambda - lam0) D                              */
-  const double* p0;     /* [np]                                                            */
-  const double* D;      /* [np]                                                            */
-  double  atol;         /* absolute tolerance of the states (variational: the same;        */
-                        /* the sensitivity atol / max |p_k| over the entries D moves)      */
-  double  dP;           /* scratch: d P / d lambda of the current run                      */
-  double* R_out;        /* [nx] out: the residual at the corrected point                   */
-  double* M_out;        /* [nx*nx] out: its monodromy, row-major                           */
-  double* Flam_out;     /* [nx] out: its F_lambda                                          */
-  double  residual;     /* out: max |R_i| / Rs_i                                           */
-  int     iterations;   /* out: Newton steps taken                                         */
-  int     n_runs;       /* out: integrations made                                          */
-  int     outcome;      /* out: GS_SHOOT_*                                                 */
-  /* after a converged outcome, with n_samples >= 2: one more run of the corrected orbit      */
-  /* without variational equations (what System.flow(..., monodromy=False) gives), sampled   */
-  /* at n_samples evenly spaced times from t0 to t0 + P, plus the switching functions and    */
-  /* the mesh deflections at the samples (as gs_eval); the event log, x_final and the        */
-  /* statistics of `a` still describe the corrected point's run.  Any failure of this run    */
-  /* only leaves samples_ok = 0.                                                              */
+  const double* S;        /* corrector: [n] scales of the unknowns                           */
+  const double* Rs;       /* corrector: [nr] scales of the residual rows                     */
+  int     n_anchor;       /* rows pinning the rigid-body coordinates (0: none): the step is    */
+  double* anchor;         /* the least-squares solution with them; [n_anchor * n] row-major, */
+                          /* orbit: in the unknowns; corrector: in the scaled unknowns z / S  */
+                          /* (an evaluator may rewrite them with each evaluation)             */
+  const double* t_ref;    /* corrector: [n] or NULL: at convergence the unit tangent along it */
+  void*   lapack_dgetrf;  /* scipy's cython_lapack routines (C functions, Fortran arguments)  */
+  void*   lapack_dgetrs;
+  void*   lapack_dgesdd;
+  void*   lapack_dgelsd;
+  /* ---- the evaluation at z_eval (written by the evaluator) ---- */
+  double* R;              /* [nr] the residual                                               */
+  double* J;              /* orbit: [segments*nx*nx] the segment monodromies, row-major;       */
+                          /* corrector: [nr*nr] F_u, row-major                                */
+  double* Flam;           /* corrector: [nr] F_lambda ...                                     */
+  int     flam_given;     /* ... if 1; else the last one given is used (a chord)              */
+  double* amplitude;      /* orbit: [nx] max |x_i| over the orbit's samples                   */
+  int     eval_status;    /* 0: evaluated; else it failed (a GS_ERR_* of the run, or 1)       */
+  char    eval_msg[256];  /* the failure                                                     */
+  /* ---- the iteration (out, except z in gs_newton_start / gs_newton_restart) ---- */
+  double* z;              /* [n] the current iterate (the result when done)                   */
+  double* z_eval;         /* [n] the point of the pending evaluation                          */
+  int     request;        /* GS_NEWTON_EVALUATE or GS_NEWTON_DONE                             */
+  int     answered;       /* the caller's: 1 once the pending evaluation is written           */
+  int     must_succeed;   /* the pending evaluation's failure ends the iteration              */
+  int     n_evals;        /* evaluations requested so far                                     */
+  int     iterations;     /* Newton steps accepted                                            */
+  int     outcome;        /* GS_NEWTON_* when done                                            */
+  int     note;           /* converged: 0 residual <= tol; 1 a full step below tol (residual  */
+                          /* <= 100 tol); 2 a last step below 10 tol added without an         */
+                          /* evaluation; 3 the noise floor (no damped step reduces the        */
+                          /* residual, step <= 10 tol, residual <= 100 tol)                   */
+  double  residual;       /* the damping's norm at z (orbit: max |R|; corrector: max |R/Rs|)  */
+  double  residual_prev;  /* the one before the last step                                    */
+  double  relative;       /* orbit: max |R_i| / scale_i at z                                  */
+  double* scale;          /* orbit: [nx] the scales of the last evaluation                    */
+  int     hist_cap;       /* history capacity: the entries since gs_newton_start / restart   */
+  int     n_hist;
+  int*    hist_kind;      /* [hist_cap] GS_NEWTON_H_*                                         */
+  double* hist_abs;       /* [hist_cap] the damping's norm                                    */
+  double* hist_rel;       /* [hist_cap] orbit: the relative residual                          */
+  double* hist_step;      /* [hist_cap] the damping of a step                                 */
+  int*    hist_drop;      /* [hist_cap] singular values dropped from the step                 */
+  double* tangent;        /* corrector: [n] the unit tangent along t_ref (scaled unknowns) ... */
+  int     tangent_ok;     /* ... when 1                                                       */
+  double* work;           /* [gs_newton_work_size()] the iteration's state                    */
+} gs_newton;
+
+int gs_newton_work_size(const gs_newton* nw); /* doubles of nw->work                            */
+void gs_newton_start(gs_newton* nw);          /* from z: the first request                      */
+void gs_newton_restart(gs_newton* nw);        /* from a new z, the step count kept              */
+void gs_newton_next(gs_newton* nw);           /* take the answered evaluation, request the next */
+/* The unit tangent along t_ref at the evaluation in the buffers (corrector: [J_s; anchor;
+ * t_ref] t = e_n, least squares with anchor rows, else the null vector of J_s; oriented along
+ * t_ref) into nw->tangent; returns tangent_ok. */
+int gs_newton_tangent(gs_newton* nw);
+
+/* ---- the shooting residual over the flow, evaluated in C (gs_shoot.c) ---- */
+#define GS_HANDBACK_NONE    0
+#define GS_HANDBACK_EVENTS  1   /* the event log is too small: events_needed entries           */
+#define GS_HANDBACK_CALLER  2   /* the caller evaluates this request (corrector: the run with  */
+                                /* the parameter sensitivity failed)                          */
+typedef struct gs_orbit_flow {
+  const double* s;      /* [segments + 1] the segment times                                  */
+  int     n_amp;        /* samples per segment for the amplitude (>= 2; `a` has them as      */
+  double* grid;         /* t_out / y_out): numpy.linspace(s_i, s_{i+1}, n_amp) into grid     */
+  double* ev_t;         /* [ev_cap] the events of the last evaluation, all segments          */
+  int*    ev_surface;
+  int*    ev_dir;
+  double* ev_speed;
+  int     ev_cap;
+  int     n_events;     /* out                                                               */
+  int     handback;     /* out: GS_HANDBACK_* (the request is left unanswered)               */
+  int     events_needed;/* out                                                               */
+  int     n_runs;       /* out: integrations made (counted up)                               */
+  double  t_reached;    /* out: where a failed run stopped                                   */
+  /* converged, one segment: the multipliers, the isolation and the switching functions at   */
+  /* (s_0, z) (NULL: not wanted) of the orbit                                                 */
+  gs_multipliers mult;
+  gs_isolation iso;
+  double* g0_out;
+  int     g0_ok;
+  /* converged: the orbit's verification (gearsym.analysis.periodic._verification): one plain run */
+  /* per segment (no variational equations, a fresh solver) from the converged X_i over            */
+  /* [s_i, s_{i+1}] with the iteration's method, tolerances and max_step; NULL: not made           */
+  double* verify_ends;  /* [segments * nx] out: the state at s_{i+1} of segment i's run            */
+  int     verify_ok;    /* out: 1 made, 0 not made, -1 a run failed (its status, message, time)   */
+  int     verify_status;
+  double  verify_t_reached;
+  char    verify_msg[1024]; /* out: as gs_sim_args.errmsg                                          */
+} gs_orbit_flow;
+
+/* Shooting's Newton (nw->kind = GS_NEWTON_ORBIT) with the run described by `a` (method,
+ * tolerances, max_step, budgets, want_monodromy = 1, n_out = n_amp samples, y_out, x_final,
+ * event log): answers nw's requests by one run per segment until the iteration ends or a
+ * request is handed back (f->handback); once converged, the verification runs (verify_ends).
+ * Call gs_newton_start / gs_newton_restart first.
+ * Returns 0, or GS_ERR_INTERRUPTED. */
+int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_newton* nw, gs_orbit_flow* f);
+
+/* ---- the continuation's residual over the flow, evaluated in C (gs_correct.c) ---- */
+/* F_i(u, lambda) = phi(s_{i+1}; s_i, (u_i, y_i), p(lambda))[:nd] - u_{i+1}, s_i = t0 + P i / N,
+ * P = periods T(p), p(lambda) = p0 + (lambda - lam0) D, a DAE's algebraic variables y_i carried
+ * from the last consistent values (zalg); F_u from the segment monodromies' differential
+ * blocks, F_lambda from the parameter sensitivity with the segment times' derivatives. */
+typedef struct gs_corrector_flow {
+  int     segments;
+  int     nd;           /* unknowns per segment: the differential states                    */
+  double  periods;
+  double  t0;
+  double  lam0;
+  const double* p0;     /* [np]                                                             */
+  const double* D;      /* [np]                                                             */
+  const double* atol;   /* [nx] absolute tolerances of the states (and their variational     */
+                        /* columns; the sensitivity's / max |p_k| over the entries D moves)  */
+  double* zalg;         /* [segments*nalg] in/out                                           */
+  double* Ms;           /* [segments*nd*nd] out: the segment monodromies' differential blocks */
+  double* ev_t;         /* the events of the last evaluation, all segments                   */
+  int*    ev_surface;
+  int*    ev_dir;
+  double* ev_speed;
+  int     ev_cap;
+  int     n_events;     /* out                                                               */
+  int     handback;     /* out: GS_HANDBACK_*                                                */
+  int     events_needed;/* out                                                               */
+  int     n_runs;       /* out: integrations (counted up)                                   */
+  int     n_evals;      /* out: evaluations answered (counted up)                           */
+  int     last_c_eval;  /* out: nw->n_evals when this evaluator last answered (the caller's    */
+                        /* answers leave it: == nw->n_evals when done means the result is C's) */
+  double  period;       /* out: T(p(lambda)) of the last evaluation                          */
+  double  dP;           /* scratch: d P / d lambda                                          */
+  /* converged, one segment: the orbit sampled at n_samples evenly spaced times from t0 to    */
+  /* t0 + P by one more run without the variational equations (what System.flow(...,         */
+  /* monodromy=False) gives), the switching functions and mesh deflections there (gs_eval);   */
+  /* the event log, x_final and the statistics of `a` still describe the point's run.  Any    */
+  /* failure of this run only leaves samples_ok = 0.                                           */
   int     n_samples;
-  double* t_samples;    /* [n_samples] out: the sample times                                 */
-  double* Y_samples;    /* [n_samples*nx] out: the states, row-major                         */
-  double* G_samples;    /* [n_samples*nsw] out: the switching functions (may be NULL)        */
-  double* H_samples;    /* [n_samples*nmesh] out: the mesh deflections (may be NULL)         */
-  int     samples_ok;   /* out: 1 when the four arrays hold the samples                       */
+  double* t_samples;    /* [n_samples]                                                      */
+  double* Y_samples;    /* [n_samples*nx] row-major                                         */
+  double* G_samples;    /* [n_samples*nsw] (may be NULL)                                    */
+  double* H_samples;    /* [n_samples*nmesh] (may be NULL)                                  */
+  int     samples_ok;
   /* with samples_ok and all samples finite: their statistics over the period, the last       */
   /* sample (t0 + P, the first one again) excluded -- what make_node reads off the samples     */
-  double* col_stats;    /* [3*nx] out (may be NULL): per state max, min, sum of squares      */
-  int*    col_args;     /* [2*nx + 2*nsw + 2*nmesh] out: per state the first argmax, the     */
-                        /* first argmin; per switching function and per mesh deflection the  */
-                        /* first argmin, the first argmax                                     */
-  int     stats_ok;     /* out: 1 when col_stats / col_args hold them                        */
-  /* after a converged outcome, with t_ref given: the solution t of [J_s; t_ref] t = e_nx,     */
-  /* J_s = [F_u, F_lambda] at the point in the scaled variables (rows / Rs, columns * S):    */
-  /* the unnormalised tangent along t_ref                                                     */
-  const double* t_ref;  /* [nx+1] in (may be NULL)                                           */
-  double* tangent_out;  /* [nx+1] out                                                        */
-  int     tangent_ok;   /* out: 1 when tangent_out holds a finite solution                   */
-  double  period_out;   /* out: T(p(lambda)) at the returned z (one forcing period)          */
-  gs_multipliers mult;  /* the multipliers of the converged point's monodromy               */
-  /* rigid-body modes: anchor rows pin the rigid coordinates; the bordered step and the       */
-  /* tangent are then the minimum-norm least-squares solutions of [J_s; anchor; row] w = rhs  */
-  /* (rhs 0 on the anchor rows), by dgelsd with numpy.linalg.lstsq's rcond (eps max(m, n))   */
-  int     n_anchor;     /* 0: none (LU as above)                                            */
-  const double* anchor; /* [n_anchor*(nx+1)] row-major, in the scaled unknowns z / S        */
-  void*   lapack_dgelsd;/* scipy's cython_lapack dgelsd (needed with n_anchor > 0)         */
-} gs_correct_args;
+  double* col_stats;    /* [3*nx] (may be NULL): per state max, min, sum of squares          */
+  int*    col_args;     /* [2*nx + 2*nsw + 2*nmesh] per state the first argmax, the first    */
+                        /* argmin; per switching function and per mesh deflection the first  */
+                        /* argmin, the first argmax                                          */
+  int     stats_ok;
+  gs_multipliers mult;  /* one segment: the converged point's multipliers                    */
+} gs_corrector_flow;
 
-/* The corrector with the run described by `a` (method, tolerances, t0, max_steps, event log,
- * x_final / monodromy / sens_final buffers, n_sens = 1; the driver sets x0, p, t_end,
- * max_step, atol_vec and the sensitivity direction).  After a converged outcome the event
- * log of `a` holds the events of the corrected point's run.  Returns 0 (see c->outcome) or
- * the status of an interrupt. */
-int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_correct_args* c);
+/* The continuation's corrector (nw->kind = GS_NEWTON_CORRECTOR) with the run described by `a`
+ * (method, rtol, budgets, the event log, x_final / monodromy / sens_final buffers, n_sens =
+ * 1; x0, p, t0, t_end, max_step, atol_vec and the sensitivity's span are set here): answers
+ * nw's requests until the iteration ends or a request is handed back.  Returns 0, or
+ * GS_ERR_INTERRUPTED. */
+int gs_correct_ws(gs_workspace* ws, gs_sim_args* a, gs_newton* nw, gs_corrector_flow* f);
 
 /* ---- many initial states over one time span in one call (gs_batch.c) ---- */
 /* Runs gs_simulate_ws() once per state i = 0..n-1 with the template `a` (method, tolerances,  */

@@ -242,8 +242,6 @@ static inline int gs_mul_le(long long a, long long b, long long limit, long long
   return 0;
 }
 
-/* Largest model the C Newton iterations take (gs_shoot.c, gs_correct.c). */
-#define GS_SHOOT_MAXN 256
 
 /* --------------------------------------------------------------------------
  * Hot helpers, inlined in every file
@@ -370,12 +368,23 @@ N_Vector ws_atol(gs_workspace* ws, const double* v, int n);
 void ws_free_solver(gs_workspace* ws);
 int ws_model_setup(gs_workspace* ws, gs_sim_args* a);
 
+/* LAPACK through scipy's cython_lapack (C functions with Fortran's by-reference arguments). */
+typedef void (*gs_dgebal_t)(char*, int*, double*, int*, int*, int*, double*, int*);
+typedef void (*gs_dgesdd_t)(char*, int*, int*, double*, int*, double*, double*, int*, double*, int*, double*,
+                            int*, int*, int*);
+typedef void (*gs_dgelsd_t)(int*, int*, int*, double*, int*, double*, int*, double*, double*, int*, double*,
+                            int*, int*, int*);
+typedef void (*gs_dgeev_t)(char*, char*, int*, double*, int*, double*, double*, double*, int*, double*, int*,
+                           double*, int*, int*);
+typedef void (*gs_dgetrf_t)(int*, int*, double*, int*, int*, int*);
+typedef void (*gs_dgetrs_t)(char*, int*, int*, double*, int*, int*, double*, int*, int*);
+
+/* gs_newton.c */
+int lapack_lstsq(void* dgelsd_ptr, int m, int n, const double* A, const double* b, double* x);
+
 /* gs_shoot.c */
 void lapack_multipliers(gs_multipliers* m, int n, const double* M);
 void lapack_isolation(gs_isolation* iso, const gs_multipliers* m, int n, const double* M, const double* d_in);
-int lapack_lstsq(void* dgelsd_ptr, int m, int n, const double* A, const double* b, double* x);
-int shoot_lu(int n, double* A, int* piv, double pivot_tol);
-void shoot_lu_solve(int n, const double* LU, const int* piv, double* b);
 #pragma GCC visibility pop
 
 #endif /* GS_INTERNAL_H */

@@ -1,29 +1,9 @@
 /*
  * gs_shoot.c -- part of the gearsym driver (gs_driver.c; shared declarations in gs_internal.h):
- * the multipliers by LAPACK and the single-shooting Newton (gs_shoot_ws).
+ * the shooting residual over the flow, evaluated for THE Newton iteration (gs_newton.c) in
+ * the same C call (gs_shoot_ws), and a converged orbit's multipliers and isolation by LAPACK.
  */
 #include "gs_internal.h"
-
-/* ================================================================ shooting Newton in C
- *
- * gs_shoot_ws(): Newton's method for a periodic orbit x(t_end; t0, x) = x of fixed period
- * (single shooting), each iterate one gs_simulate_ws() run with the monodromy M; the step
- * solves (M - I) dx = -R in the variables scaled by the orbit's state magnitudes, by LU
- * with partial pivoting.  It mirrors the full-step path of gearsym.analysis.shooting.shoot
- * (the same convergence tests, the same scales) and gives up -- outcome != 0, nothing
- * raised -- wherever that function would do more than a full Newton step: a residual that
- * does not decrease (damping), a nearly singular Newton matrix (truncated solve), a failed
- * run after the first, an event log too small, or the iteration budget.  The caller then
- * runs the Python iteration from its own start.  One C call in place of one ctypes call,
- * numpy step and bookkeeping per iterate. */
-/* LAPACK through scipy's cython_lapack (C functions with Fortran's by-reference arguments). */
-typedef void (*gs_dgebal_t)(char*, int*, double*, int*, int*, int*, double*, int*);
-typedef void (*gs_dgesdd_t)(char*, int*, int*, double*, int*, double*, double*, int*, double*, int*, double*,
-                            int*, int*, int*);
-typedef void (*gs_dgelsd_t)(int*, int*, int*, double*, int*, double*, int*, double*, double*, int*, double*,
-                            int*, int*, int*);
-typedef void (*gs_dgeev_t)(char*, char*, int*, double*, int*, double*, double*, double*, int*, double*, int*,
-                           double*, int*, int*);
 
 /* The multipliers of the row-major n x n monodromy M and their tolerances into m (see
  * gs_multipliers in gs_driver.h): balance (dgebal, 'S'), the 2-norm of the balanced matrix
@@ -167,208 +147,167 @@ done:
   free(work);
 }
 
-/* The minimum-norm least-squares solution x (n) of the row-major m x n system A x = b by dgelsd
- * (numpy.linalg.lstsq's routine and default rcond, eps * max(m, n)).  Returns 0 on success. */
-int lapack_lstsq(void* dgelsd_ptr, int m, int n, const double* A, const double* b, double* x) {
-  gs_dgelsd_t dgelsd = (gs_dgelsd_t)dgelsd_ptr;
-  int i, j, info = 0, nrhs = 1, lda = m, ldb = m > n ? m : n, lwork = -1, liwork, rank = 0, rc = 1;
-  double *Af = NULL, *B = NULL, *sv = NULL, *work = NULL, q = 0.0, rcond;
-  int* iwork = NULL;
-  int qi = 0;
-  if (!dgelsd || m < 1 || n < 1) return 1;
-  rcond = DBL_EPSILON * (double)(m > n ? m : n);
-  Af = (double*)malloc(sizeof(double) * ((size_t)m * n + (size_t)ldb + (size_t)(m < n ? m : n)));
-  if (!Af) return 1;
-  B = Af + (size_t)m * n;
-  sv = B + ldb;
-  for (i = 0; i < m; ++i)
-    for (j = 0; j < n; ++j) Af[i + (size_t)j * m] = A[(size_t)i * n + j]; /* column-major */
-  for (i = 0; i < ldb; ++i) B[i] = i < m ? b[i] : 0.0;
-  dgelsd(&m, &n, &nrhs, Af, &lda, B, &ldb, sv, &rcond, &rank, &q, &lwork, &qi, &info);
-  if (info != 0) goto done;
-  lwork = (int)q > 1 ? (int)q : 1;
-  liwork = qi > 1 ? qi : 1;
-  work = (double*)malloc(sizeof(double) * (size_t)lwork);
-  iwork = (int*)malloc(sizeof(int) * (size_t)liwork);
-  if (!work || !iwork) goto done;
-  dgelsd(&m, &n, &nrhs, Af, &lda, B, &ldb, sv, &rcond, &rank, work, &lwork, iwork, &info);
-  if (info != 0) goto done;
-  for (j = 0; j < n; ++j) x[j] = B[j];
-  rc = 0;
-done:
-  free(Af);
-  free(work);
-  free(iwork);
-  return rc;
-}
-
-int shoot_lu(int n, double* A, int* piv, double pivot_tol) {
-  /* in-place LU with partial pivoting of the row-major n x n matrix A; 1: (nearly) singular */
-  int i, j, k;
-  double umax = 0.0, umin = HUGE_VAL;
-  for (k = 0; k < n; ++k) {
-    int r = k;
-    double best = fabs(A[(size_t)k * n + k]);
-    for (i = k + 1; i < n; ++i)
-      if (fabs(A[(size_t)i * n + k]) > best) best = fabs(A[(size_t)(r = i) * n + k]);
-    if (!isfinite(best)) return 1;
-    piv[k] = r;
-    if (r != k)
-      for (j = 0; j < n; ++j) {
-        double tmp = A[(size_t)k * n + j];
-        A[(size_t)k * n + j] = A[(size_t)r * n + j];
-        A[(size_t)r * n + j] = tmp;
+/* ================================================================ the shooting residual
+ *
+ * One evaluation at X = nw->z_eval (segments x nx): for each segment i one run from X_i over
+ * [s_i, s_{i+1}] with the monodromy (into nw->J's block i) and n_amp evenly spaced samples
+ * (numpy.linspace's arithmetic, as System.flow(..., n_samples=n_amp) makes them); the residual
+ * R_i = x(s_{i+1}) - X_{i+1} (cyclically), the amplitude max_k |x_j(t_k)| over all samples (NaN
+ * propagates, as numpy's max), the events appended to f's log.  Returns 0 (answered: a failed
+ * run is an evaluation that failed, its status and message in nw), GS_HANDBACK_EVENTS (the log
+ * is too small: not answered) or GS_ERR_INTERRUPTED. */
+static int orbit_eval(gs_workspace* ws, gs_sim_args* a, gs_newton* nw, gs_orbit_flow* f) {
+  int N = nw->segments, nx = nw->nx, n_amp = f->n_amp, i, j, k, rc = 0, n_ev = 0;
+  gs_sim_args keep;
+  memcpy(&keep, a, sizeof(keep));
+  for (j = 0; j < nx; ++j) nw->amplitude[j] = 0.0;
+  for (i = 0; i < N; ++i) {
+    double t0 = f->s[i], t1 = f->s[i + 1], step = (t1 - t0) / (double)(n_amp - 1);
+    for (k = 0; k < n_amp; ++k) f->grid[k] = (double)k * step + t0;
+    f->grid[n_amp - 1] = t1;
+    if (f->ev_cap - n_ev < 1) {
+      f->events_needed = 2 * f->ev_cap;
+      rc = GS_HANDBACK_EVENTS;
+      break;
+    }
+    a->t0 = t0;
+    a->t_end = t1;
+    a->x0 = nw->z_eval + (size_t)i * nx;
+    a->monodromy = nw->J + (size_t)i * nx * nx;
+    a->n_out = n_amp;
+    a->t_out = f->grid;
+    a->ev_t = f->ev_t + n_ev;
+    a->ev_surface = f->ev_surface + n_ev;
+    a->ev_dir = f->ev_dir + n_ev;
+    a->ev_speed = f->ev_speed + n_ev;
+    a->max_events_out = f->ev_cap - n_ev;
+    rc = gs_simulate_ws(ws, a);
+    f->n_runs++;
+    if (rc == GS_ERR_INTERRUPTED) break;
+    if (rc) { /* the evaluation failed: the iteration decides (halve the step, or end) */
+      nw->eval_status = rc;
+      snprintf(nw->eval_msg, sizeof(nw->eval_msg), "%s", a->errmsg);
+      f->t_reached = a->t_reached;
+      rc = 0;
+      break;
+    }
+    if (a->n_events > a->max_events_out) {
+      f->events_needed = n_ev + a->n_events > 2 * f->ev_cap ? n_ev + a->n_events : 2 * f->ev_cap;
+      rc = GS_HANDBACK_EVENTS;
+      break;
+    }
+    n_ev += a->n_events;
+    for (j = 0; j < nx; ++j) {
+      double amp = nw->amplitude[j];
+      nw->R[(size_t)i * nx + j] = a->x_final[j] - nw->z_eval[(size_t)((i + 1) % N) * nx + j];
+      for (k = 0; k < n_amp; ++k) {
+        double v = fabs(a->y_out[(size_t)k * nx + j]);
+        if (isnan(v) || isnan(amp)) amp = NAN;
+        else if (v > amp) amp = v;
       }
-    if (best > umax) umax = best;
-    if (best < umin) umin = best;
-    if (best == 0.0) return 1;
-    for (i = k + 1; i < n; ++i) {
-      double f = A[(size_t)i * n + k] / A[(size_t)k * n + k];
-      A[(size_t)i * n + k] = f;
-      if (f != 0.0)
-        for (j = k + 1; j < n; ++j) A[(size_t)i * n + j] -= f * A[(size_t)k * n + j];
+      nw->amplitude[j] = amp;
     }
   }
-  return umin <= pivot_tol * (umax > 1.0 ? umax : 1.0);
-}
-
-void shoot_lu_solve(int n, const double* LU, const int* piv, double* b) {
-  int i, j;
-  for (i = 0; i < n; ++i) {
-    if (piv[i] != i) {
-      double tmp = b[i];
-      b[i] = b[piv[i]];
-      b[piv[i]] = tmp;
-    }
-  }
-  for (i = 0; i < n; ++i)
-    for (j = 0; j < i; ++j) b[i] -= LU[(size_t)i * n + j] * b[j];
-  for (i = n - 1; i >= 0; --i) {
-    for (j = i + 1; j < n; ++j) b[i] -= LU[(size_t)i * n + j] * b[j];
-    b[i] /= LU[(size_t)i * n + i];
-  }
-}
-
-/* One evaluation at the start state a->x0: residual R = x(t_end) - x0, its max norm, the
- * scales and the scaled max norm.  Returns the run's status. */
-static int shoot_eval(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s, int nx, double* R, double* r_abs,
-                      double* r_rel) {
-  int rc, i, k;
-  double top = 0.0;
-  rc = gs_simulate_ws(ws, a);
+  keep.n_events = a->n_events;
+  keep.t_reached = a->t_reached;
+  memcpy(a, &keep, sizeof(keep));
+  a->status = GS_OK;
+  a->errmsg[0] = '\0';
   if (rc) return rc;
-  for (i = 0; i < nx; ++i) {
-    double amp = 0.0;
-    for (k = 0; k < a->n_out; ++k) {
-      double v = fabs(a->y_out[(size_t)k * nx + i]);
-      if (!(v <= amp)) amp = v; /* NaN propagates */
-    }
-    s->scale[i] = amp;
-    if (!(amp <= top)) top = amp;
-  }
-  *r_abs = 0.0;
-  *r_rel = 0.0;
-  for (i = 0; i < nx; ++i) {
-    double fl = 1e-9 * top > s->scale_floor ? 1e-9 * top : s->scale_floor;
-    if (!isfinite(top)) s->scale[i] = 1.0;
-    else if (s->scale[i] < fl) s->scale[i] = fl;
-    R[i] = a->x_final[i] - a->x0[i];
-    if (!(fabs(R[i]) <= *r_abs)) *r_abs = fabs(R[i]);
-    if (!(fabs(R[i]) / s->scale[i] <= *r_rel)) *r_rel = fabs(R[i]) / s->scale[i];
-  }
+  f->n_events = n_ev;
+  nw->answered = 1;
   return 0;
 }
 
-int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_shoot_args* s) {
-  double x[GS_SHOOT_MAXN], xn[GS_SHOOT_MAXN], R[GS_SHOOT_MAXN], dx[GS_SHOOT_MAXN];
-  double *J = NULL, r_abs, r_rel, size = HUGE_VAL;
-  int piv[GS_SHOOT_MAXN];
-  int nx, i, j, rc, it = 0;
-  if (!a || !s) return GS_ERR_INPUT;
-  s->iterations = 0;
-  s->n_hist = 0;
-  s->note = 0;
-  s->mult.ok = 0;
-  s->iso.ok = 0;
-  s->g0_ok = 0;
-  s->outcome = GS_SHOOT_GAVE_UP_OTHER;
+/* The verification of the converged orbit X = nw->z (gs_orbit_flow.verify_ends): for each
+ * segment one run without the variational equations from X_i over [s_i, s_{i+1}] (output at its
+ * two ends, as System.flow(..., monodromy=False, n_samples=2) makes it; the events are not
+ * logged: the orbit's are the last evaluation's), its end state into verify_ends.  A failed run
+ * ends it with verify_ok = -1 and the run's status, message and stop time.  Returns
+ * GS_ERR_INTERRUPTED or 0. */
+static int orbit_verify(gs_workspace* ws, gs_sim_args* a, gs_newton* nw, gs_orbit_flow* f) {
+  int N = nw->segments, nx = nw->nx, i, rc = 0;
+  double ends[2];
+  gs_sim_args keep;
+  memcpy(&keep, a, sizeof(keep));
+  f->verify_ok = 0;
+  for (i = 0; i < N; ++i) {
+    ends[0] = f->s[i];
+    ends[1] = f->s[i + 1];
+    a->t0 = ends[0];
+    a->t_end = ends[1];
+    a->x0 = nw->z + (size_t)i * nx;
+    a->want_monodromy = 0;
+    a->monodromy = NULL;
+    a->n_out = 2;
+    a->t_out = ends;
+    a->ev_t = NULL;
+    a->ev_surface = NULL;
+    a->ev_dir = NULL;
+    a->ev_speed = NULL;
+    a->max_events_out = 0;
+    rc = gs_simulate_ws(ws, a);
+    f->n_runs++;
+    if (rc == GS_ERR_INTERRUPTED) break;
+    if (rc) {
+      f->verify_ok = -1;
+      f->verify_status = rc;
+      f->verify_t_reached = a->t_reached;
+      snprintf(f->verify_msg, sizeof(f->verify_msg), "%s", a->errmsg);
+      rc = 0;
+      break;
+    }
+    memcpy(f->verify_ends + (size_t)i * nx, a->x_final, sizeof(double) * (size_t)nx);
+  }
+  if (!rc && f->verify_ok == 0) f->verify_ok = 1;
+  keep.n_events = a->n_events;
+  keep.t_reached = a->t_reached;
+  memcpy(a, &keep, sizeof(keep));
+  a->status = GS_OK;
+  a->errmsg[0] = '\0';
+  return rc;
+}
+
+int gs_shoot_ws(gs_workspace* ws, gs_sim_args* a, gs_newton* nw, gs_orbit_flow* f) {
+  int rc, nx;
+  if (!a || !nw || !f) return GS_ERR_INPUT;
+  f->handback = GS_HANDBACK_NONE;
+  f->mult.ok = 0;
+  f->iso.ok = 0;
+  f->g0_ok = 0;
+  f->verify_ok = 0;
+  f->verify_status = 0;
+  f->verify_msg[0] = '\0';
   if (!ws) return set_err(a, GS_ERR_INPUT, "no workspace");
   if (!ws->ready && (rc = ws_model_setup(ws, a)) != 0) return rc;
   nx = ws->U.nx;
-  if (nx > GS_SHOOT_MAXN || nx < 1 || !a->want_monodromy || !a->monodromy || a->n_out < 2 || !a->y_out || !s->x ||
-      !s->scale || !s->hist_abs || !s->hist_rel || s->max_iter < 0 || ws->U.nalg > 0)
-    return set_err(a, GS_ERR_INPUT, "gs_shoot_ws: needs 1 <= nx <= %d, the monodromy, >= 2 samples and the "
-                   "output buffers (explicit models)", GS_SHOOT_MAXN);
-  J = (double*)malloc(sizeof(double) * (size_t)nx * (size_t)nx);
-  if (!J) return set_err(a, GS_ERR_INPUT, "out of memory");
-  memcpy(x, s->x, sizeof(double) * (size_t)nx);
-  a->x0 = x;
-  rc = shoot_eval(ws, a, s, nx, R, &r_abs, &r_rel);
-  if (rc) goto done; /* the first integration fails: the caller raises, as the Python path would */
+  if (nw->kind != GS_NEWTON_ORBIT || nw->nx != nx || nw->segments < 1 || nw->n != nw->segments * nx ||
+      nw->nr != nw->n || !nw->work || !nw->z || !nw->z_eval || !nw->R || !nw->J || !nw->amplitude || !nw->scale ||
+      f->n_amp < 2 || !f->s || !f->grid || a->n_out != f->n_amp || !a->y_out || !a->want_monodromy || !f->ev_t ||
+      !f->ev_surface || !f->ev_dir || !f->ev_speed || f->ev_cap < 1)
+    return set_err(a, GS_ERR_INPUT, "gs_shoot_ws: an orbit iteration of this model's nx, the monodromy, >= 2 samples "
+                   "per segment and the buffers");
   for (;;) {
-    if (a->n_events > a->max_events_out) { s->outcome = GS_SHOOT_GAVE_UP_EVENTS; break; }
-    s->hist_abs[s->n_hist] = r_abs;
-    s->hist_rel[s->n_hist] = r_rel;
-    s->n_hist++;
-    /* converged(ev, size, damping) */
-    if (r_rel <= s->tol) { s->outcome = GS_SHOOT_CONVERGED; s->note = 0; break; }
-    if (size <= s->tol && r_rel <= 100.0 * s->tol) { /* after a full step (the only kind taken here) */
-      s->outcome = GS_SHOOT_CONVERGED;
-      s->note = 1;
-      break;
+    if (nw->request != GS_NEWTON_EVALUATE) break;
+    if (!nw->answered) {
+      rc = orbit_eval(ws, a, nw, f);
+      if (rc == GS_ERR_INTERRUPTED) return set_err(a, rc, "interrupted");
+      if (rc) {
+        f->handback = rc;
+        return 0;
+      }
     }
-    if (it >= s->max_iter) { s->outcome = GS_SHOOT_GAVE_UP_ITER; break; }
-    if (!isfinite(r_abs)) { s->outcome = GS_SHOOT_GAVE_UP_OTHER; break; }
-    /* the Newton step in scaled variables: (D^-1 (M - I) D) (D^-1 dx) = -D^-1 R */
-    for (i = 0; i < nx; ++i)
-      for (j = 0; j < nx; ++j)
-        J[(size_t)i * nx + j] = (a->monodromy[(size_t)i * nx + j] - (i == j ? 1.0 : 0.0)) * s->scale[j] / s->scale[i];
-    if (shoot_lu(nx, J, piv, s->pivot_tol)) { s->outcome = GS_SHOOT_GAVE_UP_SINGULAR; break; }
-    for (i = 0; i < nx; ++i) dx[i] = -R[i] / s->scale[i];
-    shoot_lu_solve(nx, J, piv, dx);
-    size = 0.0;
-    for (i = 0; i < nx; ++i) {
-      if (!isfinite(dx[i])) size = HUGE_VAL;
-      else if (fabs(dx[i]) > size) size = fabs(dx[i]);
-      dx[i] *= s->scale[i];
-    }
-    if (!isfinite(size)) { s->outcome = GS_SHOOT_GAVE_UP_SINGULAR; break; }
-    /* converged(ev, size, 0): a step below 10 tol is applied without integrating again */
-    if (size <= 10.0 * s->tol && r_rel <= 100.0 * s->tol) {
-      for (i = 0; i < nx; ++i) x[i] += dx[i];
-      s->outcome = GS_SHOOT_CONVERGED;
-      s->note = 2;
-      break;
-    }
-    {
-      double rn_abs, rn_rel, Rn[GS_SHOOT_MAXN];
-      for (i = 0; i < nx; ++i) xn[i] = x[i] + dx[i];
-      a->x0 = xn;
-      rc = shoot_eval(ws, a, s, nx, Rn, &rn_abs, &rn_rel);
-      if (rc == GS_ERR_INTERRUPTED) goto done;
-      if (rc) { rc = 0; a->status = GS_OK; a->errmsg[0] = '\0'; s->outcome = GS_SHOOT_GAVE_UP_RUN; break; }
-      /* the full step must decrease the residual (Python: 1 - 1e-4 of it), else damping */
-      if (!(rn_abs < (1.0 - 1e-4) * r_abs)) { s->outcome = GS_SHOOT_GAVE_UP_DECREASE; break; }
-      it++; /* an accepted step (a rejected one leaves x, the last accepted iterate, and it) */
-      memcpy(x, xn, sizeof(double) * (size_t)nx);
-      memcpy(R, Rn, sizeof(double) * (size_t)nx);
-      a->x0 = x;
-      r_abs = rn_abs;
-      r_rel = rn_rel;
-    }
+    gs_newton_next(nw);
   }
-  s->iterations = it;
-  memcpy(s->x, x, sizeof(double) * (size_t)nx);
-  if (s->outcome == GS_SHOOT_CONVERGED) {
-    lapack_multipliers(&s->mult, nx, a->monodromy);
-    lapack_isolation(&s->iso, &s->mult, nx, a->monodromy, s->scale);
-    if (s->g0_out && ws->U.nsw > 0) { /* the sides at the orbit's start (its rattle state) */
+  if (nw->outcome == GS_NEWTON_CONVERGED && nw->segments == 1) {
+    lapack_multipliers(&f->mult, nx, nw->J);
+    lapack_isolation(&f->iso, &f->mult, nx, nw->J, nw->scale);
+    if (f->g0_out && ws->U.nsw > 0) { /* the sides at the orbit's start (its rattle state) */
       char msg[256];
-      s->g0_ok = gs_eval(ws, GS_EVAL_SW, 1, &a->t0, x, a->p, NULL, s->g0_out, msg, (int)sizeof(msg)) == 0;
+      f->g0_ok = gs_eval(ws, GS_EVAL_SW, 1, &f->s[0], nw->z, a->p, NULL, f->g0_out, msg, (int)sizeof(msg)) == 0;
     }
   }
-done:
-  a->x0 = NULL; /* points at this frame */
-  free(J);
-  return rc;
+  if (nw->outcome == GS_NEWTON_CONVERGED && f->verify_ends && orbit_verify(ws, a, nw, f) == GS_ERR_INTERRUPTED)
+    return set_err(a, GS_ERR_INTERRUPTED, "interrupted");
+  return 0;
 }

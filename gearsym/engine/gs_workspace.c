@@ -8,8 +8,9 @@
  * The argument structs' layout (the ctypes mirrors' check)
  * -------------------------------------------------------------------------- */
 int gs_sizeof_args(void) { return (int)sizeof(gs_sim_args); }
-int gs_sizeof_shoot_args(void) { return (int)sizeof(gs_shoot_args); }
-int gs_sizeof_correct_args(void) { return (int)sizeof(gs_correct_args); }
+int gs_sizeof_newton(void) { return (int)sizeof(gs_newton); }
+int gs_sizeof_orbit_flow(void) { return (int)sizeof(gs_orbit_flow); }
+int gs_sizeof_corrector_flow(void) { return (int)sizeof(gs_corrector_flow); }
 
 /* The layout of every argument struct, field by field, for the ctypes mirrors'
  * load-time check (gearsym/engine/sim_args.py): a mirror with two fields swapped has
@@ -58,32 +59,56 @@ static const gs_abi_entry gs_abi_table[] = {
     /* gs_isolation */
     GS_ABI_FIELD(gs_isolation, direction), GS_ABI_FIELD(gs_isolation, sigma), GS_ABI_FIELD(gs_isolation, norm),
     GS_ABI_FIELD(gs_isolation, ok),
-    /* gs_shoot_args */
-    GS_ABI_FIELD(gs_shoot_args, tol), GS_ABI_FIELD(gs_shoot_args, scale_floor),
-    GS_ABI_FIELD(gs_shoot_args, pivot_tol), GS_ABI_FIELD(gs_shoot_args, max_iter), GS_ABI_FIELD(gs_shoot_args, x),
-    GS_ABI_FIELD(gs_shoot_args, scale), GS_ABI_FIELD(gs_shoot_args, hist_abs), GS_ABI_FIELD(gs_shoot_args, hist_rel),
-    GS_ABI_FIELD(gs_shoot_args, n_hist), GS_ABI_FIELD(gs_shoot_args, iterations), GS_ABI_FIELD(gs_shoot_args, note),
-    GS_ABI_FIELD(gs_shoot_args, outcome), GS_ABI_FIELD(gs_shoot_args, mult), GS_ABI_FIELD(gs_shoot_args, iso),
-    GS_ABI_FIELD(gs_shoot_args, g0_out), GS_ABI_FIELD(gs_shoot_args, g0_ok),
-    /* gs_correct_args */
-    GS_ABI_FIELD(gs_correct_args, nx), GS_ABI_FIELD(gs_correct_args, z), GS_ABI_FIELD(gs_correct_args, row),
-    GS_ABI_FIELD(gs_correct_args, target), GS_ABI_FIELD(gs_correct_args, S), GS_ABI_FIELD(gs_correct_args, Rs),
-    GS_ABI_FIELD(gs_correct_args, tol), GS_ABI_FIELD(gs_correct_args, max_iter),
-    GS_ABI_FIELD(gs_correct_args, min_damping), GS_ABI_FIELD(gs_correct_args, periods),
-    GS_ABI_FIELD(gs_correct_args, lam0), GS_ABI_FIELD(gs_correct_args, p0), GS_ABI_FIELD(gs_correct_args, D),
-    GS_ABI_FIELD(gs_correct_args, atol), GS_ABI_FIELD(gs_correct_args, dP), GS_ABI_FIELD(gs_correct_args, R_out),
-    GS_ABI_FIELD(gs_correct_args, M_out), GS_ABI_FIELD(gs_correct_args, Flam_out),
-    GS_ABI_FIELD(gs_correct_args, residual), GS_ABI_FIELD(gs_correct_args, iterations),
-    GS_ABI_FIELD(gs_correct_args, n_runs), GS_ABI_FIELD(gs_correct_args, outcome),
-    GS_ABI_FIELD(gs_correct_args, n_samples), GS_ABI_FIELD(gs_correct_args, t_samples),
-    GS_ABI_FIELD(gs_correct_args, Y_samples), GS_ABI_FIELD(gs_correct_args, G_samples),
-    GS_ABI_FIELD(gs_correct_args, H_samples), GS_ABI_FIELD(gs_correct_args, samples_ok),
-    GS_ABI_FIELD(gs_correct_args, col_stats), GS_ABI_FIELD(gs_correct_args, col_args),
-    GS_ABI_FIELD(gs_correct_args, stats_ok), GS_ABI_FIELD(gs_correct_args, t_ref),
-    GS_ABI_FIELD(gs_correct_args, tangent_out), GS_ABI_FIELD(gs_correct_args, tangent_ok),
-    GS_ABI_FIELD(gs_correct_args, period_out), GS_ABI_FIELD(gs_correct_args, mult),
-    GS_ABI_FIELD(gs_correct_args, n_anchor), GS_ABI_FIELD(gs_correct_args, anchor),
-    GS_ABI_FIELD(gs_correct_args, lapack_dgelsd),
+    /* gs_newton */
+    GS_ABI_FIELD(gs_newton, kind), GS_ABI_FIELD(gs_newton, n), GS_ABI_FIELD(gs_newton, nr),
+    GS_ABI_FIELD(gs_newton, nx), GS_ABI_FIELD(gs_newton, segments), GS_ABI_FIELD(gs_newton, max_iter),
+    GS_ABI_FIELD(gs_newton, tol), GS_ABI_FIELD(gs_newton, min_damping), GS_ABI_FIELD(gs_newton, decrease),
+    GS_ABI_FIELD(gs_newton, accept_below), GS_ABI_FIELD(gs_newton, accept_last),
+    GS_ABI_FIELD(gs_newton, apply_final_step), GS_ABI_FIELD(gs_newton, diverge_ratio),
+    GS_ABI_FIELD(gs_newton, diverge_floor), GS_ABI_FIELD(gs_newton, trunc_level),
+    GS_ABI_FIELD(gs_newton, scale_floor), GS_ABI_FIELD(gs_newton, row), GS_ABI_FIELD(gs_newton, target),
+    GS_ABI_FIELD(gs_newton, S), GS_ABI_FIELD(gs_newton, Rs), GS_ABI_FIELD(gs_newton, n_anchor),
+    GS_ABI_FIELD(gs_newton, anchor), GS_ABI_FIELD(gs_newton, t_ref), GS_ABI_FIELD(gs_newton, lapack_dgetrf),
+    GS_ABI_FIELD(gs_newton, lapack_dgetrs), GS_ABI_FIELD(gs_newton, lapack_dgesdd),
+    GS_ABI_FIELD(gs_newton, lapack_dgelsd), GS_ABI_FIELD(gs_newton, R), GS_ABI_FIELD(gs_newton, J),
+    GS_ABI_FIELD(gs_newton, Flam), GS_ABI_FIELD(gs_newton, flam_given), GS_ABI_FIELD(gs_newton, amplitude),
+    GS_ABI_FIELD(gs_newton, eval_status), GS_ABI_FIELD(gs_newton, eval_msg), GS_ABI_FIELD(gs_newton, z),
+    GS_ABI_FIELD(gs_newton, z_eval), GS_ABI_FIELD(gs_newton, request), GS_ABI_FIELD(gs_newton, answered),
+    GS_ABI_FIELD(gs_newton, must_succeed), GS_ABI_FIELD(gs_newton, n_evals), GS_ABI_FIELD(gs_newton, iterations),
+    GS_ABI_FIELD(gs_newton, outcome), GS_ABI_FIELD(gs_newton, note), GS_ABI_FIELD(gs_newton, residual),
+    GS_ABI_FIELD(gs_newton, residual_prev), GS_ABI_FIELD(gs_newton, relative), GS_ABI_FIELD(gs_newton, scale),
+    GS_ABI_FIELD(gs_newton, hist_cap), GS_ABI_FIELD(gs_newton, n_hist), GS_ABI_FIELD(gs_newton, hist_kind),
+    GS_ABI_FIELD(gs_newton, hist_abs), GS_ABI_FIELD(gs_newton, hist_rel), GS_ABI_FIELD(gs_newton, hist_step),
+    GS_ABI_FIELD(gs_newton, hist_drop), GS_ABI_FIELD(gs_newton, tangent), GS_ABI_FIELD(gs_newton, tangent_ok),
+    GS_ABI_FIELD(gs_newton, work),
+    /* gs_orbit_flow */
+    GS_ABI_FIELD(gs_orbit_flow, s), GS_ABI_FIELD(gs_orbit_flow, n_amp), GS_ABI_FIELD(gs_orbit_flow, grid),
+    GS_ABI_FIELD(gs_orbit_flow, ev_t), GS_ABI_FIELD(gs_orbit_flow, ev_surface), GS_ABI_FIELD(gs_orbit_flow, ev_dir),
+    GS_ABI_FIELD(gs_orbit_flow, ev_speed), GS_ABI_FIELD(gs_orbit_flow, ev_cap),
+    GS_ABI_FIELD(gs_orbit_flow, n_events), GS_ABI_FIELD(gs_orbit_flow, handback),
+    GS_ABI_FIELD(gs_orbit_flow, events_needed), GS_ABI_FIELD(gs_orbit_flow, n_runs),
+    GS_ABI_FIELD(gs_orbit_flow, t_reached), GS_ABI_FIELD(gs_orbit_flow, mult), GS_ABI_FIELD(gs_orbit_flow, iso),
+    GS_ABI_FIELD(gs_orbit_flow, g0_out), GS_ABI_FIELD(gs_orbit_flow, g0_ok),
+    GS_ABI_FIELD(gs_orbit_flow, verify_ends), GS_ABI_FIELD(gs_orbit_flow, verify_ok),
+    GS_ABI_FIELD(gs_orbit_flow, verify_status), GS_ABI_FIELD(gs_orbit_flow, verify_t_reached),
+    GS_ABI_FIELD(gs_orbit_flow, verify_msg),
+    /* gs_corrector_flow */
+    GS_ABI_FIELD(gs_corrector_flow, segments), GS_ABI_FIELD(gs_corrector_flow, nd),
+    GS_ABI_FIELD(gs_corrector_flow, periods), GS_ABI_FIELD(gs_corrector_flow, t0),
+    GS_ABI_FIELD(gs_corrector_flow, lam0), GS_ABI_FIELD(gs_corrector_flow, p0), GS_ABI_FIELD(gs_corrector_flow, D),
+    GS_ABI_FIELD(gs_corrector_flow, atol), GS_ABI_FIELD(gs_corrector_flow, zalg),
+    GS_ABI_FIELD(gs_corrector_flow, Ms), GS_ABI_FIELD(gs_corrector_flow, ev_t),
+    GS_ABI_FIELD(gs_corrector_flow, ev_surface), GS_ABI_FIELD(gs_corrector_flow, ev_dir),
+    GS_ABI_FIELD(gs_corrector_flow, ev_speed), GS_ABI_FIELD(gs_corrector_flow, ev_cap),
+    GS_ABI_FIELD(gs_corrector_flow, n_events), GS_ABI_FIELD(gs_corrector_flow, handback),
+    GS_ABI_FIELD(gs_corrector_flow, events_needed), GS_ABI_FIELD(gs_corrector_flow, n_runs),
+    GS_ABI_FIELD(gs_corrector_flow, n_evals), GS_ABI_FIELD(gs_corrector_flow, last_c_eval),
+    GS_ABI_FIELD(gs_corrector_flow, period), GS_ABI_FIELD(gs_corrector_flow, dP),
+    GS_ABI_FIELD(gs_corrector_flow, n_samples), GS_ABI_FIELD(gs_corrector_flow, t_samples),
+    GS_ABI_FIELD(gs_corrector_flow, Y_samples), GS_ABI_FIELD(gs_corrector_flow, G_samples),
+    GS_ABI_FIELD(gs_corrector_flow, H_samples), GS_ABI_FIELD(gs_corrector_flow, samples_ok),
+    GS_ABI_FIELD(gs_corrector_flow, col_stats), GS_ABI_FIELD(gs_corrector_flow, col_args),
+    GS_ABI_FIELD(gs_corrector_flow, stats_ok), GS_ABI_FIELD(gs_corrector_flow, mult),
 };
 #undef GS_ABI_FIELD
 #undef GS_ABI_KIND

@@ -1,140 +1,135 @@
-"""Newton's method for a periodic orbit, and the continuation's corrector, in one C call each.
+"""The shooting residuals over the flow, evaluated in C for THE Newton iteration.
 
-:func:`shoot_in_c` runs the full-step Newton iteration of single shooting inside the
-driver: one integration with the monodromy per iterate, the step from an LU solve of
-``M - I`` in the variables scaled by the orbit's state magnitudes, the convergence tests
-of :func:`gearsym.analysis.periodic.shoot`.  Where that function would do more than a
-full step (damping, a truncated solve of a nearly singular matrix, a failed trial run,
-the iteration budget) the C iteration gives up and says why; the caller then runs its
-own iteration from its own start, so the outcome never differs from the Python path's
-except by round-off.
+The Newton iteration of the periodic-orbit solvers is written once, in C
+(:mod:`gearsym.engine.newton`, ``gs_newton.c``).  This module runs it with its C evaluators,
+in one driver call per solve:
+
+* :class:`Shooter` / :func:`shoot_in_c`: shooting's Newton (``gs_shoot_ws``): the residual
+  ``phi(s_{i+1}; s_i, X_i) - X_{i+1}`` of single or multiple shooting, one integration with the
+  monodromy per segment (CVODE, or IDA for implicit models and DAEs), the amplitude of the
+  samples for the state scales; the orbit's multipliers, isolation and switching functions at
+  its start once it converged (one segment), and its verification runs (one plain integration
+  per segment from the converged states, :class:`VerifyRuns`);
+* :class:`Corrector` / :func:`correct_in_c`: the continuation's corrector (``gs_correct_ws``):
+  the residual in the differential states with the exact ``F_lambda`` (the parameter
+  sensitivity in the same integration), single or multiple shooting, DAEs; the corrected
+  point's tangent, samples, statistics and multipliers.  Where the C evaluator does not apply
+  (harmonic balance, a parameter that is no plain entry of the parameter vector, the
+  finite-difference ``F_lambda``) or fails on one evaluation (the sensitivity at a grazing
+  contact), the caller's ``evaluate`` answers that request in Python and the same iteration
+  goes on (counted in :attr:`CorrectOutcome.n_python`).
 """
 
 from __future__ import annotations
 
 import ctypes as C
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import GearsymError, ParameterError
 from ..integrators import by_code, get_method
 from ..options import cached_options, merge_options
 from .driver import EventLog
-from .errors import EngineInputError
-from .sim_args import GsShootArgs
+from .errors import EngineError, EngineInputError, error_for_status
+from .newton import CONVERGED, CORRECTOR, ORBIT, OUTCOMES, NewtonCore, NewtonPolicy, lapack_pointers
+from .sim_args import GsCorrectorFlow, GsOrbitFlow
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .driver import Engine, RunResult
+    from .driver import Engine
 
-__all__ = ["MAX_STATES", "OUTCOMES", "CorrectOutcome", "Corrector", "OrbitSamples", "SampleStats", "ShootOutcome",
-           "ShootSettings", "Shooter", "c_method", "correct_in_c", "shoot_in_c"]
+__all__ = ["OUTCOMES", "CorrectOutcome", "Corrector", "CorrectorFlow", "OrbitSamples", "SampleStats",
+           "ShootOutcome", "ShootSettings", "Shooter", "VerifyRuns", "c_method", "correct_in_c", "lapack_pointers",
+           "shoot_in_c", "shooter_for"]
 
-#: Largest model the C iterations take (``GS_SHOOT_MAXN`` in gs_internal.h); larger ones iterate in Python.
-MAX_STATES = 256
-
-#: ``gs_shoot_args.outcome`` codes (gs_driver.h) -> meaning.
-OUTCOMES: dict[int, str] = {
-    0: "converged",
-    1: "the residual did not decrease (a full shooting step; the corrector's divergence test)",
-    2: "the iteration budget is spent",
-    3: "the Newton matrix is nearly singular",
-    4: "an integration after the first failed",
-    5: "more events than the event log holds",
-    6: "a non-finite residual",
-}
+#: ``gs_orbit_flow.handback`` / ``gs_corrector_flow.handback``.
+_HANDBACK_EVENTS, _HANDBACK_CALLER = 1, 2
 
 
-def _check_sizes(engine: Engine, **arrays: tuple[np.ndarray, int]) -> None:
-    """Every array has the length the C side reads (a wrong one would be read out of bounds)."""
-    for name, (a, n) in arrays.items():
-        if a.shape[0] != n:
-            raise EngineInputError(f"{name} has {a.shape[0]} entries, the C iteration needs {n} "
-                                   f"(model: nx={engine.nx}, np={engine.np})")
+def c_method(method: str | int) -> tuple[int, int]:
+    """``(GS_METHOD_* code, GS_NONLIN_* code)`` of an integration method, given by name or by code.
 
-
-@dataclass(frozen=True)
-class ShootOutcome:
-    """What :func:`shoot_in_c` returns.
-
-    Attributes
-    ----------
-    converged : bool
-        Whether the C iteration converged (else ``reason`` says why it gave up).
-    reason : str
-        :data:`OUTCOMES` entry.
-    x : ndarray
-        The last iterate (the orbit's state at ``t0`` when converged).
-    run : RunResult or None
-        The last evaluation (x_final, monodromy, events, samples) when converged.
-    scale : ndarray
-        The state scales of the last evaluation.
-    history_abs, history_rel : ndarray
-        ``max |R|`` and ``max |R_i| / scale_i`` of each evaluation.
-    iterations : int
-        Newton steps taken.
-    note : int
-        0: residual <= tol; 1: a full step below ``tol`` with the residual below ``100 tol``;
-        2: a last step below ``10 tol`` applied without integrating again.
-    code : int
-        The outcome code (:data:`OUTCOMES`).  When the iteration gave up after ``iterations``
-        accepted full steps, ``x`` is the last accepted iterate.
-    multipliers : tuple or None
-        ``(mu, tolerances, delta)`` of ``run.monodromy`` when converged, as
-        :func:`gearsym.analysis.periodic.multiplier_tolerances` returns them (computed in the
-        driver with scipy's LAPACK; ``None`` where that was not possible).
-    isolation : tuple or None
-        ``(sigma, norm, direction)`` of the converged orbit in the scales ``scale``, as
-        :func:`gearsym.analysis.periodic.isolation` computes them without trivial
-        directions (``norm``: the 2-norm of the scaled monodromy, from which the caller
-        takes the error level); ``None`` where the driver could not compute them.
-    g0 : ndarray or None
-        The switching functions at ``(t0, x)`` of the converged orbit (``gs_eval``'s values);
-        ``None`` when not converged or not computed.
-    events, monodromy : EventLog or None, ndarray or None
-        The converged orbit's events and monodromy (also without ``run``).
+    Raises
+    ------
+    EngineInputError
+        An unknown method.
     """
-
-    converged: bool
-    reason: str
-    x: np.ndarray
-    run: RunResult | None
-    scale: np.ndarray
-    history_abs: np.ndarray
-    history_rel: np.ndarray
-    iterations: int
-    note: int
-    code: int = 0
-    multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
-    isolation: tuple[float, float, np.ndarray] | None = None
-    g0: np.ndarray | None = None
-    events: EventLog | None = None
-    monodromy: np.ndarray | None = None
+    try:
+        m = by_code(int(method)) if isinstance(method, (int, np.integer)) else get_method(method)
+        return m.code, m.nonlinear_code()
+    except ParameterError as exc:
+        raise EngineInputError(str(exc)) from None
 
 
+def _events(buf: dict[str, np.ndarray], n: int) -> EventLog:
+    return EventLog(t=buf["t"][:n].copy(), surface=buf["s"][:n].astype(int), direction=buf["d"][:n].astype(int),
+                    speed=buf["v"][:n].copy())
+
+
+def _event_buffers(f: Any, cap: int) -> dict[str, np.ndarray]:
+    """An evaluation's event log of capacity ``cap`` pointed at by the flow struct ``f``."""
+    buf = {"t": np.empty(cap), "s": np.empty(cap, dtype=np.intc), "d": np.empty(cap, dtype=np.intc),
+           "v": np.empty(cap)}
+    f.ev_t, f.ev_surface, f.ev_dir, f.ev_speed = (buf[k].ctypes.data for k in "tsdv")
+    f.ev_cap = cap
+    return buf
+
+
+class MultiplierBuffers:
+    """The output arrays of a ``gs_multipliers`` struct (gs_driver.h), pointed at once with
+    scipy's LAPACK routines; :meth:`read` gives ``(mu, tolerances, delta)`` or ``None``."""
+
+    def __init__(self, m: C.Structure, nx: int, rtol: float):
+        self.m = m
+        self.re, self.im, self.tol = np.empty(nx), np.empty(nx), np.empty(nx)
+        lap = lapack_pointers()
+        if lap:  # else the struct's routines stay NULL and the driver computes nothing
+            m.lapack_dgebal, m.lapack_dgesdd, m.lapack_dgeev = lap["dgebal"], lap["dgesdd"], lap["dgeev"]
+            m.rtol = float(rtol)
+            m.mu_re, m.mu_im, m.mu_tol = self.re.ctypes.data, self.im.ctypes.data, self.tol.ctypes.data
+
+    def read(self) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """The multipliers of the last call (copies), ``None`` when it did not compute them."""
+        if int(self.m.ok) != 1:
+            return None
+        mu = np.empty(self.re.shape[0], complex)
+        mu.real, mu.imag = self.re, self.im
+        return mu, self.tol.copy(), float(self.m.delta)
+
+
+# ================================================================== shooting's Newton
 @dataclass(frozen=True)
 class ShootSettings:
-    """The settings of :func:`shoot_in_c` (one :class:`Shooter`, its buffers made once, per
+    """The settings of shooting's Newton in C (one :class:`Shooter`, its buffers made once, per
     settings and thread).
 
     Parameters
     ----------
     method
-        An integration method that runs the shooting Newton in C
-        (:func:`gearsym.integrators.supports_c_shooting`), by name, or its ``GS_METHOD_*``
-        code (:data:`gearsym.engine.driver.METHODS`).
+        An integration method of the registry, by name or by its ``GS_METHOD_*`` code.
     rtol, atol, max_step, max_steps
         Integration settings (scalar tolerances; the variational equations use them too).
-    tol, scale_floor, pivot_tol, max_iter
-        See ``gs_shoot_args`` in gs_driver.h.
+    tol, max_iter, min_step
+        The convergence tolerance on the residual relative to the state scales, the Newton
+        steps allowed, the smallest damping.
+    trunc_level
+        Singular values of the scaled Jacobian below ``trunc_level * max(1, sigma_1)`` are
+        dropped from a step (:func:`gearsym.analysis.periodic.monodromy_error` at norm 1).
+    scale_floor
+        The state scales' floor (``atol / tol``).
+    segments, n_amp
+        Shooting segments, and samples per segment whose magnitudes give the scales.
+    n_anchor
+        Anchor rows pinning rigid-body coordinates (0: none).
     max_events_out
-        Capacity of the event log (the iteration gives up if a run has more).
+        First capacity of the event log (grown when an evaluation needs more).
 
     Raises
     ------
     EngineInputError
-        An unknown method, one without the Newton in C, or ``max_iter < 0``.
+        An unknown method, ``max_iter < 0``, ``segments < 1`` or ``n_amp < 2``.
     """
 
     method: str | int
@@ -143,105 +138,117 @@ class ShootSettings:
     max_step: float
     max_steps: int
     tol: float
-    scale_floor: float
-    pivot_tol: float
     max_iter: int
+    trunc_level: float
+    scale_floor: float
+    min_step: float = 2.0 ** -12
+    segments: int = 1
+    n_amp: int = 17
+    n_anchor: int = 0
     max_events_out: int = 4096
     codes: tuple[int, int] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "codes", c_method(self.method, "shooting", "c_shooting"))
-        if int(self.max_iter) < 0:
-            raise EngineInputError(f"shooting in C needs max_iter >= 0, got {self.max_iter}")
+        object.__setattr__(self, "codes", c_method(self.method))
+        if int(self.max_iter) < 0 or int(self.segments) < 1 or int(self.n_amp) < 2:
+            raise EngineInputError(f"shooting in C needs max_iter >= 0, segments >= 1 and n_amp >= 2 (got "
+                                   f"{self.max_iter}, {self.segments}, {self.n_amp})")
 
 
-def c_method(method: str | int, what: str, flag: str) -> tuple[int, int]:
-    """``(GS_METHOD_* code, GS_NONLIN_* code)`` of an integration method that runs ``what`` in C
-    (the registry's ``flag``: ``"c_shooting"``, ``"c_corrector"``), given by name or by code.
+@dataclass(frozen=True)
+class VerifyRuns:
+    """A converged orbit's verification runs, made in the C call that solved it (one plain run
+    per segment, no variational equations, from the converged segment start states: what
+    :func:`gearsym.analysis.periodic._verification.segment_closure` integrates).
 
-    Raises
-    ------
-    EngineInputError
-        An unknown method, or one that does not run ``what`` in C.
-    """
-    try:
-        m = by_code(int(method)) if isinstance(method, (int, np.integer)) else get_method(method)
-        nonlinear = m.nonlinear_code()
-    except ParameterError as exc:
-        raise EngineInputError(str(exc)) from None
-    if not getattr(m, flag):
-        raise EngineInputError(f"the {what} in C does not run with method '{m.name}'")
-    return m.code, nonlinear
-
-
-def shoot_in_c(engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, grid: np.ndarray,
-               settings: ShootSettings | None = None, *, want_run: bool = True, **keywords: Any) -> ShootOutcome:
-    """Single-shooting Newton for ``x(t1; t0, x) = x`` in one driver call.
-
-    Parameters
+    Attributes
     ----------
-    engine
-        The loaded engine (explicit model).
-    x0
-        Start of the iteration, shape (nx,).
-    p
-        Parameter vector (C-contiguous float64).
-    t0, t1
-        The orbit's span.
-    grid
-        Sample times in ``[t0, t1]`` (>= 2) whose state magnitudes are the scales.
-    settings
-        The method, tolerances and Newton settings (:class:`ShootSettings`).
-    want_run
-        ``False``: the outcome's ``run`` is ``None`` (its ``events`` and ``monodromy`` are
-        still given).
-    **keywords
-        The fields of :class:`ShootSettings` (``method=..., rtol=..., ...``), overriding those
-        of ``settings``.
-
-    Returns
-    -------
-    ShootOutcome
-
-    Raises
-    ------
-    EngineError
-        The first integration failed (a subclass per failure, as :meth:`Engine.run`).
-    ParameterError
-        A keyword that is no field of :class:`ShootSettings` (named, with the closest one).
-    KeyboardInterrupt
-        Ctrl-C during an integration.
+    starts : ndarray, shape (segments, nx)
+        The states the runs started from (the orbit's segment start states).
+    ends : ndarray or None
+        Each run's end state, same shape; ``None`` when a run failed.
+    error : str
+        The failed run's error, as the engine raises it (empty when they ran).
     """
-    if keywords:
-        settings = cached_options(ShootSettings, keywords, "shoot_in_c") if settings is None else \
-            merge_options(ShootSettings, settings, keywords, "shoot_in_c")
-    elif not isinstance(settings, ShootSettings):
-        raise EngineInputError(f"shoot_in_c needs a ShootSettings (or its keywords), got {type(settings).__name__}")
-    if engine.implicit or engine.nalg or not hasattr(engine._lib, "gs_shoot_ws"):
-        raise EngineInputError("shooting in C needs an explicit model built with this gearsym")
-    nx = engine.nx
-    xa = np.asarray(x0, dtype=float).reshape(-1)
-    tout = np.asarray(grid, dtype=float).reshape(-1)
-    p = np.asarray(p, dtype=float).reshape(-1)
-    _check_sizes(engine, x0=(xa, nx), p=(p, engine.np))
-    if tout.shape[0] < 2 or nx > MAX_STATES:
-        raise EngineInputError(f"shooting in C needs >= 2 sample times, nx <= {MAX_STATES} and max_iter >= 0")
-    key = (settings, tout.shape[0])
-    # one Shooter per settings and thread (its buffers are reused; the workspace is per thread too)
-    cache = engine._tls.__dict__.setdefault("shooters", {})
-    shooter = cache.get(key)
-    if shooter is None:
-        if len(cache) >= 8:
-            cache.pop(next(iter(cache)))
-        shooter = cache[key] = Shooter(engine, settings, tout.shape[0])
-    return shooter(engine, xa, p, float(t0), float(t1), tout, want_run)
+
+    starts: np.ndarray
+    ends: np.ndarray | None
+    error: str = ""
+
+
+@dataclass(frozen=True)
+class ShootOutcome:
+    """Where shooting's Newton ended (:meth:`Shooter.solve` / :meth:`Shooter.restart`).
+
+    Attributes
+    ----------
+    converged : bool
+        Whether it converged (else ``reason`` says why not).
+    code, reason : int, str
+        The outcome (:data:`OUTCOMES`).
+    note : int
+        A converged orbit's note (:data:`gearsym.engine.newton.NOTES`).
+    X : ndarray, shape (segments, nx)
+        The last iterate (the orbit's segment start states when converged).
+    iterations : int
+        Newton steps taken (over restarts).
+    residual, relative : float
+        ``max |R|`` and ``max |R_i| / scale_i`` at ``X``'s evaluation.
+    scale : ndarray
+        The state scales of the last evaluation.
+    history : list of tuple
+        ``(kind, residual, relative, damping, dropped)`` since the start / restart
+        (:meth:`gearsym.engine.newton.NewtonCore.history`).
+    monodromies : list of ndarray
+        The segment monodromies of ``X``'s evaluation (of the iterate before a final step
+        added without one, note 2).
+    events : EventLog
+        The events of that evaluation, all segments.
+    message, status, t_reached : str, int, float
+        A failed evaluation's message and ``GS_ERR_*`` status (``EVAL_FAILED``: the start's;
+        ``STALLED``: the last failed trial's, if any) and where its run stopped.
+    multipliers, isolation, g0 : tuple, tuple, ndarray or None
+        One converged segment: ``(mu, tolerances, delta)``, ``(sigma, norm, direction)`` in the
+        scales ``scale`` and the switching functions at the orbit's start, computed in the
+        driver (``None`` where not).
+    n_runs : int
+        Integrations made by this call.
+    verification : VerifyRuns or None
+        Converged: the verification runs (``None`` where not made).
+    """
+
+    converged: bool
+    code: int
+    reason: str
+    note: int
+    X: np.ndarray
+    iterations: int
+    residual: float
+    relative: float
+    scale: np.ndarray
+    history: list[tuple[str, float, float, float, int]]
+    monodromies: list[np.ndarray]
+    events: EventLog
+    message: str
+    status: int
+    t_reached: float
+    multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
+    isolation: tuple[float, float, np.ndarray] | None = None
+    g0: np.ndarray | None = None
+    n_runs: int = 0
+    verification: VerifyRuns | None = None
+
+    def error(self) -> EngineError:
+        """The engine's error of the failed evaluation (``EVAL_FAILED``), as its run raises it."""
+        return error_for_status(int(self.status), self.message, self.t_reached)
 
 
 class Shooter:
-    """The driver's argument structs and buffers of :func:`shoot_in_c` for one set of settings,
-    made once (building the ``ctypes`` structs and buffer addresses of a call cost about a
-    sixth of a warm orbit solve's time outside C).  Kept in the engine's thread-local storage,
-    so it holds no reference to the engine (no cycle keeps an engine's workspaces alive).
+    """Shooting's Newton in C for one set of settings: the iteration's struct
+    (:class:`~gearsym.engine.newton.NewtonCore`), the run's and the evaluator's structs and
+    buffers, made once (setting up ``ctypes`` structs costs about a sixth of a warm solve).  Kept
+    in the engine's thread-local storage (:func:`shooter_for`), so it holds no reference to the
+    engine.
 
     Parameters
     ----------
@@ -249,121 +256,168 @@ class Shooter:
         The engine it runs on.
     settings
         Its settings.
-    n_grid
-        The number of sample times.
     """
 
-    def __init__(self, engine: Engine, settings: ShootSettings, n_grid: int):
-        st = settings
-        nx = self.nx = engine.nx
+    def __init__(self, engine: Engine, settings: ShootSettings):
+        st = self.settings = settings
+        nx, N = engine.nx, int(st.segments)
+        self.nx, self.N = nx, N
+        self.core = NewtonCore(engine._lib, ORBIT, N * nx, N * nx,
+                               NewtonPolicy(max_iter=int(st.max_iter), min_damping=float(st.min_step), decrease=1e-4,
+                                            apply_final_step=True),
+                               tol=float(st.tol), nx=nx, segments=N, trunc_level=float(st.trunc_level),
+                               scale_floor=float(st.scale_floor), n_anchor=int(st.n_anchor),
+                               hist_cap=int(st.max_iter) + 4)
         method, nonlinear = st.codes
-        max_iter = int(st.max_iter)
-        self.x, self.p, self.tout = np.empty(nx), np.empty(engine.np), np.empty(n_grid)
+        self.x, self.p, self.tout = np.empty(nx), np.empty(engine.np), np.empty(int(st.n_amp))
         self.a, self.buf = engine._prepare(self.x, self.p, 0.0, 1.0, self.tout, method, float(st.rtol),
                                            float(st.atol), None, True, int(st.max_steps), float(st.max_step), 0.0,
-                                           0, 0, 0.0, int(st.max_events_out), nonlinear)
-        self.scale, self.h_abs, self.h_rel = np.empty(nx), np.empty(max_iter + 1), np.empty(max_iter + 1)
+                                           0, 0, 0.0, 1, nonlinear)
+        self.s = np.empty(N + 1)
+        f = self.f = GsOrbitFlow()
+        f.s, f.n_amp, f.grid = self.s.ctypes.data, int(st.n_amp), self.tout.ctypes.data
+        self.events = _event_buffers(f, int(st.max_events_out))
+        self.mult = MultiplierBuffers(f.mult, nx, float(st.rtol))
         self.direction = np.empty(nx)
-        s = self.s = GsShootArgs()
-        s.tol, s.scale_floor, s.pivot_tol, s.max_iter = float(st.tol), float(st.scale_floor), float(st.pivot_tol), \
-            max_iter
-        s.x, s.scale = self.x.ctypes.data, self.scale.ctypes.data
-        s.hist_abs, s.hist_rel = self.h_abs.ctypes.data, self.h_rel.ctypes.data
-        self.mult = MultiplierBuffers(s.mult, nx, float(st.rtol))  # the converged orbit's multipliers in the same call
-        s.iso.direction = self.direction.ctypes.data  # and its isolation
+        f.iso.direction = self.direction.ctypes.data
         self.g0 = np.empty(engine.nsw)
-        if engine.nsw:  # and the switching functions at its start
-            s.g0_out = self.g0.ctypes.data
+        if engine.nsw:
+            f.g0_out = self.g0.ctypes.data
+        self.verify_ends = np.empty((N, nx))
+        f.verify_ends = self.verify_ends.ctypes.data
+        self.fref = C.byref(f)
 
-    def __call__(self, engine: Engine, x0: np.ndarray, p: np.ndarray, t0: float, t1: float, tout: np.ndarray,
-                 want_run: bool = True) -> ShootOutcome:
-        """One iteration from ``x0`` on ``engine`` (the one it was made for; sizes checked by
-        :func:`shoot_in_c`); the outcome's arrays are its own copies."""
-        a, s, buf = self.a, self.s, self.buf
-        self.x[:] = x0
+    def solve(self, engine: Engine, X0: np.ndarray, p: np.ndarray, times: np.ndarray,
+              anchor: np.ndarray | None = None) -> ShootOutcome:
+        """Newton from the segment start states ``X0`` (segments x nx) over the segment times
+        ``times`` (segments + 1) with parameters ``p``; ``anchor``: the anchor rows (n_anchor x
+        segments nx) when the settings have them."""
         self.p[:] = p
-        self.tout[:] = tout
-        a.t0, a.t_end = t0, t1
-        a.n_events = 0
-        engine._call(engine._lib.gs_shoot_ws, a, C.byref(s))
-        n = int(s.n_hist)
-        converged = int(s.outcome) == 0
-        run = events = mono = None
-        if converged:
-            n_ev = int(a.n_events)
-            if n_ev > buf["cap"]:  # the event log overflowed (the C side gives up first; kept for safety)
-                converged = False
-            elif want_run:
-                run = engine._result(a, buf, copy=True)
-                events, mono = run.events, run.monodromy
-            else:
-                events = EventLog(t=buf["ev_t"][:n_ev].copy(), surface=buf["ev_s"][:n_ev].astype(int),
-                                  direction=buf["ev_d"][:n_ev].astype(int), speed=buf["ev_v"][:n_ev].copy())
-                mono = buf["mono"].copy()
-        multipliers = self.mult.read() if converged else None
-        iso = (float(s.iso.sigma), float(s.iso.norm), self.direction.copy()) \
-            if converged and int(s.iso.ok) == 1 else None
-        g0 = self.g0.copy() if converged and (int(s.g0_ok) == 1 or not self.g0.size) else None
-        return ShootOutcome(converged, OUTCOMES.get(int(s.outcome), "unknown"), self.x.copy(), run,
-                            self.scale.copy(), self.h_abs[:n].copy(), self.h_rel[:n].copy(), int(s.iterations),
-                            int(s.note), int(s.outcome), multipliers, iso, g0, events, mono)
+        self.s[:] = times
+        if self.core.anchor.shape[0]:
+            if anchor is None:
+                raise EngineInputError(f"this shooter takes {self.core.anchor.shape[0]} anchor rows")
+            self.core.anchor[...] = anchor
+        self.core.start(X0)
+        return self._drive(engine)
+
+    def restart(self, engine: Engine, X: np.ndarray) -> ShootOutcome:
+        """Go on from ``X`` (after a relaxation by integration), the steps so far counted."""
+        self.core.restart(X)
+        return self._drive(engine)
+
+    def _drive(self, engine: Engine) -> ShootOutcome:
+        f = self.f
+        runs = int(f.n_runs)
+        while True:
+            engine._call(engine._lib.gs_shoot_ws, self.a, self.core.ref, self.fref)
+            if int(f.handback) == _HANDBACK_EVENTS:  # the event log is too small: grow it, same request
+                self.events = _event_buffers(f, max(int(f.events_needed), 2 * int(f.ev_cap)))
+                continue
+            break
+        return self._outcome(int(f.n_runs) - runs)
+
+    def _outcome(self, n_runs: int) -> ShootOutcome:
+        core, nw, f, nx, N = self.core, self.core.nw, self.f, self.nx, self.N
+        converged = core.outcome == CONVERGED
+        monos = [core.J[i * nx * nx:(i + 1) * nx * nx].reshape(nx, nx).copy() for i in range(N)]
+        one = converged and N == 1
+        iso = (float(f.iso.sigma), float(f.iso.norm), self.direction.copy()) if one and int(f.iso.ok) == 1 else None
+        g0 = self.g0.copy() if one and (int(f.g0_ok) == 1 or not self.g0.size) else None
+        return ShootOutcome(converged, core.outcome, OUTCOMES.get(core.outcome, "unknown"), int(nw.note),
+                            core.z.reshape(N, nx).copy(), int(nw.iterations), float(nw.residual), float(nw.relative),
+                            core.scale.copy(), core.history(), monos, _events(self.events, int(f.n_events)),
+                            core.message, int(nw.eval_status), float(f.t_reached),
+                            self.mult.read() if one else None, iso, g0, n_runs, self._verification(converged))
+
+    def _verification(self, converged: bool) -> VerifyRuns | None:
+        """The verification runs of a converged orbit (made after its convergence, same call)."""
+        f = self.f
+        ok = int(f.verify_ok)
+        if not converged or ok == 0:
+            return None
+        X = self.core.z.reshape(self.N, self.nx).copy()
+        if ok == 1:
+            return VerifyRuns(X, self.verify_ends.copy())
+        err = error_for_status(int(f.verify_status), f.verify_msg.decode("utf-8", errors="replace"),
+                               float(f.verify_t_reached))
+        return VerifyRuns(X, None, str(err))
 
 
-@dataclass(frozen=True)
-class CorrectOutcome:
-    """What :func:`correct_in_c` returns.
+def shooter_for(engine: Engine, settings: ShootSettings | None = None, **keywords: Any) -> Shooter:
+    """The :class:`Shooter` of ``settings`` (or of the keywords, the fields of
+    :class:`ShootSettings`) on this thread, made on first use (eight kept per engine and thread).
 
-    Attributes
-    ----------
-    converged : bool
-        Whether the C corrector converged (else ``reason`` says why it gave up).
-    reason : str
-        :data:`OUTCOMES` entry.
-    z : ndarray
-        The corrected point ``(x, lambda)`` (the last iterate when not converged).
-    R, monodromy, f_lambda : ndarray
-        Residual, monodromy and ``F_lambda`` at ``z``.
-    run : RunResult or None
-        The run at ``z`` (its event log) when converged.
-    residual : float
-        ``max |R_i| / Rs_i``.
-    iterations, n_runs : int
-        Newton steps taken and integrations made.
-    code : int
-        The outcome code (:data:`OUTCOMES`).
-    samples : OrbitSamples or None
-        The corrected orbit sampled over one period, when asked for and obtained.
-    tangent : ndarray or None
-        With ``t_ref``: the solution ``t`` of ``[J_s; t_ref] t = e_n`` at ``z`` (``J_s`` the
-        scaled ``[F_u, F_lambda]``), unnormalised; ``None`` when not asked for or singular.
-    period : float
-        The forcing period ``T(p(lambda))`` at ``z`` (NaN when not converged).
-    events : EventLog or None
-        The event log of the run at ``z`` when converged (also ``run.events``).
-    multipliers : tuple or None
-        ``(mu, tolerances, delta)`` of the monodromy at ``z``, unsorted, as
-        :func:`gearsym.analysis.periodic.multiplier_tolerances` returns them (computed in the
-        driver with scipy's LAPACK; ``None`` where that was not possible).
+    Raises
+    ------
+    ParameterError
+        A keyword that is no field of :class:`ShootSettings` (named, with the closest one).
+    EngineInputError
+        Bad settings.
     """
-
-    converged: bool
-    reason: str
-    z: np.ndarray
-    R: np.ndarray
-    monodromy: np.ndarray
-    f_lambda: np.ndarray
-    run: RunResult | None
-    residual: float
-    iterations: int
-    n_runs: int
-    code: int = 0
-    samples: OrbitSamples | None = None
-    tangent: np.ndarray | None = None
-    period: float = float("nan")
-    events: EventLog | None = None
-    multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
+    if keywords:
+        settings = cached_options(ShootSettings, keywords, "shoot_in_c") if settings is None else \
+            merge_options(ShootSettings, settings, keywords, "shoot_in_c")
+    elif not isinstance(settings, ShootSettings):
+        raise EngineInputError(f"shooting in C needs a ShootSettings (or its keywords), got {type(settings).__name__}")
+    cache = engine._tls.__dict__.setdefault("shooters", {})
+    shooter = cache.get(settings)
+    if shooter is None:
+        if len(cache) >= 8:
+            cache.pop(next(iter(cache)))
+        shooter = cache[settings] = Shooter(engine, settings)
+    return shooter
 
 
+def shoot_in_c(engine: Engine, X0: np.ndarray, p: np.ndarray, times: np.ndarray,
+               settings: ShootSettings | None = None, *, anchor: np.ndarray | None = None,
+               **keywords: Any) -> ShootOutcome:
+    """Shooting's Newton for ``phi(s_{i+1}; s_i, X_i) = X_{i+1}`` (cyclically) in one driver call
+    (with a converged orbit's verification runs, :attr:`ShootOutcome.verification`).
+
+    Parameters
+    ----------
+    engine
+        The loaded engine (explicit or implicit model).
+    X0
+        Start of the iteration: the segment start states, shape (segments, nx) (or (nx,) for
+        one segment).
+    p
+        Parameter vector.
+    times
+        The segment times ``s_0 < ... < s_N`` (segments + 1).
+    settings
+        The method, tolerances and Newton settings (:class:`ShootSettings`).
+    anchor
+        Anchor rows (with ``n_anchor`` in the settings).
+    **keywords
+        The fields of :class:`ShootSettings`, overriding those of ``settings``.
+
+    Returns
+    -------
+    ShootOutcome
+        Also when the iteration did not converge; ``code`` ``EVAL_FAILED`` when the first
+        integration failed (:meth:`ShootOutcome.error` is its error).
+
+    Raises
+    ------
+    EngineInputError
+        Arrays of the wrong size, bad settings.
+    KeyboardInterrupt
+        Ctrl-C during an integration.
+    """
+    shooter = shooter_for(engine, settings, **keywords)
+    N, nx = shooter.N, shooter.nx
+    X = np.asarray(X0, dtype=float).reshape(-1)
+    pa = np.asarray(p, dtype=float).reshape(-1)
+    s = np.asarray(times, dtype=float).reshape(-1)
+    if X.shape[0] != N * nx or pa.shape[0] != engine.np or s.shape[0] != N + 1 or not np.all(np.diff(s) > 0):
+        raise EngineInputError(f"shooting in C needs X0 of {N} x {nx} states, p of {engine.np} entries and "
+                               f"{N + 1} increasing segment times (got {X.shape[0]}, {pa.shape[0]}, {s.shape[0]})")
+    return shooter.solve(engine, X, pa, s, anchor)
+
+
+# ================================================================== the continuation's corrector
 @dataclass(frozen=True)
 class SampleStats:
     """Statistics of an orbit's samples over one period, the last sample (the first again)
@@ -417,202 +471,337 @@ class OrbitSamples:
     stats: SampleStats | None = None
 
 
-def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
-                 t_ref: np.ndarray | None = None, **corrector_args: Any) -> CorrectOutcome:
-    """The continuation's pseudo-arclength corrector for single shooting in one driver call.
+@dataclass(frozen=True)
+class CorrectorFlow:
+    """The C evaluator of the continuation's shooting residual (``gs_corrector_flow``): what
+    stays fixed along a continuation.
 
-    ``F(x, lambda) = phi(t0 + P(lambda); t0, x, p(lambda)) - x`` with ``p(lambda) = p0 +
-    (lambda - lam0) D`` and ``P = periods * T(p)``, plus ``row . (z / S) = target``; see
-    ``gs_correct_args`` in gs_driver.h and :meth:`gearsym.analysis.continuation._corrector.Continuer.correct`,
-    whose iteration it mirrors.  ``engine`` must be a build with the parameter derivatives.
-    With ``n_samples >= 2`` the converged orbit is also sampled (:class:`OrbitSamples`) in the
-    same call; ``samples`` is ``None`` when that run failed.  With ``t_ref`` (``nx + 1``
-    entries) the point's unnormalised tangent along it comes back too (``tangent``).
-    One call of a :class:`Corrector` made for it (a continuation keeps one and calls it at
-    every point).
+    Attributes
+    ----------
+    engine : Engine
+        The build with the parameter derivatives.
+    method : str or int
+        The integration method (any of the registry's: CVODE, or IDA for implicit models).
+    rtol : float
+    atol : ndarray
+        One absolute tolerance per state.
+    max_steps : int
+    segments, nd : int
+        Shooting segments and unknowns per segment (the differential states).
+    periods, t0 : float
+        The orbit's forcing periods and phase.
+    lam0 : float
+    p0, D : ndarray
+        ``p(lambda) = p0 + (lambda - lam0) D``.
+    n_samples : int
+        Samples of a corrected point (one segment; 0: none).
+    max_events_out : int
+        First capacity of the event log.
+    """
+
+    engine: Any
+    method: str | int
+    rtol: float
+    atol: np.ndarray
+    max_steps: int
+    segments: int
+    nd: int
+    periods: float
+    t0: float
+    lam0: float
+    p0: np.ndarray
+    D: np.ndarray
+    n_samples: int = 0
+    max_events_out: int = 4096
+
+
+@dataclass(frozen=True)
+class CorrectOutcome:
+    """What :meth:`Corrector.__call__` returns.
+
+    Attributes
+    ----------
+    converged : bool
+        Whether the corrector converged (else ``reason``).
+    code, reason : int, str
+        The outcome (:data:`OUTCOMES`).
+    z : ndarray
+        The corrected point ``(u, lambda)`` (the last iterate when not converged).
+    iterations : int
+        Newton steps taken.
+    residual, residual_prev : float
+        ``max |R_i| / Rs_i`` at ``z`` and before the last step.
+    message : str
+        A failed evaluation's message.
+    by_python : bool
+        The evaluation at ``z`` was made by the caller's ``evaluate`` (its record is the
+        caller's); else the fields below hold it.
+    R, F_u, f_lambda : ndarray or None
+        The C evaluation at ``z``.
+    monodromies : list of ndarray
+        Its segment monodromies (the differential blocks).
+    events : EventLog or None
+        Its events, all segments.
+    period : float
+        The forcing period at ``z`` (NaN when not converged or not by C).
+    samples : OrbitSamples or None
+        One segment, C: the corrected orbit sampled over one period.
+    multipliers : tuple or None
+        One segment, C: ``(mu, tolerances, delta)`` of the monodromy, unsorted.
+    tangent : ndarray or None
+        With ``t_ref``: the unit tangent along it at ``z`` (scaled unknowns), where the
+        evaluation at ``z`` gave ``F_lambda``.
+    n_runs, n_c, n_python : int
+        Integrations made in C, evaluations made in C and in Python, by this call.
+    """
+
+    converged: bool
+    code: int
+    reason: str
+    z: np.ndarray
+    iterations: int
+    residual: float
+    residual_prev: float
+    message: str
+    by_python: bool
+    R: np.ndarray | None = None
+    F_u: np.ndarray | None = None
+    f_lambda: np.ndarray | None = None
+    monodromies: list[np.ndarray] = field(default_factory=list)
+    events: EventLog | None = None
+    period: float = float("nan")
+    samples: OrbitSamples | None = None
+    multipliers: tuple[np.ndarray, np.ndarray, float] | None = None
+    tangent: np.ndarray | None = None
+    n_runs: int = 0
+    n_c: int = 0
+    n_python: int = 0
+
+
+#: What a Python evaluation gives the corrector: ``(R, F_u, F_lambda or None, anchor rows or None)``.
+Evaluated = tuple[np.ndarray, np.ndarray, "np.ndarray | None", "np.ndarray | None"]
+
+
+class Corrector:
+    """The continuation's corrector: THE Newton iteration (corrector kind) with its struct and
+    buffers made once per continuation, and the C evaluator of the shooting residual where
+    given (``flow``); the caller's ``evaluate`` answers what that does not.
+
+    Parameters
+    ----------
+    engine
+        An engine of the system (its build carries the iteration); with ``flow``, its engine.
+    nr
+        The unknowns of the residual (the iteration's are ``nr + 1``: with lambda).
+    tol, max_iter, min_damping
+        The convergence tolerance, the Newton steps allowed, the smallest damping (the step is
+        halved from 1 while the scaled residual does not decrease, the last one taken anyway;
+        the divergence test stops when it fell by less than 10 % above ``100 tol``).
+    n_anchor
+        Anchor rows (0: none).
+    flow
+        The C evaluator's settings, or ``None`` (every evaluation by ``evaluate``).
+    """
+
+    def __init__(self, engine: Engine, nr: int, *, tol: float, max_iter: int, min_damping: float = 0.125,
+                 n_anchor: int = 0, flow: CorrectorFlow | None = None):
+        if flow is not None:
+            engine = flow.engine
+        self.engine, self.nr, self.flow = engine, int(nr), flow
+        policy = NewtonPolicy(max_iter=int(max_iter), min_damping=float(min_damping), decrease=0.0,
+                              accept_below=float(tol), accept_last=True, diverge=(0.9, 100.0 * float(tol)))
+        self.core = NewtonCore(engine._lib, CORRECTOR, self.nr + 1, self.nr, policy, tol=float(tol),
+                               n_anchor=int(n_anchor))
+        if flow is not None:
+            self._setup_flow(engine, flow)
+
+    def _setup_flow(self, engine: Engine, fl: CorrectorFlow) -> None:
+        if not hasattr(engine._lib, "gs_correct_ws"):
+            raise EngineInputError("the corrector's C evaluator needs a build with gs_correct_ws")
+        nx, nd, N = engine.nx, int(fl.nd), int(fl.segments)
+        if nd != nx - engine.nalg or self.nr != N * nd:
+            raise EngineInputError(f"the corrector's C evaluator needs nd = {nx - engine.nalg} differential states "
+                                   f"per segment and {N} x nd unknowns (got nd={nd}, nr={self.nr})")
+        self.p0 = np.array(fl.p0, dtype=float).reshape(-1)
+        self.D = np.array(fl.D, dtype=float).reshape(-1)
+        self.atol = np.array(np.broadcast_to(np.asarray(fl.atol, float), (nx,)))
+        if self.p0.shape[0] != engine.np or self.D.shape[0] != engine.np:
+            raise EngineInputError(f"p0 and D need {engine.np} entries (got {self.p0.shape[0]}, {self.D.shape[0]})")
+        code, nonlinear = c_method(fl.method)
+        sens = (self.D, 1, None, None, False)
+        self.a, self.buf = engine._prepare(np.zeros(nx), self.p0, float(fl.t0), float(fl.t0) + 1.0, np.empty(0),
+                                           code, float(fl.rtol), float(np.min(self.atol)), None, True,
+                                           int(fl.max_steps), 0.0, 0.0, 0, 0, 0.0, int(fl.max_events_out),
+                                           nonlinear, 0, None, sens)  # (its event log: the samples' run)
+        self.Ms = np.zeros((N, nd, nd))
+        f = self.f = GsCorrectorFlow()
+        f.segments, f.nd, f.periods, f.t0, f.lam0 = N, nd, float(fl.periods), float(fl.t0), float(fl.lam0)
+        f.p0 = self.p0.ctypes.data if self.p0.size else None
+        f.D, f.atol, f.Ms = self.D.ctypes.data, self.atol.ctypes.data, self.Ms.ctypes.data
+        self.events = _event_buffers(f, int(fl.max_events_out))
+        self.mult = MultiplierBuffers(f.mult, nd, float(fl.rtol))
+        self.n_samples = n_s = int(fl.n_samples) if int(fl.n_samples) >= 2 and N == 1 else 0
+        if n_s:
+            nsw = engine.nsw
+            self.ts, self.Ys = np.empty(n_s), np.empty((n_s, nx))
+            self.Gs, self.Hs = np.empty((n_s, nsw)), np.empty((n_s, max(engine.n_meshes(), 0)))
+            self.stats = np.empty(3 * nx)
+            self.args = np.empty(2 * nx + 2 * nsw + 2 * self.Hs.shape[1], dtype=np.intc)
+            f.n_samples, f.t_samples, f.Y_samples = n_s, self.ts.ctypes.data, self.Ys.ctypes.data
+            f.G_samples = self.Gs.ctypes.data if self.Gs.size else None
+            f.H_samples = self.Hs.ctypes.data if self.Hs.size else None
+            f.col_stats, f.col_args = self.stats.ctypes.data, self.args.ctypes.data
+        self.fref = C.byref(f)
+
+    def __call__(self, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
+                 t_ref: np.ndarray | None = None, anchor: np.ndarray | None = None,
+                 zalg: np.ndarray | None = None,
+                 evaluate: Callable[[np.ndarray, bool], Evaluated] | None = None) -> CorrectOutcome:
+        """Correct ``z`` onto ``F = 0``, ``row . (z / S) = target``.
+
+        Parameters
+        ----------
+        z, row, target, S, Rs
+            The start ``(u, lambda)``, the constraint row and its target, the scales of the
+            unknowns and of the residual rows.
+        t_ref
+            The reference direction of the point's tangent, or ``None``.
+        anchor
+            The anchor rows (in the scaled unknowns) when the corrector has them.
+        zalg
+            A DAE's algebraic variables at the segment starts (segments x nalg, float64,
+            C-contiguous), updated in place by the C evaluator.
+        evaluate
+            ``evaluate(z_eval, first) -> (R, F_u, F_lambda or None, anchor or None)`` for the
+            requests the C evaluator does not answer (all of them without ``flow``); raises
+            :class:`~gearsym.errors.GearsymError` when the evaluation fails (raised on when the
+            iteration cannot go on without it: the start, the last damped trial).
+
+        Returns
+        -------
+        CorrectOutcome
+        """
+        core, nw = self.core, self.core.nw
+        n = self.nr + 1
+        for name, dst, src in (("z", core.z, z), ("row", core.row, row), ("S", core.S, S), ("Rs", core.Rs, Rs)):
+            if np.shape(src) != dst.shape:
+                raise EngineInputError(f"{name} has {np.size(src)} entries, the corrector needs {dst.size}")
+        core.row[:] = row
+        core.S[:] = S
+        core.Rs[:] = Rs
+        nw.target = float(target)
+        if t_ref is not None:
+            core.t_ref[:] = t_ref
+            nw.t_ref = core.t_ref.ctypes.data
+        else:
+            nw.t_ref = None
+        if core.anchor.shape[0]:
+            if anchor is None:
+                raise EngineInputError(f"this corrector takes {core.anchor.shape[0]} anchor rows")
+            core.anchor[...] = anchor
+        if self.flow is not None and zalg is not None and zalg.size:
+            self.f.zalg = zalg.ctypes.data
+        if evaluate is None and self.flow is None:
+            raise EngineInputError("a corrector without the C evaluator needs evaluate")
+        core.start(np.asarray(z, float))
+        runs0, c0 = (int(self.f.n_runs), int(self.f.n_evals)) if self.flow is not None else (0, 0)
+        py_id, n_py = -1, 0
+        while True:
+            if self.flow is not None:
+                self.engine._call(self.engine._lib.gs_correct_ws, self.a, core.ref, self.fref)
+                if int(self.f.handback) == _HANDBACK_EVENTS:
+                    self.events = _event_buffers(self.f, max(int(self.f.events_needed), 2 * int(self.f.ev_cap)))
+                    continue
+            if core.done:
+                break
+            if core.pending:
+                if evaluate is None:
+                    raise EngineInputError("the corrector's C evaluator handed a request back and there is no "
+                                           "evaluate")
+                self._answer(evaluate, nw.n_evals == 1)
+                py_id, n_py = int(nw.n_evals), n_py + 1
+            if self.flow is None:
+                core.next()
+        return self._outcome(n, py_id == int(nw.n_evals), n_py, runs0, c0)
+
+    def _answer(self, evaluate: Callable[[np.ndarray, bool], Evaluated], first: bool) -> None:
+        core = self.core
+        try:
+            R, Fu, Flam, anchor = evaluate(core.z_eval.copy(), first)
+        except GearsymError as exc:
+            if core.nw.must_succeed:
+                raise
+            core.answer_failed(str(exc))
+            return
+        core.answer(R, Fu, Flam, anchor)
+
+    def _outcome(self, n: int, by_python: bool, n_py: int, runs0: int, c0: int) -> CorrectOutcome:
+        core, nw = self.core, self.core.nw
+        converged = core.outcome == CONVERGED
+        tangent = core.tangent.copy() if converged and nw.t_ref and int(nw.tangent_ok) == 1 else None
+        base = dict(converged=converged, code=core.outcome, reason=OUTCOMES.get(core.outcome, "unknown"),
+                    z=core.z.copy(), iterations=int(nw.iterations), residual=float(nw.residual),
+                    residual_prev=float(nw.residual_prev), message=core.message, by_python=by_python,
+                    tangent=tangent, n_python=n_py)
+        if self.flow is None:
+            return CorrectOutcome(**base)
+        f = self.f
+        base.update(n_runs=int(f.n_runs) - runs0, n_c=int(f.n_evals) - c0)
+        if by_python or not converged:
+            return CorrectOutcome(**base)
+        return CorrectOutcome(**base, R=core.R.copy(), F_u=core.J.copy(), f_lambda=core.Flam.copy(),
+                              monodromies=[M.copy() for M in self.Ms], events=_events(self.events, int(f.n_events)),
+                              period=float(f.period), samples=self._samples(),
+                              multipliers=self.mult.read() if self.Ms.shape[0] == 1 else None)
+
+    def _samples(self) -> OrbitSamples | None:
+        f, engine = self.f, self.engine
+        if not self.n_samples or int(f.samples_ok) != 1:
+            return None
+        st = None
+        if int(f.stats_ok) == 1:
+            nx, nsw, nm = engine.nx, engine.nsw, self.Hs.shape[1]
+            stats, args = self.stats.copy(), self.args.tolist()
+            g, h = 2 * nx, 2 * nx + 2 * nsw
+            st = SampleStats(stats[:nx], stats[nx:2 * nx], stats[2 * nx:], args[:nx], args[nx:g],
+                             args[g:g + nsw], args[g + nsw:h], args[h:h + nm], args[h + nm:])
+        return OrbitSamples(self.ts.copy(), self.Ys.copy(), self.Gs.copy(), self.Hs.copy(), st)
+
+    def tangent(self, Fu: np.ndarray, Flam: np.ndarray, t_ref: np.ndarray, S: np.ndarray, Rs: np.ndarray,
+                anchor: np.ndarray | None = None) -> np.ndarray | None:
+        """The unit tangent along ``t_ref`` at ``[F_u, F_lambda]`` by the iteration's own rule
+        (:meth:`~gearsym.engine.newton.NewtonCore.tangent_at`)."""
+        out = self.core.tangent_at(Fu, Flam, t_ref, S, Rs, anchor)
+        self.core.nw.t_ref = None
+        return out
+
+
+def correct_in_c(engine: Engine, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
+                 t_ref: np.ndarray | None = None, tol: float, max_iter: int, min_damping: float = 0.125,
+                 **flow: Any) -> CorrectOutcome:
+    """The continuation's pseudo-arclength corrector on the single-shooting residual of an ODE,
+    evaluated in C, in one driver call (a :class:`Corrector` made for it; a continuation keeps
+    one and calls it at every point).
 
     Parameters
     ----------
     engine
         The engine with the parameter derivatives.
     z, row, target, S, Rs
-        The start ``(x, lambda)``, the arclength row and its target, the scales of the
-        unknowns and of the residual (see :meth:`Corrector.__call__`).
+        The start ``(x, lambda)``, the arclength row and its target, the scales.
     t_ref
         A reference direction for the tangent (``nx + 1`` entries), or ``None``.
-    **corrector_args
-        The keywords of :class:`Corrector` (``tol``, ``max_iter``, ``min_damping``, ``periods``,
-        ``lam0``, ``p0``, ``D``, ``atol``, ``t0``, ``method``, ``rtol``, ``max_steps``,
-        ``max_events_out``, ``n_samples``).
+    tol, max_iter, min_damping
+        The iteration's settings.
+    **flow
+        The fields of :class:`CorrectorFlow` but ``engine``, ``segments`` and ``nd`` (``method``,
+        ``rtol``, ``atol``, ``max_steps``, ``periods``, ``t0``, ``lam0``, ``p0``, ``D``, ``n_samples``).
 
     Returns
     -------
     CorrectOutcome
-
-    Raises
-    ------
-    EngineInputError
-        An engine without the corrector or the derivatives, a method without the corrector in
-        C, or arrays of the wrong size.
-    KeyboardInterrupt
-        Ctrl-C during an integration.
     """
-    return Corrector(engine, **corrector_args)(z, row, target, S, Rs, t_ref=t_ref)
-
-
-_LAPACK: dict[str, int] | None = None
-
-
-_LAPACK_ROUTINES = ("dgebal", "dgesdd", "dgeev", "dgelsd")
-
-
-def lapack_pointers() -> dict[str, int]:
-    """Addresses of scipy's ``cython_lapack`` ``dgebal``, ``dgesdd``, ``dgeev`` and ``dgelsd`` (C
-    functions with Fortran's by-reference arguments), for the driver's multipliers, isolation
-    and anchored least squares; empty if unavailable."""
-    global _LAPACK
-    if _LAPACK is None:
-        out: dict[str, int] = {}
-        try:
-            from scipy.linalg import cython_lapack
-
-            get_name, get_ptr = C.pythonapi.PyCapsule_GetName, C.pythonapi.PyCapsule_GetPointer
-            get_name.restype, get_name.argtypes = C.c_char_p, [C.py_object]
-            get_ptr.restype, get_ptr.argtypes = C.c_void_p, [C.py_object, C.c_char_p]
-            for name in _LAPACK_ROUTINES:
-                cap = cython_lapack.__pyx_capi__[name]
-                out[name] = int(get_ptr(cap, get_name(cap)))
-        except Exception:  # noqa: BLE001 - the multipliers are then computed in Python
-            out = {}
-        _LAPACK = out if len(out) == len(_LAPACK_ROUTINES) and all(out.values()) else {}
-    return _LAPACK
-
-
-class MultiplierBuffers:
-    """The output arrays of a ``gs_multipliers`` struct (gs_driver.h), pointed at once with
-    scipy's LAPACK routines; :meth:`read` gives ``(mu, tolerances, delta)`` or ``None``."""
-
-    def __init__(self, m: C.Structure, nx: int, rtol: float):
-        self.m = m
-        self.re, self.im, self.tol = np.empty(nx), np.empty(nx), np.empty(nx)
-        lap = lapack_pointers()
-        if lap:  # else the struct's routines stay NULL and the driver computes nothing
-            m.lapack_dgebal, m.lapack_dgesdd, m.lapack_dgeev = lap["dgebal"], lap["dgesdd"], lap["dgeev"]
-            m.rtol = float(rtol)
-            m.mu_re, m.mu_im, m.mu_tol = self.re.ctypes.data, self.im.ctypes.data, self.tol.ctypes.data
-
-    def read(self) -> tuple[np.ndarray, np.ndarray, float] | None:
-        """The multipliers of the last call (copies), ``None`` when it did not compute them."""
-        if int(self.m.ok) != 1:
-            return None
-        mu = np.empty(self.re.shape[0], complex)
-        mu.real, mu.imag = self.re, self.im
-        return mu, self.tol.copy(), float(self.m.delta)
-
-
-class Corrector:
-    """The arguments of :func:`correct_in_c` that stay fixed along a continuation, with the
-    driver's argument structs and buffers made once (setting up the ``ctypes`` structs and
-    buffer addresses of a call cost about a fifth of the corrector's time outside C)."""
-
-    def __init__(self, engine: Engine, *, tol: float, max_iter: int, min_damping: float, periods: float, lam0: float,
-                 p0: np.ndarray, D: np.ndarray, atol: float, t0: float, method: int, rtol: float, max_steps: int,
-                 max_events_out: int = 4096, n_samples: int = 0, n_anchor: int = 0):
-        if engine.implicit or engine.nalg or not hasattr(engine._lib, "gs_correct_ws"):
-            raise EngineInputError("the corrector in C needs an explicit model built with this gearsym")
-        from .sim_args import GsCorrectArgs
-
-        nx, nsw = engine.nx, engine.nsw
-        self.engine, self.nx = engine, nx
-        self.p0 = np.array(p0, dtype=float).reshape(-1)
-        self.D = np.array(D, dtype=float).reshape(-1)
-        _check_sizes(engine, p0=(self.p0, engine.np), D=(self.D, engine.np))
-        if nx > MAX_STATES or engine.np > MAX_STATES or int(max_iter) < 0:
-            raise EngineInputError(f"the corrector in C needs nx, np <= {MAX_STATES} and max_iter >= 0")
-        # inputs copied in at every call, outputs read out
-        self.z, self.row, self.S, self.t_ref = (np.empty(nx + 1) for _ in range(4))
-        self.Rs, self.R, self.Fl = np.empty(nx), np.empty(nx), np.empty(nx)
-        self.M = np.empty((nx, nx))
-        self.tangent = np.empty(nx + 1)
-        sens = (self.D, 1, None, None, False)
-        code, nonlinear = c_method(method, "corrector", "c_corrector")
-        self.a, self.buf = engine._prepare(np.zeros(nx), self.p0, float(t0), float(t0) + 1.0, np.empty(0),
-                                           code, float(rtol), float(atol), None, True, int(max_steps), 0.0,
-                                           0.0, 0, 0, 0.0, int(max_events_out), nonlinear, 0, None, sens)
-        c = self.c = GsCorrectArgs()
-        c.nx = nx
-        c.z, c.row, c.S, c.Rs = self.z.ctypes.data, self.row.ctypes.data, self.S.ctypes.data, self.Rs.ctypes.data
-        c.tol, c.max_iter, c.min_damping, c.periods = float(tol), int(max_iter), float(min_damping), float(periods)
-        c.lam0, c.p0, c.D, c.atol = float(lam0), self.p0.ctypes.data if self.p0.size else None, self.D.ctypes.data, \
-            float(atol)
-        c.R_out, c.M_out, c.Flam_out = self.R.ctypes.data, self.M.ctypes.data, self.Fl.ctypes.data
-        self._t_ref_ptr, self._tangent_ptr = self.t_ref.ctypes.data, self.tangent.ctypes.data
-        self.mult = MultiplierBuffers(c.mult, nx, rtol)  # the converged point's multipliers
-        self.anchor = np.zeros((int(n_anchor), nx + 1))
-        if n_anchor:  # rigid-body modes: the anchored least-squares steps (dgelsd)
-            lap = lapack_pointers()
-            if not lap or not 1 <= int(n_anchor) <= nx:
-                raise EngineInputError("anchor rows need scipy's LAPACK and 1 <= n_anchor <= nx")
-            c.n_anchor, c.anchor, c.lapack_dgelsd = int(n_anchor), self.anchor.ctypes.data, lap["dgelsd"]
-        self.n_samples = n_s = int(n_samples) if int(n_samples) >= 2 else 0
-        if n_s:
-            self.ts, self.Ys = np.empty(n_s), np.empty((n_s, nx))
-            self.Gs, self.Hs = np.empty((n_s, nsw)), np.empty((n_s, max(engine.n_meshes(), 0)))
-            self.stats = np.empty(3 * nx)
-            self.args = np.empty(2 * nx + 2 * nsw + 2 * self.Hs.shape[1], dtype=np.intc)
-            c.n_samples, c.t_samples, c.Y_samples = n_s, self.ts.ctypes.data, self.Ys.ctypes.data
-            c.G_samples = self.Gs.ctypes.data if self.Gs.size else None
-            c.H_samples = self.Hs.ctypes.data if self.Hs.size else None
-            c.col_stats, c.col_args = self.stats.ctypes.data, self.args.ctypes.data
-
-    def __call__(self, z: np.ndarray, row: np.ndarray, target: float, S: np.ndarray, Rs: np.ndarray, *,
-                 t_ref: np.ndarray | None = None, want_run: bool = True,
-                 anchor: np.ndarray | None = None) -> CorrectOutcome:
-        """Correct ``z`` (see :func:`correct_in_c`); the outcome's arrays are its own copies.
-        ``want_run=False``: no ``run`` (its ``events`` only).  ``anchor``: the ``n_anchor`` rows
-        (in the scaled unknowns ``z / S``) that pin the rigid-body coordinates, required when the
-        corrector was made with ``n_anchor > 0``."""
-        nx, c, engine = self.nx, self.c, self.engine
-        if self.anchor.shape[0] and anchor is None:
-            raise EngineInputError(f"this corrector takes {self.anchor.shape[0]} anchor rows")
-        for name, dst, src in (("z", self.z, z), ("row", self.row, row), ("S", self.S, S), ("Rs", self.Rs, Rs),
-                               ("t_ref", self.t_ref, t_ref), ("anchor", self.anchor, anchor)):
-            if src is None and name in ("t_ref", "anchor"):
-                continue
-            if getattr(src, "shape", None) != dst.shape and np.shape(src) != dst.shape:
-                raise EngineInputError(f"{name} has {np.size(src)} entries, the C iteration needs {dst.size} "
-                                       f"(model: nx={engine.nx}, np={engine.np})")
-            dst[:] = src
-        c.target = float(target)
-        if t_ref is not None:
-            c.t_ref, c.tangent_out = self._t_ref_ptr, self._tangent_ptr
-        else:
-            c.t_ref = c.tangent_out = None
-        engine._call(engine._lib.gs_correct_ws, self.a, C.byref(c))
-        converged = int(c.outcome) == 0
-        run = events = None
-        if converged:
-            n_ev, buf = int(self.a.n_events), self.buf
-            if n_ev > buf["cap"]:  # the event log overflowed (the C side gives up first; kept for safety)
-                converged = False
-            elif want_run:
-                run = engine._result(self.a, buf, copy=True)  # (the buffers are reused)
-                events = run.events
-            else:
-                events = EventLog(t=buf["ev_t"][:n_ev].copy(), surface=buf["ev_s"][:n_ev].astype(int),
-                                  direction=buf["ev_d"][:n_ev].astype(int), speed=buf["ev_v"][:n_ev].copy())
-        samples = None
-        if converged and self.n_samples and int(c.samples_ok) == 1:
-            st = None
-            if int(c.stats_ok) == 1:
-                nsw, nm, stats, args = engine.nsw, self.Hs.shape[1], self.stats.copy(), self.args.tolist()
-                g, h = 2 * nx, 2 * nx + 2 * nsw
-                st = SampleStats(stats[:nx], stats[nx:2 * nx], stats[2 * nx:], args[:nx], args[nx:g],
-                                 args[g:g + nsw], args[g + nsw:h], args[h:h + nm], args[h + nm:])
-            samples = OrbitSamples(self.ts.copy(), self.Ys.copy(), self.Gs.copy(), self.Hs.copy(), st)
-        tangent = self.tangent.copy() if converged and t_ref is not None and int(c.tangent_ok) == 1 else None
-        multipliers = self.mult.read() if converged else None
-        return CorrectOutcome(converged, OUTCOMES.get(int(c.outcome), "unknown"), self.z.copy(), self.R.copy(),
-                              self.M.copy(), self.Fl.copy(), run, float(c.residual), int(c.iterations),
-                              int(c.n_runs), int(c.outcome), samples, tangent, float(c.period_out), events,
-                              multipliers)
+    nd = engine.nx - engine.nalg
+    fl = CorrectorFlow(engine=engine, segments=1, nd=nd, **flow)
+    return Corrector(engine, nd, tol=tol, max_iter=max_iter, min_damping=min_damping, flow=fl)(
+        z, row, target, S, Rs, t_ref=t_ref)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import ctypes as C
 
-__all__ = ["GsCorrectArgs", "GsIsolation", "GsMultipliers", "GsRamp", "GsShootArgs", "GsSimArgs"]
+__all__ = ["GsCorrectorFlow", "GsIsolation", "GsMultipliers", "GsNewton", "GsOrbitFlow", "GsRamp", "GsSimArgs"]
 
 # Pointer members are declared c_void_p (same layout as double*/int*) so that
 # numpy buffers can be passed as plain addresses (fast: no ctypes casts).
@@ -119,55 +119,129 @@ class GsIsolation(C.Structure):
     ]
 
 
-class GsShootArgs(C.Structure):
-    """ctypes mirror of ``struct gs_shoot_args`` (gs_driver.h); keep in sync."""
+class GsNewton(C.Structure):
+    """ctypes mirror of ``struct gs_newton`` (gs_driver.h): THE Newton iteration's problem,
+    policy, evaluation buffers and results; keep in sync."""
 
     _fields_ = [
-        ("tol", C.c_double),
-        ("scale_floor", C.c_double),
-        ("pivot_tol", C.c_double),
-        ("max_iter", C.c_int),
-        ("x", _PD),
-        ("scale", _PD),
-        ("hist_abs", _PD),
-        ("hist_rel", _PD),
-        ("n_hist", C.c_int),
-        ("iterations", C.c_int),
-        ("note", C.c_int),
-        ("outcome", C.c_int),
-        ("mult", GsMultipliers),
-        ("iso", GsIsolation),
-        ("g0_out", _PD),
-        ("g0_ok", C.c_int),
-    ]
-
-
-class GsCorrectArgs(C.Structure):
-    """ctypes mirror of ``struct gs_correct_args`` (gs_driver.h); keep in sync."""
-
-    _fields_ = [
+        ("kind", C.c_int),
+        ("n", C.c_int),
+        ("nr", C.c_int),
         ("nx", C.c_int),
-        ("z", _PD),
+        ("segments", C.c_int),
+        ("max_iter", C.c_int),
+        ("tol", C.c_double),
+        ("min_damping", C.c_double),
+        ("decrease", C.c_double),
+        ("accept_below", C.c_double),
+        ("accept_last", C.c_int),
+        ("apply_final_step", C.c_int),
+        ("diverge_ratio", C.c_double),
+        ("diverge_floor", C.c_double),
+        ("trunc_level", C.c_double),
+        ("scale_floor", C.c_double),
         ("row", _PD),
         ("target", C.c_double),
         ("S", _PD),
         ("Rs", _PD),
-        ("tol", C.c_double),
-        ("max_iter", C.c_int),
-        ("min_damping", C.c_double),
+        ("n_anchor", C.c_int),
+        ("anchor", _PD),
+        ("t_ref", _PD),
+        ("lapack_dgetrf", C.c_void_p),
+        ("lapack_dgetrs", C.c_void_p),
+        ("lapack_dgesdd", C.c_void_p),
+        ("lapack_dgelsd", C.c_void_p),
+        ("R", _PD),
+        ("J", _PD),
+        ("Flam", _PD),
+        ("flam_given", C.c_int),
+        ("amplitude", _PD),
+        ("eval_status", C.c_int),
+        ("eval_msg", C.c_char * 256),
+        ("z", _PD),
+        ("z_eval", _PD),
+        ("request", C.c_int),
+        ("answered", C.c_int),
+        ("must_succeed", C.c_int),
+        ("n_evals", C.c_int),
+        ("iterations", C.c_int),
+        ("outcome", C.c_int),
+        ("note", C.c_int),
+        ("residual", C.c_double),
+        ("residual_prev", C.c_double),
+        ("relative", C.c_double),
+        ("scale", _PD),
+        ("hist_cap", C.c_int),
+        ("n_hist", C.c_int),
+        ("hist_kind", _PI),
+        ("hist_abs", _PD),
+        ("hist_rel", _PD),
+        ("hist_step", _PD),
+        ("hist_drop", _PI),
+        ("tangent", _PD),
+        ("tangent_ok", C.c_int),
+        ("work", _PD),
+    ]
+
+
+class GsOrbitFlow(C.Structure):
+    """ctypes mirror of ``struct gs_orbit_flow`` (gs_driver.h): the shooting residual's C
+    evaluator; keep in sync."""
+
+    _fields_ = [
+        ("s", _PD),
+        ("n_amp", C.c_int),
+        ("grid", _PD),
+        ("ev_t", _PD),
+        ("ev_surface", _PI),
+        ("ev_dir", _PI),
+        ("ev_speed", _PD),
+        ("ev_cap", C.c_int),
+        ("n_events", C.c_int),
+        ("handback", C.c_int),
+        ("events_needed", C.c_int),
+        ("n_runs", C.c_int),
+        ("t_reached", C.c_double),
+        ("mult", GsMultipliers),
+        ("iso", GsIsolation),
+        ("g0_out", _PD),
+        ("g0_ok", C.c_int),
+        ("verify_ends", _PD),
+        ("verify_ok", C.c_int),
+        ("verify_status", C.c_int),
+        ("verify_t_reached", C.c_double),
+        ("verify_msg", C.c_char * 1024),
+    ]
+
+
+class GsCorrectorFlow(C.Structure):
+    """ctypes mirror of ``struct gs_corrector_flow`` (gs_driver.h): the continuation residual's
+    C evaluator; keep in sync."""
+
+    _fields_ = [
+        ("segments", C.c_int),
+        ("nd", C.c_int),
         ("periods", C.c_double),
+        ("t0", C.c_double),
         ("lam0", C.c_double),
         ("p0", _PD),
         ("D", _PD),
-        ("atol", C.c_double),
-        ("dP", C.c_double),
-        ("R_out", _PD),
-        ("M_out", _PD),
-        ("Flam_out", _PD),
-        ("residual", C.c_double),
-        ("iterations", C.c_int),
+        ("atol", _PD),
+        ("zalg", _PD),
+        ("Ms", _PD),
+        ("ev_t", _PD),
+        ("ev_surface", _PI),
+        ("ev_dir", _PI),
+        ("ev_speed", _PD),
+        ("ev_cap", C.c_int),
+        ("n_events", C.c_int),
+        ("handback", C.c_int),
+        ("events_needed", C.c_int),
         ("n_runs", C.c_int),
-        ("outcome", C.c_int),
+        ("n_evals", C.c_int),
+        ("last_c_eval", C.c_int),
+        ("period", C.c_double),
+        ("dP", C.c_double),
         ("n_samples", C.c_int),
         ("t_samples", _PD),
         ("Y_samples", _PD),
@@ -175,14 +249,7 @@ class GsCorrectArgs(C.Structure):
         ("H_samples", _PD),
         ("samples_ok", C.c_int),
         ("col_stats", _PD),
-        ("col_args", _PD),
+        ("col_args", _PI),
         ("stats_ok", C.c_int),
-        ("t_ref", _PD),
-        ("tangent_out", _PD),
-        ("tangent_ok", C.c_int),
-        ("period_out", C.c_double),
         ("mult", GsMultipliers),
-        ("n_anchor", C.c_int),
-        ("anchor", _PD),
-        ("lapack_dgelsd", C.c_void_p),
     ]

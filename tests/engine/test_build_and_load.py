@@ -145,8 +145,9 @@ def _swapped(mirror: type, a: str, b: str) -> type:
     ("GsSimArgs", "gs_sim_args", "rtol", "atol"),
     ("GsSimArgs", "gs_sim_args", "x_final", "monodromy"),
     ("GsSimArgs", "gs_sim_args", "n_out", "storm_events"),
-    ("GsShootArgs", "gs_shoot_args", "hist_abs", "hist_rel"),
-    ("GsCorrectArgs", "gs_correct_args", "n_runs", "outcome"),
+    ("GsNewton", "gs_newton", "hist_abs", "hist_rel"),
+    ("GsCorrectorFlow", "gs_corrector_flow", "n_runs", "n_evals"),
+    ("GsOrbitFlow", "gs_orbit_flow", "verify_ok", "verify_status"),
     ("GsMultipliers", "gs_multipliers", "mu_re", "mu_im"),
     ("GsIsolation", "gs_isolation", "sigma", "norm"),
 ])
@@ -178,10 +179,17 @@ def test_mirror_with_a_field_of_another_kind_is_refused_at_load(backlash_engine,
 
 def test_the_layout_table_covers_every_field_of_the_mirrors(backlash_engine):
     from gearsym.engine.driver import c_layout, mirror_layout
-    from gearsym.engine.sim_args import GsCorrectArgs, GsIsolation, GsMultipliers, GsShootArgs
+    from gearsym.engine.sim_args import (
+        GsCorrectorFlow,
+        GsIsolation,
+        GsMultipliers,
+        GsNewton,
+        GsOrbitFlow,
+        GsRamp,
+    )
 
     layout = c_layout(backlash_engine._lib)
-    for struct, mirror in (("gs_sim_args", GsSimArgs), ("gs_shoot_args", GsShootArgs),
-                           ("gs_correct_args", GsCorrectArgs), ("gs_multipliers", GsMultipliers),
-                           ("gs_isolation", GsIsolation)):
+    for struct, mirror in (("gs_sim_args", GsSimArgs), ("gs_newton", GsNewton), ("gs_orbit_flow", GsOrbitFlow),
+                           ("gs_corrector_flow", GsCorrectorFlow), ("gs_multipliers", GsMultipliers),
+                           ("gs_isolation", GsIsolation), ("gs_ramp", GsRamp)):
         assert layout[struct] == mirror_layout(mirror)

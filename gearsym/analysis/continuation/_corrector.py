@@ -6,6 +6,20 @@ predicted point onto the branch with Newton on ``F = 0`` plus one linear
 constraint (the pseudo-arclength hyperplane, or a fixed parameter), computes
 unit tangents and turns a corrected point into a :class:`~gearsym.analysis.continuation.BranchPoint`
 with its test functions.
+
+Where each rule lives (``docs/contributing.md``, "Where each numerical rule lives"): the
+corrector's Newton iteration -- the bordered step in the scaled variables, its damping,
+divergence and convergence tests, the chord ``F_lambda``, the anchor rows' least squares, the
+point's unit tangent -- is THE iteration of ``gearsym/engine/gs_newton.c``
+(:class:`gearsym.engine.shoot.Corrector`), for every problem.  Here are the scales
+(:meth:`Continuer.set_state_scale`), the anchor rows (:meth:`Continuer.scaled_anchor`) and the
+choice of who evaluates the residual: the C evaluator of the shooting residual
+(``gs_correct_ws``: single and multiple shooting, ODEs and DAEs, exact ``F_lambda``) where it
+applies, else the problem's own :meth:`~gearsym.analysis.periodic.PeriodicOrbitProblem.evaluate`
+(harmonic balance, a parameter that is no plain entry of the parameter vector, the
+finite-difference ``F_lambda``).  That choice, and every evaluation the C evaluator hands back
+(an integration with the parameter sensitivity that fails at a grazing contact), is reported in
+the branch's ``info["corrector"]`` and logged.
 """
 
 from __future__ import annotations
@@ -14,23 +28,23 @@ import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
-from ...engine.shoot import MAX_STATES, Corrector
+from ...engine.newton import DIVERGED, MAX_ITER, NONFINITE, SINGULAR
+from ...engine.shoot import Corrector, CorrectorFlow, CorrectOutcome
 from ...errors import ConvergenceError, GearsymError
-from ...integrators import default_method, supports_c_corrector
+from ...integrators import default_method, supports_monodromy, supports_sensitivities
 from ...sensitivity import directions
 from ..periodic import (
     Evaluation,
-    NewtonPolicy,
     PeriodicOrbitProblem,
-    damped_newton,
     floquet,
     log_events,
     mesh_point,
     mesh_rattle_states,
-    segment_jacobian,
+    monodromy_product,
     verdict,
 )
 from ._bifurcation import tau_branch_point, tau_neimark_sacker, tau_period_doubling
@@ -82,10 +96,12 @@ class Continuer:
         self.surfaces = [s["name"] for s in gen.surfaces]
         self.state_weight = float(state_weight)
         self.state_scale = np.ones(gen.nx)  # every state's magnitude (the unknowns' scales: res.unknown_scale)
-        #: where the corrector runs: ``"C"`` or ``"Python"`` with the reason (decided on the first correction)
+        #: who evaluates the residuals of THE Newton iteration (which always runs in C): ``"C"``, or
+        #: ``"C, residuals in Python: <why>"`` (decided on the first correction)
         self.corrector_engine: str | None = None
-        #: corrections the C corrector gave up (a failed run, a singular matrix, ...) and the Python one made
-        self.n_c_fallbacks = 0
+        #: residuals the C evaluator handed back to the problem's own evaluation, and why (the first)
+        self.n_python_evaluations = 0
+        self.handback_reason = ""
         self.Rs = np.ones(res.n)
         self.S = np.ones(res.n + 1)
         self.S[-1] = self.lam_scale
@@ -131,17 +147,19 @@ class Continuer:
     # ------------------------------------------------------------ corrector
     def correct(self, z_guess: np.ndarray, row: np.ndarray, target: float, Flam: np.ndarray | None = None,
                 t_ref: np.ndarray | None = None) -> tuple[np.ndarray, Evaluation, int]:
-        """Newton on ``F(z) = 0``, ``row . (z / S) = target``.
+        """Newton on ``F(z) = 0``, ``row . (z / S) = target``: THE iteration of
+        ``gs_newton.c`` (:class:`gearsym.engine.shoot.Corrector`), its residuals evaluated in C
+        where the C evaluator applies (:meth:`_flow_setup`), else by the problem.
 
         ``t_ref``: the reference direction :meth:`make_node` will orient the point's tangent
-        along (the corrector in C then solves for the tangent in the same call).
+        along (the iteration computes it at the corrected point).
 
-        ``F_lambda``, where it is a finite difference (the costly column), is computed at
-        the first iterate and kept (chord) until convergence, then recomputed at the
-        solution for the tangent; where the residual's integration gives it
-        (:meth:`~gearsym.analysis.periodic.ShootingResidual.flam_with_residual`) it is
-        taken at every iterate.  A residual at the integrator's noise floor (a Newton step
-        below ``tol`` that no longer reduces it, up to ``100 * tol``) is accepted.
+        ``F_lambda``: where the problem's evaluation does not give it with the residual (the
+        finite difference: the costly column) it is computed at the first iterate and kept
+        (chord; ``Flam``: that first one, if known), then recomputed at the solution; where the
+        residual's integration gives it (the exact parameter sensitivity) it is taken at every
+        iterate.  A residual at the integrator's noise floor (a Newton step below ``tol``, the
+        residual up to ``100 * tol``) is accepted.
 
         Raises
         ------
@@ -149,118 +167,114 @@ class Continuer:
             No convergence (step to be rejected).
         """
         z = np.asarray(z_guess, float).copy()
-        fast = self._correct_in_c(z, row, target, t_ref)
-        if fast is not None:
-            return fast
-        # F_lambda integrated with the residual (exact sensitivities) is nearly free: then it is
-        # computed at every iterate (plain Newton); else the chord described above
-        every = bool(getattr(self.res, "flam_with_residual", lambda lam: False)(float(z[-1])))
-        ev = self.res.evaluate(z[:-1], z[-1], dlam=every or Flam is None)
-        if Flam is None or every:
-            Flam = ev.Flam
-        tol, S = self.tol, self.S
+        res = self.res
+        corrector = self._corrector(float(z[-1]))
+        anchored = self.__dict__["_n_anchor"] > 0
+        last: list[Evaluation] = []
+        every: list[bool] = []  # (decided at the first evaluation in Python: it costs a period gradient)
 
-        def evaluate(z: np.ndarray) -> tuple[np.ndarray, Evaluation]:
-            return z, self.res.evaluate(z[:-1], z[-1], dlam=every)
+        def evaluate(zz: np.ndarray, first: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, Any]:
+            lam = float(zz[-1])
+            if not every:
+                every.append(bool(getattr(res, "flam_with_residual", lambda lam: False)(float(z[-1]))))
+            ev = res.evaluate(zz[:-1], lam, dlam=every[0] or (first and Flam is None))
+            last[:] = [ev]
+            flam = ev.Flam if ev.Flam is not None else (Flam if first else None)
+            return ev.R, ev.Fu, flam, self.scaled_anchor(lam) if anchored else None
 
-        def norm(rec: tuple[np.ndarray, Evaluation]) -> float:
-            return float(np.max(np.abs(self.scaled_residual(rec[1]))))
-
-        def converged(rec: tuple[np.ndarray, Evaluation], size: float, damping: float) -> str | None:
-            r = norm(rec)
-            c = float(row @ (rec[0] / S) - target)
-            return "" if (r <= tol or (size <= tol and r <= 100 * tol)) and abs(c) <= 1e-9 else None
-
-        def direction(z: np.ndarray, rec: tuple[np.ndarray, Evaluation]) -> tuple[np.ndarray, float, dict]:
-            ev = rec[1]
-            if ev.Flam is None:
-                ev.Flam = Flam
-            c = float(row @ (z / S) - target)
-            anchor = self.scaled_anchor(z[-1])
-            if anchor is None:
-                A = np.vstack([self.scaled_jacobian(ev), row[None, :]])
-                rhs = -np.concatenate([self.scaled_residual(ev), [c]])
-                try:
-                    dw = np.linalg.solve(A, rhs)
-                except np.linalg.LinAlgError:
-                    dw = np.linalg.lstsq(A, rhs, rcond=None)[0]
-            else:  # rigid-body modes: keep their coordinates where they are (least squares)
-                A = np.vstack([self.scaled_jacobian(ev), anchor, row[None, :]])
-                rhs = -np.concatenate([self.scaled_residual(ev), np.zeros(len(anchor)), [c]])
-                dw = np.linalg.lstsq(A, rhs, rcond=None)[0]
-            if not np.all(np.isfinite(dw)):
-                raise ConvergenceError("corrector: singular Newton matrix")
-            return dw * S, float(np.max(np.abs(dw))), {}
-
-        # damped step: halve it (up to 3 times) while the residual grows, then take it anyway
-        policy = NewtonPolicy(max_iter=self.max_newton, min_damping=0.125, decrease=0.0, accept_below=tol,
-                              accept_last=True, diverge=(0.9, 100 * tol))
-        out = damped_newton(z, (z, ev), evaluate=evaluate, norm=norm, direction=direction, converged=converged,
-                            policy=policy)
-        z, ev = out.ev
+        flow = self.__dict__["_flow"]
+        out = corrector(z, row, target, self.S, self.Rs, t_ref=t_ref,
+                        anchor=self.scaled_anchor(float(z[-1])) if anchored else None,
+                        zalg=getattr(res, "_z", None) if flow is not None else None, evaluate=evaluate)
+        self._count(out, flow is not None)
         if not out.converged:
-            if out.failure == "max_iter":
-                raise ConvergenceError(f"corrector: no convergence in {out.iterations} Newton steps "
-                                       f"(residual {norm(out.ev):.3g})")
-            raise ConvergenceError(f"corrector: {out.failure}")
-        if ev.Flam is None:
-            ev.Flam = self.res._fd_lambda(z[:-1], float(z[-1]), ev.R)
-        return z, ev, out.iterations
+            raise ConvergenceError(_failure(out))
+        if out.by_python:
+            ev = last[0]
+            if ev.Flam is None:
+                ev.Flam = res._fd_lambda(out.z[:-1], float(out.z[-1]), ev.R)
+        else:
+            ev = Evaluation(out.R, out.F_u, out.f_lambda, monodromy=monodromy_product(out.monodromies),
+                            events=log_events(res.system, out.events.t, out.events.surface, out.events.direction),
+                            samples=out.samples, period=out.period if math.isfinite(out.period) else None,
+                            multipliers=out.multipliers)
+        if out.tangent is not None:
+            ev.tangent = (t_ref, out.tangent)
+        return out.z, ev, out.iterations
 
-    def _c_setup(self, lam: float) -> dict | None:
-        """What the corrector in C needs (:func:`gearsym.engine.shoot.correct_in_c`), or ``None``
-        where it does not apply: not single shooting, a method the C corrector does not run (IDA:
-        implicit and DAE models), no exact parameter derivatives, a parameter that does not enter
-        the parameter vector linearly (an argument of a bound parameter), anchor rows (rigid-body
-        modes) that change with the parameter.  Decided once; the choice and its reason are kept in
-        :attr:`corrector_engine` (the branch's ``info["corrector"]``)."""
-        if "_c_setup_cache" in self.__dict__:
-            return self.__dict__["_c_setup_cache"]
+    def _count(self, out: CorrectOutcome, flow: bool) -> None:
+        """Book a correction's evaluations: the problem's counters, the hand-backs (logged)."""
+        res = self.res
+        res.n_evals += out.n_c
+        res.n_integrations += out.n_runs
+        if flow and out.n_python:
+            self.n_python_evaluations += out.n_python
+            if not self.handback_reason:
+                self.handback_reason = ("an integration with the parameter sensitivity failed (a grazing contact?): "
+                                        "the problem's own evaluation, F_lambda by finite difference")
+                _log.info("continuation corrector: a residual evaluated in Python: %s", self.handback_reason)
+            else:
+                _log.debug("continuation corrector: %d residual(s) evaluated in Python", out.n_python)
+
+    def _corrector(self, lam: float) -> Corrector:
+        """THE Newton iteration for this problem (made once): with the C evaluator of the shooting
+        residual where it applies (:meth:`_flow_setup`), else the problem evaluates.  The choice and
+        its reason are kept in :attr:`corrector_engine` (the branch's ``info["corrector"]``) and
+        logged."""
+        corrector = self.__dict__.get("_corrector_obj")
+        if corrector is not None and corrector.nr == self.res.n:
+            return corrector
         try:
-            out = self._make_c_setup(lam)
+            flow = self._flow_setup(lam)
         except GearsymError as exc:
-            out = f"the C corrector could not be set up ({exc})"
-        if isinstance(out, str):  # the reason why not: reported in the branch's info["corrector"]
-            self.corrector_engine = f"Python: {out}"
-            out = None
-            _log.info("continuation corrector in Python: %s", self.corrector_engine[8:])
+            flow = f"the C evaluator could not be set up ({exc})"
+        res = self.res
+        anchor = res.anchor_rows(lam)
+        n_anchor = 0 if anchor is None else len(anchor)
+        if isinstance(flow, str):  # the reason why not
+            self.corrector_engine = f"C, residuals in Python: {flow}"
+            _log.info("continuation corrector: residuals evaluated in Python: %s", flow)
+            flow = None
+            engine = res.system.engine
         else:
             self.corrector_engine = "C"
-            _log.debug("continuation corrector in C")
-        self.__dict__["_c_setup_cache"] = out
-        return out
+            _log.debug("continuation corrector: residuals evaluated in C")
+            engine = flow.engine
+        corrector = Corrector(engine, res.n, tol=self.tol, max_iter=self.max_newton, min_damping=0.125,
+                              n_anchor=n_anchor, flow=flow)
+        self.__dict__.update(_corrector_obj=corrector, _flow=flow, _n_anchor=n_anchor)
+        return corrector
 
-    def _make_c_setup(self, lam: float) -> dict | str:
-        """The C corrector's setup, or the reason why it does not apply."""
+    def _flow_setup(self, lam: float) -> CorrectorFlow | str:
+        """The C evaluator's settings (:class:`gearsym.engine.shoot.CorrectorFlow`), or the reason why
+        it does not apply: not a shooting residual (harmonic balance), a method without the
+        variational equations or the sensitivities, a parameter that does not enter the parameter
+        vector linearly (an argument of a bound parameter), no exact parameter derivative (the
+        finite-difference ``F_lambda``), anchor rows (rigid-body modes) that change with the
+        parameter."""
         res = self.res
         system = getattr(res, "system", None)
-        if system is None or not hasattr(res, "segments"):
-            return "not a shooting residual"
-        if res.segments != 1:
-            return "multiple shooting"
+        if system is None or not hasattr(res, "segments") or not hasattr(res, "times"):
+            return f"{type(res).__name__} is not the shooting residual over the flow"
         gen = system.generated
         method = res.method or default_method(gen.implicit, system.defaults.get("method"))
-        if not supports_c_corrector(method):
-            return f"method '{method}' (the C corrector runs only the methods of the registry that allow it)"
-        if gen.nx > MAX_STATES or len(gen.param_names) > MAX_STATES:
-            return f"more than {MAX_STATES} states or parameters"
+        if not (supports_monodromy(method) and supports_sensitivities(method)):
+            return f"method '{method}' integrates no variational equations or no sensitivities"
         if res.param not in gen.param_names or res.param in gen.bound or any(
                 res.param in args for _, args in gen.bound.values()):
             return f"'{res.param}' is not a plain entry of the parameter vector"
         if not getattr(res, "flam_with_residual", lambda lam: False)(lam):
-            return "no exact parameter derivative"
+            return "no exact parameter derivative (the finite-difference F_lambda)"
         anchor = res.anchor_rows(lam)
         if anchor is not None:
-            # the C iteration keeps the anchor rows of its start; they must not move with lambda
+            # the C evaluator keeps the anchor rows of its start; they must not move with lambda
             for d in (1.0, -0.5):
                 other = res.anchor_rows(lam + d * max(1.0, abs(lam)))
                 if other is None or other.shape != anchor.shape or np.max(np.abs(other - anchor)) > 1e-12:
                     return "rigid-body anchor rows that move with the parameter"
         engine = system.derivative_engine()
         if not hasattr(engine._lib, "gs_correct_ws"):
-            return "the build has no C corrector"
-        if np.ndim(res.atol):
-            return "per-state absolute tolerances"
+            return "the build has no C evaluator"
         p0 = np.array(res.pvec(lam), float)
         D = directions(system, [res.param], p0, res.params(lam))[:, 0]
         # p(lambda) must be p0 + (lambda - lam0) D (declared-unit scaling is linear; check it)
@@ -268,85 +282,37 @@ class Continuer:
             pl = res.pvec(lam + d * max(1.0, abs(lam)))
             if np.max(np.abs(pl - (p0 + d * max(1.0, abs(lam)) * D))) > 1e-12 * max(1.0, float(np.max(np.abs(pl)))):
                 return f"the parameter vector is not linear in '{res.param}'"
-        return {"engine": engine, "method": method, "lam0": float(lam), "p0": p0, "D": D,
-                "max_steps": int(system.defaults.get("max_steps", 0)), "anchor": anchor}
-
-    def _correct_in_c(self, z: np.ndarray, row: np.ndarray, target: float, t_ref: np.ndarray | None = None
-                      ) -> tuple[np.ndarray, Evaluation, int] | None:
-        """:meth:`correct` in one C call where it applies (see :meth:`_c_setup`); ``None`` where it
-        does not or where the C iteration gave up (the Python iteration then starts from ``z``)."""
-        setup = self._c_setup(float(z[-1]))
-        if setup is None:
-            return None
-        res = self.res
-        corrector = setup.get("corrector")
-        if corrector is None:
-            # the converged orbit's samples in the same call (make_node's dense output; single shooting)
-            n_samples = max(8, int(math.ceil(self.n_dense * res.periods))) + 1
-            corrector = setup["corrector"] = Corrector(
-                setup["engine"], tol=self.tol, max_iter=self.max_newton, min_damping=0.125, periods=res.periods,
-                lam0=setup["lam0"], p0=setup["p0"], D=setup["D"], atol=float(res.atol), t0=res.t0,
-                method=setup["method"], rtol=res.rtol, max_steps=setup["max_steps"], n_samples=n_samples,
-                n_anchor=0 if setup["anchor"] is None else len(setup["anchor"]))
-        anchor = None if setup["anchor"] is None else self.scaled_anchor(float(z[-1]))
-        out = corrector(z, row, target, self.S, self.Rs, t_ref=t_ref, want_run=False, anchor=anchor)
-        res.n_evals += out.n_runs
-        res.n_integrations += out.n_runs
-        # the failures the Python iteration would meet the same way are raised as it raises them
-        # (not iterated again); the others (a failed run, a singular matrix, a full event log)
-        # are left to it
-        if out.code == 2:
-            raise ConvergenceError(f"corrector: no convergence in {out.iterations} Newton steps "
-                                   f"(residual {out.residual:.3g})")
-        if out.code == 1:
-            raise ConvergenceError(f"corrector: Newton diverges (residual {out.residual:.3g})")
-        if out.code == 6:
-            raise ConvergenceError("corrector: non-finite residual")
-        if not out.converged:
-            self.n_c_fallbacks += 1
-            return None
-        ev_log = out.events
-        ev = Evaluation(out.R, segment_jacobian([out.monodromy]), out.f_lambda, monodromy=out.monodromy,
-                        events=log_events(res.system, ev_log.t, ev_log.surface, ev_log.direction),
-                        samples=out.samples, tangent=None if out.tangent is None else (t_ref, out.tangent),
-                        period=out.period if math.isfinite(out.period) else None, multipliers=out.multipliers)
-        return out.z, ev, out.iterations
+        n_samples = max(8, int(math.ceil(self.n_dense * res.periods))) + 1  # make_node's dense output
+        return CorrectorFlow(engine=engine, method=method, rtol=res.rtol, atol=np.broadcast_to(
+            np.asarray(res.atol, float), (gen.nx,)), max_steps=int(system.defaults.get("max_steps", 0)),
+            segments=res.segments, nd=res.nx, periods=res.periods, t0=res.t0, lam0=float(lam), p0=p0, D=D,
+            n_samples=n_samples)
 
     def engine_report(self) -> str:
-        """Where the corrections ran, for the branch's ``info["corrector"]``: ``"C"``, ``"C (the
-        Python corrector took over N times)"`` or ``"Python: <why not C>"``."""
-        out = self.corrector_engine or "Python"
-        if out == "C" and self.n_c_fallbacks:
-            out += f" (the Python corrector took over {self.n_c_fallbacks} times)"
+        """Where the iteration's residuals were evaluated, for the branch's ``info["corrector"]``:
+        ``"C"``, ``"C (N residuals evaluated in Python: <why>)"`` or ``"C, residuals in Python:
+        <why not C>"`` (the iteration itself always runs in C)."""
+        out = self.corrector_engine or "C"
+        if out == "C" and self.n_python_evaluations:
+            out += f" ({self.n_python_evaluations} residuals evaluated in Python: {self.handback_reason})"
         return out
 
     def tangent(self, ev: Evaluation, t_ref: np.ndarray, lam: float | None = None) -> np.ndarray:
         """Unit null vector of the scaled ``[F_u, F_lambda]`` with ``t . t_ref > 0`` (and, with
-        rigid-body modes, no component along their shift: anchor rows at ``lam``)."""
-        anchor = self.scaled_anchor(lam) if lam is not None else None
+        rigid-body modes, no component along their shift: anchor rows at ``lam``): the rule of
+        THE Newton iteration (``gs_newton_tangent``), which already computed it at a corrected
+        point (``ev.tangent``)."""
         if ev.tangent is not None and ev.tangent[0] is t_ref:
-            t = ev.tangent[1]  # the same solve (least squares with anchor rows), made by the corrector in C
+            t = ev.tangent[1]  # the iteration's, at the corrected point
             tl = t.tolist()
             if all(map(math.isfinite, tl)) and any(tl):
                 t = t / math.sqrt(float(t @ t))
                 return -t if t @ t_ref < 0 else t
-        A = np.vstack([self.scaled_jacobian(ev)] + ([anchor] if anchor is not None else []) + [t_ref[None, :]])
-        b = np.zeros(A.shape[0])
-        b[-1] = 1.0
-        if anchor is not None:
-            t = np.linalg.lstsq(A, b, rcond=None)[0]
-        else:
-            try:
-                t = np.linalg.solve(A, b)
-            except np.linalg.LinAlgError:
-                t = np.linalg.lstsq(A, b, rcond=None)[0]
-        if not np.all(np.isfinite(t)) or not np.any(t):
-            # fall back on the smallest right singular vector
-            _, _, Vt = np.linalg.svd(self.scaled_jacobian(ev))
-            t = Vt[-1]
-        t = t / np.linalg.norm(t)
-        if t @ t_ref < 0:
-            t = -t
+        anchor = self.scaled_anchor(lam) if lam is not None else None
+        corrector = self._corrector(float(lam) if lam is not None else 0.0)
+        t = corrector.tangent(ev.Fu, ev.Flam, np.asarray(t_ref, float), self.S, self.Rs, anchor)
+        if t is None:
+            raise ConvergenceError("corrector: no tangent (the scaled Jacobian is not finite)")
         return t
 
     # ------------------------------------------------------------ points
@@ -434,6 +400,19 @@ class Continuer:
             tau[f"grazing|{name}|max"] = gmax
         return Node(z=np.array(z, float), ev=ev, point=pt, t=t, tau=tau, iterations=iterations, scale=scale,
                     size=float(np.max(scale)))
+
+
+def _failure(out: CorrectOutcome) -> str:
+    """The message of a correction that did not converge."""
+    if out.code == MAX_ITER:
+        return f"corrector: no convergence in {out.iterations} Newton steps (residual {out.residual:.3g})"
+    if out.code == DIVERGED:
+        return f"corrector: Newton diverges (residual {out.residual_prev:.3g} -> {out.residual:.3g})"
+    if out.code == NONFINITE:
+        return "corrector: non-finite residual"
+    if out.code == SINGULAR:
+        return "corrector: singular Newton matrix"
+    return f"corrector: {out.message or 'no damped step reduces the residual'}"
 
 
 def distance_to_one(mu: np.ndarray) -> float:

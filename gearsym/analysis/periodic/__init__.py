@@ -9,8 +9,10 @@ The public face of the periodic-orbit analysis (the modules behind it are privat
   their settings are :class:`ShootingOptions` and :class:`HarmonicBalanceOptions`;
 * **problems** (what continuation drives): :class:`PeriodicOrbitProblem`, the interface
   (residual, Jacobian, parameter derivative), implemented by :class:`ShootingResidual` and
-  :class:`HBResidual`; one evaluation is an :class:`Evaluation`; the one damped Newton
-  iteration is :func:`damped_newton` (:class:`NewtonPolicy`);
+  :class:`HBResidual`; one evaluation is an :class:`Evaluation`; shooting and the
+  continuation's corrector run THE damped Newton iteration of the engine
+  (``gearsym/engine/gs_newton.c``, :class:`NewtonPolicy`; ``docs/contributing.md``, "Where
+  each numerical rule lives");
 * **Floquet and stability**: :func:`floquet` (the three-answer stability rule),
   :func:`multiplier_tolerances`, :func:`verdict`, :func:`rigid_state_basis`; the exact
   monodromy of piecewise-constant linear systems (:class:`PiecewiseLTV`,
@@ -24,13 +26,13 @@ This package imports no other kind of analysis (continuation, sweeps, linear ana
 
 from __future__ import annotations
 
+from ...engine.newton import NewtonPolicy
 from ._floquet import NotPiecewiseConstantError, PiecewiseLTV, exact_multipliers, monodromy_product
 from ._hb_problem import HBResidual
 from ._hbm import HarmonicBalance
 from ._hbm_driver import harmonic_balance
 from ._isolation import Isolation, isolation, monodromy_error
 from ._meshes import mesh_deflections, mesh_flanks, mesh_names, mesh_point, mesh_report, trajectory_meshes
-from ._newton import NewtonOutcome, NewtonPolicy, damped_newton
 from ._options import HarmonicBalanceOptions, ShootingOptions
 from ._orbit import VANISHING, PeriodicOrbit
 from ._parameter_derivative import F_LAMBDA, exact_f_lambda
@@ -53,6 +55,7 @@ from ._stability import (
     floquet,
     multiplier_tolerances,
     neutral_step_limit,
+    rigid_anchor_rows,
     rigid_state_basis,
     verdict,
 )
@@ -60,12 +63,12 @@ from ._verification import orbit_period, whole_periods
 
 __all__ = [
     "ERROR_FACTOR", "F_LAMBDA", "ORBIT_METHODS", "RATTLE_STATES", "STABILITY", "VANISHING",
-    "Evaluation", "FloquetResult", "HBResidual", "HarmonicBalance", "HarmonicBalanceOptions", "Isolation", "NewtonOutcome", "NewtonPolicy",
+    "Evaluation", "FloquetResult", "HBResidual", "HarmonicBalance", "HarmonicBalanceOptions", "Isolation", "NewtonPolicy",
     "NotPiecewiseConstantError", "PeriodicOrbit", "PeriodicOrbitProblem", "PiecewiseLTV", "RattleSummary",
     "ShootingOptions", "ShootingResidual",
-    "complex_sides", "damped_newton", "exact_f_lambda", "exact_multipliers", "floquet", "harmonic_balance",
+    "complex_sides", "exact_f_lambda", "exact_multipliers", "floquet", "harmonic_balance",
     "isolation", "log_events", "mesh_deflections", "mesh_flanks", "mesh_names", "mesh_point", "mesh_rattle_states",
     "mesh_report", "monodromy_error", "monodromy_product", "multiplier_tolerances", "neutral_step_limit",
-    "orbit_period", "peak_to_peak", "periodic_orbit", "rattle_state", "rattle_summary", "rigid_state_basis",
+    "orbit_period", "peak_to_peak", "periodic_orbit", "rattle_state", "rattle_summary", "rigid_anchor_rows", "rigid_state_basis",
     "segment_jacobian", "shoot", "trajectory_meshes", "verdict", "whole_periods",
 ]

@@ -19,7 +19,7 @@ from ...errors import GearsymError, ParameterError
 from ...results import Event, Flow
 from ._floquet import monodromy_product
 from ._parameter_derivative import F_LAMBDA, exact_f_lambda, sensitivity_setup
-from ._stability import rigid_state_basis
+from ._stability import rigid_anchor_rows, rigid_state_basis
 from ._verification import Closure, closure
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -165,16 +165,12 @@ class PeriodicOrbitProblem:
 
     def anchor_rows(self, lam: float) -> np.ndarray | None:
         """Rows ``(k, n)`` that pin the rigid-body coordinates of the orbit (one per mode):
-        without them ``F_u`` is singular along the rigid-body shift."""
+        without them ``F_u`` is singular along the rigid-body shift
+        (:func:`~gearsym.analysis.periodic._stability.rigid_anchor_rows`)."""
         V = self.rigid_basis(lam)
         if V is None:
             return None
-        k = V.shape[1] // 2
-        Pq = V[:, :k] / np.linalg.norm(V[:, :k], axis=0)
-        out = np.zeros((k, self.n))
-        for j, i in enumerate(self._anchor_index()):
-            out[:, i] = Pq[j]
-        return out
+        return rigid_anchor_rows(V, self.n, self._anchor_index())
 
     def _anchor_index(self) -> list[int]:
         """Index in the unknowns of the quantity of each state the anchor acts on."""

@@ -14,27 +14,36 @@ keeps the Floquet multipliers accurate for long periods (each segment's
 variational equations start from the identity, so the integrator's tolerance is
 relative to each segment's growth, not to the whole period's).
 
-The Newton step is damped (halved until the residual norm decreases; a failed
-integration also halves it); when no step helps or the iteration budget is spent
-a :class:`~gearsym.errors.ConvergenceError` reports the residual history, the
-last iterate and what to try.  For implicit (IDA) models the monodromy comes from
-IDA's variational equations; with algebraic variables the unknowns include them (their
-columns of the monodromy are 0, so ``M - I`` stays regular) and the Floquet multipliers
-are those of the differential block (:func:`~gearsym.analysis.periodic._orbit.finish_orbit`).
+Where each rule lives (``docs/contributing.md``, "Where each numerical rule lives"): the
+Newton iteration -- the damped step (halved until the residual decreases; a failed
+integration halves it too), the convergence tests on the residual relative to the state
+scales (at least ``atol / tol``), the truncated step, the anchor rows' least squares, the
+noise floor -- is THE iteration of ``gearsym/engine/gs_newton.c``, and the residual is
+evaluated in the same C call (``gs_shoot_ws``: one integration per segment; CVODE, or IDA's
+variational equations for implicit models and DAEs, whose unknowns then include the algebraic
+variables: their columns of the monodromy are 0, so ``M - I`` stays regular, and the Floquet
+multipliers are those of the differential block, :func:`~gearsym.analysis.periodic._orbit.finish_orbit`).
+:class:`ShootingProblem` sets the problem up (segment times, anchor rows from
+:func:`~gearsym.analysis.periodic._stability.rigid_anchor_rows`, the first iterate), runs the
+iteration (:meth:`ShootingProblem.solve`) and, where no damped step reduces the residual, the
+relaxation by integration -- a different algorithm, Python's: integrate blocks of forcing
+periods (contracting towards an attracting orbit) and restart the same iteration from there.
+When the Newton iteration has ended, a :class:`~gearsym.errors.ConvergenceError` reports the
+residual history, the last iterate and what to try.
 
 Honest results: the Newton step is the minimum-norm solution with the directions
-that the monodromy cannot resolve dropped (:func:`~gearsym.analysis.periodic._isolation.truncated_solve`:
-singular values of the scaled ``M - I`` below its error level), so the state is never
-moved by noise divided by noise; an orbit whose ``M - I`` is singular to working
+that the monodromy cannot resolve dropped (singular values of the scaled ``M - I`` below
+its error level :func:`~gearsym.analysis.periodic._isolation.monodromy_error`), so the state
+is never moved by noise divided by noise; an orbit whose ``M - I`` is singular to working
 precision outside the known trivial directions (``trivial=``) and whose residual
 cannot be removed is reported as "no isolated periodic orbit: a Floquet multiplier at
 +1" (the undamped oscillator at exact resonance has no periodic orbit).
 """
 
+
 from __future__ import annotations
 
 import dataclasses
-import functools
 import logging
 import math
 import time
@@ -44,19 +53,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...budget import check_shooting
-from ...engine.shoot import MAX_STATES, shoot_in_c
+from ...budget import check_shooting, check_step_budget
+from ...engine.newton import EVAL_FAILED, MAX_ITER, NONFINITE, NOTES, SINGULAR, STALLED
+from ...engine.shoot import ShootOutcome, ShootSettings, VerifyRuns, shooter_for
 from ...errors import ConvergenceError, GearsymError, ParameterError
-from ...integrators import default_method, supports_c_shooting
+from ...integrators import default_method
 from .._options import check_tolerances, resolve_options
 from ._floquet import monodromy_product
-from ._isolation import Isolation, isolation, monodromy_error, truncated_solve
-from ._newton import NewtonPolicy, damped_newton
+from ._isolation import Isolation, isolation, monodromy_error
 from ._options import ShootingOptions
 from ._orbit import PeriodicOrbit, SolvedOrbit, finish_orbit
-from ._problems import flow_events, log_events, segment_jacobian, segment_times
-from ._stability import rigid_state_basis
-from ._verification import orbit_period, segment_closure
+from ._problems import log_events, segment_times
+from ._stability import rigid_anchor_rows, rigid_state_basis
+from ._verification import orbit_period, runs_closure, segment_closure
 
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
@@ -99,8 +108,8 @@ def shoot(system: CompiledSystem, period: float | None = None, periods: float = 
     -------
     PeriodicOrbit
         Verified before it is returned: one integration over its period without the
-        variational equations must close (:mod:`gearsym.analysis.periodic._verification`;
-        ``info["verification"]``).
+        variational equations (made in the C call that solved it) must close
+        (:mod:`gearsym.analysis.periodic._verification`; ``info["verification"]``).
 
     Raises
     ------
@@ -141,7 +150,8 @@ def shoot(system: CompiledSystem, period: float | None = None, periods: float = 
               "relative_residual": newton.relative_residual, "state_scales": problem.scale.tolist(),
               "isolation": verdict.isolation.to_dict() if verdict.isolation is not None else None})
     return _verified(orbit, problem.s, problem.pvec, method=o.method, max_step=problem.max_step,
-                     raise_on_failure=o.raise_on_failure)
+                     raise_on_failure=o.raise_on_failure,
+                     runs=newton.fast.verification if newton.fast is not None else None)
 
 
 @dataclass
@@ -157,7 +167,7 @@ class NewtonRun:
     events : list of Event
         The events of the last integration.
     iterations : int
-        Newton steps (C and Python).
+        Newton steps taken.
     converged : bool
         Whether the residual met the tolerance.
     residual, relative_residual : float
@@ -165,7 +175,8 @@ class NewtonRun:
     failure : str
         Why not (empty when converged).
     fast : ShootOutcome or None
-        The C iteration's outcome where it converged (its multipliers, isolation, ``g0``).
+        The iteration's outcome where it converged (one segment: the multipliers, isolation and
+        ``g0`` computed in its C call).
     """
 
     X: np.ndarray
@@ -207,11 +218,11 @@ class ShootingVerdict:
 @dataclass(eq=False)
 class ShootingProblem:
     """The (multiple) shooting problem of one :func:`shoot` call (in the style of
-    BifurcationKit's ``ShootingProblem``): one object called for the residual and its Jacobian
-    (:meth:`evaluate`), the Newton step (:meth:`direction`), the convergence test
-    (:meth:`converged`) and the relaxation by integration where Newton stalls (:meth:`stalled`);
-    :meth:`solve` runs the damped Newton iteration (the C iteration first where it applies),
-    :meth:`judge` decides what the monodromy says about the result.
+    BifurcationKit's ``ShootingProblem``): the segment times, the first iterate
+    (:meth:`initial_states`), the settings of THE Newton iteration and its anchor rows; the
+    iteration and the residual's evaluation run in C (:func:`gearsym.engine.shoot.shooter_for`),
+    :meth:`solve` adds the relaxation by integration where Newton stalls and :meth:`judge`
+    decides what the monodromy says about the result.
 
     Parameters
     ----------
@@ -234,9 +245,9 @@ class ShootingProblem:
 
     def __post_init__(self) -> None:
         system, o = self.system, self.options
-        #: where the Newton iteration ran: ``"C"``, ``"C, then Python"`` (the C iteration gave up and
-        #: the Python one resumed) or ``"Python: <why not C>"`` (:meth:`solve`)
-        self.newton_engine = ""
+        #: where the Newton iteration ran: ``"C"`` (THE iteration of gs_newton.c, the residual
+        #: evaluated in the same C call; there is no other)
+        self.newton_engine = "C"
         T = system.period(self.params)
         self.segments = segments = int(o.segments)
         if segments < 1:
@@ -249,10 +260,11 @@ class ShootingProblem:
         self.pvec = system.param_vector(self.params)
         self.max_step = T / 8 if T else 0.0  # System.flow's default, computed once
         self.scale = np.ones(nx)  # the per-state scales of the last evaluation
-        self.anchor = _anchor_rows(system, self.params, segments)
+        V = rigid_state_basis(system, self.params)
+        self.anchor = None if V is None else rigid_anchor_rows(V, segments * nx, range(nx))
         self.relaxed = 0  # forcing periods of relaxation by integration so far
         self.relax_block = max(1, int(math.ceil(10 * max(1.0, float(self.periods)))))
-        self.it_offset = 0  # Newton steps the C iteration took before the Python one resumed
+        self._steps = 0  # Newton steps attempted (the history's iteration numbers)
 
     # ------------------------------------------------------------ states
     def initial_states(self, x0: Sequence[float] | None) -> np.ndarray:
@@ -287,201 +299,98 @@ class ShootingProblem:
                                   atol=max(o.atol, 1e-11), t_out=self.s, params=self.params, method=o.method)
         return np.array(tr.y[:-1], float)
 
-    # ------------------------------------------------------------ residual
-    def segment_flow(self, i: int, x: np.ndarray, jac: bool) -> tuple[np.ndarray, np.ndarray | None, list, np.ndarray]:
-        """``phi(s_{i+1}, s_i, x)``, its Jacobian, the events on the way and ``max |x_j(t)|``.
-
-        One call of :meth:`gearsym.system.CompiledSystem.flow` (the engine's cheap path: no
-        output grid, no trajectory object).  The Jacobian is the engine's variational
-        monodromy, or for an implicit model without one, central finite differences with step
-        ``1e-6 max(1, |x_j|)``; the amplitude over ``n_amp`` evenly spaced points.
-        """
-        system, o = self.system, self.options
-        t0, t1 = self.s[i], self.s[i + 1]
-        fl = system.flow(x, t0, t1, self.pvec, rtol=o.rtol, atol=o.atol, monodromy=bool(jac),
-                         method=o.method, n_samples=self.n_amp, max_step=self.max_step)
-        M = fl.monodromy  # the engine's variational equations, where it has them
-        if jac and system.generated.implicit and M is None:
-            n = len(x)
-            M = np.empty((n, n))
-            for j in range(n):
-                h = 1e-6 * max(1.0, abs(x[j]))
-                e = np.zeros(n)
-                e[j] = h
-                xp = system.flow(x + e, t0, t1, self.pvec, rtol=o.rtol, atol=o.atol, monodromy=False,
-                                 method=o.method).x_final
-                xm = system.flow(x - e, t0, t1, self.pvec, rtol=o.rtol, atol=o.atol, monodromy=False,
-                                 method=o.method).x_final
-                M[:, j] = (xp - xm) / (2 * h)
-        return np.asarray(fl.x_final, float), M, flow_events(system, fl), fl.amplitude
-
-    def evaluate(self, X: np.ndarray, jac: bool = True) -> tuple[np.ndarray, list, list]:
-        """The residual ``R_i = phi(s_{i+1}, s_i, X_i) - X_{i+1}`` (shape ``(segments, nx)``), the
-        segment monodromies (``jac``) and the events; updates the per-state scales."""
-        segments, nx, o = self.segments, self.nx, self.options
-        xs, Ms, evs = [], [], []
-        a = np.zeros(nx)
-        for i in range(segments):
-            xe, M, ev, ai = self.segment_flow(i, np.asarray(X[i], float), jac)
-            xs.append(xe)
-            Ms.append(M)
-            evs.extend(ev)
-            a = np.maximum(a, ai)
-        # per-state scale: the largest |x_i| along the current trajectory (states in
-        # different units, e.g. m and m/s, each get a relative tolerance)
-        # (floor atol/tol: a residual below the integrator's atol always counts as
-        # converged, e.g. for the trivial orbit x = 0 of a homogeneous linear system)
-        top = float(a.max()) if a.size else 0.0
-        self.scale = np.maximum(a, max(1e-9 * top, o.atol / o.tol)) if math.isfinite(top) else np.ones(nx)
-        R = xs[0] - X[1 % segments] if segments == 1 else np.array(
-            [xs[i] - X[(i + 1) % segments] for i in range(segments)])
-        return R.reshape(segments, nx), Ms, evs
-
-    def rel(self, A: np.ndarray) -> float:
-        """``max |A_i| / s_i`` with the per-state scales of the last evaluation."""
-        return float((np.abs(A) / self.scale).max())
-
-    @staticmethod
-    def norm(ev: tuple) -> float:
-        """``max |R|`` of an evaluation."""
-        return float(np.max(np.abs(ev[0])))
-
     # ------------------------------------------------------------ Newton
-    def converged(self, ev: tuple, size: float, damping: float) -> str | None:
-        """The convergence note (``""``: within tolerance), or ``None`` while not converged."""
-        tol = self.options.tol
-        r = self.rel(ev[0])
-        if r <= tol:
-            return ""
-        if damping == 1.0 and size <= tol and r <= 100 * tol:
-            # a full Newton step below the tolerance: the residual left is integration noise
-            return "Newton step below tolerance (residual at the integration noise level)"
-        if damping == 0.0 and size <= 10 * tol and r <= 100 * tol:
-            # the next step is below 10 tol: taken without integrating again (its effect on the
-            # residual is quadratic in its size, ~1e-18 here)
-            return "Newton step below 10 tol applied without another integration"
-        return None
-
-    def direction(self, X: np.ndarray, ev: tuple) -> tuple[np.ndarray, float, dict[str, Any]]:
-        """The Newton step, its scaled size and notes (the directions dropped)."""
-        R, Ms, _ = ev
-        J = segment_jacobian(Ms)
-        rhs = -R.ravel()
-        if self.anchor is not None:
-            # a rigid-body mode makes J singular (a Jordan block of M at +1): keep the rigid
-            # coordinates of the first segment where they are (anchor rows), least squares
-            dz = np.linalg.lstsq(np.vstack([J, self.anchor]), np.concatenate([rhs, np.zeros(len(self.anchor))]),
-                                 rcond=None)[0]
-            n_drop = 0
-        else:
-            # minimum-norm step without the directions the monodromy cannot resolve: never move
-            # the state by noise divided by noise (a multiplier at +1 to working precision)
-            dz, n_drop = truncated_solve(J, rhs, np.tile(self.scale, self.segments), self.options.rtol)
-        dX = dz.reshape(self.segments, self.nx)
-        return dX, self.rel(dX) if np.all(np.isfinite(dX)) else math.inf, (
-            {"dropped_directions": n_drop} if n_drop else {})
-
-    def on_step(self, it: int, ev: tuple, damping: float, notes: dict[str, Any]) -> None:
-        """Record an accepted Newton step."""
-        self.history.append({"iteration": it + self.it_offset, "residual": self.norm(ev), "relative": self.rel(ev[0]),
-                             "step": damping, **notes})
-
-    def stalled(self, X: np.ndarray, ev: tuple, dX: np.ndarray, last_err: str) -> tuple[str, Any]:
-        """No damped step reduces the residual: the noise floor (converged), relaxation by
-        integration (restart from there) or failure."""
-        o = self.options
-        # at the integration noise floor a tiny Newton step cannot reduce the residual any more
-        if self.rel(dX) <= 10 * o.tol and self.rel(ev[0]) <= 100 * o.tol:
-            self.history.append({"iteration": len(self.history), "residual": self.norm(ev), "step": 0.0,
-                                 "note": "noise floor: Newton step below tolerance"})
-            return "converged", "noise floor"
-        if self.relaxed < o.relax_periods:
-            # Newton is stuck in a local minimum of the residual (the flow map of a
-            # nonsmooth system is far from linear over large distances): integrate
-            # a block of forcing periods (contracts towards an attracting orbit),
-            # then resume Newton from there
-            n_blk = int(min(self.relax_block, o.relax_periods - self.relaxed))
-            try:
-                Xr = self._spread(self._integrate_periods(X[0], n_blk))
-                evr = self.evaluate(Xr)
-            except GearsymError as exc:
-                return "fail", f"relaxation by integration failed: {exc}"
-            self.relaxed += n_blk
-            self.history.append({"iteration": len(self.history), "residual": self.norm(evr),
-                                 "relative": self.rel(evr[0]), "step": None,
-                                 "note": f"Newton stalled: integrated {n_blk} forcing periods"})
-            return "restart", (Xr, evr)
-        return "fail", ("the damped Newton step does not reduce the residual (tried down to a factor "
-                        f"{o.min_step:g}, after {self.relaxed} forcing periods of relaxation by integration)"
-                        + (f"; last integration error: {last_err}" if last_err else ""))
+    def settings(self) -> ShootSettings:
+        """THE Newton iteration's settings for this problem (:class:`gearsym.engine.shoot.ShootSettings`)."""
+        system, o = self.system, self.options
+        method = o.method or default_method(system.generated.implicit, system.defaults.get("method"))
+        return ShootSettings(method=method, rtol=o.rtol, atol=o.atol, max_step=self.max_step,
+                             max_steps=int(system.defaults.get("max_steps", 0)), tol=o.tol, max_iter=o.max_iter,
+                             trunc_level=monodromy_error(1.0, o.rtol), scale_floor=o.atol / o.tol,
+                             min_step=o.min_step, segments=self.segments, n_amp=self.n_amp,
+                             n_anchor=0 if self.anchor is None else len(self.anchor))
 
     def solve(self, X: np.ndarray) -> NewtonRun:
-        """Damped Newton from ``X``: the full-step iteration in one C call where it applies
-        (single shooting without rigid-body anchors); where it gives up (damping, a nearly
-        singular step, ...) the Python iteration resumes from its last accepted iterate (the
-        steps before are the ones it would have taken itself)."""
-        fast = None
-        if self.segments > 1:
-            self.newton_engine = "Python: multiple shooting"
-        elif self.anchor is not None:
-            self.newton_engine = "Python: rigid-body anchor rows"
-        else:
-            o = self.options
-            fast = _newton_in_c(self.system, X[0], self.s[0], self.s[1], self.pvec, rtol=o.rtol, atol=o.atol,
-                                tol=o.tol, max_iter=o.max_iter, method=o.method, max_step=self.max_step,
-                                n_amp=self.n_amp)
-            if fast is None or isinstance(fast, str):
-                self.newton_engine, fast = f"Python: {fast or 'the C iteration does not apply'}", None
-            else:
-                self.newton_engine = "C" if fast.converged else "C, then Python"
-        (_log.debug if self.newton_engine == "C" else _log.info)("shooting Newton: %s", self.newton_engine)
-        if fast is not None and not fast.converged:
-            if fast.code in (1, 2, 3, 4) and fast.iterations >= 1:
-                X = fast.x[None, :].copy()
-                self._c_history(fast, fast.iterations + 1, engine_each=True)
-                self.it_offset = fast.iterations
-            fast = None
-        if fast is not None:
-            return self._converged_in_c(fast)
-        return self._python_newton(X)
+        """THE Newton iteration from ``X`` (in C, :func:`gearsym.engine.shoot.shooter_for`), with the
+        relaxation by integration where no damped step reduces the residual: integrate a block of
+        forcing periods from the last iterate (contracting towards an attracting orbit), then go on
+        with the same iteration from there, up to ``relax_periods`` forcing periods.
 
-    def _c_history(self, fast: Any, n: int, engine_each: bool) -> None:
-        self.history.extend({"iteration": i, "residual": float(fast.history_abs[i]),
-                             "relative": float(fast.history_rel[i]), "step": None if i == 0 else 1.0,
-                             **({"engine": "C"} if engine_each else {})} for i in range(n))
-
-    def _converged_in_c(self, fast: Any) -> NewtonRun:
-        ev_log = fast.events
-        evs = log_events(self.system, ev_log.t, ev_log.surface, ev_log.direction)
-        note = _C_NOTES[fast.note]
-        self.scale = fast.scale
-        self._c_history(fast, len(fast.history_abs), engine_each=False)
-        if note:
-            self.history[-1]["note"] = note
-        self.history[-1]["engine"] = "C"
-        return NewtonRun(fast.x[None, :].copy(), [fast.monodromy], evs, fast.iterations, True,
-                         float(fast.history_abs[-1]), float(fast.history_rel[-1]), fast=fast)
-
-    def _python_newton(self, X: np.ndarray) -> NewtonRun:
-        o = self.options
-        ev0 = self.evaluate(X)
-        if not self.it_offset:
-            self.history.append({"iteration": 0, "residual": self.norm(ev0), "relative": self.rel(ev0[0]),
-                                 "step": None})
-        out = damped_newton(X, ev0, evaluate=self.evaluate, norm=self.norm, direction=self.direction,
-                            converged=self.converged,
-                            policy=NewtonPolicy(max_iter=o.max_iter - self.it_offset, min_damping=o.min_step,
-                                                apply_final_step=True),
-                            stalled=self.stalled, on_step=self.on_step)
-        R, Ms, evs = out.ev
+        Raises
+        ------
+        SimulationError
+            The first integration fails (the engine's error).
+        ParameterError
+            A segment needs more steps of ``max_step`` than the step budget.
+        """
+        o, engine = self.options, self.system.engine
+        for i in range(self.segments):  # (System.flow's check, before any work)
+            check_step_budget(self.s[i], self.s[i + 1], self.max_step, int(self.system.defaults.get("max_steps", 0)))
+        shooter = shooter_for(engine, self.settings())
+        _log.debug("shooting Newton: %s", self.newton_engine)
+        out = shooter.solve(engine, X, self.pvec, self.s, self.anchor)
+        if out.code == EVAL_FAILED:
+            raise out.error()  # the first integration fails
+        self._record(out, None)
         failure = ""
-        if out.converged and out.note and self.history[-1].get("note") is None and out.note != "noise floor":
-            self.history[-1]["note"] = out.note
-        if not out.converged:
-            failure = (f"no convergence in max_iter={o.max_iter} Newton iterations" if out.failure == "max_iter"
-                       else out.failure)
-        return NewtonRun(out.x, Ms, evs, out.iterations + self.it_offset, out.converged, self.norm(out.ev),
-                         self.rel(R), failure)
+        while out.code == STALLED and self.relaxed < o.relax_periods:
+            # Newton is stuck in a local minimum of the residual (the flow map of a nonsmooth
+            # system is far from linear over large distances)
+            n_blk = int(min(self.relax_block, o.relax_periods - self.relaxed))
+            try:
+                Xr = self._spread(self._integrate_periods(out.X[0], n_blk))
+            except GearsymError as exc:
+                failure = f"relaxation by integration failed: {exc}"
+                break
+            self.relaxed += n_blk
+            self._steps += 1  # (the stalled step counts)
+            again = shooter.restart(engine, Xr)
+            if again.code == EVAL_FAILED:
+                failure = f"relaxation by integration failed: {again.error()}"
+                break
+            out = again
+            self._record(out, n_blk)
+        return self._run(out, failure)
+
+    def _record(self, out: ShootOutcome, relaxed: int | None) -> None:
+        """The history entries of one call of the iteration (``relaxed``: the forcing periods
+        integrated before it)."""
+        for kind, r, rel, step, drop in out.history:
+            if kind == "start":
+                self.history.append({"iteration": 0, "residual": r, "relative": rel, "step": None})
+            elif kind == "restart":
+                self.history.append({"iteration": len(self.history), "residual": r, "relative": rel, "step": None,
+                                     "note": f"Newton stalled: integrated {relaxed} forcing periods"})
+            elif kind == "noise floor":
+                self.history.append({"iteration": len(self.history), "residual": r, "step": 0.0,
+                                     "note": "noise floor: Newton step below tolerance"})
+            else:
+                self._steps += 1
+                entry = {"iteration": self._steps, "residual": r, "relative": rel, "step": step}
+                if drop:
+                    entry["dropped_directions"] = drop
+                self.history.append(entry)
+
+    def _run(self, out: ShootOutcome, failure: str) -> NewtonRun:
+        """The :class:`NewtonRun` of the iteration's last outcome (``failure``: the relaxation's)."""
+        o = self.options
+        self.scale = out.scale
+        converged = out.converged and not failure
+        if converged and out.note in (1, 2) and self.history[-1].get("note") is None:
+            self.history[-1]["note"] = NOTES[out.note]
+        if self.history:
+            self.history[-1]["engine"] = "C"
+        if not converged and not failure:
+            failure = {MAX_ITER: f"no convergence in max_iter={o.max_iter} Newton iterations",
+                       NONFINITE: "non-finite residual", SINGULAR: "the Newton matrix is not finite",
+                       STALLED: "the damped Newton step does not reduce the residual (tried down to a factor "
+                                f"{o.min_step:g}, after {self.relaxed} forcing periods of relaxation by integration)"
+                                + (f"; last integration error: {out.message}" if out.message else "")
+                       }.get(out.code, out.reason)
+        ev = out.events
+        evs = log_events(self.system, ev.t, ev.surface, ev.direction)
+        return NewtonRun(out.X, list(out.monodromies), evs, out.iterations, converged, out.residual, out.relative,
+                         failure, out if converged else None)
 
     # ------------------------------------------------------------ the result
     def judge(self, run: NewtonRun) -> ShootingVerdict:
@@ -533,16 +442,22 @@ class ShootingProblem:
 
 
 def _verified(orbit: PeriodicOrbit, times: np.ndarray, p: np.ndarray, *, method: str | None, max_step: float,
-              raise_on_failure: bool) -> PeriodicOrbit:
+              raise_on_failure: bool, runs: VerifyRuns | None = None) -> PeriodicOrbit:
     """A converged orbit after its verification by one plain integration over its period
     (:func:`~gearsym.analysis.periodic._verification.segment_closure`, recorded in ``info["verification"]``):
-    unchanged when it passes, else not converged (raised with ``raise_on_failure``)."""
+    unchanged when it passes, else not converged (raised with ``raise_on_failure``).  ``runs``: those
+    integrations, made in the C call that solved the orbit; they count when they started from the
+    orbit's segment states (else the orbit is integrated here)."""
     if not orbit.converged or orbit.system is None:
         return orbit
     info = orbit.info
-    c = segment_closure(orbit.system, orbit.segment_states, times, p, rtol=info["rtol"], atol=info["atol"],
-                        tol=info["tol"], amplification=orbit.max_multiplier, method=method,
-                        max_step=max_step or None, amplitude=np.asarray(info["state_scales"]))
+    kw = {"rtol": info["rtol"], "atol": info["atol"], "tol": info["tol"], "amplification": orbit.max_multiplier}
+    amplitude = np.asarray(info["state_scales"])
+    if runs is not None and np.array_equal(runs.starts, orbit.segment_states):
+        c = runs_closure(runs.starts, runs.ends, runs.error, amplitude, **kw)
+    else:
+        c = segment_closure(orbit.system, orbit.segment_states, times, p, method=method, max_step=max_step or None,
+                            amplitude=amplitude, **kw)
     info["verification"] = c.to_dict()
     if c.ok:
         return orbit
@@ -553,60 +468,3 @@ def _verified(orbit: PeriodicOrbit, times: np.ndarray, p: np.ndarray, *, method:
             f"{orbit.period:.6g} ({orbit.periods:g} forcing period(s)): {failure}. Tighten rtol (now "
             f"{info['rtol']:g}) or the Newton tolerance (tol={info['tol']:g}), or use more segments (segments=N).")
     return dataclasses.replace(orbit, converged=False)
-
-
-#: the notes of the C iteration's convergence (:class:`gearsym.engine.shoot.ShootOutcome` ``note``)
-_C_NOTES = {0: "", 1: "Newton step below tolerance (residual at the integration noise level)",
-            2: "Newton step below 10 tol applied without another integration"}
-
-
-def _newton_in_c(system: CompiledSystem, x: np.ndarray, t0: float, t1: float, pvec: np.ndarray, *, rtol: float, atol: float,
-                 tol: float, max_iter: int, method: str | None, max_step: float, n_amp: int) -> Any:
-    """The full-step Newton iteration of :func:`shoot` in one C call
-    (:func:`gearsym.engine.shoot.shoot_in_c`; its outcome, converged or not), or the reason why
-    it does not apply (a method the C iteration does not run: IDA, for implicit and DAE models; a
-    build without it; more than :data:`~gearsym.engine.shoot.MAX_STATES` states)."""
-    gen = system.generated
-    method = method or default_method(gen.implicit, system.defaults.get("method"))
-    if not supports_c_shooting(method):
-        return f"method '{method}' (the C iteration runs only the methods of the registry that allow it)"
-    if gen.nx > MAX_STATES:
-        return f"more than {MAX_STATES} states"
-    if not hasattr(system.engine._lib, "gs_shoot_ws"):
-        return "the build has no C iteration"
-    max_steps = int(system.defaults.get("max_steps", 0))
-    if max_step and (t1 - t0) / max_step > (max_steps or 10_000_000):
-        return "the step budget"  # the Python path raises the step-budget error
-    n = max(int(n_amp), 2)
-    grid = _steps(n) * ((t1 - t0) / (n - 1)) + t0  # np.linspace(t0, t1, n)'s arithmetic
-    grid[-1] = t1
-    # the Python step drops singular values of the scaled M - I below monodromy_error; give up
-    # when a pivot gets within a factor 10 of that level (a stricter factor, 1e3, sent
-    # lightly damped 48- and 130-state models to the Python iteration after a wasted C one)
-    pivot_tol = 10 * monodromy_error(1.0, rtol)
-    out = shoot_in_c(system.engine, x, pvec, t0, t1, grid, method=method, rtol=rtol, atol=atol,
-                     max_step=max_step, max_steps=max_steps, tol=tol, scale_floor=atol / tol,
-                     pivot_tol=pivot_tol, max_iter=max_iter, want_run=False)
-    return out
-
-
-@functools.lru_cache(maxsize=64)
-def _steps(n: int) -> np.ndarray:
-    """``0, 1, ..., n - 1`` (read-only, shared)."""
-    a = np.arange(n, dtype=float)
-    a.flags.writeable = False
-    return a
-
-
-def _anchor_rows(system: CompiledSystem, params: Mapping[str, float] | None, segments: int) -> np.ndarray | None:
-    """Rows ``[R^T 0 ... 0]`` that pin the rigid-body coordinates of the first segment's
-    state in a Newton step (``None`` without rigid-body modes)."""
-    V = rigid_state_basis(system, params)
-    if V is None:
-        return None
-    k = V.shape[1] // 2
-    Pq = V[:, :k]
-    Pq = Pq / np.linalg.norm(Pq, axis=0)
-    out = np.zeros((k, segments * Pq.shape[0]))
-    out[:, : Pq.shape[0]] = Pq.T
-    return out

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import cmath
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -142,6 +142,28 @@ def rigid_state_basis(system: CompiledSystem, params: Mapping[str, float] | None
     V[:nq, :k] = R
     V[nq:, k:] = R
     return V
+
+
+def rigid_anchor_rows(V: np.ndarray, n: int, index: Sequence[int]) -> np.ndarray:
+    """The anchor rows of a Newton step on a model with rigid-body modes: one row per mode that
+    pins its coordinates (the unit columns of the coordinate block of ``V``,
+    :func:`rigid_state_basis`), placed on the unknowns ``index`` (one per state) among ``n``.
+
+    Without them the Newton matrix is singular along the rigid-body shift (a Jordan block of the
+    monodromy at +1); with them the step is the least-squares solution that keeps the rigid
+    coordinates where they are (THE Newton iteration, ``gearsym/engine/gs_newton.c``).  Used by
+    shooting and by the continuation's problems.
+
+    Returns
+    -------
+    ndarray, shape (k, n)
+    """
+    k = V.shape[1] // 2
+    Pq = V[:, :k] / np.linalg.norm(V[:, :k], axis=0)
+    out = np.zeros((k, int(n)))
+    for j, i in enumerate(index):
+        out[:, i] = Pq[j]
+    return out
 
 
 def split_trivial(M: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:

@@ -37,7 +37,7 @@ from ...errors import GearsymError, ParameterError
 if TYPE_CHECKING:  # pragma: no cover
     from ...system import CompiledSystem
 
-__all__ = ["VERIFY_FACTOR", "Closure", "closure", "orbit_period", "segment_closure", "whole_periods"]
+__all__ = ["VERIFY_FACTOR", "Closure", "closure", "orbit_period", "runs_closure", "segment_closure", "whole_periods"]
 
 #: The closure of a verified orbit may exceed the integration's own error estimate
 #: ``rtol |x| + atol`` by this factor (the largest ratio measured on the shipped scenes was 383).
@@ -208,6 +208,32 @@ def closure(starts: np.ndarray, ends: np.ndarray, amplitude: np.ndarray, *, rtol
         d_max = d if not d <= d_max else d_max
     kw = {"how": how} if how else {}
     return Closure(d_max, worst, worst <= 1.0, k, **kw)
+
+
+def runs_closure(starts: np.ndarray, ends: np.ndarray | None, error: str, amplitude: np.ndarray, *, rtol: float,
+                 atol: float, tol: float, amplification: float = 1.0) -> Closure:
+    """:func:`segment_closure` of verification runs made elsewhere: shooting's, in the C call
+    that solved the orbit (:class:`gearsym.engine.shoot.VerifyRuns`, the same runs).
+
+    Parameters
+    ----------
+    starts
+        The segment start states the runs started from, shape (segments, nx).
+    ends
+        Each run's end state, same shape; ``None`` when a run failed.
+    error
+        The failed run's error (with ``ends`` ``None``).
+    amplitude, rtol, atol, tol, amplification
+        As for :func:`closure`.
+
+    Returns
+    -------
+    Closure
+        Not ``ok`` (with :attr:`Closure.error`) when a run failed.
+    """
+    if ends is None:
+        return Closure(math.inf, math.inf, False, 0, error=error)
+    return closure(starts, ends, amplitude, rtol=rtol, atol=atol, tol=tol, amplification=amplification)
 
 
 def segment_closure(system: CompiledSystem, starts: np.ndarray, times: np.ndarray, p: np.ndarray, *, rtol: float,
