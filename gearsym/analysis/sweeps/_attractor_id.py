@@ -137,14 +137,20 @@ def cycle_period(P: np.ndarray, scale: np.ndarray, max_k: int, tol: float, V: np
     -------
     int
         The smallest ``k <= max_k`` with ``max |P_n - P_(n-k)| / scale <= tol`` for every ``n >= N / 2``
-        (``k`` at most that half), 0 if none.
+        (``k`` at most that half), and every such ``P_n`` within ``tol`` of the point of its phase in the
+        cycle before that half (no drift); 0 if none.
     """
     P = np.asarray(P, float)
     m = len(P) // 2
     for k in range(1, min(max_k, m) + 1):
         d = project(P[m:] - P[m - k:len(P) - k], V) / scale
         if np.all(np.isfinite(d)) and float(np.max(np.abs(d))) <= tol:
-            return k
+            # and no drift: every point within tol of the one of its phase in the cycle before the half
+            # (a transient converging slowly, e.g. near a period doubling, repeats from one cycle to the
+            # next to within tol while its points still move by more over the half)
+            drift = project(P[m:] - P[m - k + (np.arange(len(P) - m) % k)], V) / scale
+            if float(np.max(np.abs(drift))) <= tol:
+                return k
     return 0
 
 
