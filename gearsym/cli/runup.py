@@ -102,21 +102,25 @@ def cmd_runup(args: argparse.Namespace) -> int:
     if args.json:
         emit(info)
         return 0
-    print(f"{res.scene}: {res.parameter} {res.start:g} -> {res.stop:g} {res.unit} in {res.duration:g} "
-          f"{res.time_unit or ''}, {info['n_steps']} steps, {info['n_breaks']} breakpoints, {info['n_events']} "
-          f"events; spectra of {res.signal_name} in {info['bins']} speed bins, resolution {res.resolution:.4g} "
-          f"{res.frequency_unit}")
+    u, tu, fu = _unit(res.unit), _unit(res.time_unit), _unit(res.frequency_unit)
+    print(f"{res.scene}: {res.parameter} {res.start:g} -> {res.stop:g}{u} in {res.duration:g}{tu}, "
+          f"{info['n_steps']} steps, {info['n_breaks']} breakpoints, {info['n_events']} events; spectra of "
+          f"{res.signal_name} in {info['bins']} speed bins, resolution {res.resolution:.4g}{fu}")
     if info["natural_frequencies"]:
-        print("natural frequencies: " + ", ".join(f"{f:.6g}" for f in info["natural_frequencies"])
-              + f" {res.frequency_unit}")
+        print("natural frequencies: " + ", ".join(f"{f:.6g}" for f in info["natural_frequencies"]) + fu)
     for pk in info["peaks"]:
         print(f"  {pk['mesh']} order {pk['order']}: largest {pk['amplitude']:.4g} at {res.parameter} = "
-              f"{pk['speed']:.6g} {res.unit} ({pk['frequency']:.6g} {res.frequency_unit})")
+              f"{pk['speed']:.6g}{u} ({pk['frequency']:.6g}{fu})")
     for c in info["crossings"]:
-        print(f"  {c['mesh']} order {c['order']} crosses mode {c['mode']} ({c['frequency']:.6g} "
-              f"{res.frequency_unit}) at {res.parameter} = {c['speed']:.6g} {res.unit}")
+        print(f"  {c['mesh']} order {c['order']} crosses mode {c['mode']} ({c['frequency']:.6g}{fu}) at "
+              f"{res.parameter} = {c['speed']:.6g}{u}")
     for note in res.notes:
         print(f"note: {note}")
     for f in info.get("files", []):
         print(f"wrote {f}")
     return 0
+
+
+def _unit(unit: str | None) -> str:
+    """A unit to print after a number (with its space); none for a dimensionless value (unit ``"1"``)."""
+    return f" {unit}" if unit and unit != "1" else ""

@@ -72,13 +72,17 @@ def add_stiffness_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--poisson", metavar="NU[,NU2]", help="Poisson's ratio (default 0.3)")
     p.add_argument("--bore", metavar="R[,R2]", help="bore radius, for the fillet-foundation term (mm unless a unit "
                    "is given; default: half the root radius)")
-    p.add_argument("--torque", type=float, metavar="N*M",
-                   help="pinion torque (N m): sets ISO 6336's line load F_t/b (K_A = 1); below 100 N/mm it "
+    p.add_argument("--torque", metavar="N*M",
+                   help="pinion torque (N m unless a unit is given: 340, '340 N*m', 0.34kN*m): sets ISO 6336's line load F_t/b (K_A = 1); below 100 N/mm it "
                         "lowers c' (default: at least 100 N/mm)")
     p.add_argument("--samples", type=int, default=256, help="phase samples over the mesh cycle (default 256)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--out", help="folder for stiffness.csv (phase -> N/m), stiffness.json and stiffness.png")
     p.set_defaults(func=cmd_stiffness)
+
+
+_SI = {"torque": "N*m"}  # kinds beyond length and pressure: their SI unit
+_EXAMPLE = {"length": "mm", "pressure": "GPa", "torque": "N*m"}
 
 
 def _quantity(text: str, flag: str, kind: str, default_unit: str | None) -> float:
@@ -103,9 +107,9 @@ def _quantity(text: str, flag: str, kind: str, default_unit: str | None) -> floa
         u = parse_unit(unit)
     except (ValueError, UnitSyntaxError):
         raise ParameterError(f"{flag}: '{text}' is not a number with a unit (e.g. 3mm, 206GPa)") from None
-    want = KNOWN_UNITS["m" if kind == "length" else "Pa"]
+    want = parse_unit(_SI[kind]) if kind in _SI else KNOWN_UNITS["m" if kind == "length" else "Pa"]
     if not u.same_dimension(want):
-        raise ParameterError(f"{flag}: '{unit}' is not a unit of {kind} (e.g. {'mm' if kind == 'length' else 'GPa'})")
+        raise ParameterError(f"{flag}: '{unit}' is not a unit of {kind} (e.g. {_EXAMPLE.get(kind, 'GPa')})")
     if not math.isfinite(v):
         raise ParameterError(f"{flag}: non-finite value '{text}'")
     return v * u.scale
@@ -148,8 +152,9 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
     from ..budget import check_count
 
     check_count("--samples", args.samples, low=2)
-    if args.torque is not None and not (math.isfinite(args.torque) and args.torque > 0):
-        raise ParameterError(f"--torque must be positive and finite, got {args.torque:g}")
+    torque = None if args.torque is None else _quantity(args.torque, "--torque", "torque", "N*m")
+    if torque is not None and not torque > 0:
+        raise ParameterError(f"--torque must be positive and finite, got {args.torque}")
     if args.out:
         from ..extras import require
         from ..files import check_out_dir
@@ -161,9 +166,9 @@ def cmd_stiffness(args: argparse.Namespace) -> int:
     from ..gears import mesh_stiffness, pair_geometry
 
     line_load = None
-    if args.torque is not None:
+    if torque is not None:
         g = pair_geometry(pair)
-        line_load = args.torque / g.pinion.r / (g.face_width * 1e3)  # F_t / b in N/mm
+        line_load = torque / g.pinion.r / (g.face_width * 1e3)  # F_t / b in N/mm
     res = mesh_stiffness(pair, samples=args.samples, line_load=line_load)
     files = _write(res, args.out) if args.out else []
     if args.json:

@@ -55,6 +55,9 @@ class _Reader:
 
     def quantity(self, key: str, value: Any, want: Unit, what: str) -> float:
         """SI value of a quantity string with a unit (or a plain number for a dimensionless one)."""
+        if key == "pressure_angle" and _bare_number(value):  # 20 would be 20 rad: say so, not "1145.92 deg"
+            raise self.error(key, f"give {what} with its unit, e.g. \"{value} deg\" (a bare number would be "
+                                  f"radians)")
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             if want.dims != _ONE.dims:
                 raise self.error(key, f"give {what} with its unit, e.g. \"{value} mm\"" if want == _LENGTH else
@@ -87,6 +90,13 @@ class _Reader:
             return (self.quantity(f"{key}[0]", v[0], want, what), self.quantity(f"{key}[1]", v[1], want, what))
         q = self.quantity(key, v, want, what)
         return q, q
+
+
+def _bare_number(value: Any) -> bool:
+    """A number without a unit: a TOML number, or a string of one."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return True
+    return isinstance(value, str) and (m := _QUANTITY.fullmatch(value)) is not None and not m.group(2)
 
 
 def gear_table(file: str, table: str, tbl: Any) -> tuple[list[float], list[float], dict[str, Any]]:

@@ -37,11 +37,13 @@ brute-force diagram, whose periods no orbit solve verifies.
   (:func:`classify_exponent`):
 
   * ``2`` **chaotic**: ``lambda > z``, positive beyond its error;
-  * ``1`` **quasi-periodic**: ``|lambda| <= z``, zero within its error, **and** the Poincare
-    points lie on one closed curve (:func:`closed_curve`);
+  * ``1`` **quasi-periodic**: ``|lambda| <= z``, zero within its error, with an error within
+    the zero band (``e <= zero_rate / T``: an exponent known only to a wider error is not known to
+    be zero), **and** the Poincare points lie on one closed curve (:func:`closed_curve`);
   * ``3`` **unclassified** ("not classified"): neither -- a negative exponent (the response
     converges, to an orbit of more periods than were looked for or after a transient longer
-    than the run), a zero exponent with a section that is not one curve, or no exponent.
+    than the run), a zero exponent with a section that is not one curve or with an error
+    above the zero band, or no exponent.
 
 **Same attractor.**  Two periodic orbits of the same period are one when a state of one is
 within :data:`SAME_ORBIT` (1e-4) of one of the ``k`` Poincare points of the other (any phase of a
@@ -135,14 +137,20 @@ def cycle_period(P: np.ndarray, scale: np.ndarray, max_k: int, tol: float, V: np
     -------
     int
         The smallest ``k <= max_k`` with ``max |P_n - P_(n-k)| / scale <= tol`` for every ``n >= N / 2``
-        (``k`` at most that half), 0 if none.
+        (``k`` at most that half), and every such ``P_n`` within ``tol`` of the point of its phase in the
+        cycle before that half (no drift); 0 if none.
     """
     P = np.asarray(P, float)
     m = len(P) // 2
     for k in range(1, min(max_k, m) + 1):
         d = project(P[m:] - P[m - k:len(P) - k], V) / scale
         if np.all(np.isfinite(d)) and float(np.max(np.abs(d))) <= tol:
-            return k
+            # and no drift: every point within tol of the one of its phase in the cycle before the half
+            # (a transient converging slowly, e.g. near a period doubling, repeats from one cycle to the
+            # next to within tol while its points still move by more over the half)
+            drift = project(P[m:] - P[m - k + (np.arange(len(P) - m) % k)], V) / scale
+            if float(np.max(np.abs(drift))) <= tol:
+                return k
     return 0
 
 
@@ -272,6 +280,11 @@ def classify_exponent(lam: float, err: float, T: float, section: np.ndarray, zer
         return CHAOTIC, rate + ": positive beyond its error"
     curve = closed_curve(section)
     where = f"Poincare section: {'one curve' if curve else 'not one curve'} ({len(section)} points)"
+    if abs(lam) <= band and err > zero_rate / T:
+        # an error wider than the zero band: "zero within its error" says nothing (a transient still
+        # converging, measured over too few periods, has an exponent of any sign within its error)
+        return UNCLASSIFIED, (f"{rate}: not known to be zero, its error is above {zero_rate:g} per forcing period "
+                              f"(more Lyapunov periods would tell); {where}")
     if abs(lam) <= band:
         return (QUASI_PERIODIC if curve else UNCLASSIFIED), f"{rate}: zero within its error; {where}"
     return UNCLASSIFIED, (f"{rate}: negative (converging, to an orbit of more periods than looked for or after a "

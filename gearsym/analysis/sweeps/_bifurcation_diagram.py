@@ -234,6 +234,7 @@ def bifurcation_diagram(target: SceneLike | CompiledSystem, param: str, start: f
     values = np.linspace(lo, hi, int(n))
     for v in (values[0], values[-1]):
         system.param_vector({**base, param: float(v)})  # the physical ranges at the ends (exit 2)
+        system.require_period({**base, param: float(v)}, "a bifurcation diagram")  # and a forcing period there
     x0 = np.asarray(system.x0 if opts.x0 is None else opts.x0, float)
     if x0.shape != (system.generated.nx,):
         raise ParameterError(f"x0 must have {system.generated.nx} entries ({', '.join(system.state_names)})")

@@ -298,6 +298,7 @@ def _plan(system: CompiledSystem, opts: RunupOptions, params: dict[str, float]) 
     meshes = list(getattr(system.generated, "meshes", []) or [])
     periods0 = mesh_order_periods(system, p0, meshes, T0, opts.mesh_periods) if meshes else {}
     cycles = _cycles(periods0, T0)
+    _check_orders(int(s["orders"]), int(s["samples_per_period"]), cycles)
     signal = _signal_name(system, s["signal"], meshes)
     settings = {k: s[k] for k in ("rtol", "atol", "method", "max_steps", "settle", "samples_per_period", "bins",
                                   "orders", "modes", "profile")}
@@ -387,6 +388,18 @@ def _check_periodic(system: CompiledSystem, name: str, index: int, ps: tuple[np.
                     f"runup: the model's {what} (entry {j}) are not periodic in time with the forcing period at "
                     f"{name} = {p[index]:.6g} (SI): a time function whose frequency is not proportional to "
                     f"'{name}' (a fixed-frequency excitation, a ramp in t) has no phase of '{name}' to run on")
+
+
+def _check_orders(orders: int, spp: int, cycles: Sequence[int]) -> None:
+    """Refuse mesh orders that no mesh's angle samples resolve: ``spp * max(cycles)`` samples a
+    forcing period hold orders ``h < spp max(cycles) / (2 c)`` of a mesh of ``c`` cycles (Nyquist)."""
+    if not cycles:
+        return
+    top = max(math.ceil(spp * max(cycles) / (2 * c)) - 1 for c in cycles)
+    if orders > top:
+        raise ParameterError(f"runup: orders={orders}: {spp} samples per period of the fastest mesh "
+                             f"(samples_per_period, --samples-per-period) resolve mesh orders up to {top} (Nyquist): "
+                             f"track at most {top} orders or raise samples_per_period to at least {2 * orders + 1}")
 
 
 def _cycles(periods0: Mapping[str, float], T0: float) -> list[int]:
