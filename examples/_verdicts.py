@@ -179,11 +179,12 @@ def steepest_change(values: Sequence[float], amps: Sequence[float], states: Sequ
 
 def ratio_across(values: Sequence[float], amps: Sequence[float], at: float, window: float) -> float:
     """Amplitude just after over just before ``at`` on a branch: the samples nearest to ``at`` on
-    each side within ``window`` (nan without one on each side).  Direction: increasing value."""
+    each side within ``window`` (a sample at ``at``, e.g. the located grazing, counts as before it;
+    nan without one on each side).  Direction: increasing value."""
     v = np.asarray(values, float)
     a = np.asarray(amps, float)
     left = np.nonzero((v <= at) & (v >= at - window))[0]
-    right = np.nonzero((v >= at) & (v <= at + window))[0]
+    right = np.nonzero((v > at) & (v <= at + window))[0]
     if not len(left) or not len(right):
         return math.nan
     i = left[np.argmax(v[left])]

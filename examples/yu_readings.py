@@ -25,7 +25,8 @@ share of the amplitude spectrum off the mesh harmonics.  The criteria of the fig
 * ``fig10_amp``    the peak-to-peak DTE at omega* = 0.2 falls with D (paper: 115, 30, 18, 16);
 * ``fig10_route``  periodic at D = 1.2, multi-periodic at 1.6, chaotic at 1.8;
 * ``fig10_dyn``    the DTE with dynamic backlash is larger than with constant backlash;
-* ``fig11_lines``  lines off the mesh harmonics at D = 1.6 and 1.8 (share > 1 %), not at 1.2, 1.4;
+* ``fig11_plain``  only the mesh harmonics at D = 1.2 and 1.4 (share off them below 1 %);
+* ``fig11_extra``  lines off the mesh harmonics at D = 1.6 and 1.8 (share above 1 %);
 * ``fig12_falls``  at omega* = 0.31 the DTE (mean or peak-to-peak) falls with D;
 * ``fig12_periodic`` every response at omega* = 0.31 periodic;
 * ``fig12_G``      a larger G gives a larger amplitude at omega* = 0.31, D = 1.4;
@@ -257,7 +258,9 @@ def figure_criteria(rows: dict) -> dict[str, dict]:
         "fig10_route": {"holds": route_to_chaos(kinds02), "numbers": "kinds " + ", ".join(kinds02)},
         "fig10_dyn": {"holds": all(a > 1.01 * b for a, b in zip(ppv02, ppv02c)),
                       "numbers": f"constant-backlash ppv {_fmt(ppv02c)} um"},
-        "fig11_lines": {"holds": min(sh[2:]) > 0.01 and max(sh[:2]) < 0.01,
+        "fig11_plain": {"holds": max(sh[:2]) < 0.01,
+                        "numbers": "off-harmonic share " + ", ".join(f"{x:.1e}" for x in sh)},
+        "fig11_extra": {"holds": min(sh[2:]) > 0.01,
                         "numbers": "off-harmonic share " + ", ".join(f"{x:.1e}" for x in sh)},
         "fig12_falls": {"holds": trend(mean031) == "falls" or trend(ppv031) == "falls",
                         "numbers": f"omega* = 0.31: mean {_fmt(mean031)} um ({trend(mean031)}), ppv "
