@@ -11,14 +11,18 @@ coordinates of Fig. 7 (two rotations, four centre translations), with numpy and
 peak-to-peak of the DTE, impacts per period, Poincare points, mean dynamic backlash) over the
 last ``keep`` of ``periods`` forcing periods, sampled the same way (``ppp`` samples per
 period), so that its numbers can be compared with gearsym's one to one
-(tests/test_yu_reference.py; ``python tests/yu_reference.py`` prints the whole readings table).
+(tests/test_yu_reference.py; ``python tests/yu_reference.py --compare out/yu_readings/yu_readings.json``
+re-runs every row of the readings table and prints the differences, exit 1 above 1 %).
 """
 
 from __future__ import annotations
 
+import argparse
+import json
 import math
 import sys
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -35,6 +39,8 @@ C_B = 510.0
 EPS = 0.2
 B_0 = 20e-6
 LAM, L_C, L_A = 1.5, 150e-6, 100e-6
+#: absolute tolerances: rotations (rad), centres (m), angular velocities (rad/s), centre velocities (m/s)
+ATOL = np.array([1e-12] * 2 + [1e-14] * 4 + [1e-9] * 2 + [1e-10] * 4)
 
 
 @dataclass
@@ -145,8 +151,7 @@ def run(reading: str, D: float, omega: float, G: float = 1e-11, dynamic: bool = 
     y0 = pair.initial(rd.x0)
     n = keep * ppp
     t_eval = T * (periods - keep + np.arange(n + 1) / ppp)
-    sol = solve_ivp(pair.rhs, (0.0, periods * T), y0, method="DOP853", rtol=rtol, atol=1e-9 * np.maximum(
-        np.abs(y0), 1e-5) * 1e-4 + 1e-16, t_eval=t_eval, dense_output=False)
+    sol = solve_ivp(pair.rhs, (0.0, periods * T), y0, method="DOP853", rtol=rtol, atol=ATOL, t_eval=t_eval)
     if not sol.success:
         raise RuntimeError(sol.message)
     vals = np.array([pair.dte(t, y) for t, y in zip(sol.t, sol.y.T, strict=True)])
@@ -161,9 +166,41 @@ def run(reading: str, D: float, omega: float, G: float = 1e-11, dynamic: bool = 
             "mean_B_um": float(B.mean() * 1e6), "b_s_um": pair.b_s * 1e6}
 
 
+#: measures compared with gearsym's (relative difference of the DTE's mean and peak-to-peak, and of the
+#: dynamic backlash; contact transitions per period equal)
+COMPARED = ("mean_um", "ppv_um", "mean_B_um")
+
+
+def compare(path: str, names: list[str] | None = None, rtol: float = 1e-9) -> float:
+    """Re-run every row of ``examples/yu_readings.py``'s JSON (``OUT/yu_readings.json``) and print the
+    relative differences; return the largest (scaled by the row's peak-to-peak for the mean)."""
+    data = json.loads(Path(path).read_text())["candidates"]
+    worst = 0.0
+    for name in names or [n for n in data if n in READINGS]:
+        for key, m in data[name]["rows"].items():
+            backlash, w, D, *g = key.split("/")
+            G = float(g[0][1:]) if g else 1e-11
+            ref = run(name, float(D[1:]), float(w[1:]), G, dynamic=backlash == "dynamic", rtol=rtol)
+            diffs = {k: abs(ref[k] - m[k]) / max(abs(m[k]), abs(m["ppv_um"]), 1e-9) for k in COMPARED}
+            same_impacts = abs(ref["impacts_per_period"] - m["impacts_per_period"]) < 1e-9
+            worst = max(worst, *diffs.values())
+            print(f"{name:14s} {key:26s} " + ", ".join(f"{k} {m[k]:.4g}/{ref[k]:.4g} ({diffs[k]:.1e})"
+                                                        for k in COMPARED)
+                  + f", transitions/T {m['impacts_per_period']:.2f}/{ref['impacts_per_period']:.2f}"
+                  + ("" if same_impacts else " DIFFER"), flush=True)
+    print(f"largest relative difference {worst:.2e}")
+    return worst
+
+
 def main() -> None:
-    names = sys.argv[1:] or list(READINGS)
-    for name in names:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--compare", metavar="JSON", help="yu_readings.json of examples/yu_readings.py to re-run")
+    parser.add_argument("--readings", default="", help="comma-separated readings (default: all)")
+    args = parser.parse_args()
+    names = [n for n in args.readings.split(",") if n] or None
+    if args.compare:
+        sys.exit(0 if compare(args.compare, names) <= 0.01 else 1)
+    for name in names or list(READINGS):
         for omega in (0.2, 0.31):
             for D in (1.2, 1.4, 1.6, 1.8):
                 m = run(name, D, omega)
