@@ -30,9 +30,12 @@ Criteria (the constants are the thresholds, stated on the page by :func:`criteri
   change of more than :data:`TREND_REL` end to end.
 * **response kind**: periodic when the Poincare points (one per forcing period) coincide to
   :data:`POINCARE_TOL` of the response's range, ``P k`` when they fall on ``k <= 16`` such
-  points; otherwise the largest Lyapunov exponent decides: chaotic when it is positive beyond
-  its error (and beyond :data:`LYAPUNOV_FLOOR` per period), quasi-periodic when zero within it,
-  "converging" when negative (a stable response whose orbit was not found).
+  points; otherwise the rule of ``gearsym sweep`` (:mod:`gearsym.analysis.sweeps`, issue 28):
+  chaotic when the largest Lyapunov exponent is positive beyond twice its error and above
+  :data:`LYAPUNOV_FLOOR` per forcing period, quasi-periodic when it is zero within that and the
+  Poincare points lie on one closed curve (:func:`gearsym.analysis.sweeps.closed_curve`),
+  "converging" when negative beyond it (a stable response whose orbit was not found), else
+  "unclassified".
 * **numbers**: a value *agrees* with the paper's when within the row's stated tolerance.
 """
 
@@ -52,8 +55,8 @@ JUMP_WINDOW = 0.01
 TREND_REL = 0.01
 #: Poincare points coincide within this fraction of the response's range
 POINCARE_TOL = 1e-3
-#: a Lyapunov exponent is zero within max(its error, this per forcing period)
-LYAPUNOV_FLOOR = 1e-4
+#: a Lyapunov exponent is zero within max(twice its error, this per forcing period) (gearsym sweep's rule)
+LYAPUNOV_FLOOR = 1e-2
 
 REPRODUCED = "reproduced"
 QUALITATIVELY = "qualitatively"
@@ -271,19 +274,28 @@ def spread(values: Sequence[float]) -> float:
 
 
 def kind_of(poincare_points: int, lyapunov: float | None = None, error: float | None = None,
-            period: float | None = None) -> str:
+            period: float | None = None, closed: bool | None = None) -> str:
     """The kind of a response (see the module docstring): ``periodic``, ``P<k>``, ``chaotic``,
-    ``quasi-periodic``, ``converging`` or ``non-periodic`` (no exponent given)."""
+    ``quasi-periodic``, ``converging``, ``unclassified`` or ``non-periodic`` (no exponent given).
+
+    The non-periodic rule is ``gearsym sweep``'s (``gearsym.analysis.sweeps``): ``lyapunov`` and its
+    ``error`` per unit time, ``period`` the forcing period, ``closed`` whether the Poincare points
+    lie on one closed curve (:func:`gearsym.analysis.sweeps.closed_curve`; ``None``: not known).
+    """
     if poincare_points == 1:
         return "periodic"
     if 2 <= poincare_points <= 16:
         return f"P{poincare_points}"
     if lyapunov is None or not math.isfinite(lyapunov):
         return "non-periodic"
-    tol = max(error or 0.0, LYAPUNOV_FLOOR / period if period else 0.0)
-    if lyapunov > tol:
+    err = 2.0 * (error or 0.0)
+    floor = LYAPUNOV_FLOOR / period if period else 0.0
+    if lyapunov > err and lyapunov > floor:
         return "chaotic"
-    return "quasi-periodic" if lyapunov >= -tol else "converging"
+    tol = max(err, floor)
+    if abs(lyapunov) <= tol:
+        return "quasi-periodic" if closed is not False else "unclassified"
+    return "converging" if lyapunov < -tol else "unclassified"
 
 
 def poincare_count(points: np.ndarray, scale: np.ndarray, tol: float = POINCARE_TOL) -> int:
@@ -317,8 +329,10 @@ def criteria_text() -> list[str]:
         f"below {TREND_REL:.0%}; **tendency** of a longer, noisy series (grows / falls with a parameter): Spearman "
         f"rank correlation of at least 0.8 in that direction and a change of more than {TREND_REL:.0%} end to end.",
         f"**response kind**: periodic when the Poincare points coincide to {POINCARE_TOL:g} of the range, P k for "
-        f"k <= 16 points; otherwise the largest Lyapunov exponent: chaotic when positive beyond its error (and "
-        f"{LYAPUNOV_FLOOR:g} per forcing period), quasi-periodic when zero within it, converging when negative.",
+        f"k <= 16 points; otherwise the rule of `gearsym sweep` (issue 28): chaotic when the largest Lyapunov "
+        f"exponent is positive beyond twice its error and {LYAPUNOV_FLOOR:g} per forcing period, quasi-periodic when "
+        f"zero within that and the Poincare points lie on one closed curve, converging when negative beyond it, "
+        f"else unclassified.",
         "**verdict**: reproduced when every checkable claim holds (qualitatively when the comparison rests on "
         "chosen parameters or the paper has no numbers), qualitatively when some hold, not reproduced when none.",
     ]

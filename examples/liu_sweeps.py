@@ -7,7 +7,9 @@ as "shooting failed": it is integrated (``--transient`` forcing periods discarde
 kept, as ``gearsym simulate``), its rattle state and peak-to-peak value measured, its
 Poincare section (one point per forcing period) counted, and its largest Lyapunov exponent
 computed (:func:`gearsym.lyapunov_exponents`, as ``gearsym lyapunov``); the kind follows the
-criteria of ``examples/_verdicts.py`` (periodic, P k, quasi-periodic, chaotic, converging).
+criteria of ``examples/_verdicts.py`` (periodic, P k; otherwise the rule of ``gearsym sweep``,
+:mod:`gearsym.analysis.sweeps`: chaotic, quasi-periodic -- the exponent zero and the Poincare
+points on one closed curve, :func:`gearsym.analysis.sweeps.closed_curve` --, converging, unclassified).
 
 With ``--continue FROM,TO`` the periodic orbit is also continued in the parameter
 (``gearsym continue``): its points (rattle state, ppv, stability), located bifurcations
@@ -34,6 +36,7 @@ import numpy as np
 
 import gearsym
 from gearsym.analysis.periodic import peak_to_peak, rattle_state
+from gearsym.analysis.sweeps import closed_curve
 from gearsym.errors import GearsymError
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -68,10 +71,11 @@ def simulated_sample(system, params: dict, transient: int, keep: int, lyap_perio
         periods=lyap_periods, transient=0, exponents=1, rtol=1e-9), x0=tr.x_final)
     lam, err = float(ly.exponents[0]), float(ly.errors[0])
     T = system.period(params) if hasattr(system, "period") else tr.period
+    closed = bool(closed_curve(points)) if n_pts > 16 else None
     return {"method": "simulation", "rattle_state": rattle_state(tr, system=system, steady_fraction=1.0),
             "ppv": peak_to_peak(tr, steady_fraction=1.0), "poincare_points": n_pts, "poincare_spread": spread,
             "lyapunov": lam, "lyapunov_error": err, "lyapunov_converged": bool(ly.converged), "period": T,
-            "kind": kind_of(n_pts, lam, err, T)}
+            "closed_curve": closed, "kind": kind_of(n_pts, lam, err, T, closed)}
 
 
 def continued(system, name: str, lo: float, hi: float) -> dict:

@@ -15,7 +15,8 @@ light_load       a tenth of Table 1's torque, static force 122 N (scenes/yu_read
 For every reading and (D, omega*) it integrates ``--periods`` forcing periods from the
 reading's initial state and measures the last ``--keep``: mean, extrema and peak-to-peak of
 the DTE, contact transitions per period, the mean dynamic backlash B (Fig. 9), the number of
-distinct Poincare points (the largest Lyapunov exponent when there are more than 16), and the
+distinct Poincare points (when there are more than 16, the largest Lyapunov exponent and whether
+the points lie on one closed curve: the rule of ``gearsym sweep``), and the
 share of the amplitude spectrum off the mesh harmonics.  The criteria of the figures
 (:func:`figure_criteria`, with the thresholds of ``examples/_verdicts.py``):
 
@@ -55,6 +56,7 @@ from pathlib import Path
 import numpy as np
 
 import gearsym
+from gearsym.analysis.sweeps import closed_curve
 from gearsym.errors import GearsymError
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -197,14 +199,15 @@ def measure(system, params: dict, periods: int, keep: int, x0: list[float], ppp:
         ly = gearsym.lyapunov_exponents(system, params, gearsym.LyapunovOptions(
             periods=lyapunov_periods, transient=0, exponents=1, rtol=1e-9), x0=tr.x_final)
         out |= {"lyapunov": float(ly.exponents[0]), "lyapunov_error": float(ly.errors[0]),
-                "period": float(tr.period)}
+                "period": float(tr.period), "closed_curve": bool(closed_curve(pc))}
     return out
 
 
 def kind(m: dict) -> str:
     if "error" in m:
         return "error"
-    return kind_of(m["poincare_points"], m.get("lyapunov"), m.get("lyapunov_error"), m.get("period"))
+    return kind_of(m["poincare_points"], m.get("lyapunov"), m.get("lyapunov_error"), m.get("period"),
+                   m.get("closed_curve"))
 
 
 def evaluate(cand: Candidate, systems: dict, periods: int, keep: int) -> dict:
