@@ -11,6 +11,7 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -158,3 +159,45 @@ def test_one_row_end_to_end(monkeypatch, tmp_path):
     assert [out["data"][s]["rattle_state"] for s in ("140", "160", "180")] == [0, 1, 2]
     assert out["data"]["180"]["ppv"] > 2 * out["data"]["160"]["ppv"]
     json.dumps(out, default=float)          # what the cache stores
+
+
+# ----------------------------------------------------------------------------- response kinds: gearsym sweep's rule
+def _classify_main(P, lam, err, T):
+    """The classification of gearsym sweep (gearsym.analysis.sweeps) for section points P."""
+    from gearsym.analysis.sweeps._bifurcation_diagram import DiagramOptions, _classify
+
+    names = {0: "periodic", 1: "quasi-periodic", 2: "chaotic", 3: "unclassified"}
+    return names[_classify(P, P, lam, err, T, DiagramOptions(directions=("forward",)))[1]]
+
+
+@pytest.mark.parametrize(("lam", "err", "T"), [(5.0, 0.5, 0.1), (1e-4, 1e-3, 0.1), (0.05, 1e-3, 0.1),
+                                               (-90.0, 0.7, 0.16), (0.5, 0.3, 1.0)])
+def test_kinds_follow_gearsym_sweep(lam, err, T):
+    from gearsym.analysis.sweeps import closed_curve
+
+    rng = np.random.default_rng(1)
+    circle = np.column_stack([np.cos(np.arange(200) * 2 * np.pi * 0.618034), np.sin(np.arange(200) * 2 * np.pi * 0.618034)])
+    cloud = rng.uniform(-1, 1, (200, 2))
+    for P in (circle, cloud):
+        n = V.poincare_count(P, np.ptp(P, axis=0))
+        mine = V.kind_of(n, lam, err, T, bool(closed_curve(P)))
+        main = _classify_main(P, lam, err, T)
+        assert mine == main or (mine == "converging" and main == "unclassified"), (lam, err, T, mine, main)
+    assert V.kind_of(100, 1e-4, 1e-3, 0.1, closed=False) == "unclassified"     # zero exponent, a cloud
+
+
+# ----------------------------------------------------------------------------- YU-F14 from numbers
+def test_yu_f14_rms_is_eq_21_and_nothing_is_claimed(monkeypatch):
+    wn = 22000.0
+    rpm = [wn * w / (50 * 2 * np.pi / 60) for w in (0.55, 0.65, 0.75, 0.85)]
+    harm = [[3e-6, 4e-6, 0, 0, 0], [1e-6, 0, 0, 0, 0], [0, 2e-6, 2e-6, 0, 0], [5e-6, 0, 0, 0, 0]]
+    pts = [{"value": v, "stability": "asymptotically_stable", "rattle_state": 0,
+            "gear_quantities": {"mesh": {"dte_harmonics": h}}} for v, h in zip(rpm, harm)]
+    monkeypatch.setattr(reproduce, "gearsym", lambda cmd: {"points": pts, "bifurcations": []})
+    monkeypatch.setattr(reproduce, "_f14_omega_n", lambda: wn)
+    res = _row("YU-F14").run(_row("YU-F14"))
+    rms = [p["rms_um"] for p in res.data["points"]]
+    assert rms == pytest.approx([np.sqrt((9 + 16) / 5), np.sqrt(1 / 5), np.sqrt(8 / 5), np.sqrt(25 / 5)])
+    # omega* = 0.6 lies halfway between the first two points: linear interpolation on the branch
+    assert f"0.6: {(rms[0] + rms[1]) / 2:.2f}" in res.gives
+    assert res.verdict == V.NOT_REPRODUCED and all(c["holds"] is None for c in res.data["claims"])
