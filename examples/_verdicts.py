@@ -329,7 +329,7 @@ def criteria_text() -> list[str]:
         f"below {TREND_REL:.0%}; **tendency** of a longer, noisy series (grows / falls with a parameter): Spearman "
         f"rank correlation of at least 0.8 in that direction and a change of more than {TREND_REL:.0%} end to end.",
         f"**response kind**: periodic when the Poincare points coincide to {POINCARE_TOL:g} of the range, P k for "
-        f"k <= 16 points; otherwise the rule of `gearsym sweep` (issue 28): chaotic when the largest Lyapunov "
+        f"k <= 16 points; otherwise the rule of `gearsym sweep`: chaotic when the largest Lyapunov "
         f"exponent is positive beyond twice its error and {LYAPUNOV_FLOOR:g} per forcing period, quasi-periodic when "
         f"zero within that and the Poincare points lie on one closed curve, converging when negative beyond it, "
         f"else unclassified.",

@@ -631,7 +631,9 @@ def _fmt_samples(name: str, s: dict, scale: float = 1e3, unit: str = "mrad") -> 
     for x in s["raw"]:
         txt = f"{name} {x['value']:g}: state {x['rattle_state']}, ppv {x['ppv'] * scale:.3f} {unit}"
         if x["method"] == "simulation":
-            txt += (f" (shooting did not converge: simulated, {x['kind']}: {x['poincare_points']} Poincare point(s) "
+            orbit = str(x.get("orbit", ""))
+            shot = f"shooting: {orbit}" if orbit.startswith("orbit ") else "shooting did not converge"
+            txt += (f" ({shot}: simulated, {x['kind']}: {x['poincare_points']} Poincare point(s) "
                     f"to {x['poincare_spread']:.0e} of the range, lambda_1 = {x['lyapunov']:.3g} +- "
                     f"{x['lyapunov_error']:.2g} 1/s)")
         parts.append(txt)
