@@ -1122,7 +1122,7 @@ def _yu_readings_table(results: dict) -> list[str]:
         m031 = "; ".join(f"{rows[f'dynamic/w0.31/D{D}']['mean_um']:.2f}, {rows[f'dynamic/w0.31/D{D}']['ppv_um']:.2f}"
                          for D in (1.2, 1.4, 1.6, 1.8))
         g = c["criteria"]["fig12_G"]["numbers"].split(" um")[0].removeprefix("ppv ")
-        trends = ", ".join(k for k in YU_CRITERIA if c["criteria"][k]["holds"]) or "none"
+        trends = "; ".join(YU_CRITERIA[k] for k in YU_CRITERIA if c["criteria"][k]["holds"]) or "none"
         cells = [f"{n}: {c['note']}", f"`scenes/{c['scene']}.toml`" if c["scene"] else "-",
                  f"{cell(0.2)} ({k02})", f"{m031} ({k031})", g, trends, c["criteria"]["D_above_1.4"]["numbers"]]
         lines.append("| " + " | ".join(x.replace("|", "\\|") for x in cells) + " |")
