@@ -39,6 +39,8 @@ C_B = 510.0
 EPS = 0.2
 B_0 = 20e-6
 LAM, L_C, L_A = 1.5, 150e-6, 100e-6
+#: contact transitions are counted on a grid this many times finer than the measures' samples
+DENSE = 16
 #: absolute tolerances: rotations (rad), centres (m), angular velocities (rad/s), centre velocities (m/s)
 ATOL = np.array([1e-12] * 2 + [1e-14] * 4 + [1e-9] * 2 + [1e-10] * 4)
 
@@ -149,15 +151,19 @@ def run(reading: str, D: float, omega: float, G: float = 1e-11, dynamic: bool = 
     pair = Pair(rd, D, omega, G, dynamic, b_s)
     T = 2 * math.pi / pair.w_h
     y0 = pair.initial(rd.x0)
-    n = keep * ppp
-    t_eval = T * (periods - keep + np.arange(n + 1) / ppp)
+    n = keep * ppp * DENSE
+    t_eval = T * (periods - keep + np.arange(n + 1) / (ppp * DENSE))
     sol = solve_ivp(pair.rhs, (0.0, periods * T), y0, method="DOP853", rtol=rtol, atol=ATOL, t_eval=t_eval)
     if not sol.success:
         raise RuntimeError(sol.message)
     vals = np.array([pair.dte(t, y) for t, y in zip(sol.t, sol.y.T, strict=True)])
-    x, v, B = vals[:, 0], vals[:, 1], vals[:, 2]
+    # contact transitions on the dense grid (short contacts fall between the ppp samples); every
+    # other measure on the ppp samples, as examples/yu_readings.py samples gearsym's trajectory
+    x, B = vals[:, 0], vals[:, 2]
     side = np.where(x > B, 1, np.where(x < -B, -1, 0))
     changes = int(np.count_nonzero(np.diff(side)))
+    vals = vals[::DENSE]
+    x, v, B = vals[:, 0], vals[:, 1], vals[:, 2]
     pc = np.column_stack([x[::ppp], v[::ppp]])
     scale = np.array([max(np.ptp(x), 1e-12), max(np.ptp(v), 1e-9)])
     return {"mean_um": float(x.mean() * 1e6), "max_um": float(x.max() * 1e6), "min_um": float(x.min() * 1e6),
@@ -167,7 +173,7 @@ def run(reading: str, D: float, omega: float, G: float = 1e-11, dynamic: bool = 
 
 
 #: measures compared with gearsym's (relative difference of the DTE's mean and peak-to-peak, and of the
-#: dynamic backlash; contact transitions per period equal)
+#: dynamic backlash; contact transitions per period within 1 %)
 COMPARED = ("mean_um", "ppv_um", "mean_B_um")
 
 
@@ -182,7 +188,8 @@ def compare(path: str, names: list[str] | None = None, rtol: float = 1e-9) -> fl
             G = float(g[0][1:]) if g else 1e-11
             ref = run(name, float(D[1:]), float(w[1:]), G, dynamic=backlash == "dynamic", rtol=rtol)
             diffs = {k: abs(ref[k] - m[k]) / max(abs(m[k]), abs(m["ppv_um"]), 1e-9) for k in COMPARED}
-            same_impacts = abs(ref["impacts_per_period"] - m["impacts_per_period"]) < 1e-9
+            # a sampled count can only miss a contact shorter than its grid: within 1 %
+            same_impacts = abs(ref["impacts_per_period"] - m["impacts_per_period"]) <= 0.01 * m["impacts_per_period"]
             worst = max(worst, *diffs.values())
             print(f"{name:14s} {key:26s} " + ", ".join(f"{k} {m[k]:.4g}/{ref[k]:.4g} ({diffs[k]:.1e})"
                                                         for k in COMPARED)
