@@ -1127,6 +1127,14 @@ def _yu_readings_table(results: dict) -> list[str]:
                  f"{cell(0.2)} ({k02})", f"{m031} ({k031})", g, trends, c["criteria"]["D_above_1.4"]["numbers"]]
         lines.append("| " + " | ".join(x.replace("|", "\\|") for x in cells) + " |")
     none = results["YU-READINGS"]["data"].get("none", [])
+    closed = [f"{n} at {k.split('/')[1].replace('w', 'omega* = ')}, D = {k.split('/')[2][1:]}"
+              + (f", G = {k.split('/')[3][1:]} m" if k.count("/") > 2 else "") + f" (min B {m['min_B_um']:.1f} um)"
+              for n, c in data.items() for k, m in c["rows"].items()
+              if k.startswith("dynamic/") and m.get("min_B_um", 1.0) < 0]
+    if closed:
+        lines += ["", "The dynamic backlash closes (B(t) < 0: the centres approach until the clearance of eqs. 8-10 "
+                  "is negative, where it no longer describes one; the contact transitions counted there are "
+                  "crossings of the surfaces x - B = 0 and x + B = 0): " + "; ".join(closed) + "."]
     lines += ["", "No reading gives: " + (", ".join(f"{k} ({YU_CRITERIA[k]})" for k in none) or "-") + ".", ""]
     return lines
 

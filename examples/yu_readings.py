@@ -191,7 +191,7 @@ def measure(system, params: dict, periods: int, keep: int, x0: list[float], ppp:
         "mean_um": float(x.mean() * 1e6), "max_um": float(x.max() * 1e6), "min_um": float(x.min() * 1e6),
         "ppv_um": float(np.ptp(x) * 1e6), "impacts_per_period": len(impacts) / keep,
         "rattle": 0 if not impacts else (2 if back else 1), "poincare_points": int(clusters),
-        "mean_B_um": float(B.mean() * 1e6), "off_harmonic_share": off_share,
+        "mean_B_um": float(B.mean() * 1e6), "min_B_um": float(B.min() * 1e6), "off_harmonic_share": off_share,
         # the strongest off-harmonic lines in units of the model's omega_n
         "off_lines": [round(float(k) / keep * omega, 3) for k in off if spec[k] > 0.02 * spec.max()],
     }

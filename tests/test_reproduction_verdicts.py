@@ -201,3 +201,16 @@ def test_yu_f14_rms_is_eq_21_and_nothing_is_claimed(monkeypatch):
     # omega* = 0.6 lies halfway between the first two points: linear interpolation on the branch
     assert f"0.6: {(rms[0] + rms[1]) / 2:.2f}" in res.gives
     assert res.verdict == V.NOT_REPRODUCED and all(c["holds"] is None for c in res.data["claims"])
+
+
+def test_readings_table_says_where_the_dynamic_backlash_closes():
+    rows = _yu_rows([40.0] * 4, [4] * 4, [1] * 4)
+    for key, m in rows.items():
+        m.update(mean_B_um=m.get("mean_B_um", 20.0), min_B_um=-16.2 if key == "dynamic/w0.31/D1.4" else 5.0,
+                 impacts_per_period=m.get("impacts_per_period", 0), mean_um=m.get("mean_um", 0.0))
+    crit = yu_readings.figure_criteria(rows)
+    results = {"YU-READINGS": {"data": {"readings": {"r": {"scene": "s", "note": "n", "criteria": crit, "rows": rows}},
+                                        "none": []}}}
+    text = "\n".join(reproduce._yu_readings_table(results))
+    assert "closes" in text and "r at omega* = 0.31, D = 1.4 (min B -16.2 um)" in text
+    assert text.count("min B") == 1

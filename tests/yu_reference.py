@@ -157,11 +157,12 @@ def run(reading: str, D: float, omega: float, G: float = 1e-11, dynamic: bool = 
     if not sol.success:
         raise RuntimeError(sol.message)
     vals = np.array([pair.dte(t, y) for t, y in zip(sol.t, sol.y.T, strict=True)])
-    # contact transitions on the dense grid (short contacts fall between the ppp samples); every
+    # contact transitions: crossings of the drive and back surfaces x - B = 0 and x + B = 0 (gearsym's
+    # events; the same as changes of contact side while B > 0, and still defined where the dynamic
+    # backlash closes, B < 0), on the dense grid (short contacts fall between the ppp samples); every
     # other measure on the ppp samples, as examples/yu_readings.py samples gearsym's trajectory
     x, B = vals[:, 0], vals[:, 2]
-    side = np.where(x > B, 1, np.where(x < -B, -1, 0))
-    changes = int(np.count_nonzero(np.diff(side)))
+    changes = sum(int(np.count_nonzero(np.diff(np.sign(g)))) for g in (x - B, x + B))
     vals = vals[::DENSE]
     x, v, B = vals[:, 0], vals[:, 1], vals[:, 2]
     pc = np.column_stack([x[::ppp], v[::ppp]])
@@ -169,7 +170,7 @@ def run(reading: str, D: float, omega: float, G: float = 1e-11, dynamic: bool = 
     return {"mean_um": float(x.mean() * 1e6), "max_um": float(x.max() * 1e6), "min_um": float(x.min() * 1e6),
             "ppv_um": float(np.ptp(x) * 1e6), "impacts_per_period": changes / keep,
             "poincare_points": int(len(np.unique(np.round(pc / (1e-3 * scale)), axis=0))),
-            "mean_B_um": float(B.mean() * 1e6), "b_s_um": pair.b_s * 1e6}
+            "mean_B_um": float(B.mean() * 1e6), "min_B_um": float(B.min() * 1e6), "b_s_um": pair.b_s * 1e6}
 
 
 #: measures compared with gearsym's (relative difference of the DTE's mean and peak-to-peak, and of the
