@@ -35,7 +35,8 @@ def _compare(systems, reading: str, D: float, omega: float, periods: int, keep: 
     ref = yu_reference.run(reading, D, omega, periods=periods, keep=keep, rtol=1e-9)
     for k in ("mean_um", "ppv_um", "mean_B_um"):
         assert ref[k] == pytest.approx(m[k], rel=0.01, abs=0.01 * m["ppv_um"]), k
-    assert ref["impacts_per_period"] == m["impacts_per_period"]
+    # crossings of the contact surfaces, counted on the reference's fine grid (a contact shorter than it is missed)
+    assert ref["impacts_per_period"] == pytest.approx(m["impacts_per_period"], rel=0.01)
     assert ref["poincare_points"] == m["poincare_points"]
 
 
