@@ -128,9 +128,36 @@ class Evaluations:
         """
         if not self.generated.outputs:
             return {}
-        p = self.param_vector({k: v for k, v in traj.params.items() if k in self.params})
+        p = self.run_vector(traj.params)
         vals = self.engine.evaluate("out", traj.t, traj.y, p)
         return {name: vals[:, i].copy() for i, name in enumerate(self.generated.outputs)}
+
+    def run_vector(self, run_params: Mapping[str, float]) -> np.ndarray:
+        """The parameter vector a run used, from its :attr:`Trajectory.params`.
+
+        A run's parameters are the entries of the parameter vector (:meth:`param_dict`: every
+        name of ``generated.param_names`` in declared units, a bound function's value in SI),
+        not the scene's parameters: a bound function's inputs (e.g. ``D`` of
+        ``wm_mean_height(D, ...)``) are not among them, so rebuilding the vector through
+        :meth:`param_vector` would evaluate the function at the system's own inputs instead
+        of the run's.  A mapping without every entry falls back to :meth:`param_vector` of
+        its run-time parameters.
+
+        Parameters
+        ----------
+        run_params
+            ``Trajectory.params`` of a run of this system.
+
+        Returns
+        -------
+        ndarray
+            The parameter vector (SI), in the order of ``generated.param_names``.
+        """
+        names = list(self.generated.param_names)
+        if all(n in run_params for n in names):
+            si = self.units.to_si({n: run_params[n] for n in names})
+            return np.array([si[n] for n in names], dtype=float)
+        return self.param_vector({k: v for k, v in run_params.items() if k in self.params})
 
     def _sched_mode(self, t: float, p: np.ndarray) -> np.ndarray:
         """Schedule part of the mode vector at time ``t``: ``[n_0, seg_0, n_1, seg_1, ...]``."""

@@ -29,8 +29,9 @@ def mesh_names(system: System) -> list[str]:
 
 
 def mesh_deflections(system: System, t: Sequence[float], Y: np.ndarray,
-                     params: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
-    """Dynamic deflection of every mesh at the states ``Y[k]`` at times ``t[k]`` (SI).
+                     params: Mapping[str, float] | None = None, p: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Dynamic deflection of every mesh at the states ``Y[k]`` at times ``t[k]`` (SI); ``p``: a
+    parameter vector instead of ``params`` (a run's, :meth:`CompiledSystem.run_vector`).
 
     Parameters
     ----------
@@ -54,7 +55,7 @@ def mesh_deflections(system: System, t: Sequence[float], Y: np.ndarray,
         return {}
     t = np.asarray(t, float)
     Y = np.asarray(Y, float).reshape(len(t), -1)
-    D = system.mesh_deflections(t, Y, system.param_vector(params)).T  # generated C, in the engine
+    D = system.mesh_deflections(t, Y, system.param_vector(params) if p is None else p).T  # generated C, in the engine
     return {name: D[i] for i, name in enumerate(names)}
 
 
@@ -120,8 +121,7 @@ def trajectory_meshes(system: System, traj: Trajectory, steady_fraction: float =
         return {}
     ts, te = steady_window(traj.t, steady_fraction, None, traj.period)
     on = traj.t >= ts - 1e-12 * max(1.0, abs(ts))
-    params = {k: v for k, v in traj.params.items() if k in system.params}
-    defl = mesh_deflections(system, traj.t[on], traj.y[on], params)
+    defl = mesh_deflections(system, traj.t[on], traj.y[on], p=system.run_vector(traj.params))
     surfaces = {s["name"].rsplit(".", 1)[0] for s in system.generated.surfaces if s.get("kind") in ("drive", "back")}
     rattle: dict[str, int | None] = {}
     for name in names:

@@ -306,7 +306,7 @@ def _from_events(traj: Trajectory, system: Any, element: str | None, steady_frac
 
 def _switching_values(system: Any, traj: Trajectory, t: float, x: Sequence[float]) -> np.ndarray:
     gen = getattr(system, "generated", system)
-    p = system.param_vector(traj.params) if hasattr(system, "param_vector") else \
+    p = system.run_vector(traj.params) if hasattr(system, "run_vector") else \
         np.array([traj.params[n] for n in gen.param_names], dtype=float)
     if hasattr(system, "switching"):
         return np.asarray(system.switching(float(t), x, p=p), dtype=float).ravel()
