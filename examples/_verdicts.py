@@ -31,11 +31,12 @@ Criteria (the constants are the thresholds, stated on the page by :func:`criteri
 * **response kind**: periodic when the Poincare points (one per forcing period) coincide to
   :data:`POINCARE_TOL` of the response's range, ``P k`` when they fall on ``k <= 16`` such
   points; otherwise the rule of ``gearsym sweep`` (:mod:`gearsym.analysis.sweeps`, issue 28):
-  chaotic when the largest Lyapunov exponent is positive beyond twice its error and above
-  :data:`LYAPUNOV_FLOOR` per forcing period, quasi-periodic when it is zero within that and the
-  Poincare points lie on one closed curve (:func:`gearsym.analysis.sweeps.closed_curve`),
-  "converging" when negative beyond it (a stable response whose orbit was not found), else
-  "unclassified".
+  with the zero band ``max(error, LYAPUNOV_FLOOR / T)`` (:data:`LYAPUNOV_FLOOR` per forcing
+  period ``T``), chaotic when the largest Lyapunov exponent is positive beyond the band,
+  quasi-periodic when it is within the band, its error is at most :data:`LYAPUNOV_FLOOR` per
+  forcing period and the Poincare points lie on one closed curve
+  (:func:`gearsym.analysis.sweeps.closed_curve`), "converging" when negative beyond the band (a
+  stable response whose orbit was not found), else "unclassified".
 * **numbers**: a value *agrees* with the paper's when within the row's stated tolerance.
 """
 
@@ -47,6 +48,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gearsym.analysis.sweeps._attractor_id import ZERO_RATE
+
 #: a located transition holds within this fraction of the paper's value
 TRANSITION_REL = 0.05
 #: a fold or bifurcation counts as a jump *at* a transition within this fraction of its value
@@ -55,8 +58,8 @@ JUMP_WINDOW = 0.01
 TREND_REL = 0.01
 #: Poincare points coincide within this fraction of the response's range
 POINCARE_TOL = 1e-3
-#: a Lyapunov exponent is zero within max(twice its error, this per forcing period) (gearsym sweep's rule)
-LYAPUNOV_FLOOR = 1e-2
+#: a Lyapunov exponent is zero within max(its error, this per forcing period) (gearsym sweep's rule: its constant)
+LYAPUNOV_FLOOR = ZERO_RATE
 
 REPRODUCED = "reproduced"
 QUALITATIVELY = "qualitatively"
@@ -288,14 +291,17 @@ def kind_of(poincare_points: int, lyapunov: float | None = None, error: float | 
         return f"P{poincare_points}"
     if lyapunov is None or not math.isfinite(lyapunov):
         return "non-periodic"
-    err = 2.0 * (error or 0.0)
+    # gearsym.analysis.sweeps._attractor_id.classify_exponent, with the section's closed_curve given
+    err = float(error or 0.0)
     floor = LYAPUNOV_FLOOR / period if period else 0.0
-    if lyapunov > err and lyapunov > floor:
+    band = max(err, floor)
+    if lyapunov > band:
         return "chaotic"
-    tol = max(err, floor)
-    if abs(lyapunov) <= tol:
+    if abs(lyapunov) <= band:
+        if err > floor:
+            return "unclassified"   # zero within an error wider than the zero band says nothing
         return "quasi-periodic" if closed is not False else "unclassified"
-    return "converging" if lyapunov < -tol else "unclassified"
+    return "converging"
 
 
 def poincare_count(points: np.ndarray, scale: np.ndarray, tol: float = POINCARE_TOL) -> int:
@@ -330,9 +336,9 @@ def criteria_text() -> list[str]:
         f"rank correlation of at least 0.8 in that direction and a change of more than {TREND_REL:.0%} end to end.",
         f"**response kind**: periodic when the Poincare points coincide to {POINCARE_TOL:g} of the range, P k for "
         f"k <= 16 points; otherwise the rule of `gearsym sweep`: chaotic when the largest Lyapunov "
-        f"exponent is positive beyond twice its error and {LYAPUNOV_FLOOR:g} per forcing period, quasi-periodic when "
-        f"zero within that and the Poincare points lie on one closed curve, converging when negative beyond it, "
-        f"else unclassified.",
+        f"exponent is positive beyond its error and {LYAPUNOV_FLOOR:g} per forcing period, quasi-periodic when "
+        f"zero within that, its error at most {LYAPUNOV_FLOOR:g} per forcing period and the Poincare points lie on "
+        f"one closed curve, converging when negative beyond it, else unclassified.",
         "**verdict**: reproduced when every checkable claim holds (qualitatively when the comparison rests on "
         "chosen parameters or the paper has no numbers), qualitatively when some hold, not reproduced when none.",
     ]

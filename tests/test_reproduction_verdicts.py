@@ -163,15 +163,16 @@ def test_one_row_end_to_end(monkeypatch, tmp_path):
 
 # ----------------------------------------------------------------------------- response kinds: gearsym sweep's rule
 def _classify_main(P, lam, err, T):
-    """The classification of gearsym sweep (gearsym.analysis.sweeps) for section points P."""
-    from gearsym.analysis.sweeps._bifurcation_diagram import DiagramOptions, _classify
+    """The classification of gearsym sweep, basins and maps (one rule) for section points P."""
+    from gearsym.analysis.sweeps import KINDS
+    from gearsym.analysis.sweeps._attractor_id import classify_exponent
 
-    names = {0: "periodic", 1: "quasi-periodic", 2: "chaotic", 3: "unclassified"}
-    return names[_classify(P, P, lam, err, T, DiagramOptions(directions=("forward",)))[1]]
+    return list(KINDS)[classify_exponent(lam, err, T, P)[0]]   # the kinds' names, by code
 
 
 @pytest.mark.parametrize(("lam", "err", "T"), [(5.0, 0.5, 0.1), (1e-4, 1e-3, 0.1), (0.05, 1e-3, 0.1),
-                                               (-90.0, 0.7, 0.16), (0.5, 0.3, 1.0)])
+                                               (-90.0, 0.7, 0.16), (0.5, 0.3, 1.0), (1e-4, 0.2, 0.1),
+                                               (0.15, 0.2, 0.1)])
 def test_kinds_follow_gearsym_sweep(lam, err, T):
     from gearsym.analysis.sweeps import closed_curve
 
