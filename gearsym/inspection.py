@@ -77,8 +77,8 @@ def mesh_figure(system, traj, out: Path, title: str, info: dict[str, Any]) -> Pa
     from .analysis.periodic import mesh_deflections, mesh_flanks
     from .plots import plot_mesh_deflections
 
-    params = {k: v for k, v in traj.params.items() if k in system.params}
-    defl = mesh_deflections(system, traj.t, traj.y, params)
+    params = {k: v for k, v in traj.params.items() if k in system.params} | dict(traj.inputs)
+    defl = mesh_deflections(system, traj.t, traj.y, p=system.run_vector(traj.params))
     if not defl:
         return None
     flanks = mesh_flanks(system, traj.t, traj.y, defl, params)

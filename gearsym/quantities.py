@@ -452,8 +452,10 @@ def gear_quantities(system: System, trajectory: Trajectory, *, window: tuple[flo
     ts, te = _window(trajectory, window, steady_fraction, T)
     k0, k1 = _grid_indices(trajectory.t, ts, te)
     t, Y = trajectory.t[k0:k1], trajectory.y[k0:k1]
-    params = {k: v for k, v in trajectory.params.items() if k in system.params}
-    p = system.param_vector(params)
+    # the run's parameters: its vector as run (a bound function's value included) and, for the
+    # static equilibrium, its overrides with the inputs of bound functions
+    params = {k: v for k, v in trajectory.params.items() if k in system.params} | dict(trajectory.inputs)
+    p = system.run_vector(trajectory.params)
     notes: list[str] = []
     D = system.mesh_deflections(t, Y, p)
     W = _forces(system, t, Y, p, None, notes)

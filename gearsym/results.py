@@ -80,6 +80,11 @@ class Trajectory(TrajectoryDisplay):
     units : dict
         The unit of time ``"t"``, of every state (SI) and of every parameter (declared):
         :meth:`gearsym.system.CompiledSystem.units_table` (empty: unknown).
+    inputs : dict
+        The parameter overrides the run was given (declared units), among them the inputs of a
+        bound function (e.g. ``D`` of ``wm_mean_height(D, ...)``), which :attr:`params` does
+        not list: with :attr:`params` they rebuild the run's parameters (its static
+        equilibrium, its contact flanks).
     """
 
     t: np.ndarray
@@ -96,6 +101,7 @@ class Trajectory(TrajectoryDisplay):
     settings: dict = field(default_factory=dict)
     system: CompiledSystem | None = field(default=None, repr=False, compare=False)
     units: dict[str, str] = field(default_factory=dict)
+    inputs: dict[str, float] = field(default_factory=dict)
 
     @property
     def final_state(self) -> np.ndarray:

@@ -495,7 +495,7 @@ class CompiledSystem(Evaluations, SensitivityMethods):
         res = engine.run(x0v, p, o.t0, plan.t_end, plan.grid, method=plan.method, rtol=plan.rtol, atol=plan.atol,
                          sigma0=o.sigma0, want_monodromy=o.monodromy, max_steps=plan.max_steps,
                          max_step=plan.max_step, nonlinear=o.nonlinear, linear_solver=o.linear_solver, **sens_kw)
-        return self._trajectory(res, plan, p, sensitivities, wall)
+        return self._trajectory(res, plan, p, sensitivities, wall, params)
 
     def _plan(self, p: np.ndarray, params: Mapping[str, float] | None, t_end: float | None,
               periods: float | None, o: SimulateOptions) -> _Plan:
@@ -560,7 +560,7 @@ class CompiledSystem(Evaluations, SensitivityMethods):
         return grid
 
     def _trajectory(self, res: Any, plan: _Plan, p: np.ndarray, sensitivities: Sequence[str] | None,
-                    wall: float) -> Trajectory:
+                    wall: float, inputs: Mapping[str, float] | None = None) -> Trajectory:
         """The :class:`Trajectory` of an engine run."""
         sens = None
         if sensitivities is not None:
@@ -575,7 +575,8 @@ class CompiledSystem(Evaluations, SensitivityMethods):
                           period=plan.period, params=self.param_dict(p),
                           x_final=res.x_final, monodromy=res.monodromy,
                           event_speed=np.asarray(res.events.speed), sensitivities=sens, settings=plan.settings,
-                          system=self, units=self.units_table())
+                          system=self, units=self.units_table(),
+                          inputs=dict(inputs or {}))
 
     def flow(self, x0: Sequence[float], t0: float, t1: float, p: np.ndarray | None = None,
              options: FlowOptions | None = None, *, sigma0: Sequence[float] | None = None,

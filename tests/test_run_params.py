@@ -49,3 +49,19 @@ def test_cli_simulate_on_a_model_with_a_bound_function():
         rc = cli_main(["simulate", str(SCENE), "--set", "D=1.2", "--periods", "2", "--json"])
     assert rc == 0, err.getvalue()
     assert json.loads(out.getvalue())["meshes"]["mesh"]["rattle_state"] in (0, 1, 2)
+
+
+def test_gear_quantities_of_a_run_use_its_bound_value():
+    """The gear quantities of a run at D = 1.2 of the D = 1.4 scene equal those of the D = 1.2
+    scene (the run's backlash and its static equilibrium at the run's D; before, they used the
+    system's own D for the static deflection and the flanks)."""
+    own = gearsym.load_scene(ROOT / "scenes" / "yu_dynamic_D12.toml").compile()
+    other = gearsym.load_scene(ROOT / "scenes" / "yu_dynamic_D14.toml").compile()
+    ref = own.simulate(periods=8).gear_quantities()
+    run = other.simulate(periods=8, params={"D": 1.2})
+    assert run.inputs == {"D": 1.2}
+    got = run.gear_quantities()
+    for key in ("static_deflection", "static_force", "dte_mean", "dte_rms", "dte_peak_to_peak", "force_mean",
+                "dynamic_factor", "contact_loss_ratio", "back_contact_ratio"):
+        a, b = getattr(ref.meshes["mesh"], key), getattr(got.meshes["mesh"], key)
+        assert a == pytest.approx(b, rel=1e-9, abs=1e-15), (key, a, b)
