@@ -415,3 +415,23 @@ def test_a_table_read_only_by_an_output_gets_its_schedule(tmp_path):
     (tmp_path / "k.csv").write_text(GOOD_CSV)
     m = _scene(tmp_path, text).model
     assert [s.name for s in m.schedules] == ["k@mesh"]
+
+
+def _fine_csv(n: int) -> str:
+    ph = np.arange(n) / n
+    k = 1e8 * (1 + 0.1 * np.cos(2 * np.pi * ph))
+    return "mesh_phase,stiffness\n" + "".join(f"{a:.12g},{b:.12g}\n" for a, b in zip(ph, k))
+
+
+def test_a_table_too_fine_for_pieces_is_refused_with_the_way_out(tmp_path):
+    """A 513-phase linear table is refused up front (its 513 pieces would take minutes to derive:
+    2,000 phases took over 400 s), naming the file and the table, and saying what to do; the
+    same data as a fourier table (harmonics, not pieces) is read."""
+    msg = spec_error(write(tmp_path, csv=_fine_csv(513)))
+    assert "k.csv" in msg and "tables.k" in msg and "513 knots along the first axis (limit 512)" in msg
+    assert "resample" in msg and "fourier" in msg
+    ok = load_model(write(tmp_path / "f", table=CSV_TABLE + '\ninterpolation = "fourier"', csv=_fine_csv(1024)))
+    t = ok.tables["k"]
+    q = np.linspace(0.0, 1.0, 97)
+    assert np.allclose(t(q), 1e8 * (1 + 0.1 * np.cos(2 * np.pi * q)), rtol=1e-9, atol=0)
+    assert load_model(write(tmp_path / "l", csv=_fine_csv(512))).tables["k"].axes[0].knots[-1] == 511 / 512

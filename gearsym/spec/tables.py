@@ -54,12 +54,22 @@ __all__ = ["Axis", "Table", "parse_tables", "INTERPOLATIONS", "MAX_KNOTS", "MAX_
 #: Interpolation along the first axis.
 INTERPOLATIONS = ("linear", "cubic", "fourier")
 #: Most knots of the first axis (each is a breakpoint or a switching surface; the generated C
-#: evaluates a piece per knot).
-MAX_KNOTS = 2048
+#: evaluates a piece per knot).  Every piece is a term of the derived equations, and their
+#: derivation grows with the pieces (measured: an LTCA-like 2-D table of 128 / 256 / 512 phases x
+#: 5 torques took 7.5 / 14 / 30 s to derive, 2,000 phases over 400 s): a finer table is refused
+#: up front with that reason rather than left to run for minutes.
+MAX_KNOTS = 512
 #: Most knots of the second axis.
 MAX_COLUMNS = 64
-#: Most values of one table.
-MAX_VALUES = 65_536
+#: Most values of one table (pieces of the equations, see :data:`MAX_KNOTS`).
+MAX_VALUES = 4096
+#: The limits of a ``fourier`` table, whose equations carry its harmonics, not a piece per knot
+#: (the data: knots along the first axis, values).
+MAX_FOURIER_KNOTS, MAX_FOURIER_VALUES = 2048, 65_536
+#: What to do about a table beyond the limits.
+_TOO_FINE = ("every knot is a piece of the derived equations (their derivation grows with the pieces: 2,560 "
+             "values took about 30 s); resample the table more coarsely (an LTCA table rarely needs more than "
+             "a few hundred phases), or use interpolation = \"fourier\" (its equations carry harmonics, not pieces)")
 #: Most knots of a table over a state (one switching surface per knot; a model has at most 256).
 MAX_STATE_KNOTS = 128
 
@@ -305,7 +315,7 @@ def _table(ctx: Ctx, name: str, tbl: dict[str, Any]) -> Table:
     axes = check.axes(axes_decl, periodic)
     period = check.period(axes[0], periodic)
     columns = tuple(tuple(row[j] * dims.scale for row in grid.values) for j in range(len(grid.values[0])))
-    check.sizes(axes, columns)
+    check.sizes(axes, columns, kind)
     tolerance = _tolerance(ctx, where, tbl, dims, columns)
     interpolants = check.interpolants(axes[0], columns, kind, period, outside, tolerance)
     arguments = _arguments(ctx, where, tbl, len(axes))
@@ -404,14 +414,17 @@ class _Checks:
             raise self.whole("a periodic table needs a positive span")
         return p
 
-    def sizes(self, axes: tuple[Axis, ...], columns) -> None:
-        if len(axes[0].knots) > MAX_KNOTS:
-            raise self.whole(f"{len(axes[0].knots)} knots along the first axis (limit {MAX_KNOTS})")
+    def sizes(self, axes: tuple[Axis, ...], columns, kind: str) -> None:
+        fourier = kind == "fourier"
+        knots, values = (MAX_FOURIER_KNOTS, MAX_FOURIER_VALUES) if fourier else (MAX_KNOTS, MAX_VALUES)
+        why = "" if fourier else f": {_TOO_FINE}"
+        if len(axes[0].knots) > knots:
+            raise self.whole(f"{len(axes[0].knots)} knots along the first axis (limit {knots}){why}")
         if len(axes) == 2 and len(axes[1].knots) > MAX_COLUMNS:
             raise self.whole(f"{len(axes[1].knots)} knots along the second axis (limit {MAX_COLUMNS})")
         n = sum(len(c) for c in columns)
-        if n > MAX_VALUES:
-            raise self.whole(f"{n} values (limit {MAX_VALUES})")
+        if n > values:
+            raise self.whole(f"{n} values (limit {values}){why}")
 
     def interpolants(self, axis: Axis, columns, kind: str, period: float | None, outside: str,
                      tolerance: float) -> tuple[Pieces | Fourier, ...]:
