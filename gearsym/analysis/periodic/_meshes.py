@@ -43,6 +43,10 @@ def mesh_deflections(system: System, t: Sequence[float], Y: np.ndarray,
         States at ``t``, shape (n, nx), SI units (a trajectory's ``y``).
     params
         Parameter overrides (declared units), e.g. the trajectory's ``params``.
+    p
+        The parameter vector itself (SI), instead of ``params``: a run's
+        (:meth:`CompiledSystem.run_vector` of its ``params``), whose bound functions keep the
+        run's values.
 
     Returns
     -------
