@@ -23,3 +23,10 @@ def test_a_sweep_without_a_forcing_period_exits_2(tmp_path, capsys, argv, where)
     err = capsys.readouterr().err
     assert rc == 2, err
     assert f"forcing period is not finite and positive at {where}" in err and "bifurcation diagram" in err
+
+
+def test_a_sweep_with_a_wrong_x0_names_the_option(tmp_path, capsys):
+    rc = main(["sweep", "kahraman_singh", "--param", "Omega", "--from", "0.6", "--to", "0.7", "--n", "2",
+               "--x0", "1,2,3", "--no-lyapunov", "--workers", "1", "--no-progress", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "--x0: 3 values given, the model has 2 states (x, v)" in err, err

@@ -268,7 +268,11 @@ def _add_map(sub: Any) -> None:
                            ("gearsym map kahraman_singh --x Omega 0.86 0.88 3 --y Fa 0.05 0.06 2 --quantity "
                             "rattle_state --workers 1 --out coexist", "the jump region of the benchmark oscillator: "
                             "two stable responses coexist (in contact and impacting), both listed and counted "
-                            "(n_stable)")))
+                            "(n_stable)"),
+                           ("gearsym map kahraman_singh --x Omega 0.6 0.8 2 --y Fa 0.4 0.6 2 --quantity lyapunov "
+                            "--workers 1 --out chaos", "the largest Lyapunov exponent of every response: negative on "
+                            "the stable orbits, positive on the chaotic attractors (at Omega 0.8, one beside a "
+                            "stable orbit)")))
     scene_args(p)
     p.add_argument("--x", nargs=4, required=True, metavar=("NAME", "LO", "HI", "N"),
                    help="horizontal axis: parameter (declared unit), range and number of points")

@@ -107,6 +107,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     system = scene.compile()
     if args.state is not None and args.state not in system.state_names:
         raise ParameterError(f"--state: '{args.state}' is not a state (have: {', '.join(system.state_names)})")
+    if "x0" in kw and len(kw["x0"]) != len(system.state_names):
+        raise ParameterError(f"--x0: {len(kw['x0'])} values given, the model has {len(system.state_names)} states "
+                             f"({', '.join(system.state_names)})")
     ds = bifurcation_diagram(system, args.param, args.start, args.stop, args.n, **kw)
     n_values = int(ds.sizes["direction"] * ds.sizes[args.param])
     if int(ds.attrs["n_failed"]) >= n_values:
