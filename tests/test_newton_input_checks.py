@@ -113,3 +113,18 @@ def test_dae_corrector_checks_zalg(dae):
     assert out.code >= 0
     with pytest.raises(EngineInputError, match="zalg"):
         corr(*args)
+
+
+@pytest.mark.parametrize("bad", [{"max_events_out": -1}, {"max_events_out": 0}, {"max_iter": 2 ** 32}])
+def test_shooting_settings_out_of_range_are_refused(ks, bad):
+    """An event log of no entries (was numpy's ValueError, or the driver's refusal naming no
+    setting) and an iteration budget past the C struct's int are refused naming the setting."""
+    from gearsym.engine.driver import METHODS
+    from gearsym.engine.shoot import shoot_in_c
+
+    T = ks.period()
+    kw = dict(method=METHODS["adams"], rtol=1e-11, atol=1e-13, max_step=T / 8, max_steps=0, tol=1e-10, max_iter=50,
+              trunc_level=1e-9, scale_floor=1e-3)
+    kw.update(bad)
+    with pytest.raises(EngineInputError, match=next(iter(bad))):
+        shoot_in_c(ks.engine, np.zeros(2), ks.param_vector(), np.array([0.0, T]), **kw)

@@ -185,9 +185,10 @@ class NewtonCore:
         if not lap:
             raise EngineInputError("the Newton iteration needs scipy's LAPACK (scipy.linalg.cython_lapack)")
         _check_sizes(int(kind), int(n), int(nr), int(nx), int(segments))
-        if int(policy.max_iter) < 0 or n_anchor < 0:
-            raise EngineInputError(f"a Newton iteration needs max_iter, n_anchor >= 0 (got max_iter={policy.max_iter}, "
-                                   f"n_anchor={n_anchor})")
+        big = 2 ** 31 - 8  # the C struct's ints
+        if not (0 <= int(policy.max_iter) <= big and 0 <= n_anchor <= big and int(hist_cap) <= big):
+            raise EngineInputError(f"a Newton iteration needs 0 <= max_iter, n_anchor, hist_cap <= {big} (got "
+                                   f"max_iter={policy.max_iter}, n_anchor={n_anchor}, hist_cap={hist_cap})")
         self.lib, self.kind, self.n, self.nr = lib, int(kind), int(n), int(nr)
         nw = self.nw = GsNewton()
         nw.kind, nw.n, nw.nr, nw.nx, nw.segments = self.kind, self.n, self.nr, int(nx), int(segments)

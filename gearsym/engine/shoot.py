@@ -129,7 +129,7 @@ class ShootSettings:
     Raises
     ------
     EngineInputError
-        An unknown method, ``max_iter < 0``, ``segments < 1`` or ``n_amp < 2``.
+        An unknown method, ``max_iter < 0``, ``segments < 1``, ``n_amp < 2`` or ``max_events_out < 1``.
     """
 
     method: str | int
@@ -150,9 +150,9 @@ class ShootSettings:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "codes", c_method(self.method))
-        if int(self.max_iter) < 0 or int(self.segments) < 1 or int(self.n_amp) < 2:
-            raise EngineInputError(f"shooting in C needs max_iter >= 0, segments >= 1 and n_amp >= 2 (got "
-                                   f"{self.max_iter}, {self.segments}, {self.n_amp})")
+        if int(self.max_iter) < 0 or int(self.segments) < 1 or int(self.n_amp) < 2 or int(self.max_events_out) < 1:
+            raise EngineInputError(f"shooting in C needs max_iter >= 0, segments >= 1, n_amp >= 2 and max_events_out "
+                                   f">= 1 (got {self.max_iter}, {self.segments}, {self.n_amp}, {self.max_events_out})")
 
 
 @dataclass(frozen=True)
@@ -625,6 +625,8 @@ class Corrector:
         self.p0 = np.array(fl.p0, dtype=float).reshape(-1)
         self.D = np.array(fl.D, dtype=float).reshape(-1)
         self.atol = np.array(np.broadcast_to(np.asarray(fl.atol, float), (nx,)))
+        if int(fl.max_events_out) < 1:
+            raise EngineInputError(f"the corrector's C evaluator needs max_events_out >= 1 (got {fl.max_events_out})")
         if self.p0.shape[0] != engine.np or self.D.shape[0] != engine.np:
             raise EngineInputError(f"p0 and D need {engine.np} entries (got {self.p0.shape[0]}, {self.D.shape[0]})")
         code, nonlinear = c_method(fl.method)
