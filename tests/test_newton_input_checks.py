@@ -128,3 +128,18 @@ def test_shooting_settings_out_of_range_are_refused(ks, bad):
     kw.update(bad)
     with pytest.raises(EngineInputError, match=next(iter(bad))):
         shoot_in_c(ks.engine, np.zeros(2), ks.param_vector(), np.array([0.0, T]), **kw)
+
+
+def test_corrector_without_any_f_lambda_fails_clearly(ks):
+    """F_lambda None means the chord (the last one given in this iteration): at the start there is
+    none, and the buffer held the previous iteration's, which was used silently."""
+    A, b = np.array([[3.0, 1.0], [0.5, 2.0]]), np.array([1.0, -1.0])
+    policy = NewtonPolicy(max_iter=5, min_damping=0.125, decrease=0.0, accept_below=1e-12, accept_last=True)
+    core = NewtonCore(ks.engine._lib, CORRECTOR, 3, 2, policy, tol=1e-12)
+    core.row[:], core.S[:], core.Rs[:] = [0.0, 0.0, 1.0], 1.0, 1.0
+    core.nw.target = 2.0
+    core.start(np.array([1.0, 1.0, 0.0]))
+    core.solve_in_python(lambda z: core.answer(A @ z[:2] - z[2] * b, A, 5.0 * b))  # another problem's F_lambda
+    core.start(np.array([1.0, 1.0, 0.0]))
+    core.solve_in_python(lambda z: core.answer(A @ z[:2] - z[2] * b, A, None))
+    assert core.outcome == EVAL_FAILED and "no F_lambda" in core.message

@@ -635,6 +635,13 @@ void gs_newton_next(gs_newton* nw) {
   st = nst(nw);
   nw->answered = 0;
   ok = nw->eval_status == 0;
+  if (ok && nw->kind == GS_NEWTON_CORRECTOR && !nw->flam_given && !st->have_chord) {
+    /* no F_lambda given since the start: the buffer holds an earlier problem's (or nothing) */
+    ok = 0;
+    nw->eval_status = 1;
+    snprintf(nw->eval_msg, sizeof(nw->eval_msg), "the corrector's evaluation gave no F_lambda and none was given "
+             "since the start (no chord)");
+  }
   if (ok) eval_norms(nw, &r, &rel);
   switch (st->phase) {
     case PH_FIRST:
