@@ -344,7 +344,7 @@ typedef struct gs_newton {
   double* work;           /* [gs_newton_work_size()] the iteration's state                    */
 } gs_newton;
 
-int gs_newton_work_size(const gs_newton* nw); /* doubles of nw->work                            */
+int gs_newton_work_size(const gs_newton* nw); /* doubles of nw->work; -1: sizes of no problem    */
 void gs_newton_start(gs_newton* nw);          /* from z: the first request                      */
 void gs_newton_restart(gs_newton* nw);        /* from a new z, the step count kept              */
 void gs_newton_next(gs_newton* nw);           /* take the answered evaluation, request the next */

@@ -63,8 +63,17 @@ static double* n_dx(gs_newton* nw) { return nw->work + NSTATE_DOUBLES; }
 static double* n_rcur(gs_newton* nw) { return n_dx(nw) + nw->n; }
 static double* n_chord(gs_newton* nw) { return n_rcur(nw) + nw->nr; }
 
+/* -1 unless the sizes are one problem's: orbit n = nr = segments * nx (nx, segments >= 1),
+ * corrector n = nr + 1; n_anchor >= 0 (every array the iteration reads is sized from them). */
 int gs_newton_work_size(const gs_newton* nw) {
-  if (!nw || nw->n < 1 || nw->nr < 1) return -1;
+  if (!nw || nw->n < 1 || nw->nr < 1 || nw->n_anchor < 0 || nw->hist_cap < 0) return -1;
+  if (nw->kind == GS_NEWTON_ORBIT) {
+    if (nw->nx < 1 || nw->segments < 1 || nw->n != nw->nr || nw->n / nw->segments != nw->nx ||
+        nw->n % nw->segments != 0)
+      return -1;
+  } else if (nw->kind != GS_NEWTON_CORRECTOR || nw->n - 1 != nw->nr) {
+    return -1;
+  }
   return (int)(NSTATE_DOUBLES + (size_t)nw->n + 2 * (size_t)nw->nr);
 }
 
@@ -371,7 +380,7 @@ static void corrector_step(gs_newton* nw, double* dx, double* size, int* n_drop)
 int gs_newton_tangent(gs_newton* nw) {
   int n, nr, na, m, i, j, ok = 0;
   double *A, *b, *t, norm = 0.0, dot = 0.0;
-  if (!nw || nw->kind != GS_NEWTON_CORRECTOR || !nw->t_ref || !nw->tangent) return 0;
+  if (!nw || nw->kind != GS_NEWTON_CORRECTOR || !nw->t_ref || !nw->tangent || gs_newton_work_size(nw) < 1) return 0;
   n = nw->n;
   nr = nw->nr;
   na = nw->n_anchor > 0 ? nw->n_anchor : 0;
@@ -590,9 +599,20 @@ static void begin(gs_newton* nw, int hist_kind) {
   request_eval(nw, 1);
 }
 
+/* Sizes that are no problem's (changed after the work array was sized): end at once. */
+static int refuse_sizes(gs_newton* nw) {
+  if (gs_newton_work_size(nw) >= 1) return 0;
+  nw->request = GS_NEWTON_DONE;
+  nw->outcome = GS_NEWTON_EVAL_FAILED;
+  nw->answered = 0;
+  snprintf(nw->eval_msg, sizeof(nw->eval_msg), "gs_newton: inconsistent sizes (kind %d, n %d, nr %d, nx %d, "
+           "segments %d)", nw->kind, nw->n, nw->nr, nw->nx, nw->segments);
+  return 1;
+}
+
 void gs_newton_start(gs_newton* nw) {
   gs_nstate* st;
-  if (!nw || !nw->work) return;
+  if (!nw || !nw->work || refuse_sizes(nw)) return;
   st = nst(nw);
   memset(st, 0, sizeof(*st));
   st->r_prev = HUGE_VAL;
@@ -603,7 +623,7 @@ void gs_newton_start(gs_newton* nw) {
 }
 
 void gs_newton_restart(gs_newton* nw) {
-  if (!nw || !nw->work) return;
+  if (!nw || !nw->work || refuse_sizes(nw)) return;
   begin(nw, GS_NEWTON_H_RESTART);
 }
 
@@ -615,6 +635,13 @@ void gs_newton_next(gs_newton* nw) {
   st = nst(nw);
   nw->answered = 0;
   ok = nw->eval_status == 0;
+  if (ok && nw->kind == GS_NEWTON_CORRECTOR && !nw->flam_given && !st->have_chord) {
+    /* no F_lambda given since the start: the buffer holds an earlier problem's (or nothing) */
+    ok = 0;
+    nw->eval_status = 1;
+    snprintf(nw->eval_msg, sizeof(nw->eval_msg), "the corrector's evaluation gave no F_lambda and none was given "
+             "since the start (no chord)");
+  }
   if (ok) eval_norms(nw, &r, &rel);
   switch (st->phase) {
     case PH_FIRST:

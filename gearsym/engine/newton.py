@@ -116,6 +116,30 @@ def lapack_pointers() -> dict[str, int]:
     return _LAPACK
 
 
+def _check_sizes(kind: int, n: int, nr: int, nx: int, segments: int) -> None:
+    """The sizes of one problem (every buffer the C iteration reads is sized from them):
+    orbit ``n = nr = segments * nx`` with ``nx, segments >= 1``; corrector ``n = nr + 1 >= 2``."""
+    if kind == ORBIT:
+        if nx < 1 or segments < 1 or n != nr or n != segments * nx:
+            raise EngineInputError(f"an orbit's Newton iteration needs n = nr = segments * nx with nx, segments >= 1 "
+                                   f"(got n={n}, nr={nr}, nx={nx}, segments={segments})")
+    elif kind == CORRECTOR:
+        if nr < 1 or n != nr + 1:
+            raise EngineInputError(f"the corrector's Newton iteration needs n = nr + 1 unknowns, nr >= 1 (got n={n}, "
+                                   f"nr={nr})")
+    else:
+        raise EngineInputError(f"a Newton iteration's kind is ORBIT ({ORBIT}) or CORRECTOR ({CORRECTOR}), got {kind}")
+
+
+def _sized(name: str, value: Any, dst: np.ndarray) -> np.ndarray:
+    """``value`` as float64 in ``dst``'s shape, or EngineInputError when its size differs (numpy
+    would broadcast a scalar or a row into the buffer the C iteration reads)."""
+    a = np.asarray(value, dtype=float)
+    if a.size != dst.size:
+        raise EngineInputError(f"{name} has {a.size} entries, this Newton iteration takes {dst.size}")
+    return a.reshape(dst.shape)
+
+
 def _ptr(a: np.ndarray | None) -> int | None:
     return None if a is None or a.size == 0 else a.ctypes.data
 
@@ -160,9 +184,11 @@ class NewtonCore:
         lap = lapack_pointers()
         if not lap:
             raise EngineInputError("the Newton iteration needs scipy's LAPACK (scipy.linalg.cython_lapack)")
-        if n < 1 or nr < 1 or int(policy.max_iter) < 0 or n_anchor < 0:
-            raise EngineInputError(f"a Newton iteration needs n, nr >= 1 and max_iter, n_anchor >= 0 (got n={n}, "
-                                   f"nr={nr}, max_iter={policy.max_iter}, n_anchor={n_anchor})")
+        _check_sizes(int(kind), int(n), int(nr), int(nx), int(segments))
+        big = 2 ** 31 - 8  # the C struct's ints
+        if not (0 <= int(policy.max_iter) <= big and 0 <= n_anchor <= big and int(hist_cap) <= big):
+            raise EngineInputError(f"a Newton iteration needs 0 <= max_iter, n_anchor, hist_cap <= {big} (got "
+                                   f"max_iter={policy.max_iter}, n_anchor={n_anchor}, hist_cap={hist_cap})")
         self.lib, self.kind, self.n, self.nr = lib, int(kind), int(n), int(nr)
         nw = self.nw = GsNewton()
         nw.kind, nw.n, nw.nr, nw.nx, nw.segments = self.kind, self.n, self.nr, int(nx), int(segments)
@@ -202,12 +228,12 @@ class NewtonCore:
     # ------------------------------------------------------------ driving
     def start(self, z: np.ndarray) -> None:
         """Begin an iteration from ``z`` (its first request: the evaluation at ``z``)."""
-        self.z[:] = np.asarray(z, float).reshape(-1)
+        self.z[:] = _sized("z", z, self.z)
         self.lib.gs_newton_start(self.ref)
 
     def restart(self, z: np.ndarray) -> None:
         """Go on from ``z`` (shooting's relaxation), the steps taken so far counted."""
-        self.z[:] = np.asarray(z, float).reshape(-1)
+        self.z[:] = _sized("z", z, self.z)
         self.lib.gs_newton_restart(self.ref)
 
     def next(self) -> None:
@@ -229,13 +255,13 @@ class NewtonCore:
         ``F_u``; ``Flam`` ``None`` keeps the last one given; ``anchor``: the anchor rows at
         the point, where they move with it)."""
         nw = self.nw
-        self.R[:] = R
-        self.J[...] = np.asarray(J, float).reshape(self.J.shape)
+        self.R[:] = _sized("R", R, self.R)
+        self.J[...] = _sized("J", J, self.J)
         if Flam is not None:
-            self.Flam[:] = Flam
+            self.Flam[:] = _sized("Flam", Flam, self.Flam)
         nw.flam_given = int(Flam is not None)
         if anchor is not None:
-            self.anchor[...] = anchor
+            self.anchor[...] = _sized("anchor", anchor, self.anchor)
         nw.eval_status = 0
         nw.answered = 1
 
@@ -252,6 +278,9 @@ class NewtonCore:
         while not self.done:
             if self.pending:
                 evaluate(self.z_eval)
+                if self.pending:
+                    raise EngineInputError("the evaluation did not answer the Newton iteration's request (answer or "
+                                           "answer_failed)")
             self.next()
 
     def tangent_at(self, Fu: np.ndarray, Flam: np.ndarray, t_ref: np.ndarray, S: np.ndarray, Rs: np.ndarray,
@@ -260,12 +289,14 @@ class NewtonCore:
         ``Rs``; ``anchor`` rows in the scaled unknowns): ``gs_newton_tangent``, the rule the
         iteration applies at convergence; ``None`` where it has none."""
         nw = self.nw
-        self.J[...] = Fu
-        self.Flam[:] = Flam
+        if self.kind != CORRECTOR:
+            raise EngineInputError("the tangent is the corrector's (this is an orbit's iteration)")
+        self.J[...] = _sized("F_u", Fu, self.J)
+        self.Flam[:] = _sized("F_lambda", Flam, self.Flam)
         nw.flam_given = 1
-        self.t_ref[:] = t_ref
-        self.S[:] = S
-        self.Rs[:] = Rs
+        self.t_ref[:] = _sized("t_ref", t_ref, self.t_ref)
+        self.S[:] = _sized("S", S, self.S)
+        self.Rs[:] = _sized("Rs", Rs, self.Rs)
         nw.t_ref = _ptr(self.t_ref)
         na = self.anchor.shape[0]
         if anchor is not None:

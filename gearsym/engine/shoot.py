@@ -34,7 +34,7 @@ from ..integrators import by_code, get_method
 from ..options import cached_options, merge_options
 from .driver import EventLog
 from .errors import EngineError, EngineInputError, error_for_status
-from .newton import CONVERGED, CORRECTOR, ORBIT, OUTCOMES, NewtonCore, NewtonPolicy, lapack_pointers
+from .newton import CONVERGED, CORRECTOR, ORBIT, OUTCOMES, NewtonCore, NewtonPolicy, _sized, lapack_pointers
 from .sim_args import GsCorrectorFlow, GsOrbitFlow
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -129,7 +129,7 @@ class ShootSettings:
     Raises
     ------
     EngineInputError
-        An unknown method, ``max_iter < 0``, ``segments < 1`` or ``n_amp < 2``.
+        An unknown method, ``max_iter < 0``, ``segments < 1``, ``n_amp < 2`` or ``max_events_out < 1``.
     """
 
     method: str | int
@@ -150,9 +150,9 @@ class ShootSettings:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "codes", c_method(self.method))
-        if int(self.max_iter) < 0 or int(self.segments) < 1 or int(self.n_amp) < 2:
-            raise EngineInputError(f"shooting in C needs max_iter >= 0, segments >= 1 and n_amp >= 2 (got "
-                                   f"{self.max_iter}, {self.segments}, {self.n_amp})")
+        if int(self.max_iter) < 0 or int(self.segments) < 1 or int(self.n_amp) < 2 or int(self.max_events_out) < 1:
+            raise EngineInputError(f"shooting in C needs max_iter >= 0, segments >= 1, n_amp >= 2 and max_events_out "
+                                   f">= 1 (got {self.max_iter}, {self.segments}, {self.n_amp}, {self.max_events_out})")
 
 
 @dataclass(frozen=True)
@@ -292,18 +292,18 @@ class Shooter:
         """Newton from the segment start states ``X0`` (segments x nx) over the segment times
         ``times`` (segments + 1) with parameters ``p``; ``anchor``: the anchor rows (n_anchor x
         segments nx) when the settings have them."""
-        self.p[:] = p
-        self.s[:] = times
+        self.p[:] = _sized("p", p, self.p)
+        self.s[:] = _sized("times", times, self.s)
         if self.core.anchor.shape[0]:
             if anchor is None:
                 raise EngineInputError(f"this shooter takes {self.core.anchor.shape[0]} anchor rows")
-            self.core.anchor[...] = anchor
-        self.core.start(X0)
+            self.core.anchor[...] = _sized("anchor", anchor, self.core.anchor)
+        self.core.start(_sized("X0", X0, self.core.z))
         return self._drive(engine)
 
     def restart(self, engine: Engine, X: np.ndarray) -> ShootOutcome:
         """Go on from ``X`` (after a relaxation by integration), the steps so far counted."""
-        self.core.restart(X)
+        self.core.restart(_sized("X", X, self.core.z))
         return self._drive(engine)
 
     def _drive(self, engine: Engine) -> ShootOutcome:
@@ -625,6 +625,8 @@ class Corrector:
         self.p0 = np.array(fl.p0, dtype=float).reshape(-1)
         self.D = np.array(fl.D, dtype=float).reshape(-1)
         self.atol = np.array(np.broadcast_to(np.asarray(fl.atol, float), (nx,)))
+        if int(fl.max_events_out) < 1:
+            raise EngineInputError(f"the corrector's C evaluator needs max_events_out >= 1 (got {fl.max_events_out})")
         if self.p0.shape[0] != engine.np or self.D.shape[0] != engine.np:
             raise EngineInputError(f"p0 and D need {engine.np} entries (got {self.p0.shape[0]}, {self.D.shape[0]})")
         code, nonlinear = c_method(fl.method)
@@ -691,16 +693,16 @@ class Corrector:
         core.Rs[:] = Rs
         nw.target = float(target)
         if t_ref is not None:
-            core.t_ref[:] = t_ref
+            core.t_ref[:] = _sized("t_ref", t_ref, core.t_ref)
             nw.t_ref = core.t_ref.ctypes.data
         else:
             nw.t_ref = None
         if core.anchor.shape[0]:
             if anchor is None:
                 raise EngineInputError(f"this corrector takes {core.anchor.shape[0]} anchor rows")
-            core.anchor[...] = anchor
-        if self.flow is not None and zalg is not None and zalg.size:
-            self.f.zalg = zalg.ctypes.data
+            core.anchor[...] = _sized("anchor", anchor, core.anchor)
+        if self.flow is not None:
+            self.f.zalg = self._zalg(zalg)
         if evaluate is None and self.flow is None:
             raise EngineInputError("a corrector without the C evaluator needs evaluate")
         core.start(np.asarray(z, float))
@@ -723,6 +725,22 @@ class Corrector:
             if self.flow is None:
                 core.next()
         return self._outcome(n, py_id == int(nw.n_evals), n_py, runs0, c0)
+
+    def _zalg(self, zalg: np.ndarray | None) -> int | None:
+        """The address of a DAE's algebraic variables at the segment starts for the C evaluator
+        (which reads and writes ``segments * nalg`` doubles there), checked; ``None`` without
+        algebraic variables.  Never kept from an earlier call (that array may be gone)."""
+        nalg = self.engine.nx - int(self.f.nd)
+        if nalg == 0:
+            return None
+        shape = (int(self.f.segments), nalg)
+        if not (isinstance(zalg, np.ndarray) and zalg.dtype == np.float64 and zalg.flags.c_contiguous
+                and zalg.flags.writeable and zalg.size == shape[0] * nalg):
+            got = "None" if zalg is None else f"{type(zalg).__name__} {getattr(zalg, 'shape', '')} " \
+                f"{getattr(zalg, 'dtype', '')}"
+            raise EngineInputError(f"zalg: the corrector of a DAE needs its algebraic variables at the segment starts "
+                                   f"as a writeable C-contiguous float64 array of shape {shape} (got {got})")
+        return zalg.ctypes.data
 
     def _answer(self, evaluate: Callable[[np.ndarray, bool], Evaluated], first: bool) -> None:
         core = self.core
